@@ -27,9 +27,10 @@ apt_install() {
     DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "${missing[@]}" >/dev/null
 }
 
-# 1. System packages: a compiler for the core, and the X/GL client libraries that bpy loads
-#    even when it renders headless.
+# 1. System packages: a compiler and Embree (exact visibility) for the core, and the X/GL client
+#    libraries that bpy loads even when it renders headless.
 command -v g++ >/dev/null 2>&1 || apt_install g++
+apt_install libembree-dev
 PYTHON311="$(command -v python3.11 || true)"
 if [ -z "$PYTHON311" ]; then
     apt_install python3.11 python3.11-venv python3.11-dev
