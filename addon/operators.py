@@ -1,0 +1,489 @@
+"""Operators: Compute Illumination Map, Build Preview, Clear Results, Reset Settings.
+
+Compute has two paths (docs/architecture.md, add-on contract):
+
+* ``execute`` — synchronous: ``pipeline.compute`` on the main thread. Used in background mode,
+  from scripts (``bpy.ops.illumap.compute_illumination_map()``), and for redo.
+* ``invoke`` in an interactive session — ``pipeline.prepare`` on the main thread, then
+  ``pipeline.run`` on a worker thread (no bpy there), polled by a modal timer that drives the
+  progress bar and status line; Esc cancels. On success ``pipeline.write`` runs on the main
+  thread. The UNDO flag makes Blender push one undo step when the modal operator finishes, so
+  the write is undoable and no extra ``ed.undo_push`` is needed (it would add an empty step).
+
+``ComputeTask`` is the worker's state machine, kept free of operator state so that tests can
+drive it without timers or a window.
+"""
+
+import numbers
+import threading
+import time
+
+import bpy
+from bpy.props import BoolProperty, EnumProperty
+
+from . import preferences, preview, properties
+
+SURFEL_OBJECT_NAME = "Illumap Surfels"
+# What pipeline.prepare reads: meshes and anything that evaluates to one, and point clouds.
+_SUPPORTED_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT", "POINTCLOUD"}
+
+
+def _pipeline():
+    from . import pipeline  # imported late: it needs the native module
+    return pipeline
+
+
+def _class_names(error):
+    return {cls.__name__ for cls in type(error).__mro__}
+
+
+def _is_cancelled_error(error):
+    """The core's ``Cancelled`` or the pipeline's ``IllumapCancelled`` (or a subclass)."""
+    return any(name in ("Cancelled", "IllumapCancelled") for name in _class_names(error))
+
+
+_USER_ERRORS = {"IllumapError", "InputError", "ValueError", "RuntimeError", "MemoryError"}
+
+
+def error_message(error):
+    """A one-line message for the user: the text of errors meant for users, else type: text."""
+    text = str(error).strip() or type(error).__name__
+    if _class_names(error) & _USER_ERRORS:
+        return text
+    return f"{type(error).__name__}: {text}"
+
+
+def surfel_objects(scene=None):
+    """Surfel objects written by Illumap (by name or by the pipeline's marker)."""
+    objs = scene.objects if scene is not None else bpy.data.objects
+    return [o for o in objs
+            if o.name == SURFEL_OBJECT_NAME or o.name.startswith(SURFEL_OBJECT_NAME + ".")
+            or o.get("illumap_surfels")]
+
+
+def input_objects(context):
+    """Selected objects Illumap can compute on, and a message when there are none."""
+    selected = list(context.selected_objects) if hasattr(context, "selected_objects") else []
+    surfels = set(o.name for o in surfel_objects())
+    objects = [o for o in selected if o.type in _SUPPORTED_TYPES and o.name not in surfels]
+    if objects:
+        return objects, None
+    if not selected:
+        return [], "Nothing selected: select the mesh or point-cloud objects to light"
+    if all(o.name in surfels for o in selected):
+        return [], ("Only Illumap's surfel object is selected: select the mesh or point-cloud "
+                    "objects to light")
+    kinds = ", ".join(sorted({o.type.lower() for o in selected}))
+    return [], (f"No mesh or point-cloud objects selected (selected: {kinds}); "
+                "Illumap computes on meshes and point clouds")
+
+
+def scene_settings(context):
+    """The pipeline's Settings for the scene, initialised from the preferences if needed."""
+    props = context.scene.illumap
+    if not props.initialized:
+        preferences.apply_defaults(props, preferences.get_preferences(context))
+    return properties.make_settings(props, _pipeline().Settings)
+
+
+# --- statistics ----------------------------------------------------------------------------
+
+def _first(obj, *names, default=None):
+    for name in names:
+        value = obj.get(name) if isinstance(obj, dict) else getattr(obj, name, None)
+        if value is not None:
+            return value
+    return default
+
+
+def record_stats(stats, result, seconds):
+    """Store what a Result reports in ``scene.illumap.stats`` (tolerant of missing fields)."""
+    stats.clear()
+    solution = _first(result, "solution", default=result)
+    surfels = _first(result, "count", "n_surfels", "surfel_count", "num_surfels", "surfels")
+    if surfels is not None and not isinstance(surfels, numbers.Integral):
+        try:
+            surfels = len(surfels)
+        except TypeError:
+            surfels = None
+    if surfels is None:
+        radiosity = _first(result, "radiosity", default=_first(solution, "radiosity"))
+        surfels = 0 if radiosity is None else len(radiosity)
+    stats.surfels = int(surfels)
+    iterations = _first(result, "iterations", default=_first(solution, "iterations", default=0))
+    stats.iterations = int(iterations)
+    residual = _first(result, "residual", "final_residual")
+    if residual is None or residual != residual:  # missing or nan
+        residuals = _first(result, "residuals", default=_first(solution, "residuals"))
+        residual = float(residuals[-1]) if residuals is not None and len(residuals) else 0.0
+    stats.residual = float(residual)
+    stats.converged = bool(_first(result, "converged", default=_first(solution, "converged",
+                                                                         default=False)))
+    timings = dict(_first(solution, "timings", default={}) or {})
+    timings.update(dict(_first(result, "timings", default={}) or {}))
+    for phase, value in timings.items():
+        item = stats.phases.add()
+        item.name = str(phase)
+        item.seconds = float(value)
+    stats.total_seconds = float(seconds)
+    stats.valid = True
+    stats.summary = (f"{stats.surfels} surfels, {stats.iterations} iterations, "
+                     f"residual {stats.residual:.2e}, {stats.total_seconds:.2f} s")
+    return stats
+
+
+def report_warnings(result, report, limit=5):
+    """Pass the run's warnings (materials that fell back, skipped objects…) to the user."""
+    warnings = list(_first(result, "warnings", default=[]) or [])
+    for text in warnings[:limit]:
+        report({"WARNING"}, f"Illumap: {text}")
+    if len(warnings) > limit:
+        report({"WARNING"}, f"Illumap: {len(warnings) - limit} more warnings (see the console)")
+        for text in warnings[limit:]:
+            print(f"Illumap warning: {text}")
+
+
+def after_write(context, props, surfel_object):
+    """Build the preview on a freshly written surfel object when the settings ask for it."""
+    if surfel_object is None or not props.build_preview:
+        return None
+    return preview.build_preview(context, surfel_object, mode=props.preview_mode,
+                                 disc_scale=props.disc_scale)
+
+
+def _written_object(result, write_return=None):
+    if isinstance(write_return, bpy.types.Object):
+        return write_return
+    obj = _first(result, "object", "surfel_object")
+    if isinstance(obj, bpy.types.Object):
+        return obj
+    name = _first(result, "object_name")
+    if name and name in bpy.data.objects:
+        return bpy.data.objects[name]
+    objs = surfel_objects()
+    return objs[0] if objs else None
+
+
+# The interactive run in progress, if any (one at a time; the panel shows its progress).
+_current = {"task": None}
+
+
+def current_task():
+    """The ComputeTask of the interactive run in progress, or None."""
+    task = _current["task"]
+    return task if task is not None and task.state == "RUNNING" else None
+
+
+# --- the worker's state machine -------------------------------------------------------------
+
+class ComputeTask:
+    """Runs ``run(job, progress)`` on a worker thread and reports its state.
+
+    ``progress(fraction, phase)`` is called by the core from the worker thread; it only stores
+    numbers and strings (never touches bpy) and returns False once ``cancel()`` was called,
+    which makes the core stop and raise ``Cancelled``.
+
+    States: ``"PENDING"`` (not started), ``"RUNNING"``, ``"DONE"`` (a result), ``"CANCELLED"``
+    (cancel was requested; any result is discarded), ``"FAILED"`` (``error`` holds why).
+    """
+
+    def __init__(self, job, run):
+        self.job = job
+        self._run = run
+        self._cancel = threading.Event()
+        self._thread = None
+        self.fraction = 0.0
+        self.phase = "starting"
+        self.result = None
+        self.error = None
+        self.started = None
+        self.finished = None
+
+    def progress(self, fraction, phase=""):
+        try:
+            self.fraction = min(1.0, max(0.0, float(fraction)))
+        except (TypeError, ValueError):
+            pass
+        if phase:
+            self.phase = str(phase)
+        return not self._cancel.is_set()
+
+    def _target(self):
+        try:
+            self.result = self._run(self.job, self.progress)
+        except BaseException as error:  # reported on the main thread
+            self.error = error
+        finally:
+            self.finished = time.perf_counter()
+
+    def start(self):
+        self.started = time.perf_counter()
+        self._thread = threading.Thread(target=self._target, name="illumap-compute", daemon=True)
+        self._thread.start()
+        return self
+
+    def cancel(self):
+        self._cancel.set()
+
+    @property
+    def cancel_requested(self):
+        return self._cancel.is_set()
+
+    def wait(self, timeout=None):
+        if self._thread is not None:
+            self._thread.join(timeout)
+        return self.state
+
+    @property
+    def seconds(self):
+        if self.started is None:
+            return 0.0
+        return (self.finished or time.perf_counter()) - self.started
+
+    @property
+    def state(self):
+        if self._thread is None:
+            return "PENDING"
+        if self._thread.is_alive():
+            return "RUNNING"
+        if self._cancel.is_set() or (self.error is not None and _is_cancelled_error(self.error)):
+            return "CANCELLED"
+        if self.error is not None:
+            return "FAILED"
+        return "DONE"
+
+    def status_text(self):
+        if self._cancel.is_set():
+            return "Illumap: cancelling…"
+        return f"Illumap: {self.phase} {100.0 * self.fraction:.0f} %  (Esc to cancel)"
+
+
+def finish_task(context, task, report):
+    """Main thread, after the worker stopped: write on success, report otherwise.
+
+    Returns the operator's return set. ``report(kind_set, message)`` is the operator's report.
+    """
+    state = task.state
+    if state == "RUNNING" or state == "PENDING":
+        raise RuntimeError("finish_task called while the task is not finished")
+    if state == "CANCELLED":
+        report({"WARNING"}, "Illumap: cancelled, nothing was written")
+        return {"CANCELLED"}
+    if state == "FAILED":
+        report({"ERROR"}, f"Illumap failed: {error_message(task.error)}")
+        return {"CANCELLED"}
+    props = context.scene.illumap
+    try:
+        written = _pipeline().write(context, task.job, task.result)
+        obj = _written_object(task.result, written)
+        record_stats(props.stats, task.result, task.seconds)
+        after_write(context, props, obj)
+    except Exception as error:
+        report({"ERROR"}, f"Illumap could not write the result: {error_message(error)}")
+        return {"CANCELLED"}
+    report_warnings(task.result, report)
+    report({"INFO"}, "Illumap: " + props.stats.summary)
+    return {"FINISHED"}
+
+
+# --- operators ------------------------------------------------------------------------------
+
+class ILLUMAP_OT_compute_illumination_map(bpy.types.Operator):
+    """Compute diffuse global illumination on the selected meshes and point clouds"""
+
+    bl_idname = "illumap.compute_illumination_map"
+    bl_label = "Compute Illumination Map"
+    bl_options = {"REGISTER", "UNDO"}
+
+    _task = None
+    _timer = None
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None
+
+    def execute(self, context):
+        objects, problem = input_objects(context)
+        if problem:
+            self.report({"ERROR"}, problem)
+            return {"CANCELLED"}
+        props = context.scene.illumap
+        try:
+            settings = scene_settings(context)
+        except Exception as error:
+            self.report({"ERROR"}, f"Illumap settings are invalid: {error_message(error)}")
+            return {"CANCELLED"}
+        start = time.perf_counter()
+        try:
+            result = _pipeline().compute(context, objects, settings)
+        except Exception as error:
+            if _is_cancelled_error(error):
+                self.report({"WARNING"}, "Illumap: cancelled, nothing was written")
+            else:
+                self.report({"ERROR"}, f"Illumap failed: {error_message(error)}")
+            return {"CANCELLED"}
+        try:
+            record_stats(props.stats, result, time.perf_counter() - start)
+            after_write(context, props, _written_object(result))
+        except Exception as error:
+            self.report({"ERROR"}, f"Illumap computed the map but could not finish: "
+                                   f"{error_message(error)}")
+            return {"CANCELLED"}
+        report_warnings(result, self.report)
+        self.report({"INFO"}, "Illumap: " + props.stats.summary)
+        return {"FINISHED"}
+
+    def invoke(self, context, event):
+        wm = context.window_manager
+        if bpy.app.background or context.window is None:
+            return self.execute(context)
+        if current_task() is not None:
+            self.report({"ERROR"}, "An Illumap computation is already running (Esc cancels it)")
+            return {"CANCELLED"}
+        objects, problem = input_objects(context)
+        if problem:
+            self.report({"ERROR"}, problem)
+            return {"CANCELLED"}
+        try:
+            settings = scene_settings(context)
+            job = _pipeline().prepare(context.evaluated_depsgraph_get(), objects, settings)
+        except Exception as error:
+            self.report({"ERROR"}, f"Illumap could not prepare the scene: {error_message(error)}")
+            return {"CANCELLED"}
+        self._task = ComputeTask(job, _pipeline().run).start()
+        _current["task"] = self._task
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.modal_handler_add(self)
+        wm.progress_begin(0.0, 1.0)
+        self._status(context, self._task.status_text())
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        task = self._task
+        if event.type == "ESC" and event.value == "PRESS":
+            task.cancel()
+            self._status(context, task.status_text())
+            return {"RUNNING_MODAL"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        if task.state == "RUNNING":
+            context.window_manager.progress_update(task.fraction)
+            self._status(context, task.status_text())
+            for area in context.screen.areas if context.screen else ():
+                if area.type == "VIEW_3D":
+                    area.tag_redraw()  # the panel shows the progress too
+            return {"RUNNING_MODAL"}
+        self._cleanup(context)
+        return finish_task(context, task, self.report)
+
+    def cancel(self, context):
+        # Blender cancels modal operators when it must (e.g. a file is loaded): stop the worker.
+        if self._task is not None:
+            self._task.cancel()
+            self._task.wait(5.0)
+        self._cleanup(context)
+
+    def _status(self, context, text):
+        try:
+            context.workspace.status_text_set(text)
+        except Exception:
+            pass
+        if context.area is not None:
+            context.area.header_text_set(text)
+            context.area.tag_redraw()
+
+    def _cleanup(self, context):
+        if _current["task"] is self._task:
+            _current["task"] = None
+        wm = context.window_manager
+        if self._timer is not None:
+            wm.event_timer_remove(self._timer)
+            self._timer = None
+        wm.progress_end()
+        try:
+            context.workspace.status_text_set(None)
+        except Exception:
+            pass
+        if context.area is not None:
+            context.area.header_text_set(None)
+
+
+class ILLUMAP_OT_build_preview(bpy.types.Operator):
+    """Instance oriented discs on the surfels, coloured by the illumination map"""
+
+    bl_idname = "illumap.build_preview"
+    bl_label = "Build Preview"
+    bl_options = {"REGISTER", "UNDO"}
+
+    mode: EnumProperty(name="Shading", items=properties.PREVIEW_MODE_ITEMS,
+                       options={"SKIP_SAVE"}, default="ILLUMINATION")
+    use_scene_mode: BoolProperty(name="Use Scene Setting", default=True, options={"SKIP_SAVE", "HIDDEN"})
+
+    def execute(self, context):
+        props = context.scene.illumap
+        mode = props.preview_mode if self.use_scene_mode else self.mode
+        active = context.active_object
+        targets = [active] if active is not None and active in surfel_objects() else \
+            surfel_objects(context.scene)
+        if not targets:
+            self.report({"ERROR"}, "No Illumap surfel object in the scene: compute an "
+                                   "illumination map first")
+            return {"CANCELLED"}
+        for obj in targets:
+            try:
+                preview.build_preview(context, obj, mode=mode, disc_scale=props.disc_scale)
+            except ValueError as error:
+                self.report({"ERROR"}, str(error))
+                return {"CANCELLED"}
+        return {"FINISHED"}
+
+
+class ILLUMAP_OT_clear_results(bpy.types.Operator):
+    """Remove Illumap's surfel objects (and optionally the transferred attributes)"""
+
+    bl_idname = "illumap.clear_results"
+    bl_label = "Clear Illumap Results"
+    bl_options = {"REGISTER", "UNDO"}
+
+    transferred: BoolProperty(
+        name="Transferred Attributes", default=False,
+        description="Also remove the 'illumination' colour attribute from the selected meshes")
+
+    def execute(self, context):
+        removed = 0
+        for obj in surfel_objects():
+            data = obj.data
+            bpy.data.objects.remove(obj)
+            if data is not None and data.users == 0:
+                if isinstance(data, bpy.types.Mesh):
+                    bpy.data.meshes.remove(data)
+                elif isinstance(data, bpy.types.PointCloud):
+                    bpy.data.pointclouds.remove(data)
+            removed += 1
+        if self.transferred:
+            for obj in context.selected_objects:
+                if obj.type == "MESH":
+                    attr = obj.data.attributes.get("illumination")
+                    if attr is not None:
+                        obj.data.attributes.remove(attr)
+        context.scene.illumap.stats.clear()
+        self.report({"INFO"}, f"Illumap: removed {removed} surfel object{'s' * (removed != 1)}")
+        return {"FINISHED"}
+
+
+class ILLUMAP_OT_reset_settings(bpy.types.Operator):
+    """Reset this scene's Illumap settings to the add-on preferences"""
+
+    bl_idname = "illumap.reset_settings"
+    bl_label = "Reset Illumap Settings"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        preferences.apply_defaults(context.scene.illumap, preferences.get_preferences(context))
+        return {"FINISHED"}
+
+
+# Registered even without the native module (they need only bpy).
+basic_classes = (ILLUMAP_OT_build_preview, ILLUMAP_OT_clear_results, ILLUMAP_OT_reset_settings)
+# Registered only when the native module imports.
+core_classes = (ILLUMAP_OT_compute_illumination_map,)

@@ -1,0 +1,160 @@
+"""The Illumap sidebar panel (3D Viewport > Sidebar > Illumap).
+
+With the native module: quality preset, Compute, advanced settings (closed by default), the
+preview and the last run's statistics. Without it: a reduced panel that says why and what to do.
+The draw code is written against a ``layout`` argument so that tests can draw into a recorder.
+"""
+
+import bpy
+
+
+def _core_error():
+    from . import core_error
+    return core_error()
+
+
+def draw_core_missing(layout, error):
+    box = layout.box()
+    box.alert = True
+    lines = error.splitlines() or ["The native module is missing"]
+    box.label(text="Illumap is unavailable", icon="ERROR")
+    for line in lines:
+        box.label(text=line)
+    layout.label(text="Reinstall the Illumap extension built for this platform,")
+    layout.label(text="or build the core: see README (pip install ./core).")
+
+
+def draw_main(layout, context):
+    props = context.scene.illumap
+    col = layout.column(align=True)
+    col.prop(props, "preset", text="Quality")
+    from .operators import current_task
+    task = current_task()
+    if task is not None:
+        box = layout.box()
+        box.label(text=f"Computing: {task.phase} {100.0 * task.fraction:.0f} %", icon="TIME")
+        box.label(text="Esc in the viewport cancels")
+        return
+    row = layout.row()
+    row.scale_y = 1.5
+    row.operator("illumap.compute_illumination_map", icon="LIGHT_SUN")
+    n_selected = len(context.selected_objects) if hasattr(context, "selected_objects") else 0
+    layout.label(text=f"{n_selected} object{'s' * (n_selected != 1)} selected")
+
+
+def draw_advanced(layout, context):
+    props = context.scene.illumap
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    col = layout.column(heading="Sampling")
+    col.prop(props, "sampling")
+    col.prop(props, "density" if props.sampling == "DENSITY" else "budget")
+    col.prop(props, "seed")
+    col = layout.column(heading="Solver")
+    col.prop(props, "method")
+    sub = col.column()
+    sub.active = props.method == "FMM"
+    sub.prop(props, "order")
+    sub.prop(props, "theta")
+    sub.prop(props, "leaf_size")
+    col.prop(props, "visibility")
+    col.prop(props, "tol")
+    col.prop(props, "max_iterations")
+    col.prop(props, "solver")
+    col.prop(props, "near_field")
+    col = layout.column(heading="Light")
+    col.prop(props, "lamps")
+    col.prop(props, "world_ambient")
+    col = layout.column(heading="Output")
+    col.prop(props, "transfer")
+    sub = col.column()
+    sub.active = props.transfer
+    sub.prop(props, "transfer_domain")
+    layout.operator("illumap.reset_settings", icon="LOOP_BACK")
+
+
+def draw_preview(layout, context):
+    props = context.scene.illumap
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    layout.prop(props, "build_preview")
+    layout.prop(props, "preview_mode")
+    layout.prop(props, "disc_scale")
+    row = layout.row(align=True)
+    row.operator("illumap.build_preview", icon="MESH_CIRCLE")
+    row.operator("illumap.clear_results", icon="TRASH", text="Clear")
+
+
+def draw_stats(layout, context):
+    stats = context.scene.illumap.stats
+    if not stats.valid:
+        layout.label(text="No result yet")
+        return
+    col = layout.column(align=True)
+    col.label(text=f"Surfels: {stats.surfels:,}")
+    col.label(text=f"Iterations: {stats.iterations}"
+                   + ("" if stats.converged else "  (not converged)"))
+    col.label(text=f"Final residual: {stats.residual:.3e}")
+    col.label(text=f"Total: {stats.total_seconds:.3f} s")
+    if len(stats.phases):
+        col = layout.column(align=True)
+        for phase in stats.phases:
+            row = col.row()
+            row.label(text=phase.name)
+            row.label(text=f"{phase.seconds:.3f} s")
+
+
+class _IllumapPanel:
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Illumap"
+
+
+class VIEW3D_PT_illumap(_IllumapPanel, bpy.types.Panel):
+    bl_label = "Illumap"
+    bl_idname = "VIEW3D_PT_illumap"
+
+    def draw(self, context):
+        error = _core_error()
+        if error:
+            draw_core_missing(self.layout, error)
+        else:
+            draw_main(self.layout, context)
+
+
+class _SubPanel(_IllumapPanel):
+    bl_parent_id = "VIEW3D_PT_illumap"
+
+    @classmethod
+    def poll(cls, context):
+        return _core_error() is None and context.scene is not None
+
+
+class VIEW3D_PT_illumap_advanced(_SubPanel, bpy.types.Panel):
+    bl_label = "Advanced"
+    bl_idname = "VIEW3D_PT_illumap_advanced"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        draw_advanced(self.layout, context)
+
+
+class VIEW3D_PT_illumap_preview(_SubPanel, bpy.types.Panel):
+    bl_label = "Preview"
+    bl_idname = "VIEW3D_PT_illumap_preview"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        draw_preview(self.layout, context)
+
+
+class VIEW3D_PT_illumap_stats(_SubPanel, bpy.types.Panel):
+    bl_label = "Last Run"
+    bl_idname = "VIEW3D_PT_illumap_stats"
+
+    def draw(self, context):
+        draw_stats(self.layout, context)
+
+
+classes = (VIEW3D_PT_illumap, VIEW3D_PT_illumap_advanced, VIEW3D_PT_illumap_preview,
+           VIEW3D_PT_illumap_stats)

@@ -1,0 +1,263 @@
+"""Scene settings (``scene.illumap``) and the last run's statistics.
+
+Quality presets map to the solver knobs through one table, ``PRESETS``. Choosing a preset copies
+its values into the advanced settings, so the user sees what the preset means; editing an
+advanced setting switches the preset to "Custom". The operator always reads the advanced
+settings (``settings_values``), so what is shown is what runs.
+"""
+
+import dataclasses
+import math
+
+import bpy
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
+                       IntProperty, PointerProperty, StringProperty)
+
+# The one table of quality presets is the pipeline's ``PRESETS`` (the batch script uses it too):
+# preset name -> Settings values (density in surfels/m², FMM order, opening angle, visibility,
+# tolerance). Visibility "exact" is meant for High once the core offers it; until then every
+# preset uses "none". pipeline.py imports the native core only when it runs, so this import
+# works in the reduced UI too; should it fail, presets do nothing and the fields keep defaults.
+try:
+    from .pipeline import PRESETS as _TABLE
+except Exception:  # pragma: no cover - a broken pipeline must not hide the reduced UI
+    _TABLE = {}
+
+PRESETS = {name: {key: (value.upper() if key in ("visibility", "solver", "near_field",
+                                                  "method") else value)
+                  for key, value in values.items()}
+           for name, values in _TABLE.items()}
+DEFAULT_PRESET = "MEDIUM"
+_DEFAULTS = dict(density=400.0, order=4, theta=0.5, visibility="NONE", tol=1e-4)
+_DEFAULTS.update(PRESETS.get(DEFAULT_PRESET, {}))
+
+PRESET_ITEMS = [
+    ("DRAFT", "Draft", "Few surfels, low FMM order, loose tolerance: quick look"),
+    ("MEDIUM", "Medium", "Balanced density, FMM order and tolerance"),
+    ("HIGH", "High", "Dense surfels, high FMM order, tight tolerance"),
+    ("CUSTOM", "Custom", "Use the advanced settings as set"),
+]
+VISIBILITY_ITEMS = [
+    ("NONE", "None", "No occlusion: every facing pair exchanges light"),
+    ("SEED", "Nearby Surfels", "Occlusion estimated from surfels near each segment (the talk's method)"),
+    ("EXACT", "Exact", "Occlusion by ray casting against the surfels as discs"),
+]
+SOLVER_ITEMS = [
+    ("AUTO", "Auto", "Conjugate gradients when the operator is symmetric, GMRES otherwise"),
+    ("CG", "CG", "Conjugate gradients on the symmetrized system"),
+    ("GMRES", "GMRES", "GMRES, for non-symmetric operators"),
+    ("JACOBI", "Jacobi", "Plain fixed-point iteration (slow, for comparison)"),
+]
+NEAR_FIELD_ITEMS = [
+    ("DISC", "Disc", "Bounded point-to-disc rule for close pairs"),
+    ("POINT", "Point", "Bare point kernel (diverges for close pairs; for comparison)"),
+]
+METHOD_ITEMS = [
+    ("FMM", "Multipole", "Fast Multipole Method: O(N) per iteration"),
+    ("DIRECT", "Direct", "Exact O(N²) sum: a reference for small scenes"),
+]
+SAMPLING_ITEMS = [
+    ("DENSITY", "Density", "Surfels per square metre of surface"),
+    ("BUDGET", "Budget", "A total number of surfels, spread by area"),
+]
+DOMAIN_ITEMS = [
+    ("POINT", "Vertex", "Transfer to mesh vertices"),
+    ("CORNER", "Face Corner", "Transfer to face corners (no blending across hard edges)"),
+]
+PREVIEW_MODE_ITEMS = [
+    ("ILLUMINATION", "Illumination", "Discs emit the computed outgoing radiance"),
+    ("ALBEDO_IRRADIANCE", "Albedo x Irradiance", "Discs emit the reflected light only"),
+]
+
+# Guard: while a preset is being applied, field updates must not switch the preset to Custom.
+_applying_preset = False
+
+
+def apply_preset(props, preset):
+    """Copy the table values of ``preset`` into ``props`` (no-op for "CUSTOM")."""
+    global _applying_preset
+    values = PRESETS.get(preset)
+    if values is None:
+        return
+    _applying_preset = True
+    try:
+        for key, value in values.items():
+            if value is not None and hasattr(props, key):
+                setattr(props, key, value)
+        props.sampling = "DENSITY"
+    finally:
+        _applying_preset = False
+
+
+def _preset_update(self, _context):
+    self.initialized = True
+    apply_preset(self, self.preset)
+
+
+def _same(a, b):
+    # Float properties are stored in single precision: 1e-3 reads back as 0.0010000000475.
+    if isinstance(b, float):
+        return math.isclose(a, b, rel_tol=1e-6)
+    return a == b
+
+
+def _touch(self, _context):
+    self.initialized = True
+
+
+def _field_update(self, _context):
+    if _applying_preset:
+        return
+    self.initialized = True
+    if self.preset != "CUSTOM":
+        values = PRESETS.get(self.preset, {})
+        if any(not _same(getattr(self, k), v) for k, v in values.items()
+               if v is not None and hasattr(self, k)) \
+                or self.sampling != "DENSITY":
+            self.preset = "CUSTOM"
+
+
+class IllumapPhaseTime(bpy.types.PropertyGroup):
+    # ``name`` (inherited) is the phase.
+    seconds: FloatProperty(name="Seconds", default=0.0, precision=3)
+
+
+class IllumapStats(bpy.types.PropertyGroup):
+    """What the last run of Compute Illumination Map reported (read-only in the UI)."""
+
+    valid: BoolProperty(name="Has Result", default=False)
+    surfels: IntProperty(name="Surfels", default=0)
+    iterations: IntProperty(name="Iterations", default=0)
+    residual: FloatProperty(name="Final Residual", default=0.0, precision=6)
+    converged: BoolProperty(name="Converged", default=False)
+    total_seconds: FloatProperty(name="Total Time", default=0.0, precision=3)
+    phases: CollectionProperty(type=IllumapPhaseTime)
+    summary: StringProperty(name="Summary", default="")
+
+    def clear(self):
+        self.valid = False
+        self.surfels = 0
+        self.iterations = 0
+        self.residual = 0.0
+        self.converged = False
+        self.total_seconds = 0.0
+        self.phases.clear()
+        self.summary = ""
+
+
+class IllumapSettings(bpy.types.PropertyGroup):
+    initialized: BoolProperty(
+        name="Initialized", default=False, options={"HIDDEN"},
+        description="Set once the settings were taken from the add-on preferences or edited")
+    preset: EnumProperty(name="Quality", items=PRESET_ITEMS, default=DEFAULT_PRESET,
+                         update=_preset_update)
+
+    # Sampling
+    sampling: EnumProperty(name="Sampling", items=SAMPLING_ITEMS, default="DENSITY",
+                           update=_field_update)
+    density: FloatProperty(name="Density", description="Surfels per square metre",
+                           default=_DEFAULTS["density"], min=0.001, soft_max=1e5,
+                           update=_field_update)
+    budget: IntProperty(name="Budget", description="Total number of surfels", default=5000,
+                        min=1, soft_max=1_000_000, update=_field_update)
+    seed: IntProperty(name="Seed", description="Sampling seed (results are reproducible)",
+                      default=0, min=0, update=_field_update)
+    # Solver
+    method: EnumProperty(name="Method", items=METHOD_ITEMS, default="FMM", update=_field_update)
+    order: IntProperty(name="FMM Order", description="Expansion order p of the multipole method",
+                       default=_DEFAULTS["order"], min=1, max=12,
+                       update=_field_update)
+    theta: FloatProperty(name="Opening Angle", description="Separation ratio for the far field",
+                         default=_DEFAULTS["theta"], min=0.05, max=0.95, update=_field_update)
+    leaf_size: IntProperty(name="Leaf Size", description="Surfels per octree leaf", default=32,
+                           min=1, soft_max=256, update=_field_update)
+    visibility: EnumProperty(name="Visibility", items=VISIBILITY_ITEMS,
+                             default=_DEFAULTS["visibility"], update=_field_update)
+    tol: FloatProperty(name="Tolerance", description="Relative residual at which to stop",
+                       default=_DEFAULTS["tol"], min=1e-12, max=1.0,
+                       precision=6, update=_field_update)
+    max_iterations: IntProperty(name="Max Iterations", default=200, min=1, soft_max=10000,
+                                update=_field_update)
+    solver: EnumProperty(name="Solver", items=SOLVER_ITEMS, default="AUTO", update=_field_update)
+    near_field: EnumProperty(name="Near Field", items=NEAR_FIELD_ITEMS, default="DISC",
+                             update=_field_update)
+    # Light
+    lamps: BoolProperty(name="Lamps", description="Add Blender lamps as direct light",
+                        default=True, update=_field_update)
+    world_ambient: BoolProperty(name="World Ambient",
+                                description="Add the world colour as uniform ambient light",
+                                default=False, update=_field_update)
+    # Output
+    transfer: BoolProperty(name="Transfer to Meshes",
+                           description="Also write the illumination onto the source meshes",
+                           default=False, update=_field_update)
+    transfer_domain: EnumProperty(name="Domain", items=DOMAIN_ITEMS, default="CORNER",
+                                  update=_field_update)
+    # Preview
+    build_preview: BoolProperty(name="Build Preview",
+                                description="Instance discs on the surfels after computing",
+                                default=True, update=_touch)
+    preview_mode: EnumProperty(name="Shading", items=PREVIEW_MODE_ITEMS, default="ILLUMINATION",
+                               update=_touch)
+    disc_scale: FloatProperty(name="Disc Scale",
+                              description="Disc radius relative to the surfel's own radius "
+                                          "(1: each disc has exactly its surfel's area; larger "
+                                          "values close the gaps between discs)",
+                              default=1.5, min=0.0, soft_max=4.0, update=_touch)
+
+    stats: PointerProperty(type=IllumapStats)
+
+
+# Names of the scene settings and the lower-case spelling the core uses for enum values.
+_SETTINGS_FIELDS = ("density", "budget", "seed", "method", "order", "theta", "leaf_size",
+                    "visibility", "tol", "max_iterations", "solver", "near_field", "lamps",
+                    "world_ambient", "transfer", "transfer_domain")
+_LOWER_ENUMS = ("visibility", "solver", "near_field", "method")
+# Alternative field names a Settings dataclass may use for the same knob.
+_ALIASES = {
+    "world_ambient": ("world_ambient", "world", "ambient", "use_world"),
+    "lamps": ("lamps", "use_lamps"),
+    "transfer": ("transfer", "transfer_to_meshes"),
+    "transfer_domain": ("transfer_domain", "domain"),
+    "tol": ("tol", "tolerance"),
+    "order": ("order", "fmm_order"),
+}
+
+
+def settings_values(props):
+    """The scene settings as a plain dict with the core's spelling (lower-case enums)."""
+    values = {name: getattr(props, name) for name in _SETTINGS_FIELDS}
+    for name in _LOWER_ENUMS:
+        values[name] = values[name].lower()
+    if props.sampling == "DENSITY":
+        values["budget"] = None
+    else:
+        values["density"] = None
+    return values
+
+
+def make_settings(props, settings_cls):
+    """Build ``settings_cls`` (the pipeline's Settings dataclass) from the scene settings.
+
+    Only fields the dataclass declares are passed, so a knob the pipeline does not have yet is
+    left at its default instead of failing.
+    """
+    values = settings_values(props)
+    if not dataclasses.is_dataclass(settings_cls):
+        return settings_cls(**values)
+    fields = {f.name for f in dataclasses.fields(settings_cls) if f.init}
+    kwargs = {}
+    for name, value in values.items():
+        for alias in _ALIASES.get(name, (name,)):
+            if alias in fields:
+                kwargs[alias] = value
+                break
+    if kwargs.get("budget", 0) is None and "budget" in fields:
+        # Keep the dataclass default for "no budget" rather than imposing None.
+        del kwargs["budget"]
+    if kwargs.get("density", 0) is None and "density" in fields:
+        del kwargs["density"]
+    return settings_cls(**kwargs)
+
+
+classes = (IllumapPhaseTime, IllumapStats, IllumapSettings)
