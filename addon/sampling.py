@@ -1,0 +1,251 @@
+"""Surfels from mesh objects: area-weighted, stratified sampling of evaluated meshes.
+
+Units: positions in metres (world space), areas in m², density in surfels per m².
+
+Sampling is done per object in two stages, so that no surfel clumps:
+
+1. *Allocation.* The triangles are laid end to end along their cumulative area and ``n`` sample
+   positions are placed systematically on that line (one random offset, then equal steps of
+   ``A/n``). A triangle receives ``floor`` or ``ceil`` of its expected count, never a cluster.
+2. *Placement.* Inside a triangle the k-th of its ``m`` samples is the k-th point of the R2
+   (Kronecker) low-discrepancy sequence with a random per-triangle shift, mapped onto
+   the triangle by Heitz's area-preserving, low-distortion square-to-triangle map.
+
+Each surfel stands for the same share ``A/n`` of its object's surface, so the areas sum to the
+mesh area exactly (up to rounding) whatever the triangle sizes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import IllumapError
+
+# R2 sequence constants (1/g, 1/g² with g the plastic number): a well-spread 2-D lattice.
+_R2 = np.array([0.7548776662466927, 0.5698402909980532])
+
+
+@dataclass
+class TriangleMesh:
+    """One evaluated mesh object as world-space triangles (numpy only, no bpy references)."""
+
+    name: str
+    corners: np.ndarray            # (T, 3, 3) triangle vertex positions, m
+    area: np.ndarray               # (T,) triangle areas, m²
+    normal: np.ndarray             # (T, 3) geometric unit normals
+    corner_normals: np.ndarray     # (T, 3, 3) split (shading) normals, unit, world space
+    material_index: np.ndarray     # (T,) int64 slot index
+    uv: dict[str, np.ndarray] = field(default_factory=dict)       # name → (T, 3, 2)
+    colors: dict[str, np.ndarray] = field(default_factory=dict)   # name → (T, 3, 4), linear
+    active_uv: str | None = None
+    active_color: str | None = None
+    materials: list = field(default_factory=list)  # bpy.types.Material | None per slot
+    skipped_triangles: int = 0
+    instancer: str = ""            # name of the instancing object, for instances
+
+    @property
+    def total_area(self) -> float:
+        """Sum of the triangle areas in m²."""
+        return float(self.area.sum())
+
+
+@dataclass
+class MeshSamples:
+    """Surfels sampled from one mesh, with what is needed to look up its material."""
+
+    mesh: TriangleMesh
+    positions: np.ndarray      # (N, 3) m
+    normals: np.ndarray        # (N, 3) unit
+    areas: np.ndarray          # (N,) m², sums to mesh.total_area
+    triangle: np.ndarray       # (N,) int64 index into mesh triangles
+    bary: np.ndarray           # (N, 3) barycentric coordinates
+    material_index: np.ndarray  # (N,) int64
+
+    def uv(self, name: str | None = None) -> np.ndarray | None:
+        """UV coordinates (N, 2) of the named (or active) UV map, None if the mesh has none."""
+        key = name or self.mesh.active_uv
+        if key not in self.mesh.uv:
+            return None
+        return np.einsum("nk,nkc->nc", self.bary, self.mesh.uv[key][self.triangle])
+
+    def color(self, name: str | None = None) -> np.ndarray | None:
+        """Colour attribute (N, 4), linear, interpolated at the surfels; None if absent."""
+        key = name or self.mesh.active_color
+        if key not in self.mesh.colors:
+            return None
+        return np.einsum("nk,nkc->nc", self.bary, self.mesh.colors[key][self.triangle])
+
+
+def _get(collection, attr: str, count: int, width: int, dtype) -> np.ndarray:
+    """foreach_get into a fresh numpy array of shape (count, width)."""
+    out = np.empty(count * width, dtype=dtype)
+    collection.foreach_get(attr, out)
+    return out.reshape(count, width) if width > 1 else out
+
+
+def read_mesh(obj, depsgraph, allow_empty: bool = False) -> TriangleMesh | None:
+    """Read ``obj``'s evaluated mesh (modifiers applied) as world-space triangles.
+
+    With ``allow_empty`` (an object that instances other geometry, e.g. Geometry Nodes that
+    output only instances) an empty mesh gives None instead of an error. Raises IllumapError
+    for non-finite vertices or when every face has zero area. Zero-area triangles are dropped
+    and counted in ``skipped_triangles`` (the caller warns).
+    """
+    obj_eval = obj.evaluated_get(depsgraph)
+    mesh = obj_eval.to_mesh()
+    try:
+        if allow_empty and (mesh is None or len(mesh.polygons) == 0):
+            return None
+        return _read_mesh_data(obj.name, obj_eval, mesh, obj_eval.matrix_world, obj.material_slots)
+    finally:
+        obj_eval.to_mesh_clear()
+
+
+_INSTANCE_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
+
+
+def read_instances(depsgraph, instancer_names: set[str]) -> list[TriangleMesh]:
+    """World-space triangles of every instance (collection instances, Geometry Nodes
+    instances, particle/vertex/face instancing) whose instancer is one of ``instancer_names``.
+
+    One loop over the depsgraph's instances (not over vertices): each instance's geometry is
+    read while the iterator holds it. Names are ``instancer/object#k``.
+    """
+    out: list[TriangleMesh] = []
+    counter = 0
+    for inst in depsgraph.object_instances:
+        if not inst.is_instance or inst.parent is None:
+            continue
+        if inst.parent.original.name not in instancer_names:
+            continue
+        ob = inst.object
+        if ob.type not in _INSTANCE_TYPES:
+            continue
+        mesh = ob.to_mesh()
+        try:
+            if mesh is None or len(mesh.polygons) == 0:
+                continue
+            counter += 1
+            name = f"{inst.parent.original.name}/{ob.original.name}#{counter}"
+            tm = _read_mesh_data(name, ob, mesh, inst.matrix_world.copy(), ob.material_slots)
+            tm.instancer = inst.parent.original.name
+            out.append(tm)
+        finally:
+            ob.to_mesh_clear()
+    return out
+
+
+def _read_mesh_data(name: str, obj_eval, mesh, matrix_world, material_slots) -> TriangleMesh:
+    mesh.calc_loop_triangles()
+    nv, nt, nl = len(mesh.vertices), len(mesh.loop_triangles), len(mesh.loops)
+    if nt == 0:
+        raise IllumapError(f"Object '{name}' has no faces to sample")
+    co = _get(mesh.vertices, "co", nv, 3, np.float64)
+    if not np.all(np.isfinite(co)):
+        bad = int((~np.isfinite(co)).any(axis=1).sum())
+        raise IllumapError(f"Object '{name}' has {bad} vertices with NaN or infinite coordinates")
+    m = np.array(matrix_world, dtype=np.float64)
+    lin, trans = m[:3, :3], m[:3, 3]
+    world = co @ lin.T + trans
+    tri_v = _get(mesh.loop_triangles, "vertices", nt, 3, np.int32)
+    tri_l = _get(mesh.loop_triangles, "loops", nt, 3, np.int32)
+    mat_idx = _get(mesh.loop_triangles, "material_index", nt, 1, np.int32).astype(np.int64)
+    corners = world[tri_v]
+    cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    double_area = np.linalg.norm(cross, axis=1)
+    area = 0.5 * double_area
+    # Normals transform with the inverse transpose; row vectors: n @ inv(M).
+    try:
+        inv = np.linalg.inv(lin)
+    except np.linalg.LinAlgError:
+        raise IllumapError(f"Object '{name}' has a degenerate (zero-scale) transform") from None
+    cn = _get(mesh.corner_normals, "vector", nl, 3, np.float64) @ inv
+    cn /= np.maximum(np.linalg.norm(cn, axis=1, keepdims=True), 1e-300)
+    extent = np.ptp(world, axis=0).max() if nv else 0.0
+    keep = np.isfinite(area) & (area > 1e-12 * max(extent, 1e-30) ** 2)
+    skipped = int(nt - keep.sum())
+    if not keep.any():
+        raise IllumapError(f"Object '{name}': all {nt} faces have zero area; nothing to sample")
+    normal = cross[keep] / double_area[keep, None]
+    uv = {}
+    for layer in mesh.uv_layers:
+        vec = _get(layer.uv, "vector", nl, 2, np.float64)
+        uv[layer.name] = vec[tri_l[keep]]
+    colors = {}
+    for attr in mesh.color_attributes:
+        if attr.domain == "POINT":
+            count, index = nv, tri_v[keep]
+        elif attr.domain == "CORNER":
+            count, index = nl, tri_l[keep]
+        else:
+            continue
+        # 'color' is scene-linear for both FLOAT_COLOR and BYTE_COLOR ('color_srgb' is not).
+        col = _get(attr.data, "color", count, 4, np.float64)
+        colors[attr.name] = col[index]
+    active_color = mesh.color_attributes.active_color.name if mesh.color_attributes.active_color else None
+    active_uv = mesh.uv_layers.active.name if mesh.uv_layers.active else None
+    materials = [slot.material for slot in material_slots]
+    return TriangleMesh(
+        name=name, corners=corners[keep], area=area[keep], normal=normal,
+        corner_normals=cn[tri_l[keep]], material_index=mat_idx[keep], uv=uv, colors=colors,
+        active_uv=active_uv, active_color=active_color, materials=materials,
+        skipped_triangles=skipped,
+    )
+
+
+def allocate(areas: np.ndarray, *, density: float | None = None,
+             budget: int | None = None) -> np.ndarray:
+    """Surfel counts per object from a density (surfels/m²) or a total budget.
+
+    Every object gets at least one surfel (so small emitters are never lost); a budget is
+    shared in proportion to area by largest remainder.
+    """
+    areas = np.asarray(areas, dtype=np.float64)
+    if budget is not None:
+        budget = int(budget)
+        if budget < len(areas):
+            raise IllumapError(f"Surfel budget {budget} is smaller than the number of objects ({len(areas)})")
+        exact = budget * areas / areas.sum()
+        counts = np.floor(exact).astype(np.int64)
+        rest = budget - counts.sum()
+        counts[np.argsort(-(exact - counts), kind="stable")[:rest]] += 1
+        return np.maximum(counts, 1)
+    if density is None or not density > 0 or not np.isfinite(density):
+        raise IllumapError(f"Surfel density must be a positive number, got {density}")
+    if density * areas.sum() > 2.0 ** 53:
+        raise IllumapError(f"Density {density:g}/m² over {areas.sum():g} m² asks for "
+                           f"{density * areas.sum():.3g} surfels, far beyond any memory")
+    return np.maximum(np.rint(density * areas).astype(np.int64), 1)
+
+
+def sample_mesh(mesh: TriangleMesh, count: int, rng: np.random.Generator) -> MeshSamples:
+    """Place ``count`` stratified surfels on ``mesh`` (see the module docstring)."""
+    count = int(count)
+    cum = np.cumsum(mesh.area)
+    total = cum[-1]
+    u = (np.arange(count) + rng.random()) * (total / count)
+    tri = np.minimum(np.searchsorted(cum, u, side="right"), len(cum) - 1)
+    # u is increasing, so tri is sorted: rank of each sample inside its triangle.
+    first = np.searchsorted(tri, tri, side="left")
+    rank = np.arange(count) - first
+    shift = rng.random((len(cum), 2))
+    st = np.mod((rank[:, None] + 0.5) * _R2 + shift[tri], 1.0)
+    # Heitz's low-distortion square→triangle map (2019): area-preserving and far less
+    # distorting than folding, so the lattice's spacing survives.
+    u1, u2 = st[:, 0], st[:, 1]
+    upper = u2 > u1
+    t1 = np.where(upper, u1 / 2, u1 - u2 / 2)
+    t2 = np.where(upper, u2 - u1 / 2, u2 / 2)
+    bary = np.column_stack([1.0 - t1 - t2, t1, t2])
+    pos = np.einsum("nk,nkc->nc", bary, mesh.corners[tri])
+    nrm = np.einsum("nk,nkc->nc", bary, mesh.corner_normals[tri])
+    length = np.linalg.norm(nrm, axis=1)
+    bad = length < 1e-8  # opposite split normals cancel: use the face normal
+    nrm[bad] = mesh.normal[tri[bad]]
+    length[bad] = 1.0
+    nrm /= length[:, None]
+    areas = np.full(count, total / count)
+    return MeshSamples(mesh=mesh, positions=pos, normals=nrm, areas=areas, triangle=tri,
+                       bary=bary, material_index=mesh.material_index[tri])

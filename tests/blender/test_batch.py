@@ -1,0 +1,157 @@
+"""Batch jobs: the command line as users type it (scripts/blender -b ... --python
+scripts/illumap_batch.py -- ...), frame ranges with one result per frame, idempotent re-runs,
+exit codes."""
+
+import os
+import subprocess
+
+import bpy
+import numpy as np
+
+from illumap_bpy_testing import (diffuse_material, emission_material, make_plane,
+                                 requires_core, top_camera)
+
+from addon import batch
+
+pytestmark = requires_core
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def animated_scene(path):
+    """Floor + emitter that rises from z=1 (frame 1) to z=2 (frame 3); a camera; saved."""
+    floor = make_plane("Floor", size=2.0, material=diffuse_material("F", (0.5,) * 3))
+    em = make_plane("Emitter", size=0.5, location=(0, 0, 1), flip=True,
+                    material=emission_material("E", (1, 1, 1), 1.0))
+    em.keyframe_insert("location", frame=1)
+    em.location.z = 2.0
+    em.keyframe_insert("location", frame=3)
+    top_camera(ortho_scale=2.5)
+    bpy.context.scene.frame_set(1)
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    return floor, em
+
+
+def run_cli(blend, *args):
+    cmd = [os.path.join(REPO, "scripts", "blender"), "-b", str(blend), "--python",
+           os.path.join(REPO, "scripts", "illumap_batch.py"), "--", *args]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+
+
+def floor_centre_value(blend_path):
+    bpy.ops.wm.open_mainfile(filepath=str(blend_path))
+    obj = bpy.data.objects["Illumap Surfels"]
+    n = len(obj.data.points)
+    pos = np.empty(n * 3)
+    obj.data.attributes["position"].data.foreach_get("vector", pos)
+    ill = np.empty(n * 4)
+    obj.data.attributes["illumination"].data.foreach_get("color", ill)
+    pos, ill = pos.reshape(n, 3), ill.reshape(n, 4)
+    near = (pos[:, 2] < 0.1) & (np.hypot(pos[:, 0], pos[:, 1]) < 0.1)
+    return ill[near, 0].mean()
+
+
+def test_cli_frame_range_outputs_and_idempotence(tmp_path):
+    scene = tmp_path / "scene.blend"
+    animated_scene(scene)
+    out = tmp_path / "out" / "lit_####.blend"
+    png = tmp_path / "out" / "lit_####.png"
+    args = ("--objects", "Floor,Emitter", "--frames", "1-3", "--density", "200", "--method",
+            "direct", "--output", str(out), "--render", str(png), "--resolution", "32",
+            "--samples", "2")
+    proc = run_cli(scene, *args)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    for f in (1, 2, 3):
+        assert (tmp_path / "out" / f"lit_{f:04d}.blend").exists()
+        assert (tmp_path / "out" / f"lit_{f:04d}.png").exists()
+        assert f"Illumap frame {f}:" in proc.stdout
+    assert "surfels" in proc.stdout and "iterations" in proc.stdout and "residual" in proc.stdout
+    # One result per frame: the emitter rises, so the floor centre gets darker.
+    values = [floor_centre_value(tmp_path / "out" / f"lit_{f:04d}.blend") for f in (1, 2, 3)]
+    # The saved file carries the preview modifier (Geometry Nodes) on the surfel object.
+    assert any(m.type == "NODES" for m in bpy.data.objects["Illumap Surfels"].modifiers)
+    assert values[0] > values[1] > values[2] > 0
+    # The rendered preview shows the illumination (not black).
+    img = bpy.data.images.load(str(tmp_path / "out" / "lit_0001.png"))
+    px = np.empty(img.size[0] * img.size[1] * 4, np.float32)
+    img.pixels.foreach_get(px)
+    assert img.size[0] == 32 and px.reshape(-1, 4)[:, :3].max() > 0.05
+    # Idempotent: a second run skips every frame; delete one output and only it is redone.
+    mtime = os.path.getmtime(tmp_path / "out" / "lit_0001.blend")
+    os.remove(tmp_path / "out" / "lit_0002.png")
+    proc = run_cli(scene, *args)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert proc.stdout.count("skipped") == 2 and "Illumap frame 2: " in proc.stdout
+    assert os.path.getmtime(tmp_path / "out" / "lit_0001.blend") == mtime
+    assert (tmp_path / "out" / "lit_0002.png").exists()
+
+
+def test_cli_bad_arguments_exit_2(tmp_path):
+    scene = tmp_path / "scene.blend"
+    animated_scene(scene)
+    proc = run_cli(scene, "--quality", "ultra")
+    assert proc.returncode == 2 and "quality" in proc.stderr
+
+
+def test_exit_codes_in_process(tmp_path):
+    make_plane("Floor")
+    assert batch.main(["--frames", "3-1"]) == 2
+    assert batch.main(["--density", "-5"]) == 2
+    assert batch.main(["--objects", "Nope"]) == 3
+    bpy.data.collections.new("Empty")
+    bpy.context.scene.collection.children.link(bpy.data.collections["Empty"])
+    assert batch.main(["--collection", "Empty"]) == 3
+
+
+def test_empty_scene_exit_3(capsys):
+    assert batch.main(["--method", "direct"]) == 3
+    assert "select" in capsys.readouterr().err
+
+
+def test_collection_and_default_selection(tmp_path):
+    floor = make_plane("Floor", material=diffuse_material("F", (0.5,) * 3))
+    em = make_plane("Emitter", size=0.5, location=(0, 0, 1), flip=True,
+                    material=emission_material("E", (1, 1, 1), 1.0))
+    coll = bpy.data.collections.new("Lit")
+    bpy.context.scene.collection.children.link(coll)
+    coll.objects.link(floor)
+    coll.objects.link(em)
+    objs = batch.select_objects(bpy.context.scene, bpy.context.view_layer, None, "Lit")
+    assert {o.name for o in objs} == {"Floor", "Emitter"}
+    assert batch.main(["--collection", "Lit", "--density", "50", "--method", "direct",
+                       "--output", str(tmp_path / "a.blend")]) == 0
+    assert (tmp_path / "a.blend").exists()
+    assert "Illumap Surfels" in bpy.data.objects
+
+
+def test_frame_paths():
+    assert batch.parse_frames("1-3,7", 5) == [1, 2, 3, 7]
+    assert batch.parse_frames(None, 5) == [5]
+    assert batch.frame_path("/x/a_##.png", 7, False) == "/x/a_07.png"
+    assert batch.frame_path("/x/a.png", 7, True) == "/x/a_0007.png"
+    assert batch.frame_path("/x/a.png", 7, False) == "/x/a.png"
+
+
+def test_solver_failure_and_cancel_exit_codes(monkeypatch, capsys):
+    import illumap
+    make_plane("Floor", material=diffuse_material("F", (0.5,) * 3))
+    make_plane("Emitter", size=0.5, location=(0, 0, 1), flip=True,
+               material=emission_material("E", (1, 1, 1), 1.0))
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("matrix exploded")
+
+    def cancelled(*args, **kwargs):
+        raise illumap.Cancelled()
+
+    monkeypatch.setattr(illumap, "solve", broken)
+    assert batch.main(["--density", "20"]) == 4
+    assert "matrix exploded" in capsys.readouterr().err
+    monkeypatch.setattr(illumap, "solve", cancelled)
+    assert batch.main(["--density", "20"]) == 130
+    assert "Illumap Surfels" not in bpy.data.objects  # nothing written on failure/cancel
+
+
+def test_budget_too_large_exit_3_with_estimate(capsys):
+    make_plane("Floor")
+    assert batch.main(["--budget", str(10 ** 12)]) == 3
+    assert "GiB" in capsys.readouterr().err
