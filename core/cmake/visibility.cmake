@@ -1,0 +1,27 @@
+# visibility.cmake — compiles the visibility sources into the native static library and links
+# Embree 3 (oriented-disc points for visibility="exact").
+#
+# Usage, in core/CMakeLists.txt after add_library(illumap_native ...):
+#     include(cmake/visibility.cmake)
+#     illumap_add_visibility(illumap_native)
+#
+# Embree is a shared library (Debian: libembree3.so.3, which pulls libtbb.so.12); the wheel
+# must bundle it (auditwheel repair grafts both). Set ILLUMAP_EMBREE_DIR to point at another
+# Embree 3 CMake config (e.g. an official Embree release) if needed.
+include_guard(GLOBAL)
+
+set(ILLUMAP_VISIBILITY_SOURCES
+  ${CMAKE_CURRENT_LIST_DIR}/../src/raycast.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/../src/seed_visibility.cpp)
+
+if(DEFINED ILLUMAP_EMBREE_DIR)
+  set(embree_DIR "${ILLUMAP_EMBREE_DIR}")
+endif()
+find_package(embree 3 REQUIRED)
+
+function(illumap_add_visibility target)
+  target_sources(${target} PRIVATE ${ILLUMAP_VISIBILITY_SOURCES})
+  # Embree's exported target is called `embree` (headers <embree3/rtcore.h>).
+  target_link_libraries(${target} PUBLIC embree)
+  target_compile_definitions(${target} PUBLIC ILLUMAP_HAVE_VISIBILITY=1)
+endfunction()

@@ -1,0 +1,34 @@
+"""Illumap: diffuse global illumination (radiosity) on point models with a Fast Multipole Method.
+
+Public API (docs/architecture.md)::
+
+    Surfels(positions, normals, areas, albedo, emission)     # validates; raises InputError
+    TransportOperator(surfels, method="fmm", order=…, theta=…, leaf_size=…, near_field="disc",
+                      visibility="none")                      # .apply(values), .stats, .symmetric
+    solve(surfels, *, method=…, solver="auto"|"cg"|"gmres"|"jacobi", tol=…, max_iterations=…,
+          progress=None, operator=None, **operator_keywords) -> Solution
+    InputError(ValueError), Cancelled(Exception)
+"""
+
+from ._progress import Cancelled
+from .operator import (DEFAULT_LEAF_SIZE, DEFAULT_METHOD, DEFAULT_NEAR_FIELD, DEFAULT_ORDER,
+                       DEFAULT_THETA, DEFAULT_VISIBILITY, TransportOperator)
+from .solver import DEFAULT_TOL, Solution, solve
+from .surfels import InputError, Surfels
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Surfels", "TransportOperator", "solve", "Solution", "InputError", "Cancelled",
+    "DEFAULT_METHOD", "DEFAULT_ORDER", "DEFAULT_THETA", "DEFAULT_LEAF_SIZE",
+    "DEFAULT_NEAR_FIELD", "DEFAULT_VISIBILITY", "DEFAULT_TOL", "native_available",
+]
+
+
+def native_available() -> bool:
+    """True when the native module illumap._core is importable."""
+    try:
+        from . import _core  # noqa: F401
+    except ImportError:
+        return False
+    return True

@@ -1,0 +1,508 @@
+r"""Solvers for the radiosity system ``B = E + ρ∘K(B)``.
+
+``K`` is the transport operator ``K(x)_i = Σ_j F_ij V_ij x_j`` (:class:`TransportOperator`),
+``ρ`` the per-surfel, per-channel albedo and ``E`` the emission. Each colour channel is an
+independent linear system ``(I − D K) b = e`` with ``D = diag(ρ[:, c])``; the three channels are
+iterated together as an N×3 block (one operator application serves all three), but every scalar
+of the iteration (step lengths, Givens rotations, convergence) is per channel.
+
+Stopping rule (all solvers)
+---------------------------
+The relative residual in the ORIGINAL variables,
+
+    rel_c = ‖E_c − (B_c − ρ_c ∘ K B_c)‖₂ / ‖E_c‖₂          (per channel c)
+
+must satisfy ``max_c rel_c ≤ tol``. Channels with ``E_c = 0`` have the exact solution ``B_c = 0``
+and count as converged. Iterations monitor the residual their recurrence gives; at the end the
+true residual is recomputed from one more operator application, reported in
+``Solution.stats["final_residual"]`` and used for ``Solution.converged``. ``E = 0`` everywhere
+returns zeros at once, without building an operator.
+
+Solvers
+-------
+``"jacobi"``
+    The talk's "iterate till convergence": ``B ← E + ρ∘K(B)``, starting from ``B = E``. Converges
+    when the spectral radius of ``D K`` is below 1; at ρ → 1 it needs ~log(tol)/log(ρ) steps.
+    Divergence (a non-finite or steadily growing residual) stops it with ``converged=False`` and
+    a warning in ``stats["warning"]``; no exception, the caller decides.
+
+``"cg"``
+    Conjugate gradients on a symmetric positive-definite form. Reciprocity ``A_i K_ij = A_j K_ji``
+    makes ``W K`` symmetric (``W = diag(A)``). Substitute ``B = E + D^{1/2} y``::
+
+        D^{1/2} y = D K E + D K D^{1/2} y
+        ⇒ (I − D^{1/2} K D^{1/2}) y = D^{1/2} K E        (rows with ρ = 0 give y = 0 exactly)
+
+    and ``y = W^{-1/2} z``, multiplying by ``W^{1/2}``::
+
+        (I − M) z = W^{1/2} D^{1/2} K E,    M = D^{1/2} S D^{1/2},   S = W^{1/2} K W^{-1/2}.
+
+    ``S = W^{-1/2} (W K) W^{-1/2}`` is symmetric, hence so is ``M``. ``S`` is similar to ``K``, so
+    ``‖S‖₂ = ρ(K) ≤ max row sum of K ≤ 1`` (K ≥ 0), and ``‖M‖₂ ≤ max ρ · ρ(K) < 1`` when every
+    albedo is below 1: ``I − M`` is symmetric positive definite (it suffices that
+    ``max ρ · ρ(K) < 1``, weaker than row sums ≤ 1). It is the textbook symmetrized matrix
+    ``diag(A/ρ) − diag(A) K`` scaled on both sides by ``P = diag(ρ/A)^{1/2}``, but no ``1/ρ``
+    appears, so black (ρ = 0) surfels and channels are safe. The CG residual maps back exactly:
+    ``r_orig = D^{1/2} W^{-1/2} r_z``, so the stopping rule above is monitored at no extra cost.
+    If ``pᵀ(I − M)p ≤ 0`` the matrix is not SPD (row sums of K well above 1, e.g. the bare point
+    near field in a closed box): CG stops with ``converged=False`` and a warning.
+
+``"gmres"``
+    Restarted GMRES(``restart``, default 30) on ``(I − D K) B = E`` from ``B = E``; needs no
+    symmetry (for visibility that is not reciprocal). Modified Gram–Schmidt, Givens rotations.
+
+``"auto"``
+    CG when ``operator.symmetric`` (diag(A)·F·V symmetric), GMRES otherwise.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._progress import Cancelled, ProgressGuard  # noqa: F401 (Cancelled: documented here)
+from .operator import DEFAULT_METHOD, OPERATOR_KEYWORDS, TransportOperator, validate_keywords
+from .surfels import InputError, Surfels
+
+__all__ = ["solve", "Solution", "SOLVERS", "DEFAULT_TOL", "DEFAULT_MAX_ITERATIONS",
+           "DEFAULT_RESTART"]
+
+SOLVERS = ("auto", "cg", "gmres", "jacobi")
+DEFAULT_TOL = 1e-6
+#: Per solver when ``max_iterations`` is None (operator applications, roughly).
+DEFAULT_MAX_ITERATIONS = {"jacobi": 10000, "cg": 1000, "gmres": 1000}
+DEFAULT_RESTART = 30
+#: Fraction of the progress bar given to building the operator when ``solve`` builds it.
+BUILD_FRACTION = 0.1
+#: Jacobi is declared divergent when its residual rose this many iterations in a row and is above
+#: its initial value, or grew by DIVERGENCE_FACTOR over the best seen.
+DIVERGENCE_PATIENCE = 30
+DIVERGENCE_FACTOR = 1e3
+
+
+@dataclass
+class Solution:
+    """Result of :func:`solve`.
+
+    radiosity : (N, 3) outgoing radiance B.
+    iterations : iterations performed (Jacobi sweeps, CG steps, GMRES inner steps).
+    residuals : max-over-channels relative residual per iteration; ``residuals[0]`` is the
+        initial one (at B = E), so ``len(residuals) == iterations + 1`` (recurrence values;
+        GMRES restarts and CG refreshes use the true residual).
+    converged : True when the recomputed true relative residual is ≤ tol.
+    timings : seconds per phase: "build" (0 with a prebuilt operator), "solve", "total".
+    stats : operator stats plus "solver", "tol", "final_residual" (true, max over channels),
+        "final_residuals" (per channel), "operator_applications" and, when something went wrong,
+        "warning".
+    """
+
+    radiosity: np.ndarray
+    iterations: int
+    residuals: np.ndarray
+    converged: bool
+    timings: dict = field(default_factory=dict)
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def residual(self) -> float:
+        """The final true relative residual (max over channels)."""
+        return float(self.stats.get("final_residual", np.nan))
+
+    @property
+    def solver(self) -> str:
+        return self.stats.get("solver", "")
+
+
+# ------------------------------------------------------------------------------------------------
+# helpers
+
+def _norms(x: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.einsum("ij,ij->j", x, x))
+
+
+class _Monitor:
+    """Relative residual bookkeeping, progress and cancellation for one solve."""
+
+    def __init__(self, e_norm, tol, max_iterations, guard, start_fraction):
+        self.e_norm = e_norm
+        self.active = e_norm > 0
+        self.safe_norm = np.where(self.active, e_norm, 1.0)
+        self.tol = tol
+        self.max_iterations = max_iterations
+        self.guard = guard
+        self.start = start_fraction
+        self.history = []
+        self.iterations = 0
+        self.first = None
+        self.fraction = start_fraction
+        self.applications = 0
+
+    def relative(self, residual_norms):
+        return np.where(self.active, residual_norms / self.safe_norm, 0.0)
+
+    def record(self, rel):
+        value = float(np.max(rel))
+        self.history.append(value)
+        if self.first is None:
+            self.first = value
+        self.update_progress(value)
+        return value
+
+    def update_progress(self, value):
+        f = self.iterations / max(self.max_iterations, 1)
+        if self.first is not None and self.first > self.tol and value > 0 and math.isfinite(value):
+            f = max(f, math.log(self.first / value) / math.log(self.first / self.tol))
+        f = min(max(f, 0.0), 1.0)
+        self.fraction = max(self.fraction, self.start + (1.0 - self.start) * f * 0.999)
+        self.guard.check(self.fraction, "solve")
+
+    def done(self, value):
+        return value <= self.tol
+
+    def out_of_iterations(self):
+        return self.iterations >= self.max_iterations
+
+
+def _make_apply(op, guard, monitor_ref):
+    """K(x) for N×3 float64 x, with cancellation inside long native applications."""
+    if isinstance(op, TransportOperator):
+        native = op._op
+
+        def keep_alive(fraction, phase):  # native progress while one apply runs
+            monitor = monitor_ref[0]
+            return guard._emit(monitor.fraction if monitor else 0.0, "solve")
+
+        callback = keep_alive if guard.callback is not None else None
+
+        def apply(x):
+            if monitor_ref[0] is not None:
+                monitor_ref[0].applications += 1
+            if not np.all(np.isfinite(x)):     # never hand NaN/inf to native code
+                raise FloatingPointError("solver iterate became non-finite")
+            return native.apply(np.ascontiguousarray(x, dtype=np.float64), progress=callback)
+    else:
+        def apply(x):
+            if monitor_ref[0] is not None:
+                monitor_ref[0].applications += 1
+            y = np.asarray(op.apply(np.ascontiguousarray(x, dtype=np.float64)), dtype=np.float64)
+            if y.shape != x.shape:
+                raise InputError(f"operator.apply returned shape {y.shape}, expected {x.shape}")
+            return y
+    return apply
+
+
+# ------------------------------------------------------------------------------------------------
+# the three solvers; each returns (B, true residual N×3, warning or None)
+
+def _jacobi(K, E, rho, mon: _Monitor):
+    B = E.copy()
+    best = np.inf
+    rising = 0
+    previous = np.inf
+    warning = None
+    while True:
+        KB = K(B)
+        r = E + rho * KB - B              # true residual of B; also the next Jacobi step
+        rel = mon.relative(_norms(r))
+        value = mon.record(rel)
+        if mon.done(value):
+            break
+        if not np.isfinite(value):
+            warning = (f"jacobi diverged: residual became non-finite after {mon.iterations} "
+                       "iterations (spectral radius of ρ·K ≥ 1?)")
+            break
+        best = min(best, value)
+        rising = rising + 1 if value > previous else 0
+        previous = value
+        if value > DIVERGENCE_FACTOR * best or (
+                rising >= DIVERGENCE_PATIENCE and value > mon.history[0]):
+            warning = (f"jacobi diverged: relative residual grew to {value:.3g} after "
+                       f"{mon.iterations} iterations (best {best:.3g}); the spectral radius of "
+                       "ρ·K is ≥ 1 (row sums of K above 1, e.g. near_field='point' in a closed "
+                       "scene)")
+            break
+        if mon.out_of_iterations():
+            break
+        B = B + r
+        mon.iterations += 1
+    return B, r, warning
+
+
+def _cg(K, E, rho, areas, mon: _Monitor):
+    s = np.sqrt(rho)                      # D^{1/2}
+    w = np.sqrt(areas)[:, None]           # W^{1/2}
+    inv_w = 1.0 / w
+    active_rows = s > 0
+
+    def M(z):                             # (I − M) z
+        return z - w * s * K(s * inv_w * z)
+
+    KE = K(E)
+    r = w * s * KE                        # b − (I−M)·0
+    z = np.zeros_like(E)
+    warning = None
+    refreshes = 0
+    while True:
+        if refreshes:
+            mon.history.pop()  # replace the recurrence value by the true residual's
+        p = r.copy()
+        rr = np.einsum("ij,ij->j", r, r)
+        value = mon.record(mon.relative(_norms(s * inv_w * r)))
+        while not mon.done(value) and not mon.out_of_iterations():
+            Ap = M(p)
+            pAp = np.einsum("ij,ij->j", p, Ap)
+            live = rr > 0
+            if np.any(live & ~(pAp > 0)):
+                c = int(np.flatnonzero(live & ~(pAp > 0))[0])
+                warning = (f"cg stopped: the symmetrized system is not positive definite "
+                           f"(pᵀAp = {pAp[c]:.3g} in channel {c}); the operator's row sums "
+                           "exceed 1/ρ (e.g. near_field='point' in a closed scene)")
+                break
+            alpha = np.where(live, rr / np.where(live, pAp, 1.0), 0.0)
+            z += alpha * p
+            r -= alpha * Ap
+            rr_new = np.einsum("ij,ij->j", r, r)
+            beta = np.where(live, rr_new / np.where(live, rr, 1.0), 0.0)
+            p = r + beta * p
+            rr = rr_new
+            mon.iterations += 1
+            value = mon.record(mon.relative(_norms(s * inv_w * r)))
+            if not math.isfinite(value):
+                warning = "cg stopped: the residual became non-finite"
+                break
+        B = E + s * inv_w * z
+        r_true = E + rho * K(B) - B
+        true_value = float(np.max(mon.relative(_norms(r_true))))
+        if (warning or mon.done(true_value) or mon.out_of_iterations() or refreshes >= 5
+                or not np.isfinite(true_value)):
+            return B, r_true, warning
+        # recurrence and true residual drifted apart: restart from the true residual
+        refreshes += 1
+        r = np.where(active_rows, w * r_true / np.where(active_rows, s, 1.0), 0.0)
+
+
+def _back_substitute(H, g, k):
+    """Solve the k×k upper-triangular H y = g per channel (zero pivots give y = 0)."""
+    channels = g.shape[1]
+    y = np.zeros((k, channels))
+    for c in range(channels):
+        for i in range(k - 1, -1, -1):
+            d = H[i, i, c]
+            acc = g[i, c] - H[i, i + 1:k, c] @ y[i + 1:k, c]
+            y[i, c] = acc / d if d != 0 else 0.0
+    return y
+
+
+def _gmres(K, E, rho, mon: _Monitor, restart: int):
+    def A(x):
+        return x - rho * K(x)
+
+    channels = E.shape[1]
+    x = E.copy()
+    r = E - A(x)
+    warning = None
+    while True:
+        beta = _norms(r)
+        value = mon.record(mon.relative(beta))
+        if mon.done(value) or mon.out_of_iterations() or not np.isfinite(value):
+            if not np.isfinite(value):
+                warning = "gmres stopped: the residual became non-finite"
+            return x, r, warning
+        safe = np.where(beta > 0, beta, 1.0)
+        V = [np.where(beta > 0, r / safe, 0.0)]
+        H = np.zeros((restart + 1, restart, channels))
+        cs = np.zeros((restart, channels))
+        sn = np.zeros((restart, channels))
+        g = np.zeros((restart + 1, channels))
+        g[0] = beta
+        k = 0
+        for j in range(restart):
+            v = A(V[j])
+            for i in range(j + 1):
+                h = np.einsum("ij,ij->j", V[i], v)
+                H[i, j] = h
+                v -= h * V[i]
+            hn = _norms(v)
+            H[j + 1, j] = hn
+            V.append(np.where(hn > 0, v / np.where(hn > 0, hn, 1.0), 0.0))
+            for i in range(j):
+                t = cs[i] * H[i, j] + sn[i] * H[i + 1, j]
+                H[i + 1, j] = -sn[i] * H[i, j] + cs[i] * H[i + 1, j]
+                H[i, j] = t
+            denom = np.hypot(H[j, j], H[j + 1, j])
+            ok = denom > 0
+            cs[j] = np.where(ok, H[j, j] / np.where(ok, denom, 1.0), 1.0)
+            sn[j] = np.where(ok, H[j + 1, j] / np.where(ok, denom, 1.0), 0.0)
+            H[j, j] = denom
+            H[j + 1, j] = 0.0
+            g[j + 1] = -sn[j] * g[j]
+            g[j] = cs[j] * g[j]
+            k = j + 1
+            mon.iterations += 1
+            value = mon.record(mon.relative(np.abs(g[j + 1])))
+            if mon.done(value) or mon.out_of_iterations():
+                break
+        if mon.history:
+            mon.history.pop()  # the restart records the true residual in place of the estimate
+        y = _back_substitute(H, g, k)
+        for i in range(k):
+            x += y[i] * V[i]
+        r = E - A(x)
+
+
+# ------------------------------------------------------------------------------------------------
+
+_UNSET = object()
+
+
+def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float = DEFAULT_TOL,
+          max_iterations=None, progress=None, operator=None, restart: int = DEFAULT_RESTART,
+          **operator_keywords) -> Solution:
+    """Solve ``B = E + ρ∘K(B)`` for the radiosity B of every surfel.
+
+    Parameters
+    ----------
+    surfels : Surfels
+    method, order, theta, leaf_size, near_field, visibility, threads
+        Passed on to :class:`TransportOperator` (defaults there).
+    solver : "auto" | "cg" | "gmres" | "jacobi"
+        See the module docstring. "auto" = CG when the operator is symmetric, else GMRES.
+    tol : float
+        Stop when ``max_c ‖E_c − (B_c − ρ_c∘K B_c)‖₂ / ‖E_c‖₂ ≤ tol`` (relative residual in the
+        original variables, per channel, max over channels).
+    max_iterations : int, optional
+        Defaults per solver: :data:`DEFAULT_MAX_ITERATIONS`.
+    progress : callable(fraction, phase) -> bool | None
+        Fractions in [0, 1], non-decreasing; phases "build" and "solve". Returning False or
+        raising cancels with :class:`Cancelled`; nothing is returned or written then.
+    operator : TransportOperator, optional
+        A prebuilt operator over the same geometry (positions, normals, areas), reused across
+        solves (e.g. for new albedo or emission). Operator keywords may not be given with it.
+    restart : int
+        GMRES restart length.
+
+    Returns
+    -------
+    Solution
+    """
+    t_total = time.perf_counter()
+    if not isinstance(surfels, Surfels):
+        raise InputError(f"surfels: expected an illumap.Surfels, got {type(surfels).__name__}")
+    unknown = set(operator_keywords) - set(OPERATOR_KEYWORDS)
+    if unknown:
+        raise TypeError(f"solve() got unexpected keyword(s) {sorted(unknown)}; operator "
+                        f"keywords are {list(OPERATOR_KEYWORDS)}")
+    if not isinstance(solver, str) or solver not in SOLVERS:
+        raise InputError(f"solver: expected one of {list(SOLVERS)}, got {solver!r}")
+    if isinstance(tol, bool) or not isinstance(tol, numbers.Real) or not (0 < tol < 1):
+        raise InputError(f"tol: expected a number in (0, 1), got {tol!r}")
+    tol = float(tol)
+    if max_iterations is not None and (isinstance(max_iterations, bool)
+                                       or not isinstance(max_iterations, numbers.Integral)
+                                       or max_iterations < 1):
+        raise InputError(f"max_iterations: expected an integer >= 1 or None, "
+                         f"got {max_iterations!r}")
+    if isinstance(restart, bool) or not isinstance(restart, numbers.Integral) or restart < 1:
+        raise InputError(f"restart: expected an integer >= 1, got {restart!r}")
+    if progress is not None and not callable(progress):
+        raise InputError(f"progress: expected a callable or None, got {progress!r}")
+    if operator is not None:
+        given = sorted(operator_keywords) + ([] if method is _UNSET else ["method"])
+        if given:
+            raise InputError(f"operator keywords {given} cannot be combined with operator=; "
+                             "the prebuilt operator already fixes them")
+        if not hasattr(operator, "apply"):
+            raise InputError(f"operator: expected a TransportOperator, got {operator!r}")
+        op_surfels = getattr(operator, "surfels", None)
+        if isinstance(op_surfels, Surfels):
+            if not op_surfels.same_geometry(surfels):
+                raise InputError("operator: it was built for other surfel geometry "
+                                 "(positions, normals or areas differ)")
+        elif getattr(operator, "n", surfels.n) != surfels.n:
+            raise InputError(f"operator: built for N = {operator.n}, surfels have N = "
+                             f"{surfels.n}")
+    else:
+        operator_keywords["method"] = DEFAULT_METHOD if method is _UNSET else method
+        validate_keywords(**operator_keywords)
+
+    guard = ProgressGuard(progress)
+    E = surfels.emission
+    rho = surfels.albedo
+    n = surfels.n
+    timings = {"build": 0.0, "solve": 0.0}
+    stats = {"tol": tol, "n": n}
+
+    with guard:
+        if not np.any(E):
+            guard.check(1.0, "solve")
+            timings["total"] = time.perf_counter() - t_total
+            stats.update(solver="none (E = 0)", final_residual=0.0,
+                         final_residuals=[0.0, 0.0, 0.0], operator_applications=0)
+            return Solution(np.zeros((n, 3)), 0, np.zeros(1), True, timings, stats)
+
+        start_fraction = 0.0
+        if operator is None:
+            t = time.perf_counter()
+            guard.check(0.0, "build")
+            build_guard = ProgressGuard(progress, phase="build",
+                                        fraction_range=(0.0, BUILD_FRACTION))
+            with build_guard:
+                operator = TransportOperator(surfels, progress=build_guard.native_callback(),
+                                             **operator_keywords)
+            timings["build"] = time.perf_counter() - t
+            start_fraction = BUILD_FRACTION
+            guard.last = max(guard.last, build_guard.last)
+        guard.check(start_fraction, "solve")
+
+        symmetric = bool(getattr(operator, "symmetric", False))
+        chosen = solver
+        if solver == "auto":
+            chosen = "cg" if symmetric else "gmres"
+        elif solver == "cg" and not symmetric:
+            raise InputError("solver='cg' needs a symmetric operator (diag(A)·F·V symmetric, "
+                             "i.e. reciprocal visibility); use solver='gmres' or 'auto'")
+        limit = int(max_iterations) if max_iterations is not None \
+            else DEFAULT_MAX_ITERATIONS[chosen]
+
+        monitor_ref = [None]
+        K = _make_apply(operator, guard, monitor_ref)
+        mon = _Monitor(_norms(E), tol, limit, guard, start_fraction)
+        monitor_ref[0] = mon
+
+        t = time.perf_counter()
+        if chosen == "jacobi":
+            B, r, warning = _jacobi(K, E, rho, mon)
+        elif chosen == "cg":
+            B, r, warning = _cg(K, E, rho, surfels.areas, mon)
+        else:
+            B, r, warning = _gmres(K, E, rho, mon, int(restart))
+        timings["solve"] = time.perf_counter() - t
+
+        # The solvers return the true residual of B (Jacobi and GMRES compute it from K(B)
+        # directly; CG recomputes it after its recurrence).
+        final = mon.relative(_norms(r))
+        final_value = float(np.max(final))
+        B = np.where(mon.active[None, :], B, 0.0)
+        converged = bool(np.isfinite(final_value) and final_value <= tol and warning is None)
+        if not converged and warning is None:
+            warning = (f"{chosen} did not reach tol={tol:g} in {mon.iterations} iterations "
+                       f"(relative residual {final_value:.3g})")
+        try:
+            op_stats = dict(operator.stats)
+        except Exception:  # noqa: BLE001 - duck-typed operators may lack stats
+            op_stats = {}
+        stats = {**op_stats, **stats}
+        stats.update(solver=chosen, symmetric=symmetric, final_residual=final_value,
+                     final_residuals=final.tolist(), operator_applications=mon.applications,
+                     max_iterations=limit)
+        if chosen == "gmres":
+            stats["restart"] = int(restart)
+        if warning is not None:
+            stats["warning"] = warning
+        guard.check(1.0, "solve")
+        timings["total"] = time.perf_counter() - t_total
+        return Solution(B, mon.iterations, np.asarray(mon.history), converged, timings, stats)

@@ -1,0 +1,282 @@
+// bindings.cpp — the nanobind module illumap._core (contract: docs/architecture.md).
+//
+// Shapes, dtypes and contiguity are checked here (ValueError with the array's name); the
+// Python layer checks values. Inputs that are already C-contiguous float64 are read in place.
+// The GIL is released during compute; progress callbacks re-acquire it on the calling thread.
+#include "fmm.hpp"
+#include "knn.hpp"
+
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/string.h>
+
+#include <optional>
+#include <string>
+
+namespace nb = nanobind;
+using namespace illumap;
+
+namespace {
+
+using AnyArray = nb::ndarray<nb::ro, nb::device::cpu>;
+
+// A read-only, C-contiguous float64 (or int64) view of a numpy array, checked.
+template <class T>
+const T* view(nb::handle h, const char* name, std::size_t ndim, std::int64_t cols,
+              std::size_t& rows, nb::object& keep) {
+    AnyArray a;
+    if (!nb::try_cast<AnyArray>(h, a, false))
+        throw nb::value_error((std::string(name) + " must be a numpy array").c_str());
+    const char* tname = std::is_same_v<T, double> ? "float64" : "int64";
+    if (a.dtype() != nb::dtype<T>())
+        throw nb::value_error((std::string(name) + " must have dtype " + tname).c_str());
+    if (a.ndim() != ndim) {
+        std::string want = ndim == 1 ? "1-D (N,)" : "2-D (N, " + std::to_string(cols) + ")";
+        throw nb::value_error((std::string(name) + " must be " + want + ", got " +
+                               std::to_string(a.ndim()) + " dimensions").c_str());
+    }
+    if (ndim == 2 && std::int64_t(a.shape(1)) != cols)
+        throw nb::value_error((std::string(name) + " must have shape (N, " + std::to_string(cols) +
+                               "), got (" + std::to_string(a.shape(0)) + ", " +
+                               std::to_string(a.shape(1)) + ")").c_str());
+    // C-contiguous: unit stride in the last axis, rows packed (size-1 axes are free).
+    bool contig = true;
+    std::int64_t expect = 1;
+    for (int d = int(ndim) - 1; d >= 0; --d) {
+        if (a.shape(d) > 1 && a.stride(d) != expect) contig = false;
+        expect *= std::int64_t(a.shape(d));
+    }
+    if (!contig)
+        throw nb::value_error((std::string(name) +
+                               " must be C-contiguous (use numpy.ascontiguousarray)").c_str());
+    rows = a.shape(0);
+    keep = nb::borrow(h);
+    return static_cast<const T*>(a.data());
+}
+
+nb::ndarray<nb::numpy, double> new_array(std::size_t rows, std::size_t cols, double** data) {
+    double* p = new double[std::max<std::size_t>(1, rows * cols)]();
+    nb::capsule owner(p, [](void* q) noexcept { delete[] static_cast<double*>(q); });
+    *data = p;
+    if (cols == 0) return nb::ndarray<nb::numpy, double>(p, {rows}, owner);
+    return nb::ndarray<nb::numpy, double>(p, {rows, cols}, owner);
+}
+
+// Calls the Python progress callable with the GIL; remembers an exception it raised.
+struct PyMonitor : Monitor {
+    nb::object cb;
+    std::optional<nb::python_error> error;
+    bool poll(double fraction, const char* phase) override {
+        nb::gil_scoped_acquire gil;
+        try {
+            nb::object r = cb(std::min(1.0, std::max(0.0, fraction)), phase);
+            if (r.is_none()) return true;
+            return PyObject_IsTrue(r.ptr()) == 1;
+        } catch (nb::python_error& e) {
+            if (!error) error.emplace(std::move(e));
+            return false;
+        }
+    }
+};
+
+// Runs fn(ctx) without the GIL; translates cancellation into the right Python exception.
+template <class Fn>
+void run_released(int threads, nb::handle progress, Fn&& fn) {
+    PyMonitor mon;
+    Context ctx;
+    ctx.threads = threads;
+    if (progress.is_valid() && !progress.is_none()) {
+        mon.cb = nb::borrow(progress);
+        ctx.monitor = &mon;
+    }
+    bool cancelled = false;
+    {
+        nb::gil_scoped_release nogil;
+        try {
+            fn(ctx);
+        } catch (Cancelled&) {
+            cancelled = true;
+        }
+    }
+    if (cancelled) {
+        if (mon.error) throw std::move(*mon.error);
+        throw Cancelled();
+    }
+}
+
+struct PyOperator {
+    std::unique_ptr<TransportOperator> op;
+    std::string method, near_field;
+    int threads = 0;
+};
+
+}  // namespace
+
+NB_MODULE(_core, m) {
+    m.doc() = "Illumap native core: FMM and direct radiosity transport operators, k-NN.";
+    nb::exception<Cancelled>(m, "Cancelled");
+    m.def("hardware_threads", &hardware_threads, "Number of hardware threads.");
+
+    nb::class_<PyOperator>(m, "Operator",
+        "Transport operator y_i = sum_j F_ij V_ij x_j (V = 1 for now).")
+        .def("__init__",
+             [](PyOperator* self, nb::handle positions, nb::handle normals, nb::handle areas,
+                const std::string& method, int order, double theta, int leaf_size,
+                const std::string& near_field, int threads, nb::handle progress) {
+                 if (method != "fmm" && method != "direct")
+                     throw nb::value_error("method must be 'fmm' or 'direct'");
+                 if (near_field != "disc" && near_field != "point")
+                     throw nb::value_error("near_field must be 'disc' or 'point'");
+                 if (order < 0 || order > kMaxOrder)
+                     throw nb::value_error("order must be in 0..10");
+                 if (!(theta > 0.0 && theta < 1.0)) throw nb::value_error("theta must be in (0, 1)");
+                 if (leaf_size < 1) throw nb::value_error("leaf_size must be >= 1");
+                 if (threads < 0) throw nb::value_error("threads must be >= 0");
+                 std::size_t np, nn, na;
+                 nb::object k1, k2, k3;
+                 const double* P = view<double>(positions, "positions", 2, 3, np, k1);
+                 const double* N = view<double>(normals, "normals", 2, 3, nn, k2);
+                 const double* A = view<double>(areas, "areas", 1, 0, na, k3);
+                 if (nn != np || na != np)
+                     throw nb::value_error(("positions, normals and areas must have the same "
+                                            "length, got " + std::to_string(np) + ", " +
+                                            std::to_string(nn) + ", " + std::to_string(na)).c_str());
+                 OperatorOptions opt;
+                 opt.fmm = method == "fmm";
+                 opt.order = order;
+                 opt.theta = theta;
+                 opt.leaf_size = leaf_size;
+                 opt.near_field = near_field == "disc" ? NearField::Disc : NearField::Point;
+                 std::unique_ptr<TransportOperator> op;
+                 run_released(threads, progress, [&](Context& ctx) {
+                     op = std::make_unique<TransportOperator>(ctx, P, N, A, np, opt);
+                 });
+                 new (self) PyOperator{std::move(op), method, near_field, threads};
+             },
+             nb::arg("positions"), nb::arg("normals"), nb::arg("areas"), nb::kw_only(),
+             nb::arg("method") = "fmm", nb::arg("order") = 4, nb::arg("theta") = 0.5,
+             nb::arg("leaf_size") = 32, nb::arg("near_field") = "disc", nb::arg("threads") = 0,
+             nb::arg("progress") = nb::none())
+        .def("apply",
+             [](PyOperator& self, nb::handle values, nb::handle progress) {
+                 std::size_t nv;
+                 nb::object keep;
+                 const double* x = view<double>(values, "values", 2, 3, nv, keep);
+                 if (nv != self.op->size())
+                     throw nb::value_error(("values must have shape (" +
+                                            std::to_string(self.op->size()) + ", 3), got (" +
+                                            std::to_string(nv) + ", 3)").c_str());
+                 double* y;
+                 auto out = new_array(nv, 3, &y);
+                 run_released(self.threads, progress,
+                              [&](Context& ctx) { self.op->apply(ctx, x, y); });
+                 return out;
+             },
+             nb::arg("values"), nb::arg("progress") = nb::none(),
+             "y = F x for an (N, 3) array x; returns a new (N, 3) array.")
+        .def("apply_rows",
+             [](PyOperator& self, nb::handle values, nb::handle rows, nb::handle progress) {
+                 std::size_t nv, nr;
+                 nb::object k1, k2;
+                 const double* x = view<double>(values, "values", 2, 3, nv, k1);
+                 const std::int64_t* r = view<std::int64_t>(rows, "rows", 1, 0, nr, k2);
+                 const std::size_t n = self.op->size();
+                 if (nv != n)
+                     throw nb::value_error(("values must have shape (" + std::to_string(n) +
+                                            ", 3), got (" + std::to_string(nv) + ", 3)").c_str());
+                 for (std::size_t i = 0; i < nr; ++i)
+                     if (r[i] < 0 || std::size_t(r[i]) >= n)
+                         throw nb::value_error(("rows[" + std::to_string(i) + "] = " +
+                                                std::to_string(r[i]) + " is out of range [0, " +
+                                                std::to_string(n) + ")").c_str());
+                 double* y;
+                 auto out = new_array(nr, 3, &y);
+                 run_released(self.threads, progress,
+                              [&](Context& ctx) { self.op->apply_rows(ctx, x, r, nr, y); });
+                 return out;
+             },
+             nb::arg("values"), nb::arg("rows"), nb::arg("progress") = nb::none(),
+             "Exact direct sum for the selected receivers: (len(rows), 3).")
+        .def_prop_ro("stats",
+             [](const PyOperator& self) {
+                 nb::dict d;
+                 d["method"] = self.method;
+                 d["near_field"] = self.near_field;
+                 for (const auto& kv : self.op->scalar_stats()) {
+                     const bool integral = kv.first.rfind("time_", 0) != 0 && kv.first != "theta";
+                     if (integral)
+                         d[kv.first.c_str()] = nb::int_(std::int64_t(kv.second));
+                     else
+                         d[kv.first.c_str()] = kv.second;
+                 }
+                 for (const auto& kv : self.op->level_stats()) {
+                     nb::list l;
+                     for (double v : kv.second) l.append(nb::int_(std::int64_t(v)));
+                     d[kv.first.c_str()] = l;
+                 }
+                 return d;
+             })
+        .def_prop_ro("symmetric",
+             [](const PyOperator&) {
+                 // The pair rule is reciprocal (A_i F_ij = A_j F_ji) and V = 1; the FMM is
+                 // symmetric up to its expansion error.
+                 return true;
+             })
+        .def_prop_ro("n", [](const PyOperator& self) { return self.op->size(); })
+        .def_prop_ro("method", [](const PyOperator& self) { return self.method; })
+        .def_prop_ro("order", [](const PyOperator& self) { return self.op->options().order; })
+        .def_prop_ro("theta", [](const PyOperator& self) { return self.op->options().theta; })
+        .def_prop_ro("leaf_size", [](const PyOperator& self) { return self.op->options().leaf_size; })
+        .def_prop_ro("near_field", [](const PyOperator& self) { return self.near_field; })
+        .def("__len__", [](const PyOperator& self) { return self.op->size(); });
+
+    m.def("_kernel_derivatives",
+          [](nb::handle d, int order) {
+              std::size_t n3;
+              nb::object keep;
+              const double* dv = view<double>(d, "d", 1, 0, n3, keep);
+              if (n3 != 3) throw nb::value_error("d must have shape (3,)");
+              if (order < 0 || order > kMaxOrder) throw nb::value_error("order must be in 0..10");
+              ExpansionTables tb(order);
+              const std::size_t nc = tb.ncoef;
+              std::int64_t* mi = new std::int64_t[3 * nc];
+              nb::capsule own(mi, [](void* q) noexcept { delete[] static_cast<std::int64_t*>(q); });
+              for (std::size_t c = 0; c < nc; ++c)
+                  for (int a = 0; a < 3; ++a) mi[3 * c + a] = tb.mi[c][a];
+              nb::ndarray<nb::numpy, std::int64_t> MI(mi, {nc, 3}, own);
+              double* D;
+              auto out = new_array(nc, 6, &D);
+              std::vector<double> work(expansion_work_size(tb));
+              kernel_derivatives(tb, dv, D, work.data());
+              return nb::make_tuple(MI, out);
+          },
+          nb::arg("d"), nb::arg("order"),
+          "Testing aid: multi-indices n (|n| <= order) and D^n T(d), components "
+          "(xx, xy, xz, yy, yz, zz), for T(d) = d d^T / |d|^4.");
+
+    m.def("knn",
+          [](nb::handle points, nb::handle queries, std::int64_t k, int threads, nb::handle progress) {
+              std::size_t n, mq;
+              nb::object k1, k2;
+              const double* P = view<double>(points, "points", 2, 3, n, k1);
+              const double* Q = view<double>(queries, "queries", 2, 3, mq, k2);
+              if (k < 1) throw nb::value_error("k must be >= 1");
+              if (std::size_t(k) > n)
+                  throw nb::value_error(("k = " + std::to_string(k) + " exceeds the number of points (" +
+                                         std::to_string(n) + ")").c_str());
+              std::int64_t* idx = new std::int64_t[std::max<std::size_t>(1, mq * k)]();
+              nb::capsule own_i(idx, [](void* q) noexcept { delete[] static_cast<std::int64_t*>(q); });
+              nb::ndarray<nb::numpy, std::int64_t> I(idx, {mq, std::size_t(k)}, own_i);
+              double* dist;
+              auto D = new_array(mq, std::size_t(k), &dist);
+              run_released(threads, progress, [&](Context& ctx) {
+                  ctx.set_phase("knn", 0.0, 1.0);
+                  knn(ctx, P, n, Q, mq, std::size_t(k), idx, dist);
+              });
+              return nb::make_tuple(I, D);
+          },
+          nb::arg("points"), nb::arg("queries"), nb::arg("k"), nb::kw_only(),
+          nb::arg("threads") = 0, nb::arg("progress") = nb::none(),
+          "k nearest points for each query: (indices int64 (M, k), distances float64 (M, k)), "
+          "nearest first.");
+}

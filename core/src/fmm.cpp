@@ -1,0 +1,303 @@
+// fmm.cpp — the transport operator: tree + lists built once per geometry, then per apply:
+// P2M -> M2M (upward, per level) -> M2L (per target) -> L2L (downward, per level)
+// -> L2P + P2P (per target leaf). Every parallel loop writes only its own nodes/receivers.
+#include "fmm.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+
+namespace illumap {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+}  // namespace
+
+TransportOperator::TransportOperator(Context& ctx, const double* positions, const double* normals,
+                                     const double* areas, std::size_t n,
+                                     const OperatorOptions& opt)
+    : n_(n), opt_(opt) {
+    orig_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        orig_.px[i] = positions[3 * i]; orig_.py[i] = positions[3 * i + 1]; orig_.pz[i] = positions[3 * i + 2];
+        orig_.nx[i] = normals[3 * i]; orig_.ny[i] = normals[3 * i + 1]; orig_.nz[i] = normals[3 * i + 2];
+        orig_.area[i] = areas[i];
+    }
+    if (!opt_.fmm || n == 0) return;
+    auto t0 = Clock::now();
+    ctx.set_phase("tree", 0.0, 0.3);
+    checkpoint(ctx, 0.0);
+    tree_ = std::make_unique<Octree>(build_octree(ctx, orig_, opt_.leaf_size));
+    timings_["build_tree"] = seconds_since(t0);
+    auto t1 = Clock::now();
+    ctx.set_phase("lists", 0.3, 0.7);
+    checkpoint(ctx, 0.3);
+    TraversalOptions to;
+    to.theta = opt_.theta;
+    to.near_field = opt_.near_field;
+    lists_ = std::make_unique<InteractionLists>(build_interaction_lists(ctx, *tree_, to));
+    timings_["build_lists"] = seconds_since(t1);
+    tables_ = std::make_unique<ExpansionTables>(opt_.order);
+}
+
+void TransportOperator::apply(Context& ctx, const double* x, double* y) {
+    auto t0 = Clock::now();
+    if (!opt_.fmm || n_ == 0) {
+        ctx.set_phase("direct", 0.0, 1.0);
+        checkpoint(ctx, 0.0);
+        direct_apply(ctx, orig_, opt_.near_field, x, y);
+    } else {
+        apply_fmm(ctx, x, y);
+    }
+    timings_["apply"] = seconds_since(t0);
+}
+
+void TransportOperator::apply_rows(Context& ctx, const double* x, const std::int64_t* rows,
+                                   std::size_t nrows, double* y) const {
+    ctx.set_phase("direct", 0.0, 1.0);
+    checkpoint(ctx, 0.0);
+    direct_rows(ctx, orig_, opt_.near_field, x, rows, nrows, y);
+}
+
+void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
+    const Octree& T = *tree_;
+    const InteractionLists& IL = *lists_;
+    const ExpansionTables& tb = *tables_;
+    const std::size_t nn = T.nodes.size(), nc = std::size_t(tb.ncoef), W = 9 * nc;
+    const std::size_t wsz = expansion_work_size(tb);
+
+    // Values in tree order, interleaved (for P2M) and as three arrays (for P2P).
+    std::vector<double> xt(3 * n_), x0(n_), x1(n_), x2(n_), yt(3 * n_, 0.0);
+    for (std::size_t i = 0; i < n_; ++i) {
+        const std::uint32_t j = T.perm[i];
+        x0[i] = xt[3 * i] = x[3 * j];
+        x1[i] = xt[3 * i + 1] = x[3 * j + 1];
+        x2[i] = xt[3 * i + 2] = x[3 * j + 2];
+    }
+    multipoles_.assign(nn * W, 0.0);
+    locals_.assign(nn * W, 0.0);
+    double* M = multipoles_.data();
+    double* L = locals_.data();
+
+    // Upward pass, deepest level first.
+    auto t = Clock::now();
+    ctx.set_phase("upward", 0.0, 0.15);
+    checkpoint(ctx, 0.0);
+    for (int lev = T.depth; lev >= 0; --lev) {
+        const auto& ids = T.levels[lev];
+        parallel_for(ctx, ids.size(), 16, [&](std::size_t b, std::size_t e) {
+            std::vector<double> work(wsz);
+            for (std::size_t q = b; q < e; ++q) {
+                const OctreeNode& nd = T.nodes[ids[q]];
+                double* Mn = M + ids[q] * W;
+                if (nd.leaf()) {
+                    const std::size_t o = nd.begin;
+                    p2m(tb, nd.center, &T.s.px[o], &T.s.py[o], &T.s.pz[o], &T.s.nx[o],
+                        &T.s.ny[o], &T.s.nz[o], &T.s.area[o], &xt[3 * o], nd.count(), Mn,
+                        work.data());
+                } else {
+                    for (int c = 0; c < nd.nchild; ++c) {
+                        const OctreeNode& ch = T.nodes[nd.child + c];
+                        const double delta[3] = {nd.center[0] - ch.center[0],
+                                                 nd.center[1] - ch.center[1],
+                                                 nd.center[2] - ch.center[2]};
+                        m2m(tb, delta, M + std::size_t(nd.child + c) * W, Mn, work.data());
+                    }
+                }
+            }
+        });
+    }
+    timings_["upward"] = seconds_since(t);
+
+    // M2L, per target node.
+    t = Clock::now();
+    ctx.set_phase("m2l", 0.15, 0.5);
+    parallel_for(ctx, nn, 8, [&](std::size_t b, std::size_t e) {
+        std::vector<double> work(wsz);
+        for (std::size_t tn = b; tn < e; ++tn) {
+            const OctreeNode& nt = T.nodes[tn];
+            double* Lt = L + tn * W;
+            for (std::int64_t k = IL.m2l_off[tn]; k < IL.m2l_off[tn + 1]; ++k) {
+                const std::int32_t sn = IL.m2l_src[k];
+                const OctreeNode& ns = T.nodes[sn];
+                const double R[3] = {nt.center[0] - ns.center[0], nt.center[1] - ns.center[1],
+                                     nt.center[2] - ns.center[2]};
+                m2l(tb, R, M + std::size_t(sn) * W, Lt, work.data());
+            }
+            // P2L: facing points of source leaves straight into this node's local expansion.
+            for (std::int64_t k = IL.p2l_off[tn]; k < IL.p2l_off[tn + 1]; ++k) {
+                const OctreeNode& ns = T.nodes[IL.p2l_src[k]];
+                for (std::uint32_t j = ns.begin; j < ns.end; ++j) {
+                    if (point_node_class(T.s, j, nt) != 1) continue;
+                    const double R[3] = {nt.center[0] - T.s.px[j], nt.center[1] - T.s.py[j],
+                                         nt.center[2] - T.s.pz[j]};
+                    const double nA[3] = {T.s.nx[j] * T.s.area[j], T.s.ny[j] * T.s.area[j],
+                                          T.s.nz[j] * T.s.area[j]};
+                    double s9[9];
+                    for (int b = 0; b < 3; ++b)
+                        for (int ch = 0; ch < 3; ++ch) s9[3 * b + ch] = nA[b] * xt[3 * j + ch];
+                    p2l(tb, R, s9, Lt, work.data());
+                }
+            }
+        }
+    });
+    timings_["m2l"] = seconds_since(t);
+
+    // Downward pass: which nodes carry a local expansion at all, then L2L top-down.
+    t = Clock::now();
+    ctx.set_phase("downward", 0.65, 0.05);
+    std::vector<char> has_local(nn, 0);
+    for (std::size_t k = 0; k < nn; ++k) {  // BFS order: parents before children
+        has_local[k] = IL.m2l_off[k + 1] > IL.m2l_off[k] || IL.p2l_off[k + 1] > IL.p2l_off[k];
+        if (T.nodes[k].parent >= 0 && has_local[T.nodes[k].parent]) has_local[k] = 1;
+    }
+    for (int lev = 1; lev <= T.depth; ++lev) {
+        const auto& ids = T.levels[lev];
+        parallel_for(ctx, ids.size(), 32, [&](std::size_t b, std::size_t e) {
+            std::vector<double> work(wsz);
+            for (std::size_t q = b; q < e; ++q) {
+                const OctreeNode& nd = T.nodes[ids[q]];
+                if (!has_local[nd.parent]) continue;
+                const OctreeNode& pa = T.nodes[nd.parent];
+                const double delta[3] = {nd.center[0] - pa.center[0], nd.center[1] - pa.center[1],
+                                         nd.center[2] - pa.center[2]};
+                l2l(tb, delta, L + std::size_t(nd.parent) * W, L + std::size_t(ids[q]) * W,
+                    work.data());
+            }
+        });
+    }
+    timings_["downward"] = seconds_since(t);
+
+    // Leaves: evaluate the local expansion, add the near field.
+    t = Clock::now();
+    ctx.set_phase("near", 0.7, 0.3);
+    parallel_for(ctx, T.leaves.size(), 4, [&](std::size_t b, std::size_t e) {
+        std::vector<double> work(wsz);
+        std::vector<double> buf;  // this leaf's near sources, gathered contiguously
+        for (std::size_t q = b; q < e; ++q) {
+            const std::int32_t ln = T.leaves[q];
+            const OctreeNode& nd = T.nodes[ln];
+            const bool loc = has_local[ln];
+            const double* Ll = L + std::size_t(ln) * W;
+            std::size_t ns = 0;
+            for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k)
+                ns += T.nodes[IL.p2p_src[k]].count();
+            buf.resize(10 * ns);
+            const SourceView v{&buf[0], &buf[ns], &buf[2 * ns], &buf[3 * ns], &buf[4 * ns],
+                               &buf[5 * ns], &buf[6 * ns], &buf[7 * ns], &buf[8 * ns],
+                               &buf[9 * ns], ns};
+            std::size_t o = 0;
+            for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k) {
+                const OctreeNode& sn = T.nodes[IL.p2p_src[k]];
+                const std::size_t c = sn.count(), j0 = sn.begin;
+                std::memcpy(&buf[o], &T.s.px[j0], c * sizeof(double));
+                std::memcpy(&buf[ns + o], &T.s.py[j0], c * sizeof(double));
+                std::memcpy(&buf[2 * ns + o], &T.s.pz[j0], c * sizeof(double));
+                std::memcpy(&buf[3 * ns + o], &T.s.nx[j0], c * sizeof(double));
+                std::memcpy(&buf[4 * ns + o], &T.s.ny[j0], c * sizeof(double));
+                std::memcpy(&buf[5 * ns + o], &T.s.nz[j0], c * sizeof(double));
+                std::memcpy(&buf[6 * ns + o], &T.s.area[j0], c * sizeof(double));
+                std::memcpy(&buf[7 * ns + o], &x0[j0], c * sizeof(double));
+                std::memcpy(&buf[8 * ns + o], &x1[j0], c * sizeof(double));
+                std::memcpy(&buf[9 * ns + o], &x2[j0], c * sizeof(double));
+                o += c;
+            }
+            for (std::uint32_t i = nd.begin; i < nd.end; ++i) {
+                double acc[3] = {0, 0, 0};
+                if (loc) {
+                    const double yv[3] = {T.s.px[i] - nd.center[0], T.s.py[i] - nd.center[1],
+                                          T.s.pz[i] - nd.center[2]};
+                    double lv[9];
+                    l2p(tb, yv, Ll, lv, work.data());
+                    // y_i = -(1/pi) n_i . L(r_i), per channel
+                    for (int ch = 0; ch < 3; ++ch)
+                        acc[ch] = -kInvPi * (T.s.nx[i] * lv[ch] + T.s.ny[i] * lv[3 + ch] +
+                                             T.s.nz[i] * lv[6 + ch]);
+                }
+                // M2P: source multipoles evaluated at each receiver that faces them.
+                for (std::int64_t k = IL.m2p_off[ln]; k < IL.m2p_off[ln + 1]; ++k) {
+                    const std::int32_t sn = IL.m2p_src[k];
+                    const OctreeNode& ns = T.nodes[sn];
+                    if (point_node_class(T.s, i, ns) != 1) continue;
+                    const double R[3] = {T.s.px[i] - ns.center[0], T.s.py[i] - ns.center[1],
+                                         T.s.pz[i] - ns.center[2]};
+                    double lv[9];
+                    m2p(tb, R, M + std::size_t(sn) * W, lv, work.data());
+                    for (int ch = 0; ch < 3; ++ch)
+                        acc[ch] -= kInvPi * (T.s.nx[i] * lv[ch] + T.s.ny[i] * lv[3 + ch] +
+                                             T.s.nz[i] * lv[6 + ch]);
+                }
+                if (ns) {
+                    const Receiver rc{T.s.px[i], T.s.py[i], T.s.pz[i], T.s.nx[i],
+                                      T.s.ny[i], T.s.nz[i], T.s.area[i]};
+                    accumulate_sources(rc, v, opt_.near_field, acc);
+                }
+                yt[3 * i] = acc[0];
+                yt[3 * i + 1] = acc[1];
+                yt[3 * i + 2] = acc[2];
+            }
+        }
+    });
+    timings_["near"] = seconds_since(t);
+
+    for (std::size_t i = 0; i < n_; ++i) {
+        const std::uint32_t j = T.perm[i];
+        y[3 * j] = yt[3 * i];
+        y[3 * j + 1] = yt[3 * i + 1];
+        y[3 * j + 2] = yt[3 * i + 2];
+    }
+}
+
+std::map<std::string, double> TransportOperator::scalar_stats() const {
+    std::map<std::string, double> s;
+    s["n"] = double(n_);
+    s["order"] = opt_.order;
+    s["theta"] = opt_.theta;
+    s["leaf_size"] = opt_.leaf_size;
+    std::size_t bytes = 7 * n_ * sizeof(double);
+    if (tree_) {
+        s["nodes"] = double(tree_->nodes.size());
+        s["leaves"] = double(tree_->leaves.size());
+        s["depth"] = tree_->depth;
+        s["m2l_pairs"] = double(lists_->m2l_pairs);
+        s["p2p_node_pairs"] = double(lists_->p2p_node_pairs);
+        s["m2p_pairs"] = double(lists_->m2p_pairs);
+        s["p2l_pairs"] = double(lists_->p2l_pairs);
+        s["p2p_pairs"] = double(lists_->p2p_surfel_pairs);
+        s["coefficients"] = tables_->ncoef;
+        const std::size_t exp_bytes =
+            2 * tree_->nodes.size() * 9 * std::size_t(tables_->ncoef) * sizeof(double);
+        s["tree_bytes"] = double(tree_->bytes());
+        s["lists_bytes"] = double(lists_->bytes());
+        s["expansion_bytes"] = double(exp_bytes);
+        bytes += tree_->bytes() + lists_->bytes() + exp_bytes + 8 * n_ * 3 * sizeof(double);
+    } else {
+        s["nodes"] = 0; s["leaves"] = 0; s["depth"] = 0; s["m2l_pairs"] = 0;
+        s["p2p_node_pairs"] = 0;
+        s["p2p_pairs"] = double(n_) * double(n_);
+    }
+    s["bytes"] = double(bytes);
+    for (const auto& kv : timings_) s["time_" + kv.first] = kv.second;
+    return s;
+}
+
+std::map<std::string, std::vector<double>> TransportOperator::level_stats() const {
+    std::map<std::string, std::vector<double>> s;
+    if (!lists_) return s;
+    auto conv = [](const std::vector<std::int64_t>& v) {
+        return std::vector<double>(v.begin(), v.end());
+    };
+    s["accepted_per_level"] = conv(lists_->accepted_per_level);
+    s["dropped_per_level"] = conv(lists_->dropped_per_level);
+    s["split_per_level"] = conv(lists_->split_per_level);
+    s["near_per_level"] = conv(lists_->near_per_level);
+    std::vector<double> nodes_per_level;
+    for (const auto& l : tree_->levels) nodes_per_level.push_back(double(l.size()));
+    s["nodes_per_level"] = nodes_per_level;
+    return s;
+}
+
+}  // namespace illumap

@@ -1,0 +1,58 @@
+// fmm.hpp — the transport operator y = F x: the FMM (P2M, M2M, M2L, L2L, L2P, P2P over the
+// octree and the interaction lists) or the exact direct sum, behind one interface.
+#pragma once
+
+#include "direct.hpp"
+#include "expansions.hpp"
+#include "octree.hpp"
+#include "traversal.hpp"
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace illumap {
+
+struct OperatorOptions {
+    bool fmm = true;
+    int order = 4;
+    double theta = 0.5;
+    int leaf_size = 32;
+    NearField near_field = NearField::Disc;
+};
+
+class TransportOperator {
+public:
+    // positions, normals: n x 3; areas: n. Copies what it needs (in tree order for the FMM).
+    TransportOperator(Context& ctx, const double* positions, const double* normals,
+                      const double* areas, std::size_t n, const OperatorOptions& opt);
+
+    std::size_t size() const { return n_; }
+    const OperatorOptions& options() const { return opt_; }
+
+    // y = F x (x, y: n x 3 row-major, in the caller's order).
+    void apply(Context& ctx, const double* x, double* y);
+    // Exact direct sum for the listed receivers (whatever the method).
+    void apply_rows(Context& ctx, const double* x, const std::int64_t* rows, std::size_t nrows,
+                    double* y) const;
+
+    // Numbers for stats(): scalars and per-level arrays.
+    std::map<std::string, double> scalar_stats() const;
+    std::map<std::string, std::vector<double>> level_stats() const;
+
+private:
+    void apply_fmm(Context& ctx, const double* x, double* y);
+
+    std::size_t n_;
+    OperatorOptions opt_;
+    SurfelSoA orig_;  // caller's order: direct operator and apply_rows
+    // FMM state (empty for the direct method)
+    std::unique_ptr<Octree> tree_;
+    std::unique_ptr<InteractionLists> lists_;
+    std::unique_ptr<ExpansionTables> tables_;
+    std::map<std::string, double> timings_;
+    std::vector<double> multipoles_, locals_;  // kept between applies (no re-allocation)
+};
+
+}  // namespace illumap

@@ -1,0 +1,137 @@
+// parallel.hpp — a minimal parallel_for with progress reporting and cancellation.
+//
+// Workers pull chunks from an atomic counter (dynamic load balance: FMM work per node is very
+// uneven). The calling thread does no work itself: it waits and, about every 50 ms, asks the
+// Monitor (implemented by the bindings, which re-acquire the GIL there) whether to go on.
+// This file knows nothing about Python.
+#pragma once
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstddef>
+#include <exception>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace illumap {
+
+// Thrown when a run was cancelled by its monitor.
+struct Cancelled : std::runtime_error {
+    Cancelled() : std::runtime_error("cancelled") {}
+};
+
+// Receives progress from the calling thread; returns false to cancel.
+class Monitor {
+public:
+    virtual ~Monitor() = default;
+    virtual bool poll(double fraction, const char* phase) = 0;
+};
+
+inline int hardware_threads() {
+    unsigned n = std::thread::hardware_concurrency();
+    return n ? int(n) : 1;
+}
+
+// Execution context shared by the phases of one call: thread count, monitor, and the slice
+// [base, base + span) of the overall progress that the current phase covers.
+struct Context {
+    int threads = 0;                 // 0: all hardware threads
+    Monitor* monitor = nullptr;
+    std::atomic<bool> cancel{false};
+    const char* phase = "";
+    double base = 0.0, span = 1.0;
+
+    int nthreads() const { return threads > 0 ? threads : hardware_threads(); }
+    void set_phase(const char* name, double b, double s) { phase = name; base = b; span = s; }
+};
+
+// Calls fn(begin, end) over [0, n) in chunks of `grain`, on ctx.nthreads() workers.
+// Throws Cancelled if the monitor asked to stop; rethrows the first worker exception.
+template <class Fn>
+void parallel_for(Context& ctx, std::size_t n, std::size_t grain, Fn&& fn) {
+    if (ctx.cancel.load()) throw Cancelled();
+    if (n == 0) return;
+    grain = std::max<std::size_t>(grain, 1);
+    const std::size_t nchunks = (n + grain - 1) / grain;
+    const int nw = int(std::min<std::size_t>(std::size_t(ctx.nthreads()), nchunks));
+
+    std::atomic<std::size_t> next{0}, done{0};
+    std::atomic<int> running{nw};
+    std::exception_ptr error;
+    std::mutex m;
+    std::condition_variable cv;
+
+    auto worker = [&] {
+        try {
+            for (;;) {
+                if (ctx.cancel.load(std::memory_order_relaxed)) break;
+                std::size_t c = next.fetch_add(1);
+                if (c >= nchunks) break;
+                std::size_t b = c * grain, e = std::min(n, b + grain);
+                fn(b, e);
+                done.fetch_add(e - b, std::memory_order_relaxed);
+            }
+        } catch (...) {
+            std::lock_guard<std::mutex> lk(m);
+            if (!error) error = std::current_exception();
+            ctx.cancel.store(true);
+        }
+        {
+            std::lock_guard<std::mutex> lk(m);
+            running.fetch_sub(1);
+        }
+        cv.notify_one();
+    };
+
+    std::vector<std::thread> pool;
+    pool.reserve(nw);
+    for (int t = 0; t < nw; ++t) pool.emplace_back(worker);
+
+    // The calling thread only watches: progress every ~50 ms, cancellation on request.
+    {
+        std::unique_lock<std::mutex> lk(m);
+        while (running.load() > 0) {
+            cv.wait_for(lk, std::chrono::milliseconds(50));
+            if (running.load() == 0) break;
+            if (ctx.monitor && !ctx.cancel.load()) {
+                lk.unlock();
+                bool go = true;
+                try {
+                    go = ctx.monitor->poll(ctx.base + ctx.span * double(done.load()) / double(n),
+                                           ctx.phase);
+                } catch (...) {
+                    go = false;
+                }
+                if (!go) ctx.cancel.store(true);
+                lk.lock();
+            }
+        }
+    }
+    for (auto& t : pool) t.join();
+    if (error) std::rethrow_exception(error);
+    if (ctx.cancel.load()) throw Cancelled();
+}
+
+// Polls the monitor from the calling thread (between phases) so that even short runs report
+// progress and can be cancelled.
+inline void checkpoint(Context& ctx, double fraction) {
+    if (ctx.cancel.load()) throw Cancelled();
+    if (!ctx.monitor) return;
+    bool go = false;
+    try {
+        go = ctx.monitor->poll(fraction, ctx.phase);
+    } catch (...) {
+        go = false;
+    }
+    if (!go) {
+        ctx.cancel.store(true);
+        throw Cancelled();
+    }
+}
+
+}  // namespace illumap

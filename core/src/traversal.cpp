@@ -1,0 +1,285 @@
+// traversal.cpp — pair classification (facing: cone and slab bounds) and the parallel
+// dual-tree walk that fills the per-target M2L and P2P lists.
+#include "traversal.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace illumap {
+
+Facing facing_bound(const OctreeNode& o, const OctreeNode& q) {
+    // D = c_q - c_o; r_j - r_i = D + u_j - v_i with |u_j| <= rho_q, |v_i| <= rho_o.
+    const double D[3] = {q.center[0] - o.center[0], q.center[1] - o.center[1],
+                         q.center[2] - o.center[2]};
+    const double dist = std::sqrt(D[0] * D[0] + D[1] * D[1] + D[2] * D[2]);
+    const double reach = dist + o.radius + q.radius;  // bound on |r_j - r_i|
+    const double tol = 1e-12 * reach;                 // round-off in the bounds below
+    const double* a = o.axis;
+    const double aD = a[0] * D[0] + a[1] * D[1] + a[2] * D[2];
+
+    // Slab test: n_i = a + (n_i - a), |n_i - a| <= chord_o.
+    //   a.(r_j - r_i) = a.D + a.u_j - a.v_i; a.v_i in o's own slab; a.u_j in q's slab along
+    //   its own axis widened by |a - a_q| rho_q (and never beyond +-rho_q).
+    const double dax = a[0] - q.axis[0], day = a[1] - q.axis[1], daz = a[2] - q.axis[2];
+    const double widen = std::sqrt(dax * dax + day * day + daz * daz) * q.radius;
+    // ... and within q's box: support function of the box along a.
+    const double boxq = std::fabs(a[0]) * q.half[0] + std::fabs(a[1]) * q.half[1] +
+                        std::fabs(a[2]) * q.half[2];
+    const double qlo = std::max({-q.radius, -boxq, q.slab_lo - widen});
+    const double qhi = std::min({q.radius, boxq, q.slab_hi + widen});
+    const double err = o.cone_chord * reach;
+    const double hi = aD + qhi - o.slab_lo + err;
+    const double lo = aD + qlo - o.slab_hi - err;
+    Facing f{lo >= -tol, hi <= tol};
+
+    // Cone test: every direction r_j - r_i lies within beta of D, every n_i within alpha of a.
+    const double sep = o.radius + q.radius;
+    if (dist > sep && o.cone_angle < kPi) {
+        const double beta = std::asin(sep / dist);
+        const double gamma = std::acos(std::clamp(aD / dist, -1.0, 1.0));
+        if (gamma + o.cone_angle + beta < 0.5 * kPi) f.all_pos = true;
+        if (gamma - o.cone_angle - beta > 0.5 * kPi) f.none_pos = true;
+    }
+    return f;
+}
+
+Facing facing_points(const SurfelSoA& s, const OctreeNode& o, const OctreeNode& q) {
+    Facing f{true, true};
+    for (std::uint32_t i = o.begin; i < o.end && (f.all_pos || f.none_pos); ++i) {
+        const double n[3] = {s.nx[i], s.ny[i], s.nz[i]};
+        const double D[3] = {q.center[0] - s.px[i], q.center[1] - s.py[i], q.center[2] - s.pz[i]};
+        const double g = n[0] * D[0] + n[1] * D[1] + n[2] * D[2];
+        // n.(r_j - c_q) is within the support of q's box (and of its sphere)
+        const double sup = std::min(q.radius, std::fabs(n[0]) * q.half[0] +
+                                                  std::fabs(n[1]) * q.half[1] +
+                                                  std::fabs(n[2]) * q.half[2]);
+        const double tol = 1e-12 * (std::sqrt(D[0] * D[0] + D[1] * D[1] + D[2] * D[2]) + q.radius);
+        if (g - sup < -tol) f.all_pos = false;
+        if (g + sup > tol) f.none_pos = false;
+    }
+    return f;
+}
+
+namespace {
+// Node bounds first; a leaf's own points when they do not settle it.
+Facing facing(const SurfelSoA& s, const OctreeNode& o, const OctreeNode& q) {
+    Facing f = facing_bound(o, q);
+    if (!f.all_pos && !f.none_pos && o.leaf()) f = facing_points(s, o, q);
+    return f;
+}
+}  // namespace
+
+int point_node_class(const SurfelSoA& s, std::uint32_t i, const OctreeNode& q) {
+    OctreeNode p;  // the surfel as a node of one point
+    p.begin = i;
+    p.end = i + 1;
+    p.center[0] = s.px[i]; p.center[1] = s.py[i]; p.center[2] = s.pz[i];
+    p.axis[0] = s.nx[i]; p.axis[1] = s.ny[i]; p.axis[2] = s.nz[i];
+    p.amax = s.area[i];
+    const Facing a = facing(s, p, q);  // its normal against q's points
+    if (a.none_pos) return 0;
+    const Facing b = facing(s, q, p);  // q's normals against it
+    if (b.none_pos) return 0;
+    return (a.all_pos && b.all_pos) ? 1 : -1;
+}
+
+namespace {
+// Every point of o is decided (all or nothing) against q.
+bool points_decided(const SurfelSoA& s, const OctreeNode& o, const OctreeNode& q) {
+    for (std::uint32_t i = o.begin; i < o.end; ++i)
+        if (point_node_class(s, i, q) < 0) return false;
+    return true;
+}
+}  // namespace
+
+PairClass classify(const SurfelSoA& surf, const OctreeNode& t, const OctreeNode& s,
+                   const TraversalOptions& opt, Visibility vis) {
+    const Facing rt = facing(surf, t, s);  // receivers in t facing sources in s
+    if (rt.none_pos) return PairClass::Drop;
+    const Facing rs = facing(surf, s, t);  // sources in s facing receivers in t
+    if (rt.none_pos || rs.none_pos || vis == Visibility::Invalid) return PairClass::Drop;
+    const double R[3] = {t.center[0] - s.center[0], t.center[1] - s.center[1],
+                         t.center[2] - s.center[2]};
+    const double dist = std::sqrt(R[0] * R[0] + R[1] * R[1] + R[2] * R[2]);
+    const double sep = t.radius + s.radius;
+    const double rmin = dist - sep;
+    const bool far_rule = opt.near_field == NearField::Point ||
+                          (rmin > 0 && kPi * rmin * rmin > 2.0 * kT0 * 0.5 * (t.amax + s.amax));
+    const bool mac = sep < opt.theta * dist;
+    if (mac && far_rule && vis == Visibility::Valid) {
+        if (rt.all_pos && rs.all_pos) return PairClass::Accept;
+        // Mixed facing. If only the receivers' test is mixed, the source straddles the
+        // target's tangent plane: refine the source down to leaves and hand each of their
+        // points to the (large) target by P2L. Mirror case: refine the target, then M2P.
+        // (Refining the other side would never resolve it and would end in P2P against
+        // every leaf of that side.) For two leaves, P2P is cheaper than per-point expansions.
+        if (!rt.all_pos && rs.all_pos) {
+            if (!s.leaf()) return PairClass::SplitS;
+            if (!t.leaf() && points_decided(surf, s, t)) return PairClass::P2L;
+        } else if (rt.all_pos && !rs.all_pos) {
+            if (!t.leaf()) return PairClass::SplitT;
+            if (!s.leaf() && points_decided(surf, t, s)) return PairClass::M2P;
+        } else {
+            if (t.leaf() && !s.leaf() && points_decided(surf, t, s)) return PairClass::M2P;
+            if (s.leaf() && !t.leaf() && points_decided(surf, s, t)) return PairClass::P2L;
+        }
+    }
+    if (t.leaf() && s.leaf()) return PairClass::Near;
+    return PairClass::Split;
+}
+
+std::size_t InteractionLists::bytes() const {
+    return (m2l_off.capacity() + p2p_off.capacity() + m2p_off.capacity() + p2l_off.capacity()) *
+               sizeof(std::int64_t) +
+           (m2l_src.capacity() + p2p_src.capacity() + m2p_src.capacity() + p2l_src.capacity()) *
+               sizeof(std::int32_t);
+}
+
+namespace {
+
+struct Pair { std::int32_t t, s; };
+
+struct Walker {
+    const Octree& tree;
+    const TraversalOptions& opt;
+    std::vector<Pair> m2l, p2p, m2p, p2l;
+    std::vector<std::int64_t> acc, drop, split, nearc;
+    std::int64_t surfel_pairs = 0;
+
+    Walker(const Octree& tr, const TraversalOptions& o) : tree(tr), opt(o) {
+        const std::size_t L = tree.levels.size() + 1;
+        acc.assign(L, 0); drop.assign(L, 0); split.assign(L, 0); nearc.assign(L, 0);
+    }
+
+    // Classifies one pair; appends its children pairs to `out` when it must be split.
+    void step(Pair pr, std::vector<Pair>& out) {
+        const OctreeNode& t = tree.nodes[pr.t];
+        const OctreeNode& s = tree.nodes[pr.s];
+        const int lev = std::max(t.level, s.level);
+        if (pr.t == pr.s) {  // self pair: all ordered child pairs, or direct at a leaf
+            if (t.leaf()) {
+                p2p.push_back(pr);
+                nearc[lev]++;
+                surfel_pairs += std::int64_t(t.count()) * t.count();
+            } else {
+                split[lev]++;
+                for (int a = 0; a < t.nchild; ++a)
+                    for (int b = 0; b < t.nchild; ++b) out.push_back({t.child + a, t.child + b});
+            }
+            return;
+        }
+        const Visibility vis = opt.visibility ? (*opt.visibility)(pr.t, pr.s) : Visibility::Valid;
+        switch (classify(tree.s, t, s, opt, vis)) {
+            case PairClass::Drop: drop[lev]++; return;
+            case PairClass::Accept: acc[lev]++; m2l.push_back(pr); return;
+            case PairClass::M2P: acc[lev]++; m2p.push_back(pr); return;
+            case PairClass::P2L: acc[lev]++; p2l.push_back(pr); return;
+            case PairClass::Near:
+                nearc[lev]++;
+                p2p.push_back(pr);
+                surfel_pairs += std::int64_t(t.count()) * s.count();
+                return;
+            case PairClass::SplitS:
+                split[lev]++;
+                for (int b = 0; b < s.nchild; ++b) out.push_back({pr.t, s.child + b});
+                return;
+            case PairClass::SplitT:
+                split[lev]++;
+                for (int a = 0; a < t.nchild; ++a) out.push_back({t.child + a, pr.s});
+                return;
+            case PairClass::Split: break;
+        }
+        split[lev]++;
+        // Split the source when the target is a leaf or the source is the larger one.
+        if (!s.leaf() && (t.leaf() || s.radius > t.radius)) {
+            for (int b = 0; b < s.nchild; ++b) out.push_back({pr.t, s.child + b});
+        } else {
+            for (int a = 0; a < t.nchild; ++a) out.push_back({t.child + a, pr.s});
+        }
+    }
+
+    void walk(Pair pr) {
+        std::vector<Pair> stack{pr}, kids;
+        while (!stack.empty()) {
+            Pair p = stack.back();
+            stack.pop_back();
+            kids.clear();
+            step(p, kids);
+            stack.insert(stack.end(), kids.begin(), kids.end());
+        }
+    }
+};
+
+std::vector<std::int64_t> to_csr(std::size_t nnodes, std::vector<std::vector<Pair>*>& parts,
+                                 std::vector<std::int32_t>& src) {
+    std::vector<std::int64_t> off(nnodes + 1, 0);
+    for (auto* v : parts)
+        for (const Pair& p : *v) off[p.t + 1]++;
+    for (std::size_t i = 0; i < nnodes; ++i) off[i + 1] += off[i];
+    src.assign(off[nnodes], 0);
+    std::vector<std::int64_t> pos(off.begin(), off.end() - 1);
+    for (auto* v : parts)
+        for (const Pair& p : *v) src[pos[p.t]++] = p.s;
+    return off;
+}
+
+}  // namespace
+
+InteractionLists build_interaction_lists(Context& ctx, const Octree& tree,
+                                         const TraversalOptions& opt) {
+    InteractionLists L;
+    const std::size_t nn = tree.nodes.size();
+    // Breadth-first expansion on the calling thread until there is enough work to share.
+    Walker top(tree, opt);
+    std::vector<Pair> frontier{{0, 0}}, next;
+    const std::size_t want = 64 * std::size_t(ctx.nthreads());
+    while (!frontier.empty() && frontier.size() < want) {
+        next.clear();
+        for (const Pair& p : frontier) top.step(p, next);
+        frontier.swap(next);
+        if (frontier.size() > 4 * want) break;
+    }
+    const int nt = ctx.nthreads();
+    std::vector<Walker> walkers;
+    walkers.reserve(frontier.size());
+    // One walker per chunk keeps outputs private to a thread without thread ids.
+    const std::size_t grain = std::max<std::size_t>(1, frontier.size() / (8 * std::size_t(nt)));
+    const std::size_t nchunks = (frontier.size() + grain - 1) / grain;
+    for (std::size_t c = 0; c < nchunks; ++c) walkers.emplace_back(tree, opt);
+    parallel_for(ctx, nchunks, 1, [&](std::size_t b, std::size_t e) {
+        for (std::size_t c = b; c < e; ++c) {
+            const std::size_t lo = c * grain, hi = std::min(frontier.size(), lo + grain);
+            for (std::size_t i = lo; i < hi; ++i) walkers[c].walk(frontier[i]);
+        }
+    });
+    walkers.push_back(std::move(top));
+
+    std::vector<std::vector<Pair>*> mparts, pparts, m2pparts, p2lparts;
+    const std::size_t Lv = tree.levels.size() + 1;
+    L.accepted_per_level.assign(Lv, 0); L.dropped_per_level.assign(Lv, 0);
+    L.split_per_level.assign(Lv, 0); L.near_per_level.assign(Lv, 0);
+    for (auto& w : walkers) {
+        mparts.push_back(&w.m2l);
+        pparts.push_back(&w.p2p);
+        m2pparts.push_back(&w.m2p);
+        p2lparts.push_back(&w.p2l);
+        L.p2p_surfel_pairs += w.surfel_pairs;
+        for (std::size_t l = 0; l < Lv; ++l) {
+            L.accepted_per_level[l] += w.acc[l];
+            L.dropped_per_level[l] += w.drop[l];
+            L.split_per_level[l] += w.split[l];
+            L.near_per_level[l] += w.nearc[l];
+        }
+    }
+    L.m2l_off = to_csr(nn, mparts, L.m2l_src);
+    L.p2p_off = to_csr(nn, pparts, L.p2p_src);
+    L.m2p_off = to_csr(nn, m2pparts, L.m2p_src);
+    L.p2l_off = to_csr(nn, p2lparts, L.p2l_src);
+    L.m2p_pairs = std::int64_t(L.m2p_src.size());
+    L.p2l_pairs = std::int64_t(L.p2l_src.size());
+    L.m2l_pairs = std::int64_t(L.m2l_src.size());
+    L.p2p_node_pairs = std::int64_t(L.p2p_src.size());
+    return L;
+}
+
+}  // namespace illumap

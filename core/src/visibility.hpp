@@ -1,0 +1,410 @@
+// visibility.hpp — occlusion between surfels, folded into the FMM's interaction lists.
+//
+// One interface, two methods:
+//   "exact" (raycast.hpp)        rays against the surfels as oriented discs (Embree 3);
+//   "seed"  (seed_visibility.hpp) the talk's point_visible / Leaf_Leaf / Node_Node, scale-free.
+// Both are built once per geometry (over the octree, in tree order) and then queried, from any
+// number of threads, by the traversal while it builds its interaction lists. Nothing here is
+// touched by apply(): the traversal stores the classes / fractions / per-pair blocks it needs.
+//
+// What a method answers (all indices in TREE order, node ids are Octree::nodes indices):
+//   pair(i, j)        V(i,j) in [0,1] for surfels i, j. Symmetric: V(i,j) == V(j,i) exactly
+//                     (both methods evaluate the canonical ordering min(i,j), max(i,j)).
+//   classify(a, b)    VALID (every pair sees each other), INVALID (none does) or PARTIAL.
+//                     Symmetric: classify(a,b) == classify(b,a). It RESTS ON SAMPLES (m facing
+//                     point pairs drawn with a deterministic per-pair RNG) and can be wrong: a
+//                     pair with a small blocked (or visible) part can be called VALID (INVALID).
+//                     tests_native/test_visibility.cpp measures that error.
+//   fraction(a, b)    sampled fraction of visible facing pairs (the "fractional leaf–leaf" option).
+//   block(a, b, out)  per-pair V for all i in a, j in b (row-major, |a| x |b|): the near field.
+//
+// How the traversal folds it in (the talk's Octree_Visibility; traversal.cpp's Walker::step):
+//   1. k = classify(surf, t, s, opt, Visibility::Valid)   -- the kernel alone, no query.
+//      DROP / SPLIT: done (a pair the kernel splits anyway needs no visibility query).
+//   2. k == ACCEPT or NEAR: c = model.classify(t, s) (or a ClassCache), then
+//      k = classify(surf, t, s, opt, Visibility(c)): INVALID -> DROP; PARTIAL -> SPLIT (pushed
+//      down to the children) unless both are leaves -> NEAR.  VisClass and traversal.hpp's
+//      enum Visibility have the same values (Valid 0, Invalid 1, Partial 2).
+//   3. A NEAR pair whose class is PARTIAL gets, per leaf_mode():
+//        PerPair: block(t, s) if the MAC fails (true near field), fraction(t, s) if the MAC
+//                 holds (a far leaf pair the kernel would have accepted);
+//        Fractional: fraction(t, s);   Binary (the talk): never PARTIAL.
+//      A NEAR pair of two leaves can get class and fraction in one pass: classify_fraction().
+//      P2P then weights pair (i, j) by 1, fraction, or block[i][j].
+//   Reciprocity: classify / fraction / block are symmetric, so V_ij = V_ji whenever the lists
+//   of (t, s) and (s, t) contain mirrored pairs; the traversal's split rule must then be
+//   mirror-symmetric (break radius ties by node id), otherwise sampled classes of different
+//   sub-pairs can make V_ij != V_ji (then use GMRES, or PerPair everywhere).
+
+#pragma once
+
+#include "octree.hpp"
+#include "parallel.hpp"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace illumap {
+
+enum class VisClass : std::uint8_t { Valid = 0, Invalid = 1, Partial = 2 };
+
+// What happens to a PARTIAL leaf–leaf pair.
+enum class LeafMode : std::uint8_t {
+    Binary = 0,      // the talk: a leaf pair is visible or not (never PARTIAL)
+    Fractional = 1,  // PARTIAL leaf pairs are scaled by fraction(a, b)
+    PerPair = 2,     // PARTIAL near-field leaf pairs get per-pair block(a, b), PARTIAL far
+                     // leaf pairs (MAC satisfied, cannot split) fraction(a, b)  (default)
+};
+
+enum class VisMethod : std::uint8_t { None = 0, Seed = 1, Exact = 2 };
+
+struct VisibilityOptions {
+    VisMethod method = VisMethod::None;
+    LeafMode leaf_mode = LeafMode::PerPair;
+    // Sampling (both methods): facing point pairs drawn per node pair for classify() and
+    // fraction(). Draws stop after 4*samples attempts; a pair with no facing sample is VALID
+    // (the kernel clamps it to ~0 anyway) and counted in VisStats::no_facing.
+    int samples = 16;
+    std::uint64_t seed = 0x9e3779b97f4a7c15ULL;
+    // "exact": disc radius = coverage * sqrt(A/pi). 1 leaves gaps between discs (light leaks);
+    // larger closes them but lets discs stick out past edges and corners (over-occlusion).
+    double coverage = 1.3;
+    // "exact": occluders closer than endpoint_offset * (disc radius of the endpoint) to either
+    // endpoint along the segment are ignored (the endpoints' own discs and coincident
+    // duplicates). Pairs closer than the two offsets together are visible.
+    double endpoint_offset = 0.05;
+    // "exact": cast the samples of a node pair as packets of 8 rays (no early exit) instead of
+    // one by one with early exit on the first disagreement.
+    bool packets = false;
+    // "seed" (the talk): see seed_visibility.hpp for the meaning of each.
+    double delta = 2.0;  // Delta, in units of each occluder's spacing h_k = sqrt(A_k/pi)
+    int k = 8;           // at most k closest occluders multiply their attenuation
+    double t1 = 0.5;     // point_visible: product of attenuations > t1 -> visible
+    double t2 = 0.5;     // point_leaf: fraction of the leaf's (sampled) points visible > t2
+    double t3 = 0.5;     // leaf_leaf: fraction of the other leaf's (sampled) points > t3
+    int leaf_points = 8;  // points sampled per leaf in the talk's Leaf_Leaf (s x s queries)
+    bool seed_binary_pairs = true;  // pair(): 0/1 after t1; false: the attenuation product
+};
+
+// Counts per level (level = max(level(a), level(b))), and totals.
+struct VisStats {
+    std::vector<std::array<std::uint64_t, 3>> per_level;  // [valid, invalid, partial]
+    std::uint64_t queries = 0;    // point-pair visibility evaluations (rays or point_visible)
+    std::uint64_t no_facing = 0;  // classify() calls that found no facing sample
+    std::uint64_t blocks = 0, block_pairs = 0;  // block() calls and pairs they filled
+    double build_seconds = 0;     // once-per-geometry set-up (Embree BVH)
+    std::size_t bytes = 0;        // memory held by the method (estimate)
+};
+
+// ---- small shared helpers -------------------------------------------------------------
+
+inline std::uint64_t vis_mix(std::uint64_t x) {  // splitmix64 finaliser
+    x += 0x9e3779b97f4a7c15ULL;
+    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+    return x ^ (x >> 31);
+}
+
+// i and j face each other (both cosines strictly positive); false for coincident points.
+inline bool vis_facing(const SurfelSoA& s, std::uint32_t i, std::uint32_t j) {
+    const double dx = s.px[j] - s.px[i], dy = s.py[j] - s.py[i], dz = s.pz[j] - s.pz[i];
+    const double ci = s.nx[i] * dx + s.ny[i] * dy + s.nz[i] * dz;
+    const double cj = -(s.nx[j] * dx + s.ny[j] * dy + s.nz[j] * dz);
+    return ci > 0.0 && cj > 0.0;
+}
+
+// ---- the interface ---------------------------------------------------------------------
+
+class VisibilityModel {
+public:
+    VisibilityModel(const Octree& tree, const VisibilityOptions& opt) : tree_(tree), opt_(opt) {
+        for (auto& l : counts_)
+            for (auto& c : l) c.store(0);
+    }
+    virtual ~VisibilityModel() = default;
+    VisibilityModel(const VisibilityModel&) = delete;
+    VisibilityModel& operator=(const VisibilityModel&) = delete;
+
+    virtual const char* name() const = 0;
+    const VisibilityOptions& options() const { return opt_; }
+    LeafMode leaf_mode() const { return opt_.leaf_mode; }
+    const Octree& tree() const { return tree_; }
+
+    // V(i,j) in [0,1], tree order, symmetric, thread-safe.
+    virtual float pair(std::uint32_t i, std::uint32_t j) const = 0;
+    // out[k] = pair(I[k], J[k]) for n pairs; a method with packet queries overrides it and
+    // returns true from batched() (then classify gathers its samples first; samples are
+    // capped at kMaxBatch).
+    virtual void pairs_batch(const std::uint32_t* I, const std::uint32_t* J, int n,
+                             float* out) const {
+        for (int k = 0; k < n; ++k) out[k] = pair(I[k], J[k]);
+    }
+    virtual bool batched() const { return false; }
+    static constexpr int kMaxBatch = 64;
+
+    // Sampled classification, symmetric, thread-safe; records stats.
+    virtual VisClass classify(std::int32_t a, std::int32_t b) const {
+        const std::int32_t lo = a < b ? a : b, hi = a < b ? b : a;
+        const OctreeNode &A = tree_.nodes[lo], &B = tree_.nodes[hi];
+        int vis = 0, n = 0;
+        if (batched()) {
+            // Gather the samples, then one packet query (coherent rays between two nodes).
+            std::uint32_t I[kMaxBatch], J[kMaxBatch];
+            float v[kMaxBatch];
+            sample_pairs(lo, hi, std::min(opt_.samples, kMaxBatch), [&](std::uint32_t i, std::uint32_t j) {
+                I[n] = i; J[n] = j; n++;
+                return true;
+            });
+            pairs_batch(I, J, n, v);
+            for (int k = 0; k < n; ++k) vis += v[k] >= 0.5f;
+        } else {
+            // Stops at the first disagreement (then PARTIAL is certain): a PARTIAL pair costs a
+            // few queries, VALID / INVALID cost `samples`. Binary leaf pairs need the full count.
+            const bool binary_leaves = A.leaf() && B.leaf() && opt_.leaf_mode == LeafMode::Binary;
+            sample_pairs(lo, hi, opt_.samples, [&](std::uint32_t i, std::uint32_t j) {
+                n++;
+                if (pair(i, j) >= 0.5f) vis++;
+                return binary_leaves || vis == n || vis == 0;
+            });
+        }
+        VisClass c;
+        if (n == 0) {
+            no_facing_.fetch_add(1, std::memory_order_relaxed);
+            c = VisClass::Valid;
+        } else if (A.leaf() && B.leaf() && opt_.leaf_mode == LeafMode::Binary) {
+            c = 2 * vis >= n ? VisClass::Valid : VisClass::Invalid;
+        } else {
+            c = vis == n ? VisClass::Valid : (vis == 0 ? VisClass::Invalid : VisClass::Partial);
+        }
+        record(std::max(A.level, B.level), c);
+        return c;
+    }
+
+    // One pass for a pair of LEAVES that cannot be split: the class and the sampled fraction
+    // together (`samples` queries, no early exit), so a PARTIAL far leaf pair costs no second
+    // round of queries. In LeafMode::Binary it is classify() (fraction 1 or 0).
+    virtual VisClass classify_fraction(std::int32_t a, std::int32_t b, float* frac) const {
+        const std::int32_t lo = a < b ? a : b, hi = a < b ? b : a;
+        const OctreeNode &A = tree_.nodes[lo], &B = tree_.nodes[hi];
+        if (opt_.leaf_mode == LeafMode::Binary) {
+            const VisClass c = classify(a, b);
+            *frac = c == VisClass::Invalid ? 0.0f : 1.0f;
+            return c;
+        }
+        double sum = 0;
+        int n = 0, vis = 0;
+        if (batched()) {
+            std::uint32_t I[kMaxBatch], J[kMaxBatch];
+            float v[kMaxBatch];
+            sample_pairs(lo, hi, std::min(opt_.samples, kMaxBatch), [&](std::uint32_t i, std::uint32_t j) {
+                I[n] = i; J[n] = j; n++;
+                return true;
+            });
+            pairs_batch(I, J, n, v);
+            for (int k = 0; k < n; ++k) { sum += v[k]; vis += v[k] >= 0.5f; }
+        } else {
+            sample_pairs(lo, hi, opt_.samples, [&](std::uint32_t i, std::uint32_t j) {
+                const float v = pair(i, j);
+                n++;
+                sum += v;
+                vis += v >= 0.5f;
+                return true;
+            });
+        }
+        VisClass c;
+        if (n == 0) {
+            no_facing_.fetch_add(1, std::memory_order_relaxed);
+            c = VisClass::Valid;
+        } else {
+            c = vis == n ? VisClass::Valid : (vis == 0 ? VisClass::Invalid : VisClass::Partial);
+        }
+        *frac = n ? float(sum / n) : 1.0f;
+        record(std::max(A.level, B.level), c);
+        return c;
+    }
+
+    // Sampled mean of V over facing pairs (1 if none faces). Symmetric, thread-safe.
+    virtual float fraction(std::int32_t a, std::int32_t b) const {
+        const std::int32_t lo = a < b ? a : b, hi = a < b ? b : a;
+        double sum = 0;
+        int n = 0;
+        sample_pairs(lo, hi, opt_.samples, [&](std::uint32_t i, std::uint32_t j) {
+            n++;
+            sum += pair(i, j);
+            return true;
+        });
+        return n ? float(sum / n) : 1.0f;
+    }
+
+    // out[(i - a.begin) * |b| + (j - b.begin)] = V(i, j); pairs that do not face get 1 (the
+    // kernel is zero there) without a query. Thread-safe.
+    virtual void block(std::int32_t a, std::int32_t b, float* out) const {
+        const OctreeNode &A = tree_.nodes[a], &B = tree_.nodes[b];
+        const std::uint32_t nb = B.count();
+        std::uint64_t q = 0;
+        for (std::uint32_t i = A.begin; i < A.end; ++i)
+            for (std::uint32_t j = B.begin; j < B.end; ++j) {
+                float v = 1.0f;
+                if (i != j && vis_facing(tree_.s, i, j)) {
+                    v = pair(i, j);
+                    q++;
+                }
+                out[std::size_t(i - A.begin) * nb + (j - B.begin)] = v;
+            }
+        blocks_.fetch_add(1, std::memory_order_relaxed);
+        block_pairs_.fetch_add(std::uint64_t(A.count()) * nb, std::memory_order_relaxed);
+    }
+
+    // classify() for a batch of pairs on ctx's workers, with progress and cancellation
+    // (throws Cancelled). For a traversal that builds its lists level by level.
+    void classify_batch(Context& ctx, const std::int32_t* a, const std::int32_t* b,
+                        std::size_t n, VisClass* out) const {
+        parallel_for(ctx, n, 64, [&](std::size_t lo, std::size_t hi) {
+            for (std::size_t k = lo; k < hi; ++k) out[k] = classify(a[k], b[k]);
+        });
+    }
+
+    VisStats stats() const {
+        VisStats st;
+        int top = 0;
+        for (int l = 0; l < kLevels; ++l)
+            if (counts_[l][0] + counts_[l][1] + counts_[l][2]) top = l + 1;
+        st.per_level.resize(top);
+        for (int l = 0; l < top; ++l)
+            for (int c = 0; c < 3; ++c) st.per_level[l][c] = counts_[l][c].load();
+        st.queries = queries_.load();
+        st.no_facing = no_facing_.load();
+        st.blocks = blocks_.load();
+        st.block_pairs = block_pairs_.load();
+        st.build_seconds = build_seconds_;
+        st.bytes = bytes_;
+        return st;
+    }
+    void reset_stats() {
+        for (auto& l : counts_)
+            for (auto& c : l) c.store(0);
+        queries_ = 0;
+        no_facing_ = 0;
+        blocks_ = 0;
+        block_pairs_ = 0;
+    }
+
+protected:
+    // Calls fn(i, j) (i in node lo, j in node hi, i != j, facing) for up to m sampled facing
+    // pairs, until fn returns false. Exhaustive (no sampling error) when |lo|*|hi| <= m.
+    // Deterministic per (lo, hi).
+    template <class Fn>
+    void sample_pairs(std::int32_t lo, std::int32_t hi, int m, Fn&& fn) const {
+        const OctreeNode &A = tree_.nodes[lo], &B = tree_.nodes[hi];
+        const std::uint64_t na = A.count(), nb = B.count();
+        if (na * nb <= std::uint64_t(m)) {
+            for (std::uint32_t i = A.begin; i < A.end; ++i)
+                for (std::uint32_t j = B.begin; j < B.end; ++j)
+                    if (i != j && vis_facing(tree_.s, i, j) && !fn(i, j)) return;
+            return;
+        }
+        std::uint64_t st = vis_mix(opt_.seed ^ (std::uint64_t(std::uint32_t(lo)) << 32 |
+                                                std::uint32_t(hi)));
+        int got = 0;
+        for (int t = 0; t < 4 * m && got < m; ++t) {
+            st = vis_mix(st);
+            const std::uint32_t i = A.begin + std::uint32_t((st & 0xffffffffULL) * na >> 32);
+            const std::uint32_t j = B.begin + std::uint32_t((st >> 32) * nb >> 32);
+            if (i == j || !vis_facing(tree_.s, i, j)) continue;
+            got++;
+            if (!fn(i, j)) return;
+        }
+    }
+    void record(int level, VisClass c) const {
+        counts_[std::min(level, kLevels - 1)][int(c)].fetch_add(1, std::memory_order_relaxed);
+    }
+    void count_queries(std::uint64_t n) const {
+        queries_.fetch_add(n, std::memory_order_relaxed);
+    }
+
+    static constexpr int kLevels = 64;
+    const Octree& tree_;
+    VisibilityOptions opt_;
+    mutable std::array<std::array<std::atomic<std::uint64_t>, 3>, kLevels> counts_;
+    mutable std::atomic<std::uint64_t> queries_{0}, no_facing_{0}, blocks_{0}, block_pairs_{0};
+    double build_seconds_ = 0;
+    std::size_t bytes_ = 0;
+};
+
+// A thread-safe memo of classify() keyed by the unordered pair, for traversals whose lists are
+// per target (non-mutual): (t, s) and (s, t) then cost one evaluation when the second comes
+// after the first. 64 shards, each a mutex and a hash map (~40 bytes per entry).
+class ClassCache {
+public:
+    explicit ClassCache(const VisibilityModel& m) : model_(m) {}
+    VisClass operator()(std::int32_t a, std::int32_t b) {
+        const std::uint32_t lo = std::uint32_t(a < b ? a : b), hi = std::uint32_t(a < b ? b : a);
+        const std::uint64_t key = std::uint64_t(lo) << 32 | hi;
+        Shard& sh = shards_[vis_mix(key) & 63];
+        {
+            std::lock_guard<std::mutex> lk(sh.m);
+            auto it = sh.map.find(key);
+            if (it != sh.map.end()) return it->second;
+        }
+        const VisClass c = model_.classify(a, b);
+        std::lock_guard<std::mutex> lk(sh.m);
+        sh.map.emplace(key, c);
+        return c;
+    }
+    std::size_t size() const {
+        std::size_t n = 0;
+        for (auto& sh : shards_) n += sh.map.size();
+        return n;
+    }
+
+private:
+    struct Shard {
+        std::mutex m;
+        std::unordered_map<std::uint64_t, VisClass> map;
+    };
+    const VisibilityModel& model_;
+    Shard shards_[64];
+};
+
+// Builds the method named in opt.method over `tree` (which must outlive the result); returns
+// nullptr for VisMethod::None. Runs its set-up on ctx's workers with progress; throws Cancelled.
+// (make_raycast_visibility is defined in raycast.cpp, make_seed_visibility in
+// seed_visibility.cpp.)
+std::unique_ptr<VisibilityModel> make_raycast_visibility(Context& ctx, const Octree& tree,
+                                                    const VisibilityOptions& opt);
+std::unique_ptr<VisibilityModel> make_seed_visibility(Context& ctx, const Octree& tree,
+                                                 const VisibilityOptions& opt);
+
+inline std::unique_ptr<VisibilityModel> make_visibility(Context& ctx, const Octree& tree,
+                                                   const VisibilityOptions& opt) {
+    switch (opt.method) {
+        case VisMethod::Exact: return make_raycast_visibility(ctx, tree, opt);
+        case VisMethod::Seed: return make_seed_visibility(ctx, tree, opt);
+        default: return nullptr;
+    }
+}
+
+inline VisMethod parse_vis_method(const std::string& s) {
+    if (s == "none") return VisMethod::None;
+    if (s == "seed") return VisMethod::Seed;
+    if (s == "exact") return VisMethod::Exact;
+    throw std::invalid_argument("visibility must be 'none', 'seed' or 'exact', not '" + s + "'");
+}
+inline LeafMode parse_leaf_mode(const std::string& s) {
+    if (s == "binary") return LeafMode::Binary;
+    if (s == "fractional") return LeafMode::Fractional;
+    if (s == "per_pair") return LeafMode::PerPair;
+    throw std::invalid_argument("leaf mode must be 'binary', 'fractional' or 'per_pair', not '" +
+                                s + "'");
+}
+
+}  // namespace illumap

@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Builds and runs the native visibility tests with g++ directly (no CMake, no Python).
+#   core/tests_native/run.sh            # tests (about a minute on 2 cores)
+#   core/tests_native/run.sh --bench N  # also the precompute benchmark at N surfels (exact)
+# Exits non-zero when a test fails or does not build.
+set -euo pipefail
+here="$(cd "$(dirname "$0")" && pwd)"
+src="$here/../src"
+out="${ILLUMAP_TEST_BUILD:-${TMPDIR:-/tmp}/illumap_tests_native}"
+mkdir -p "$out"
+CXX="${CXX:-g++}"
+flags=(-std=c++17 -O2 -Wall -I "$src")
+libs=(-lembree3 -pthread)
+common=("$src/raycast.cpp" "$src/seed_visibility.cpp" "$src/octree.cpp")
+
+echo "building test_visibility -> $out"
+"$CXX" "${flags[@]}" "$here/test_visibility.cpp" "${common[@]}" -o "$out/test_visibility" "${libs[@]}"
+# Both visibility.hpp and the FMM's traversal.hpp must be includable in one unit.
+if [ -f "$src/traversal.hpp" ]; then
+  printf '#include "traversal.hpp"\n#include "visibility.hpp"\n#include "raycast.hpp"\n#include "seed_visibility.hpp"\nint main(){return 0;}\n' > "$out/headers.cpp"
+  "$CXX" "${flags[@]}" -fsyntax-only "$out/headers.cpp"
+fi
+"$out/test_visibility"
+
+if [ "${1:-}" = "--bench" ]; then
+  "$CXX" "${flags[@]}" "$here/bench_visibility.cpp" "${common[@]}" -o "$out/bench_visibility" "${libs[@]}"
+  "$out/bench_visibility" "${2:-100000}" exact 0 "${3:-8}"
+fi
