@@ -22,6 +22,13 @@
 // irregular sampling but make discs overhang edges and corners (over-occlusion of grazing
 // pairs near edges, light blocked by a wall's overhanging rim). Default 1.3.
 //
+// shape = Quad (VisibilityOptions::Shape) replaces each disc by a square of the same area,
+// side coverage * sqrt(A), in the tangent plane (frame a fixed function of the normal).
+// Measured here: ~3x more occlusion rays per CPU-second than oriented discs (Embree's quad
+// kernels are its most optimised), no leak through the test occluders at coverage 1.3 where
+// discs leak 0.46% (jittered sampling), slightly more over-occlusion at edges (corners reach
+// 1.25x the disc radius). Discs stay the default (the definition of the disc model).
+//
 // Node classes rest on `samples` sampled rays per pair and can be wrong (see visibility.hpp).
 #pragma once
 

@@ -72,7 +72,9 @@ int main(int argc, char** argv) {
     VisibilityOptions o;
     o.method = parse_vis_method(method);
     o.samples = samples;
-    if (std::getenv("NOPACKETS")) o.packets = false;
+    if (std::getenv("PACKETS")) o.packets = true;
+    apply_env(o);
+    std::printf("shape: %s\n", o.shape == VisibilityOptions::Shape::Quad ? "quad" : "disc");
     const bool skip_rays = std::getenv("NORAYBENCH") != nullptr;
     const double t_all = now();
     t = now();

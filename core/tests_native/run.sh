@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Builds and runs the native visibility tests with g++ directly (no CMake, no Python).
-#   core/tests_native/run.sh            # tests (about a minute on 2 cores)
-#   core/tests_native/run.sh --bench N  # also the precompute benchmark at N surfels (exact)
+#   core/tests_native/run.sh            # tests (about 3 minutes on 2 busy cores)
+#   core/tests_native/run.sh --bench N [samples]  # also the precompute benchmark at N surfels
+#                                        (exact; ILLUMAP_VIS_SHAPE=quad for squares)
 # Exits non-zero when a test fails or does not build.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -21,6 +22,8 @@ if [ -f "$src/traversal.hpp" ]; then
   "$CXX" "${flags[@]}" -fsyntax-only "$out/headers.cpp"
 fi
 "$out/test_visibility"
+# The exact-mode tests again with equal-area squares instead of discs (VisibilityOptions::shape).
+ILLUMAP_VIS_SHAPE=quad "$out/test_visibility" "degenerate occluder half rooms scale reciprocity furnace coverage"
 
 if [ "${1:-}" = "--bench" ]; then
   "$CXX" "${flags[@]}" "$here/bench_visibility.cpp" "${common[@]}" -o "$out/bench_visibility" "${libs[@]}"

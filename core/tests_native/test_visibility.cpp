@@ -9,6 +9,13 @@
 
 using namespace vt;
 
+// In the quad pass (ILLUMAP_VIS_SHAPE=quad) only the exact mode changes: skip seed.
+static std::vector<VisMethod> methods() {
+    const char* sh = std::getenv("ILLUMAP_VIS_SHAPE");
+    if (sh && std::string(sh) == "quad") return {VisMethod::Exact};
+    return {VisMethod::Exact, VisMethod::Seed};
+}
+
 static const char* mname(VisMethod m) { return m == VisMethod::Exact ? "exact" : "seed"; }
 static const char* lname(LeafMode l) {
     return l == LeafMode::Binary ? "binary" : (l == LeafMode::Fractional ? "fractional" : "per_pair");
@@ -36,7 +43,7 @@ static void test_full_occluder() {
         Built b;
         build(b, sc, 32);
         const double t_open = transfer_pairs(b, nullptr, 1, 0);
-        for (VisMethod m : {VisMethod::Exact, VisMethod::Seed}) {
+        for (VisMethod m : methods()) {
             for (LeafMode lm : {LeafMode::PerPair, LeafMode::Binary}) {
                 auto vis = make(b, m, lm);
                 Traversal tr(b.tree);
@@ -45,8 +52,10 @@ static void test_full_occluder() {
                 double t_pair = -1;
                 if (lm == LeafMode::PerPair)
                     t_pair = transfer_pairs(b, [&](std::uint32_t i, std::uint32_t j) { return vis->pair(i, j); }, 1, 0);
-                std::printf("  n=%2d (N=%5zu) %-5s %-8s  pairs: %.5f  lists: %.5f  (unoccluded %.5f)\n", n,
-                            sc.size(), mname(m), lname(lm), t_pair / t_open, t_list / t_open, t_open);
+                char pbuf[32] = "   n/a ";
+                if (t_pair >= 0) std::snprintf(pbuf, sizeof pbuf, "%.5f", t_pair / t_open);
+                std::printf("  n=%2d (N=%5zu) %-5s %-8s  per pair: %s  lists: %.5f  (unoccluded transfer %.5f)\n", n,
+                            sc.size(), mname(m), lname(lm), pbuf, t_list / t_open, t_open);
                 CHECK(t_list <= 0.01 * t_open, "%s n=%d lists %.4g", mname(m), n, t_list / t_open);
                 if (t_pair >= 0) CHECK(t_pair <= 0.01 * t_open, "%s n=%d pairs %.4g", mname(m), n, t_pair / t_open);
             }
@@ -68,7 +77,7 @@ static void test_half_blocked() {
         };
         const double t_ideal = transfer_pairs(b, ideal, 1, 0);
         const double t_open = transfer_pairs(b, nullptr, 1, 0);
-        for (VisMethod m : {VisMethod::Exact, VisMethod::Seed}) {
+        for (VisMethod m : methods()) {
             for (LeafMode lm : {LeafMode::PerPair, LeafMode::Fractional, LeafMode::Binary}) {
                 auto vis = make(b, m, lm);
                 Traversal tr(b.tree);
@@ -87,14 +96,17 @@ static void test_half_blocked() {
                     agree = double(same) / tot;
                 }
                 const double e_list = t_list / t_ideal - 1, e_pair = t_pair / t_ideal - 1;
-                std::printf("  n=%2d %-5s %-10s  ideal/open %.4f  lists err %+.4f  pairs err %+.4f  pair agreement %.4f\n",
-                            n, mname(m), lname(lm), t_ideal / t_open, e_list, t_pair >= 0 ? e_pair : 0.0, agree);
+                char pbuf[64] = "";
+                if (t_pair >= 0) std::snprintf(pbuf, sizeof pbuf, "per-pair err %+.4f  pair agreement %.4f", e_pair, agree);
+                std::printf("  n=%2d %-5s %-10s  ideal/open %.4f  lists err %+.4f (tol %.3f)  %s\n", n, mname(m), lname(lm),
+                            t_ideal / t_open, e_list, lm == LeafMode::Binary ? 3.0 / n : 1.25 / n, pbuf);
                 // Documented tolerance, relative, O(h) with h = 1/n the spacing: the sampled
                 // occluder's edge is only known to ~h/2 (jittered samples, discs of radius
-                // 0.73 h overhang it), and both methods over-occlude there. per_pair and
-                // fractional: 1.0 h; binary leaves (the talk: a leaf pair is all or nothing): 3 h.
+                // 0.73 h overhang it), and both methods over-occlude there; sampled classes add
+                // to it. per_pair and fractional: 1.25 h; binary leaves (the talk: a leaf pair is
+                // all or nothing): 3 h.
                 const double hh = 1.0 / n;
-                const double tol = lm == LeafMode::Binary ? 3.0 * hh : 1.0 * hh;
+                const double tol = lm == LeafMode::Binary ? 3.0 * hh : 1.25 * hh;
                 CHECK(std::fabs(e_list) <= tol, "%s %s n=%d err %.4f", mname(m), lname(lm), n, e_list);
                 if (t_pair >= 0) CHECK(std::fabs(e_pair) <= tol, "%s n=%d pair err %.4f", mname(m), n, e_pair);
             }
@@ -118,7 +130,7 @@ static void test_rooms() {
         build(b, sc, 32);
         const double open_leak = transfer_pairs(b, nullptr, 1, 0) / transfer_pairs(b, nullptr, 0, 0);
         std::printf("  n=%2d N=%5zu  without visibility: leak %.4f\n", n, sc.size(), open_leak);
-        for (VisMethod m : {VisMethod::Exact, VisMethod::Seed}) {
+        for (VisMethod m : methods()) {
             for (LeafMode lm : {LeafMode::PerPair, LeafMode::Binary}) {
                 auto vis = make(b, m, lm);
                 Traversal tr(b.tree);
@@ -129,8 +141,10 @@ static void test_rooms() {
                     auto V = [&](std::uint32_t i, std::uint32_t j) { return vis->pair(i, j); };
                     leak_p = transfer_pairs(b, V, 1, 0) / transfer_pairs(b, V, 0, 0);
                 }
-                std::printf("  n=%2d %-5s %-8s  leak lists %.2e  pairs %.2e  (bound %.0e)\n", n, mname(m),
-                            lname(lm), leak_l, leak_p, bound[mname(m)]);
+                char pbuf[32] = "   n/a  ";
+                if (leak_p >= 0) std::snprintf(pbuf, sizeof pbuf, "%.2e", leak_p);
+                std::printf("  n=%2d %-5s %-8s  leak lists %.2e  per pair %s  (bound %.0e)\n", n, mname(m),
+                            lname(lm), leak_l, pbuf, bound[mname(m)]);
                 CHECK(leak_l <= bound[mname(m)], "%s n=%d leak %.3g", mname(m), n, leak_l);
                 if (leak_p >= 0) CHECK(leak_p <= bound[mname(m)], "%s n=%d leak %.3g", mname(m), n, leak_p);
             }
@@ -158,7 +172,7 @@ static void test_degenerate() {
         build(b, sc, 2);
         std::vector<std::uint32_t> inv(sc.size());
         for (std::size_t i = 0; i < sc.size(); ++i) inv[b.tree.perm[i]] = std::uint32_t(i);
-        for (VisMethod m : {VisMethod::Exact, VisMethod::Seed}) {
+        for (VisMethod m : methods()) {
             auto vis = make(b, m);
             bool ok = true;
             for (std::uint32_t i = 0; i < sc.size(); ++i)
@@ -189,7 +203,7 @@ static void test_degenerate() {
 static void test_scale() {
     std::printf("\n== millimetre vs kilometre (same scene, scale 1e-3 / shift 0 and 1e3 / shift 5e3) ==\n");
     Scene base = squares(16, -0.5, 0.5, true);
-    for (VisMethod m : {VisMethod::Exact, VisMethod::Seed}) {
+    for (VisMethod m : methods()) {
         double ratio[2];
         std::vector<float> pv[2];
         std::vector<VisClass> cl[2];
@@ -233,10 +247,11 @@ static void test_sampling_error() {
         }
         Built b;
         build(b, sc, 32);
-        for (VisMethod m : {VisMethod::Exact, VisMethod::Seed}) {
+        for (VisMethod m : methods()) {
             VisibilityOptions o;
             o.method = m;
             o.samples = samples;
+            apply_env(o);
             auto vis = make_visibility(b.ctx, b.tree, o);
             Traversal tr(b.tree);
             VisLists L = octree_visibility(b.ctx, *vis, tr);
@@ -289,51 +304,73 @@ static void test_sampling_error() {
                 std::printf(" L%zu[%llu %llu %llu]", l, (unsigned long long)st.per_level[l][0],
                             (unsigned long long)st.per_level[l][1], (unsigned long long)st.per_level[l][2]);
             std::printf("\n");
-            // Documented bound: the sampled lists stay within 2% of per-pair visibility.
-            CHECK(std::fabs(t_list / t_pair - 1) <= 0.02, "%s sampled lists vs per-pair %.4f", mname(m), t_list / t_pair - 1);
+            // Documented bound: the sampled lists stay within 3% of per-pair visibility.
+            CHECK(std::fabs(t_list / t_pair - 1) <= 0.03, "%s sampled lists vs per-pair %.4f", mname(m), t_list / t_pair - 1);
         }
     }
 }
 
-// Closed box with a block inside: row sums of F.V (per pair, and through the lists).
+// Closed box with a block inside: row sums of F.V. The floor under the block is excluded (it
+// faces the block's inside and is rightly dark). Reference: the same box without the block and
+// without visibility, whose deviation is the kernel's own discretisation error (edges, corners).
 static void test_furnace() {
     std::printf("\n== closed box with a block inside: row sums of F.V ==\n");
     for (int n : {8, 16}) {
         const double h = 1.0 / n;
-        Scene sc;
         const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1}, blo[3] = {0.3, 0.3, 0.0}, bhi[3] = {0.65, 0.6, 0.5};
-        sc.box(lo, hi, h, -1, 0, 0, 0.3);
+        double sgn = 0;
+        auto stats = [&](const Built& b, const VisibilityModel* vis, double& mean, double& p95, double& mx) {
+            const SurfelSoA& s = b.tree.s;
+            std::vector<double> dev;
+            sgn = 0;
+            for (std::size_t i = 0; i < s.n; ++i) {
+                if (s.pz[i] == 0.0 && s.px[i] > blo[0] && s.px[i] < bhi[0] && s.py[i] > blo[1] && s.py[i] < bhi[1]) continue;
+                double rs = 0;
+                for (std::size_t j = 0; j < s.n; ++j) {
+                    const double f = F(s, i, j);
+                    if (f != 0) rs += f * (vis ? vis->pair(std::uint32_t(i), std::uint32_t(j)) : 1.0f);
+                }
+                dev.push_back(std::fabs(rs - 1));
+                sgn += rs - 1;
+            }
+            sgn /= dev.size();
+            mean = 0;
+            for (double d : dev) mean += d;
+            mean /= dev.size();
+            std::sort(dev.begin(), dev.end());
+            p95 = dev[std::size_t(0.95 * (dev.size() - 1))];
+            mx = dev.back();
+        };
+        Scene empty;
+        empty.box(lo, hi, h, -1, 0, 0, 0.3);
+        Built be;
+        build(be, empty, 32);
+        double m0, p0, x0;
+        stats(be, nullptr, m0, p0, x0);
+        std::printf("  n=%2d empty box, no visibility |rowsum-1|: mean %.4f  p95 %.4f  max %.4f\n", n, m0, p0, x0);
+        Scene sc = empty;
         sc.box(blo, bhi, h, +1, 0, 1 << 4, 0.3);  // block standing on the floor
         Built b;
         build(b, sc, 32);
-        const SurfelSoA& s = b.tree.s;
-        for (int which = 0; which < 3; ++which) {
+        for (int which = 0; which < 1 + int(methods().size()); ++which) {
             std::unique_ptr<VisibilityModel> vis;
             if (which) vis = make(b, which == 1 ? VisMethod::Exact : VisMethod::Seed);
-            std::vector<double> rs(s.n, 0.0);
-            for (std::size_t i = 0; i < s.n; ++i)
-                for (std::size_t j = 0; j < s.n; ++j) {
-                    const double f = F(s, i, j);
-                    if (f != 0) rs[i] += f * (vis ? vis->pair(std::uint32_t(i), std::uint32_t(j)) : 1.0f);
-                }
-            double mean = 0, mx = 0;
-            std::vector<double> dev(s.n);
-            for (std::size_t i = 0; i < s.n; ++i) { dev[i] = std::fabs(rs[i] - 1); mean += dev[i]; mx = std::max(mx, dev[i]); }
-            mean /= s.n;
-            std::sort(dev.begin(), dev.end());
-            const double p95 = dev[std::size_t(0.95 * (s.n - 1))];
+            double mean, p95, mx;
+            stats(b, vis.get(), mean, p95, mx);
             const char* nm = which == 0 ? "none" : (which == 1 ? "exact" : "seed");
-            std::printf("  n=%2d N=%5zu %-5s  |rowsum-1|: mean %.4f  p95 %.4f  max %.4f\n", n, s.n, nm, mean, p95, mx);
-            // Documented bound: mean |row sum - 1| <= 0.03 with visibility (discretisation of the
-            // kernel near edges and corners dominates: it is the same size without occluders).
-            if (which) CHECK(mean <= 0.03, "%s n=%d mean row-sum deviation %.4f", nm, n, mean);
+            std::printf("  n=%2d N=%5zu %-5s  |rowsum-1|: mean %.4f  p95 %.4f  max %.4f   mean(rowsum-1) %+.4f\n", n,
+                        b.tree.s.n, nm, mean, p95, mx, sgn);
+            // Documented bound: mean deviation within 0.5 h of the empty box's (the kernel's own
+            // discretisation error); the excess is O(h), from the block's edges and the floor
+            // around its foot. Catches leaks (row sums above 1) and over-occlusion (below).
+            if (which) CHECK(mean <= m0 + 0.5 * h, "%s n=%d mean row-sum deviation %.4f (empty box %.4f)", nm, n, mean, m0);
         }
     }
 }
 
 // coverage: leaks (full occluder, per pair) against over-occlusion (half-blocked error).
 static void test_coverage_sweep() {
-    std::printf("\n== exact: disc coverage trade-off (n = 24, jittered 0.3) ==\n");
+    std::printf("\n== exact: coverage trade-off (n = 24, jittered 0.3) ==\n");
     Scene full = squares(24, -0.5, 1.5, true), half = squares(24, -0.5, 0.5, true);
     Built bf, bh;
     build(bf, full, 32);
@@ -358,7 +395,7 @@ static void test_reciprocity() {
     Built b;
     build(b, sc, 16);
     const std::size_t n = b.tree.s.n;
-    for (VisMethod m : {VisMethod::Exact, VisMethod::Seed})
+    for (VisMethod m : methods())
         for (LeafMode lm : {LeafMode::PerPair, LeafMode::Fractional, LeafMode::Binary}) {
             auto vis = make(b, m, lm);
             Traversal tr(b.tree);
@@ -421,6 +458,8 @@ static void test_cancel() {
 
 int main(int argc, char** argv) {
     const char* only = argc > 1 ? argv[1] : "";
+    const char* shape = std::getenv("ILLUMAP_VIS_SHAPE");
+    std::printf("exact-mode occluder shape: %s\n", shape && std::string(shape) == "quad" ? "quad" : "disc");
     auto want = [&](const char* n) { return !*only || std::strstr(only, n); };
     if (want("degenerate")) test_degenerate();
     if (want("occluder")) test_full_occluder();

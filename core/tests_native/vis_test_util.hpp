@@ -18,12 +18,13 @@
 #include <cstdlib>
 #include <functional>
 #include <random>
+#include <string>
 #include <vector>
 
 namespace vt {
 using namespace illumap;
 
-static int g_fail = 0;
+inline int g_fail = 0;
 #define CHECK(cond, ...)                                                       \
     do {                                                                       \
         if (!(cond)) {                                                         \
@@ -299,12 +300,19 @@ inline double transfer_lists(const Built& b, const VisibilityModel& vis, const V
     return sum;
 }
 
+// ILLUMAP_VIS_SHAPE=quad runs the exact-mode tests with equal-area squares instead of discs.
+inline void apply_env(VisibilityOptions& o) {
+    const char* sh = std::getenv("ILLUMAP_VIS_SHAPE");
+    if (sh && std::string(sh) == "quad") o.shape = VisibilityOptions::Shape::Quad;
+}
+
 inline std::unique_ptr<VisibilityModel> make(Built& b, VisMethod m, LeafMode lm = LeafMode::PerPair,
                                         double coverage = 1.3) {
     VisibilityOptions o;
     o.method = m;
     o.leaf_mode = lm;
     o.coverage = coverage;
+    apply_env(o);
     return make_visibility(b.ctx, b.tree, o);
 }
 
