@@ -271,6 +271,7 @@ NB_MODULE(_core, m) {
               auto D = new_array(mq, std::size_t(k), &dist);
               run_released(threads, progress, [&](Context& ctx) {
                   ctx.set_phase("knn", 0.0, 1.0);
+                  checkpoint(ctx, 0.0);
                   knn(ctx, P, n, Q, mq, std::size_t(k), idx, dist);
               });
               return nb::make_tuple(I, D);

@@ -78,7 +78,7 @@ ExpansionTables::ExpansionTables(int order) : p(order) {
         }
 }
 
-std::size_t expansion_work_size(const ExpansionTables& tb) { return 8 * std::size_t(tb.ncoef) + 16; }
+std::size_t expansion_work_size(const ExpansionTables& tb) { return 64 * std::size_t(tb.ncoef) + 16; }
 
 void scaled_monomials(const ExpansionTables& tb, const double y[3], double* mono) {
     mono[0] = 1.0;
@@ -188,6 +188,81 @@ void m2l(const ExpansionTables& tb, const double R[3], const double* __restrict 
         double* l = L + 9 * k;
         l[0] += l0; l[1] += l1; l[2] += l2; l[3] += l3; l[4] += l4;
         l[5] += l5; l[6] += l6; l[7] += l7; l[8] += l8;
+    }
+}
+
+__attribute__((target_clones("avx2", "default")))
+void m2l4(const ExpansionTables& tb, const double R[4][3], const double* const M[4],
+          double* __restrict L, double* work) {
+    const int nc = tb.ncoef;
+    // Lane-interleaved copies: D[(6 n + s) * 4 + q], Mv[(9 m + e) * 4 + q].
+    double* __restrict Dv = work;                     // 24 nc
+    double* __restrict Mv = work + 24 * nc;           // 36 nc
+    double* scratch = work + 60 * nc;                 // 4 nc
+    double* __restrict a = scratch;                   // 4 nc: g Taylor coefficients, by lane
+    for (int q = 0; q < 4; ++q)
+        for (int i = 0; i < 9 * nc; ++i) Mv[4 * i + q] = M[q][i];
+    // Kernel derivatives for the four lanes together (same recurrence as kernel_derivatives).
+    double dx[3][4], inv_r2[4];
+    for (int q = 0; q < 4; ++q) {
+        for (int d = 0; d < 3; ++d) dx[d][q] = R[q][d];
+        inv_r2[q] = 1.0 / (R[q][0] * R[q][0] + R[q][1] * R[q][1] + R[q][2] * R[q][2]);
+        a[q] = inv_r2[q] * inv_r2[q];
+    }
+    for (int c = 1; c < nc; ++c) {
+        const double nn = tb.degree[c];
+        const double c1 = -(2.0 * nn + 2.0) / nn, c2 = -(nn + 2.0) / nn;
+        double s1[4] = {0, 0, 0, 0}, s2[4] = {0, 0, 0, 0};
+        for (int j = 0; j < 3; ++j) {
+            const int q1 = tb.minus1[c][j];
+            if (q1 >= 0)
+                for (int q = 0; q < 4; ++q) s1[q] += dx[j][q] * a[4 * q1 + q];
+        }
+        for (int sidx : {0, 3, 5}) {
+            const int q2 = tb.minus2[c][sidx];
+            if (q2 >= 0)
+                for (int q = 0; q < 4; ++q) s2[q] += a[4 * q2 + q];
+        }
+        for (int q = 0; q < 4; ++q) a[4 * c + q] = (c1 * s1[q] + c2 * s2[q]) * inv_r2[q];
+    }
+    for (int c = 0; c < nc; ++c) {
+        const auto& m1 = tb.minus1[c];
+        const auto& m2 = tb.minus2[c];
+        const double f = tb.factorial[c];
+        for (int sidx = 0; sidx < 6; ++sidx) {
+            const int A = kSymA[sidx], B = kSymB[sidx];
+            double t[4];
+            for (int q = 0; q < 4; ++q) t[q] = dx[A][q] * dx[B][q] * a[4 * c + q];
+            if (m1[B] >= 0)
+                for (int q = 0; q < 4; ++q) t[q] += dx[A][q] * a[4 * m1[B] + q];
+            if (m1[A] >= 0)
+                for (int q = 0; q < 4; ++q) t[q] += dx[B][q] * a[4 * m1[A] + q];
+            if (m2[sidx] >= 0)
+                for (int q = 0; q < 4; ++q) t[q] += a[4 * m2[sidx] + q];
+            for (int q = 0; q < 4; ++q) Dv[4 * (6 * c + sidx) + q] = f * t[q];
+        }
+    }
+    const std::int32_t* Mi = tb.m2l_m.data();
+    const std::int32_t* Ni = tb.m2l_n.data();
+    for (int k = 0; k < nc; ++k) {
+        double acc[9][4] = {};
+        for (std::int32_t t = tb.m2l_koff[k]; t < tb.m2l_koff[k + 1]; ++t) {
+            const double* d = Dv + 24 * Ni[t];
+            const double* m = Mv + 36 * Mi[t];
+            for (int q = 0; q < 4; ++q) {
+                const double d00 = d[q], d01 = d[4 + q], d02 = d[8 + q], d11 = d[12 + q],
+                             d12 = d[16 + q], d22 = d[20 + q];
+                for (int ch = 0; ch < 3; ++ch) {
+                    const double a = m[4 * ch + q], b = m[4 * (3 + ch) + q],
+                                 c = m[4 * (6 + ch) + q];
+                    acc[ch][q] += d00 * a + d01 * b + d02 * c;
+                    acc[3 + ch][q] += d01 * a + d11 * b + d12 * c;
+                    acc[6 + ch][q] += d02 * a + d12 * b + d22 * c;
+                }
+            }
+        }
+        double* l = L + 9 * k;
+        for (int e = 0; e < 9; ++e) l[e] += (acc[e][0] + acc[e][1]) + (acc[e][2] + acc[e][3]);
     }
 }
 

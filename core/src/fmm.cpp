@@ -26,6 +26,8 @@ TransportOperator::TransportOperator(Context& ctx, const double* positions, cons
         orig_.nx[i] = normals[3 * i]; orig_.ny[i] = normals[3 * i + 1]; orig_.nz[i] = normals[3 * i + 2];
         orig_.area[i] = areas[i];
     }
+    ctx.set_phase("setup", 0.0, 0.0);
+    checkpoint(ctx, 0.0);
     if (!opt_.fmm || n == 0) return;
     auto t0 = Clock::now();
     ctx.set_phase("tree", 0.0, 0.3);
@@ -41,6 +43,22 @@ TransportOperator::TransportOperator(Context& ctx, const double* positions, cons
     lists_ = std::make_unique<InteractionLists>(build_interaction_lists(ctx, *tree_, to));
     timings_["build_lists"] = seconds_since(t1);
     tables_ = std::make_unique<ExpansionTables>(opt_.order);
+
+    // Expansion slots (see apply_fmm).
+    const std::size_t nn = tree_->nodes.size();
+    std::vector<char> read(nn, 0);
+    for (std::int32_t sidx : lists_->m2l_src) read[sidx] = 1;
+    for (std::int32_t sidx : lists_->m2p_src) read[sidx] = 1;
+    mslot_.assign(nn, -1);
+    lslot_.assign(nn, -1);
+    for (std::size_t k = 0; k < nn; ++k) {
+        const bool leaf = tree_->nodes[k].leaf();
+        if (!leaf || read[k]) mslot_[k] = mslots_++;
+        if (!leaf) {
+            lslot_[k] = lslots_++;
+            internal_.push_back(std::int32_t(k));
+        }
+    }
 }
 
 void TransportOperator::apply(Context& ctx, const double* x, double* y) {
@@ -77,10 +95,21 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
         x1[i] = xt[3 * i + 1] = x[3 * j + 1];
         x2[i] = xt[3 * i + 2] = x[3 * j + 2];
     }
-    multipoles_.assign(nn * W, 0.0);
-    locals_.assign(nn * W, 0.0);
+    // Storage slots: multipoles for internal nodes and for leaves that some list reads
+    // (others are formed on the fly by their parent); locals for internal nodes only (a
+    // leaf's local is assembled on the fly where it is evaluated). Saves most expansion memory.
+    const std::size_t nms = std::size_t(mslots_), nls = std::size_t(lslots_);
+    multipoles_.assign(nms * W, 0.0);
+    locals_.assign(nls * W, 0.0);
     double* M = multipoles_.data();
     double* L = locals_.data();
+    auto Mof = [&](std::int32_t node) { return M + std::size_t(mslot_[node]) * W; };
+    auto Lof = [&](std::int32_t node) { return L + std::size_t(lslot_[node]) * W; };
+    auto leaf_p2m = [&](const OctreeNode& nd, double* out, double* work) {
+        const std::size_t o = nd.begin;
+        p2m(tb, nd.center, &T.s.px[o], &T.s.py[o], &T.s.pz[o], &T.s.nx[o], &T.s.ny[o],
+            &T.s.nz[o], &T.s.area[o], &xt[3 * o], nd.count(), out, work);
+    };
 
     // Upward pass, deepest level first.
     auto t = Clock::now();
@@ -89,66 +118,89 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
     for (int lev = T.depth; lev >= 0; --lev) {
         const auto& ids = T.levels[lev];
         parallel_for(ctx, ids.size(), 16, [&](std::size_t b, std::size_t e) {
-            std::vector<double> work(wsz);
+            std::vector<double> work(wsz), tmp(W);
             for (std::size_t q = b; q < e; ++q) {
-                const OctreeNode& nd = T.nodes[ids[q]];
-                double* Mn = M + ids[q] * W;
+                const std::int32_t id = ids[q];
+                const OctreeNode& nd = T.nodes[id];
+                if (mslot_[id] < 0) continue;  // a leaf nobody reads: its parent forms it
+                double* Mn = Mof(id);
                 if (nd.leaf()) {
-                    const std::size_t o = nd.begin;
-                    p2m(tb, nd.center, &T.s.px[o], &T.s.py[o], &T.s.pz[o], &T.s.nx[o],
-                        &T.s.ny[o], &T.s.nz[o], &T.s.area[o], &xt[3 * o], nd.count(), Mn,
-                        work.data());
-                } else {
-                    for (int c = 0; c < nd.nchild; ++c) {
-                        const OctreeNode& ch = T.nodes[nd.child + c];
-                        const double delta[3] = {nd.center[0] - ch.center[0],
-                                                 nd.center[1] - ch.center[1],
-                                                 nd.center[2] - ch.center[2]};
-                        m2m(tb, delta, M + std::size_t(nd.child + c) * W, Mn, work.data());
+                    leaf_p2m(nd, Mn, work.data());
+                    continue;
+                }
+                for (int c = 0; c < nd.nchild; ++c) {
+                    const std::int32_t cid = nd.child + c;
+                    const OctreeNode& ch = T.nodes[cid];
+                    const double* Mc;
+                    if (mslot_[cid] >= 0) {
+                        Mc = Mof(cid);
+                    } else {
+                        std::fill(tmp.begin(), tmp.end(), 0.0);
+                        leaf_p2m(ch, tmp.data(), work.data());
+                        Mc = tmp.data();
                     }
+                    const double delta[3] = {nd.center[0] - ch.center[0],
+                                             nd.center[1] - ch.center[1],
+                                             nd.center[2] - ch.center[2]};
+                    m2m(tb, delta, Mc, Mn, work.data());
                 }
             }
         });
     }
     timings_["upward"] = seconds_since(t);
 
-    // M2L, per target node.
-    t = Clock::now();
-    ctx.set_phase("m2l", 0.15, 0.5);
-    parallel_for(ctx, nn, 8, [&](std::size_t b, std::size_t e) {
-        std::vector<double> work(wsz);
-        for (std::size_t tn = b; tn < e; ++tn) {
-            const OctreeNode& nt = T.nodes[tn];
-            double* Lt = L + tn * W;
-            for (std::int64_t k = IL.m2l_off[tn]; k < IL.m2l_off[tn + 1]; ++k) {
-                const std::int32_t sn = IL.m2l_src[k];
+    // M2L and P2L into one node's local expansion Lt.
+    auto gather_far = [&](std::int32_t tn, double* Lt, double* work) {
+        const OctreeNode& nt = T.nodes[tn];
+        std::int64_t k = IL.m2l_off[tn];
+        const std::int64_t kend = IL.m2l_off[tn + 1];
+        for (; k + 4 <= kend; k += 4) {  // four sources at a time (SIMD across sources)
+            double R[4][3];
+            const double* Ms[4];
+            for (int q = 0; q < 4; ++q) {
+                const std::int32_t sn = IL.m2l_src[k + q];
                 const OctreeNode& ns = T.nodes[sn];
-                const double R[3] = {nt.center[0] - ns.center[0], nt.center[1] - ns.center[1],
-                                     nt.center[2] - ns.center[2]};
-                m2l(tb, R, M + std::size_t(sn) * W, Lt, work.data());
+                for (int d = 0; d < 3; ++d) R[q][d] = nt.center[d] - ns.center[d];
+                Ms[q] = Mof(sn);
             }
-            // P2L: facing points of source leaves straight into this node's local expansion.
-            for (std::int64_t k = IL.p2l_off[tn]; k < IL.p2l_off[tn + 1]; ++k) {
-                const OctreeNode& ns = T.nodes[IL.p2l_src[k]];
-                for (std::uint32_t j = ns.begin; j < ns.end; ++j) {
-                    if (point_node_class(T.s, j, nt) != 1) continue;
-                    const double R[3] = {nt.center[0] - T.s.px[j], nt.center[1] - T.s.py[j],
-                                         nt.center[2] - T.s.pz[j]};
-                    const double nA[3] = {T.s.nx[j] * T.s.area[j], T.s.ny[j] * T.s.area[j],
-                                          T.s.nz[j] * T.s.area[j]};
-                    double s9[9];
-                    for (int b = 0; b < 3; ++b)
-                        for (int ch = 0; ch < 3; ++ch) s9[3 * b + ch] = nA[b] * xt[3 * j + ch];
-                    p2l(tb, R, s9, Lt, work.data());
-                }
+            m2l4(tb, R, Ms, Lt, work);
+        }
+        for (; k < kend; ++k) {
+            const std::int32_t sn = IL.m2l_src[k];
+            const OctreeNode& ns = T.nodes[sn];
+            const double R[3] = {nt.center[0] - ns.center[0], nt.center[1] - ns.center[1],
+                                 nt.center[2] - ns.center[2]};
+            m2l(tb, R, Mof(sn), Lt, work);
+        }
+        // P2L: facing points of source leaves straight into this node's local expansion.
+        for (std::int64_t k = IL.p2l_off[tn]; k < IL.p2l_off[tn + 1]; ++k) {
+            const OctreeNode& ns = T.nodes[IL.p2l_src[k]];
+            for (std::uint32_t j = ns.begin; j < ns.end; ++j) {
+                if (point_node_class(T.s, j, nt) != 1) continue;
+                const double R[3] = {nt.center[0] - T.s.px[j], nt.center[1] - T.s.py[j],
+                                     nt.center[2] - T.s.pz[j]};
+                const double nA[3] = {T.s.nx[j] * T.s.area[j], T.s.ny[j] * T.s.area[j],
+                                      T.s.nz[j] * T.s.area[j]};
+                double s9[9];
+                for (int bb = 0; bb < 3; ++bb)
+                    for (int ch = 0; ch < 3; ++ch) s9[3 * bb + ch] = nA[bb] * xt[3 * j + ch];
+                p2l(tb, R, s9, Lt, work);
             }
         }
+    };
+
+    // M2L for internal nodes (leaves gather theirs in the last phase).
+    t = Clock::now();
+    ctx.set_phase("m2l", 0.15, 0.35);
+    parallel_for(ctx, internal_.size(), 4, [&](std::size_t b, std::size_t e) {
+        std::vector<double> work(wsz);
+        for (std::size_t q = b; q < e; ++q) gather_far(internal_[q], Lof(internal_[q]), work.data());
     });
     timings_["m2l"] = seconds_since(t);
 
-    // Downward pass: which nodes carry a local expansion at all, then L2L top-down.
+    // Downward pass between internal nodes, top-down.
     t = Clock::now();
-    ctx.set_phase("downward", 0.65, 0.05);
+    ctx.set_phase("downward", 0.5, 0.05);
     std::vector<char> has_local(nn, 0);
     for (std::size_t k = 0; k < nn; ++k) {  // BFS order: parents before children
         has_local[k] = IL.m2l_off[k + 1] > IL.m2l_off[k] || IL.p2l_off[k + 1] > IL.p2l_off[k];
@@ -160,28 +212,39 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
             std::vector<double> work(wsz);
             for (std::size_t q = b; q < e; ++q) {
                 const OctreeNode& nd = T.nodes[ids[q]];
-                if (!has_local[nd.parent]) continue;
+                if (nd.leaf() || !has_local[nd.parent]) continue;
                 const OctreeNode& pa = T.nodes[nd.parent];
                 const double delta[3] = {nd.center[0] - pa.center[0], nd.center[1] - pa.center[1],
                                          nd.center[2] - pa.center[2]};
-                l2l(tb, delta, L + std::size_t(nd.parent) * W, L + std::size_t(ids[q]) * W,
-                    work.data());
+                l2l(tb, delta, Lof(nd.parent), Lof(ids[q]), work.data());
             }
         });
     }
     timings_["downward"] = seconds_since(t);
 
-    // Leaves: evaluate the local expansion, add the near field.
+    // Leaves: assemble the local expansion (L2L from the parent + own M2L/P2L), evaluate it,
+    // add M2P and the near field.
     t = Clock::now();
-    ctx.set_phase("near", 0.7, 0.3);
+    ctx.set_phase("near", 0.55, 0.45);
     parallel_for(ctx, T.leaves.size(), 4, [&](std::size_t b, std::size_t e) {
-        std::vector<double> work(wsz);
+        std::vector<double> work(wsz), Lleaf(W);
         std::vector<double> buf;  // this leaf's near sources, gathered contiguously
         for (std::size_t q = b; q < e; ++q) {
             const std::int32_t ln = T.leaves[q];
             const OctreeNode& nd = T.nodes[ln];
             const bool loc = has_local[ln];
-            const double* Ll = L + std::size_t(ln) * W;
+            if (loc) {
+                std::fill(Lleaf.begin(), Lleaf.end(), 0.0);
+                if (nd.parent >= 0 && has_local[nd.parent]) {
+                    const OctreeNode& pa = T.nodes[nd.parent];
+                    const double delta[3] = {nd.center[0] - pa.center[0],
+                                             nd.center[1] - pa.center[1],
+                                             nd.center[2] - pa.center[2]};
+                    l2l(tb, delta, Lof(nd.parent), Lleaf.data(), work.data());
+                }
+                gather_far(ln, Lleaf.data(), work.data());
+            }
+            const double* Ll = Lleaf.data();
             std::size_t ns = 0;
             for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k)
                 ns += T.nodes[IL.p2p_src[k]].count();
@@ -220,12 +283,12 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
                 // M2P: source multipoles evaluated at each receiver that faces them.
                 for (std::int64_t k = IL.m2p_off[ln]; k < IL.m2p_off[ln + 1]; ++k) {
                     const std::int32_t sn = IL.m2p_src[k];
-                    const OctreeNode& ns = T.nodes[sn];
-                    if (point_node_class(T.s, i, ns) != 1) continue;
-                    const double R[3] = {T.s.px[i] - ns.center[0], T.s.py[i] - ns.center[1],
-                                         T.s.pz[i] - ns.center[2]};
+                    const OctreeNode& nsn = T.nodes[sn];
+                    if (point_node_class(T.s, i, nsn) != 1) continue;
+                    const double R[3] = {T.s.px[i] - nsn.center[0], T.s.py[i] - nsn.center[1],
+                                         T.s.pz[i] - nsn.center[2]};
                     double lv[9];
-                    m2p(tb, R, M + std::size_t(sn) * W, lv, work.data());
+                    m2p(tb, R, Mof(sn), lv, work.data());
                     for (int ch = 0; ch < 3; ++ch)
                         acc[ch] -= kInvPi * (T.s.nx[i] * lv[ch] + T.s.ny[i] * lv[3 + ch] +
                                              T.s.nz[i] * lv[6 + ch]);
@@ -269,11 +332,12 @@ std::map<std::string, double> TransportOperator::scalar_stats() const {
         s["p2p_pairs"] = double(lists_->p2p_surfel_pairs);
         s["coefficients"] = tables_->ncoef;
         const std::size_t exp_bytes =
-            2 * tree_->nodes.size() * 9 * std::size_t(tables_->ncoef) * sizeof(double);
+            std::size_t(mslots_ + lslots_) * 9 * std::size_t(tables_->ncoef) * sizeof(double);
         s["tree_bytes"] = double(tree_->bytes());
         s["lists_bytes"] = double(lists_->bytes());
         s["expansion_bytes"] = double(exp_bytes);
-        bytes += tree_->bytes() + lists_->bytes() + exp_bytes + 8 * n_ * 3 * sizeof(double);
+        // + per-apply temporaries: values in tree order (3n, and 3 arrays of n) and the result (3n)
+        bytes += tree_->bytes() + lists_->bytes() + exp_bytes + 9 * n_ * sizeof(double);
     } else {
         s["nodes"] = 0; s["leaves"] = 0; s["depth"] = 0; s["m2l_pairs"] = 0;
         s["p2p_node_pairs"] = 0;

@@ -53,6 +53,9 @@ private:
     std::unique_ptr<ExpansionTables> tables_;
     std::map<std::string, double> timings_;
     std::vector<double> multipoles_, locals_;  // kept between applies (no re-allocation)
+    std::vector<std::int32_t> mslot_, lslot_;  // node -> expansion slot, -1: none stored
+    std::int32_t mslots_ = 0, lslots_ = 0;
+    std::vector<std::int32_t> internal_;       // internal node ids
 };
 
 }  // namespace illumap
