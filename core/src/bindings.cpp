@@ -106,7 +106,7 @@ void run_released(int threads, nb::handle progress, Fn&& fn) {
 
 struct PyOperator {
     std::unique_ptr<TransportOperator> op;
-    std::string method, near_field;
+    std::string method, near_field, visibility = "none";
     int threads = 0;
 };
 
@@ -118,11 +118,15 @@ NB_MODULE(_core, m) {
     m.def("hardware_threads", &hardware_threads, "Number of hardware threads.");
 
     nb::class_<PyOperator>(m, "Operator",
-        "Transport operator y_i = sum_j F_ij V_ij x_j (V = 1 for now).")
+        "Transport operator y_i = sum_j F_ij V_ij x_j (V: visibility 'none', 'seed', 'exact').")
         .def("__init__",
              [](PyOperator* self, nb::handle positions, nb::handle normals, nb::handle areas,
                 const std::string& method, int order, double theta, int leaf_size,
-                const std::string& near_field, int threads, nb::handle progress) {
+                const std::string& near_field, int threads, nb::handle progress,
+                const std::string& visibility, const std::string& visibility_leaf_mode,
+                int visibility_samples, double coverage, const std::string& visibility_shape,
+                double endpoint_offset, double seed_delta, int seed_k, double seed_t1,
+                double seed_t2, double seed_t3, int seed_leaf_points, bool seed_binary_pairs) {
                  if (method != "fmm" && method != "direct")
                      throw nb::value_error("method must be 'fmm' or 'direct'");
                  if (near_field != "disc" && near_field != "point")
@@ -147,16 +151,47 @@ NB_MODULE(_core, m) {
                  opt.theta = theta;
                  opt.leaf_size = leaf_size;
                  opt.near_field = near_field == "disc" ? NearField::Disc : NearField::Point;
+                 try {
+                     opt.vis.method = parse_vis_method(visibility);
+                     opt.vis.leaf_mode = parse_leaf_mode(visibility_leaf_mode);
+                     opt.vis.shape = parse_vis_shape(visibility_shape);
+                 } catch (std::invalid_argument& e) {
+                     throw nb::value_error(e.what());
+                 }
+                 if (visibility_samples < 1 || visibility_samples > 4096)
+                     throw nb::value_error("visibility_samples must be in 1..4096");
+                 if (!(coverage > 0.0) || !(endpoint_offset >= 0.0) || !(seed_delta > 0.0))
+                     throw nb::value_error("coverage and seed_delta must be > 0, endpoint_offset >= 0");
+                 if (seed_k < 1 || seed_leaf_points < 1)
+                     throw nb::value_error("seed_k and seed_leaf_points must be >= 1");
+                 for (double t : {seed_t1, seed_t2, seed_t3})
+                     if (!(t >= 0.0 && t <= 1.0)) throw nb::value_error("seed_t1..t3 must be in [0, 1]");
+                 opt.vis.samples = visibility_samples;
+                 opt.vis.coverage = coverage;
+                 opt.vis.endpoint_offset = endpoint_offset;
+                 opt.vis.delta = seed_delta;
+                 opt.vis.k = seed_k;
+                 opt.vis.t1 = seed_t1;
+                 opt.vis.t2 = seed_t2;
+                 opt.vis.t3 = seed_t3;
+                 opt.vis.leaf_points = seed_leaf_points;
+                 opt.vis.seed_binary_pairs = seed_binary_pairs;
                  std::unique_ptr<TransportOperator> op;
                  run_released(threads, progress, [&](Context& ctx) {
                      op = std::make_unique<TransportOperator>(ctx, P, N, A, np, opt);
                  });
-                 new (self) PyOperator{std::move(op), method, near_field, threads};
+                 new (self) PyOperator{std::move(op), method, near_field, visibility, threads};
              },
              nb::arg("positions"), nb::arg("normals"), nb::arg("areas"), nb::kw_only(),
              nb::arg("method") = "fmm", nb::arg("order") = 4, nb::arg("theta") = 0.5,
              nb::arg("leaf_size") = 32, nb::arg("near_field") = "disc", nb::arg("threads") = 0,
-             nb::arg("progress") = nb::none())
+             nb::arg("progress") = nb::none(), nb::arg("visibility") = "none",
+             nb::arg("visibility_leaf_mode") = "per_pair", nb::arg("visibility_samples") = 8,
+             nb::arg("coverage") = 1.3, nb::arg("visibility_shape") = "disc",
+             nb::arg("endpoint_offset") = 0.05, nb::arg("seed_delta") = 2.0,
+             nb::arg("seed_k") = 8, nb::arg("seed_t1") = 0.5, nb::arg("seed_t2") = 0.5,
+             nb::arg("seed_t3") = 0.5, nb::arg("seed_leaf_points") = 8,
+             nb::arg("seed_binary_pairs") = true)
         .def("apply",
              [](PyOperator& self, nb::handle values, nb::handle progress) {
                  std::size_t nv;
@@ -202,6 +237,7 @@ NB_MODULE(_core, m) {
                  nb::dict d;
                  d["method"] = self.method;
                  d["near_field"] = self.near_field;
+                 d["visibility"] = self.visibility;
                  for (const auto& kv : self.op->scalar_stats()) {
                      const bool integral = kv.first.rfind("time_", 0) != 0 && kv.first != "theta";
                      if (integral)
@@ -218,10 +254,14 @@ NB_MODULE(_core, m) {
              })
         .def_prop_ro("symmetric",
              [](const PyOperator&) {
-                 // The pair rule is reciprocal (A_i F_ij = A_j F_ji) and V = 1; the FMM is
-                 // symmetric up to its expansion error.
+                 // The pair rule is reciprocal (A_i F_ij = A_j F_ji); the FMM is symmetric up
+                 // to its expansion error. Both visibility methods evaluate V(i,j) in the
+                 // canonical order (V_ij = V_ji), classify / fraction / block are symmetric and
+                 // the traversal's lists mirror each other (radius ties broken by node id), so
+                 // diag(A) F V stays symmetric for every method and leaf mode.
                  return true;
              })
+        .def_prop_ro("visibility", [](const PyOperator& self) { return self.visibility; })
         .def_prop_ro("n", [](const PyOperator& self) { return self.op->size(); })
         .def_prop_ro("method", [](const PyOperator& self) { return self.method; })
         .def_prop_ro("order", [](const PyOperator& self) { return self.op->options().order; })

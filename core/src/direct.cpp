@@ -6,11 +6,10 @@
 namespace illumap {
 
 namespace {
-template <NearField NF>
 __attribute__((target_clones("avx2", "default")))
 void accumulate_impl(const Receiver& rc, const SourceView& v, double acc[3]) {
     const double px = rc.px, py = rc.py, pz = rc.pz;
-    const double nix = rc.nx, niy = rc.ny, niz = rc.nz, Ai = rc.area;
+    const double nix = rc.nx, niy = rc.ny, niz = rc.nz;
     const double *__restrict qx = v.px, *__restrict qy = v.py, *__restrict qz = v.pz;
     const double *__restrict mx = v.nx, *__restrict my = v.ny, *__restrict mz = v.nz,
                  *__restrict A = v.area;
@@ -18,8 +17,8 @@ void accumulate_impl(const Receiver& rc, const SourceView& v, double acc[3]) {
     double a0 = 0, a1 = 0, a2 = 0;
     const std::size_t n = v.n;
     for (std::size_t j = 0; j < n; ++j) {
-        const double f = pair_factor<NF>(px - qx[j], py - qy[j], pz - qz[j], nix, niy, niz, Ai,
-                                         mx[j], my[j], mz[j], A[j]);
+        const double f = pair_factor(px - qx[j], py - qy[j], pz - qz[j], nix, niy, niz, mx[j],
+                                     my[j], mz[j], A[j]);
         a0 += f * x0[j];
         a1 += f * x1[j];
         a2 += f * x2[j];
@@ -30,14 +29,11 @@ void accumulate_impl(const Receiver& rc, const SourceView& v, double acc[3]) {
 }
 }  // namespace
 
-void accumulate_sources(const Receiver& r, const SourceView& v, NearField nf, double acc[3]) {
-    if (nf == NearField::Disc)
-        accumulate_impl<NearField::Disc>(r, v, acc);
-    else
-        accumulate_impl<NearField::Point>(r, v, acc);
+void accumulate_sources(const Receiver& r, const SourceView& v, double acc[3]) {
+    accumulate_impl(r, v, acc);
 }
 
-void direct_rows(Context& ctx, const SurfelSoA& s, NearField nf, const double* x,
+void direct_rows(Context& ctx, const SurfelSoA& s, const double* x,
                  const std::int64_t* rows, std::size_t nrows, double* y) {
     const std::size_t n = s.n;
     // Source values in SoA so the inner loop streams three contiguous arrays.
@@ -56,7 +52,7 @@ void direct_rows(Context& ctx, const SurfelSoA& s, NearField nf, const double* x
             double acc[3] = {0, 0, 0};
             const std::size_t i = std::size_t(rows[r]);
             const Receiver rc{s.px[i], s.py[i], s.pz[i], s.nx[i], s.ny[i], s.nz[i], s.area[i]};
-            accumulate_sources(rc, src, nf, acc);
+            accumulate_sources(rc, src, acc);
             y[3 * r] = acc[0];
             y[3 * r + 1] = acc[1];
             y[3 * r + 2] = acc[2];
@@ -64,10 +60,10 @@ void direct_rows(Context& ctx, const SurfelSoA& s, NearField nf, const double* x
     });
 }
 
-void direct_apply(Context& ctx, const SurfelSoA& s, NearField nf, const double* x, double* y) {
+void direct_apply(Context& ctx, const SurfelSoA& s, const double* x, double* y) {
     std::vector<std::int64_t> rows(s.n);
     for (std::size_t i = 0; i < s.n; ++i) rows[i] = std::int64_t(i);
-    direct_rows(ctx, s, nf, x, rows.data(), s.n, y);
+    direct_rows(ctx, s, x, rows.data(), s.n, y);
 }
 
 }  // namespace illumap

@@ -10,11 +10,11 @@ namespace illumap {
 
 // y[r] = sum_j F_{rows[r], j} x_j for each listed receiver (x, y: N x 3 / R x 3, row-major).
 // Parallel over receivers; each writes only its own row.
-void direct_rows(Context& ctx, const SurfelSoA& s, NearField nf, const double* x,
+void direct_rows(Context& ctx, const SurfelSoA& s, const double* x,
                  const std::int64_t* rows, std::size_t nrows, double* y);
 
-// y = F x for all receivers.
-void direct_apply(Context& ctx, const SurfelSoA& s, NearField nf, const double* x, double* y);
+// y = F_point x for all receivers (the near-field correction is added by the caller).
+void direct_apply(Context& ctx, const SurfelSoA& s, const double* x, double* y);
 
 // Sources as raw arrays (positions, normals, areas, values; all of length n).
 struct SourceView {
@@ -28,6 +28,6 @@ struct Receiver {
 };
 
 // acc[3] += sum_j F_ij x_j over all sources of v (the shared inner loop of direct and P2P).
-void accumulate_sources(const Receiver& r, const SourceView& v, NearField nf, double acc[3]);
+void accumulate_sources(const Receiver& r, const SourceView& v, double acc[3]);
 
 }  // namespace illumap

@@ -28,18 +28,57 @@ TransportOperator::TransportOperator(Context& ctx, const double* positions, cons
     }
     ctx.set_phase("setup", 0.0, 0.0);
     checkpoint(ctx, 0.0);
-    if (!opt_.fmm || n == 0) return;
+    const bool with_vis = opt_.vis.method != VisMethod::None && n > 0;
+    if (with_vis) {
+        // The visibility model lives on the octree (also for the direct method), and is built
+        // before the near correction, whose pairs it weights.
+        auto t0 = Clock::now();
+        ctx.set_phase("tree", 0.0, 0.05);
+        checkpoint(ctx, 0.0);
+        tree_ = std::make_unique<Octree>(build_octree(ctx, orig_, opt_.leaf_size));
+        timings_["build_tree"] = seconds_since(t0);
+        iperm_.assign(n, 0);
+        for (std::size_t k = 0; k < n; ++k) iperm_[tree_->perm[k]] = std::uint32_t(k);
+        t0 = Clock::now();
+        ctx.set_phase("visibility", 0.05, 0.05);
+        checkpoint(ctx, 0.05);
+        vis_ = make_visibility(ctx, *tree_, opt_.vis);
+        timings_["build_visibility"] = seconds_since(t0);
+    }
+    if (opt_.near_field == NearField::Disc && n > 1) {
+        const auto tn = Clock::now();
+        ctx.set_phase("near field", 0.1, opt_.fmm ? 0.1 : 0.4);
+        PairVisibilityFn vf = [this](std::uint32_t i, std::uint32_t j) {
+            return vis_->pair(iperm_[i], iperm_[j]);
+        };
+        near_ = std::make_unique<NearCorrection>(
+            build_near_correction(ctx, orig_, vis_ ? &vf : nullptr));
+        timings_["build_near"] = seconds_since(tn);
+    }
+    if (!opt_.fmm && vis_ && n > 1) {
+        const auto tn = Clock::now();
+        ctx.set_phase("direct visibility", 0.5, 0.5);
+        checkpoint(ctx, 0.5);
+        build_direct_visibility(ctx);
+        timings_["build_direct_visibility"] = seconds_since(tn);
+    }
+    if (!opt_.fmm || n == 0) {
+        limit_near_rows(ctx);
+        return;
+    }
     auto t0 = Clock::now();
-    ctx.set_phase("tree", 0.0, 0.3);
-    checkpoint(ctx, 0.0);
-    tree_ = std::make_unique<Octree>(build_octree(ctx, orig_, opt_.leaf_size));
-    timings_["build_tree"] = seconds_since(t0);
+    if (!tree_) {
+        ctx.set_phase("tree", 0.0, 0.3);
+        checkpoint(ctx, 0.0);
+        tree_ = std::make_unique<Octree>(build_octree(ctx, orig_, opt_.leaf_size));
+        timings_["build_tree"] = seconds_since(t0);
+    }
     auto t1 = Clock::now();
     ctx.set_phase("lists", 0.3, 0.7);
     checkpoint(ctx, 0.3);
     TraversalOptions to;
     to.theta = opt_.theta;
-    to.near_field = opt_.near_field;
+    to.model = vis_.get();
     lists_ = std::make_unique<InteractionLists>(build_interaction_lists(ctx, *tree_, to));
     timings_["build_lists"] = seconds_since(t1);
     tables_ = std::make_unique<ExpansionTables>(opt_.order);
@@ -59,6 +98,70 @@ TransportOperator::TransportOperator(Context& ctx, const double* positions, cons
             internal_.push_back(std::int32_t(k));
         }
     }
+    limit_near_rows(ctx);
+}
+
+// Energy: one apply of F to ones gives every row sum; rows above 1 get their close pairs scaled
+// down (NearCorrection::limit_row_sums). Only the "disc" rule does this: "point" is kept bare.
+void TransportOperator::limit_near_rows(Context& ctx) {
+    if (!near_ || n_ < 2) return;
+    const auto t0 = Clock::now();
+    std::vector<double> ones(3 * n_, 0.0), rows3(3 * n_, 0.0), rows(n_);
+    for (std::size_t i = 0; i < n_; ++i) ones[3 * i] = 1.0;
+    apply(ctx, ones.data(), rows3.data());
+    for (std::size_t i = 0; i < n_; ++i) rows[i] = rows3[3 * i];
+    near_->limited_rows = near_->limit_row_sums(rows.data());
+    timings_["build_row_limit"] = seconds_since(t0);
+}
+
+// Direct method with visibility: C_ij = -(1 - V_ij) F_point_ij over the facing pairs that are
+// not fully visible (each unordered pair queried once), so that F_point x + C x = (F_point∘V) x.
+void TransportOperator::build_direct_visibility(Context& ctx) {
+    const SurfelSoA& s = orig_;
+    const std::size_t n = n_;
+    struct Trip { std::int64_t r, c; double v; };
+    const std::size_t grain = 16;
+    const std::size_t nchunks = (n + grain - 1) / grain;
+    std::vector<std::vector<Trip>> found(nchunks);
+    parallel_for(ctx, n, grain, [&](std::size_t b, std::size_t e) {
+        auto& mine = found[b / grain];
+        for (std::size_t i = b; i < e; ++i) {
+            if (ctx.cancel.load(std::memory_order_relaxed)) return;
+            for (std::size_t j = i + 1; j < n; ++j) {
+                const double dx = s.px[i] - s.px[j], dy = s.py[i] - s.py[j], dz = s.pz[i] - s.pz[j];
+                const double fij = pair_factor(dx, dy, dz, s.nx[i], s.ny[i], s.nz[i], s.nx[j],
+                                               s.ny[j], s.nz[j], s.area[j]);
+                if (!(fij > 0.0)) continue;
+                const float v = vis_->pair(iperm_[i], iperm_[j]);
+                if (v >= 1.0f) continue;
+                const double fji = pair_factor(-dx, -dy, -dz, s.nx[j], s.ny[j], s.nz[j], s.nx[i],
+                                               s.ny[i], s.nz[i], s.area[i]);
+                mine.push_back({std::int64_t(i), std::int64_t(j), -(1.0 - v) * fij});
+                mine.push_back({std::int64_t(j), std::int64_t(i), -(1.0 - v) * fji});
+            }
+        }
+    });
+    checkpoint(ctx, 1.0);
+    auto C = std::make_unique<NearCorrection>();
+    C->offsets.assign(n + 1, 0);
+    std::size_t total = 0;
+    for (auto& f : found) {
+        total += f.size();
+        for (const Trip& t : f) C->offsets[t.r + 1]++;
+    }
+    for (std::size_t i = 0; i < n; ++i) C->offsets[i + 1] += C->offsets[i];
+    C->columns.resize(total);
+    C->values.resize(total);
+    std::vector<std::int64_t> fill(C->offsets.begin(), C->offsets.end() - 1);
+    for (auto& f : found) {
+        for (const Trip& t : f) {
+            const std::int64_t p = fill[t.r]++;
+            C->columns[p] = t.c;
+            C->values[p] = t.v;
+        }
+        std::vector<Trip>().swap(f);
+    }
+    vis_direct_ = std::move(C);
 }
 
 void TransportOperator::apply(Context& ctx, const double* x, double* y) {
@@ -66,10 +169,12 @@ void TransportOperator::apply(Context& ctx, const double* x, double* y) {
     if (!opt_.fmm || n_ == 0) {
         ctx.set_phase("direct", 0.0, 1.0);
         checkpoint(ctx, 0.0);
-        direct_apply(ctx, orig_, opt_.near_field, x, y);
+        direct_apply(ctx, orig_, x, y);
+        if (vis_direct_) vis_direct_->apply_add(ctx, x, y);
     } else {
         apply_fmm(ctx, x, y);
     }
+    if (near_) near_->apply_add(ctx, x, y);
     timings_["apply"] = seconds_since(t0);
 }
 
@@ -77,7 +182,35 @@ void TransportOperator::apply_rows(Context& ctx, const double* x, const std::int
                                    std::size_t nrows, double* y) const {
     ctx.set_phase("direct", 0.0, 1.0);
     checkpoint(ctx, 0.0);
-    direct_rows(ctx, orig_, opt_.near_field, x, rows, nrows, y);
+    if (!vis_) {
+        direct_rows(ctx, orig_, x, rows, nrows, y);
+    } else {
+        // Per-pair visibility on the fly (one ray per facing pair): the reference "direct with
+        // exact visibility" on a receiver subset.
+        const SurfelSoA& s = orig_;
+        parallel_for(ctx, nrows, 1, [&](std::size_t b, std::size_t e) {
+            for (std::size_t r = b; r < e; ++r) {
+                if (ctx.cancel.load(std::memory_order_relaxed)) return;
+                const std::size_t i = std::size_t(rows[r]);
+                double acc[3] = {0, 0, 0};
+                for (std::size_t j = 0; j < n_; ++j) {
+                    double f = pair_factor(s.px[i] - s.px[j], s.py[i] - s.py[j],
+                                           s.pz[i] - s.pz[j], s.nx[i], s.ny[i], s.nz[i],
+                                           s.nx[j], s.ny[j], s.nz[j], s.area[j]);
+                    if (!(f > 0.0)) continue;
+                    f *= vis_->pair(iperm_[i], iperm_[j]);
+                    acc[0] += f * x[3 * j];
+                    acc[1] += f * x[3 * j + 1];
+                    acc[2] += f * x[3 * j + 2];
+                }
+                y[3 * r] = acc[0];
+                y[3 * r + 1] = acc[1];
+                y[3 * r + 2] = acc[2];
+            }
+        });
+        checkpoint(ctx, 1.0);
+    }
+    if (near_) near_->apply_rows_add(x, rows, nrows, y);
 }
 
 void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
@@ -154,6 +287,35 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
         const OctreeNode& nt = T.nodes[tn];
         std::int64_t k = IL.m2l_off[tn];
         const std::int64_t kend = IL.m2l_off[tn + 1];
+        if (!IL.m2l_w.empty()) {
+            // Visibility: PARTIAL far leaf pairs carry a weight (M2L is linear in the source
+            // multipole: scale a copy); unit weights go four at a time as below.
+            thread_local std::vector<double> wbuf;
+            wbuf.resize(W);
+            double R4[4][3];
+            const double* M4[4];
+            int q = 0;
+            for (; k < kend; ++k) {
+                const std::int32_t sn = IL.m2l_src[k];
+                const OctreeNode& ns = T.nodes[sn];
+                const double R[3] = {nt.center[0] - ns.center[0], nt.center[1] - ns.center[1],
+                                     nt.center[2] - ns.center[2]};
+                const float w = IL.m2l_w[k];
+                if (w == 1.0f) {
+                    for (int d = 0; d < 3; ++d) R4[q][d] = R[d];
+                    M4[q] = Mof(sn);
+                    if (++q == 4) {
+                        m2l4(tb, R4, M4, Lt, work);
+                        q = 0;
+                    }
+                } else {
+                    const double* Ms = Mof(sn);
+                    for (std::size_t c = 0; c < W; ++c) wbuf[c] = double(w) * Ms[c];
+                    m2l(tb, R, wbuf.data(), Lt, work);
+                }
+            }
+            for (int r = 0; r < q; ++r) m2l(tb, R4[r], M4[r], Lt, work);
+        }
         for (; k + 4 <= kend; k += 4) {  // four sources at a time (SIMD across sources)
             double R[4][3];
             const double* Ms[4];
@@ -245,15 +407,22 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
                 gather_far(ln, Lleaf.data(), work.data());
             }
             const double* Ll = Lleaf.data();
+            // Visibility: entries with a per-pair block are summed separately (below); whole-entry
+            // weights scale the gathered source values.
+            const bool vw = !IL.p2p_w.empty();
+            bool any_block = false;
             std::size_t ns = 0;
-            for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k)
+            for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k) {
+                if (vw && IL.p2p_blk[k] >= 0) { any_block = true; continue; }
                 ns += T.nodes[IL.p2p_src[k]].count();
-            buf.resize(10 * ns);
+            }
+            buf.resize(std::max<std::size_t>(1, 10 * ns));
             const SourceView v{&buf[0], &buf[ns], &buf[2 * ns], &buf[3 * ns], &buf[4 * ns],
                                &buf[5 * ns], &buf[6 * ns], &buf[7 * ns], &buf[8 * ns],
                                &buf[9 * ns], ns};
             std::size_t o = 0;
             for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k) {
+                if (vw && IL.p2p_blk[k] >= 0) continue;
                 const OctreeNode& sn = T.nodes[IL.p2p_src[k]];
                 const std::size_t c = sn.count(), j0 = sn.begin;
                 std::memcpy(&buf[o], &T.s.px[j0], c * sizeof(double));
@@ -266,6 +435,14 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
                 std::memcpy(&buf[7 * ns + o], &x0[j0], c * sizeof(double));
                 std::memcpy(&buf[8 * ns + o], &x1[j0], c * sizeof(double));
                 std::memcpy(&buf[9 * ns + o], &x2[j0], c * sizeof(double));
+                if (vw && IL.p2p_w[k] != 1.0f) {
+                    const double w = IL.p2p_w[k];
+                    for (std::size_t q2 = 0; q2 < c; ++q2) {
+                        buf[7 * ns + o + q2] *= w;
+                        buf[8 * ns + o + q2] *= w;
+                        buf[9 * ns + o + q2] *= w;
+                    }
+                }
                 o += c;
             }
             for (std::uint32_t i = nd.begin; i < nd.end; ++i) {
@@ -296,7 +473,27 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
                 if (ns) {
                     const Receiver rc{T.s.px[i], T.s.py[i], T.s.pz[i], T.s.nx[i],
                                       T.s.ny[i], T.s.nz[i], T.s.area[i]};
-                    accumulate_sources(rc, v, opt_.near_field, acc);
+                    accumulate_sources(rc, v, acc);
+                }
+                if (any_block) {
+                    for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k) {
+                        if (IL.p2p_blk[k] < 0) continue;
+                        const OctreeNode& sn = T.nodes[IL.p2p_src[k]];
+                        const std::uint8_t* B = &IL.blocks[std::size_t(IL.p2p_blk[k]) +
+                                                    std::size_t(i - nd.begin) * sn.count()];
+                        for (std::uint32_t j = sn.begin; j < sn.end; ++j) {
+                            if (B[j - sn.begin] == 0) continue;
+                            const double vij = B[j - sn.begin] * (1.0 / 255.0);
+                            const double f =
+                                vij * pair_factor(T.s.px[i] - T.s.px[j], T.s.py[i] - T.s.py[j],
+                                                  T.s.pz[i] - T.s.pz[j], T.s.nx[i], T.s.ny[i],
+                                                  T.s.nz[i], T.s.nx[j], T.s.ny[j], T.s.nz[j],
+                                                  T.s.area[j]);
+                            acc[0] += f * x0[j];
+                            acc[1] += f * x1[j];
+                            acc[2] += f * x2[j];
+                        }
+                    }
                 }
                 yt[3 * i] = acc[0];
                 yt[3 * i + 1] = acc[1];
@@ -321,7 +518,7 @@ std::map<std::string, double> TransportOperator::scalar_stats() const {
     s["theta"] = opt_.theta;
     s["leaf_size"] = opt_.leaf_size;
     std::size_t bytes = 7 * n_ * sizeof(double);
-    if (tree_) {
+    if (lists_) {
         s["nodes"] = double(tree_->nodes.size());
         s["leaves"] = double(tree_->leaves.size());
         s["depth"] = tree_->depth;
@@ -343,6 +540,33 @@ std::map<std::string, double> TransportOperator::scalar_stats() const {
         s["p2p_node_pairs"] = 0;
         s["p2p_pairs"] = double(n_) * double(n_);
     }
+    if (vis_) {
+        const VisStats vs = vis_->stats();
+        s["visibility_queries"] = double(vs.queries);
+        s["visibility_no_facing"] = double(vs.no_facing);
+        s["visibility_blocks"] = double(vs.blocks);
+        s["visibility_block_pairs"] = double(vs.block_pairs);
+        s["visibility_bytes"] = double(vs.bytes);
+        s["time_visibility_setup"] = vs.build_seconds;
+        s["visibility_samples"] = vis_->options().samples;
+        bytes += vs.bytes + iperm_.capacity() * sizeof(std::uint32_t);
+        if (lists_) {
+            s["visibility_m2l_weighted"] = double(lists_->vis_m2l_weighted);
+            s["visibility_p2p_weighted"] = double(lists_->vis_p2p_weighted);
+            s["visibility_p2p_blocks"] = double(lists_->vis_p2p_blocks);
+            s["visibility_block_bytes"] = double(lists_->blocks.capacity());
+        }
+        if (vis_direct_) {
+            s["visibility_blocked_pairs"] = double(vis_direct_->pairs());
+            bytes += vis_direct_->bytes();
+        }
+        if (!lists_) bytes += tree_->bytes();
+    }
+    s["near_pairs"] = near_ ? double(near_->pairs()) : 0.0;
+    s["near_candidate_pairs"] = near_ ? double(near_->candidate_pairs) : 0.0;
+    s["near_bytes"] = near_ ? double(near_->bytes()) : 0.0;
+    s["near_limited_rows"] = near_ ? double(near_->limited_rows) : 0.0;
+    if (near_) bytes += near_->bytes();
     s["bytes"] = double(bytes);
     for (const auto& kv : timings_) s["time_" + kv.first] = kv.second;
     return s;
@@ -350,10 +574,29 @@ std::map<std::string, double> TransportOperator::scalar_stats() const {
 
 std::map<std::string, std::vector<double>> TransportOperator::level_stats() const {
     std::map<std::string, std::vector<double>> s;
-    if (!lists_) return s;
     auto conv = [](const std::vector<std::int64_t>& v) {
         return std::vector<double>(v.begin(), v.end());
     };
+    if (vis_) {
+        // The model's own counts: every classify() call, per level max(level(a), level(b)).
+        const VisStats vs = vis_->stats();
+        std::vector<double> a, b, c;
+        for (const auto& l : vs.per_level) {
+            a.push_back(double(l[0]));
+            b.push_back(double(l[1]));
+            c.push_back(double(l[2]));
+        }
+        s["visibility_valid_per_level"] = a;
+        s["visibility_invalid_per_level"] = b;
+        s["visibility_partial_per_level"] = c;
+        if (lists_ && !lists_->vis_valid_per_level.empty()) {
+            // The traversal's view: ordered pairs it queried, by class.
+            s["lists_valid_per_level"] = conv(lists_->vis_valid_per_level);
+            s["lists_invalid_per_level"] = conv(lists_->vis_invalid_per_level);
+            s["lists_partial_per_level"] = conv(lists_->vis_partial_per_level);
+        }
+    }
+    if (!lists_) return s;
     s["accepted_per_level"] = conv(lists_->accepted_per_level);
     s["dropped_per_level"] = conv(lists_->dropped_per_level);
     s["split_per_level"] = conv(lists_->split_per_level);

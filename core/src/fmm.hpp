@@ -4,8 +4,10 @@
 
 #include "direct.hpp"
 #include "expansions.hpp"
+#include "near_field.hpp"
 #include "octree.hpp"
 #include "traversal.hpp"
+#include "visibility.hpp"
 
 #include <map>
 #include <memory>
@@ -20,6 +22,11 @@ struct OperatorOptions {
     double theta = 0.5;
     int leaf_size = 32;
     NearField near_field = NearField::Disc;
+    // Occlusion (visibility.hpp). With a method other than None the octree is built for the
+    // direct method too (the visibility model lives on it); the direct operator then applies
+    // V per pair (F_point·V as F_point minus a sparse correction over the blocked pairs, O(N²)
+    // rays once per geometry), and apply_rows applies V per pair on the fly.
+    VisibilityOptions vis;
 };
 
 class TransportOperator {
@@ -30,6 +37,8 @@ public:
 
     std::size_t size() const { return n_; }
     const OperatorOptions& options() const { return opt_; }
+    // The visibility model (nullptr for "none").
+    const VisibilityModel* visibility() const { return vis_.get(); }
 
     // y = F x (x, y: n x 3 row-major, in the caller's order).
     void apply(Context& ctx, const double* x, double* y);
@@ -43,12 +52,18 @@ public:
 
 private:
     void apply_fmm(Context& ctx, const double* x, double* y);
+    void build_direct_visibility(Context& ctx);
+    void limit_near_rows(Context& ctx);
 
     std::size_t n_;
     OperatorOptions opt_;
     SurfelSoA orig_;  // caller's order: direct operator and apply_rows
     // FMM state (empty for the direct method)
+    std::unique_ptr<NearCorrection> near_;  // "disc" rule for close pairs (both methods)
     std::unique_ptr<Octree> tree_;
+    std::unique_ptr<VisibilityModel> vis_;  // holds a reference to *tree_ (declared after it)
+    std::vector<std::uint32_t> iperm_;      // caller's index -> tree position
+    std::unique_ptr<NearCorrection> vis_direct_;  // direct method: -(1 - V_ij) F_point_ij
     std::unique_ptr<InteractionLists> lists_;
     std::unique_ptr<ExpansionTables> tables_;
     std::map<std::string, double> timings_;

@@ -103,10 +103,12 @@ PairClass classify(const SurfelSoA& surf, const OctreeNode& t, const OctreeNode&
     const double dist = std::sqrt(R[0] * R[0] + R[1] * R[1] + R[2] * R[2]);
     const double sep = t.radius + s.radius;
     const double rmin = dist - sep;
-    const bool far_rule = opt.near_field == NearField::Point ||
-                          (rmin > 0 && kPi * rmin * rmin > 2.0 * kT0 * 0.5 * (t.amax + s.amax));
-    const bool mac = sep < opt.theta * dist;
-    if (mac && far_rule && vis == Visibility::Valid) {
+    // Strongly coupled pairs (π r² ≤ 2 t0 Ā somewhere in them) are summed directly: their
+    // large terms would otherwise carry the expansion's relative error.
+    const bool well_separated =
+        rmin > 0 && kPi * rmin * rmin > 2.0 * kT0 * 0.5 * (t.amax + s.amax);
+    const bool mac = sep < opt.theta * dist && well_separated;
+    if (mac && vis == Visibility::Valid) {
         if (rt.all_pos && rs.all_pos) return PairClass::Accept;
         // Mixed facing. If only the receivers' test is mixed, the source straddles the
         // target's tangent plane: refine the source down to leaves and hand each of their
@@ -132,7 +134,9 @@ std::size_t InteractionLists::bytes() const {
     return (m2l_off.capacity() + p2p_off.capacity() + m2p_off.capacity() + p2l_off.capacity()) *
                sizeof(std::int64_t) +
            (m2l_src.capacity() + p2p_src.capacity() + m2p_src.capacity() + p2l_src.capacity()) *
-               sizeof(std::int32_t);
+               sizeof(std::int32_t) +
+           (m2l_w.capacity() + p2p_w.capacity()) * sizeof(float) + blocks.capacity() +
+           p2p_blk.capacity() * sizeof(std::int64_t);
 }
 
 namespace {
@@ -145,10 +149,48 @@ struct Walker {
     std::vector<Pair> m2l, p2p, m2p, p2l;
     std::vector<std::int64_t> acc, drop, split, nearc;
     std::int64_t surfel_pairs = 0;
+    // Visibility (opt.model): weights parallel to m2l / p2p, per-pair blocks (local offsets).
+    std::vector<float> m2l_w, p2p_w;
+    std::vector<std::uint8_t> blk;
+    std::vector<std::int64_t> p2p_blk;
+    std::vector<std::int64_t> vv, vi, vp;
+    std::int64_t nm2lw = 0, np2pw = 0, nblk = 0;
+    std::vector<float> tmp;
 
     Walker(const Octree& tr, const TraversalOptions& o) : tree(tr), opt(o) {
         const std::size_t L = tree.levels.size() + 1;
         acc.assign(L, 0); drop.assign(L, 0); split.assign(L, 0); nearc.assign(L, 0);
+        vv.assign(L, 0); vi.assign(L, 0); vp.assign(L, 0);
+    }
+
+    void add_m2l(Pair pr, float w) {
+        m2l.push_back(pr);
+        if (opt.model) {
+            m2l_w.push_back(w);
+            if (w != 1.0f) nm2lw++;
+        }
+    }
+    void add_p2p(Pair pr, float w, std::int64_t b) {
+        p2p.push_back(pr);
+        if (opt.model) {
+            p2p_w.push_back(w);
+            p2p_blk.push_back(b);
+            if (w != 1.0f) np2pw++;
+            if (b >= 0) nblk++;
+        }
+    }
+    // Per-pair V of two leaves; -1 when every pair is visible (nothing stored).
+    std::int64_t store_block(std::int32_t a, std::int32_t b) {
+        const std::size_t m = std::size_t(tree.nodes[a].count()) * tree.nodes[b].count();
+        tmp.resize(m);
+        opt.model->block(a, b, tmp.data());
+        bool all = true;
+        for (float v : tmp) all = all && v == 1.0f;
+        if (all) return -1;
+        const std::int64_t off = std::int64_t(blk.size());
+        blk.reserve(blk.size() + m);
+        for (float v : tmp) blk.push_back(std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)));
+        return off;
     }
 
     // Classifies one pair; appends its children pairs to `out` when it must be split.
@@ -158,7 +200,8 @@ struct Walker {
         const int lev = std::max(t.level, s.level);
         if (pr.t == pr.s) {  // self pair: all ordered child pairs, or direct at a leaf
             if (t.leaf()) {
-                p2p.push_back(pr);
+                // Surfels of one leaf can hide each other (a corner, a block on a floor).
+                add_p2p(pr, 1.0f, opt.model ? store_block(pr.t, pr.t) : -1);
                 nearc[lev]++;
                 surfel_pairs += std::int64_t(t.count()) * t.count();
             } else {
@@ -168,15 +211,44 @@ struct Walker {
             }
             return;
         }
-        const Visibility vis = opt.visibility ? (*opt.visibility)(pr.t, pr.s) : Visibility::Valid;
-        switch (classify(tree.s, t, s, opt, vis)) {
+        // The kernel alone first; visibility only where an interaction would be produced.
+        PairClass k = classify(tree.s, t, s, opt, Visibility::Valid);
+        float w = 1.0f;
+        std::int64_t b = -1;
+        if ((opt.model || opt.visibility) && (k == PairClass::Accept || k == PairClass::M2P ||
+                                              k == PairClass::P2L || k == PairClass::Near)) {
+            if (opt.model) {
+                const VisibilityModel& m = *opt.model;
+                const bool leaves = t.leaf() && s.leaf();
+                float frac = 1.0f;
+                const VisClass c = (leaves && m.leaf_mode() != LeafMode::Binary)
+                                       ? m.classify_fraction(pr.t, pr.s, &frac)
+                                       : m.classify(pr.t, pr.s);
+                (c == VisClass::Valid ? vv : c == VisClass::Invalid ? vi : vp)[lev]++;
+                if (c == VisClass::Invalid) {
+                    k = PairClass::Drop;
+                } else if (c == VisClass::Partial) {
+                    if (leaves) {  // cannot be pushed down: Accept (far) or Near
+                        if (k == PairClass::Near && m.leaf_mode() == LeafMode::PerPair)
+                            b = store_block(pr.t, pr.s);
+                        else
+                            w = frac;
+                    } else {
+                        k = classify(tree.s, t, s, opt, Visibility::Partial);  // -> Split
+                    }
+                }
+            } else {
+                k = classify(tree.s, t, s, opt, (*opt.visibility)(pr.t, pr.s));
+            }
+        }
+        switch (k) {
             case PairClass::Drop: drop[lev]++; return;
-            case PairClass::Accept: acc[lev]++; m2l.push_back(pr); return;
+            case PairClass::Accept: acc[lev]++; add_m2l(pr, w); return;
             case PairClass::M2P: acc[lev]++; m2p.push_back(pr); return;
             case PairClass::P2L: acc[lev]++; p2l.push_back(pr); return;
             case PairClass::Near:
                 nearc[lev]++;
-                p2p.push_back(pr);
+                add_p2p(pr, w, b);
                 surfel_pairs += std::int64_t(t.count()) * s.count();
                 return;
             case PairClass::SplitS:
@@ -191,7 +263,10 @@ struct Walker {
         }
         split[lev]++;
         // Split the source when the target is a leaf or the source is the larger one.
-        if (!s.leaf() && (t.leaf() || s.radius > t.radius)) {
+        // With a visibility model radius ties go by node id, so (t, s) and (s, t) split the same
+        // node and their lists mirror each other (exact reciprocity of the sampled classes).
+        if (!s.leaf() && (t.leaf() || s.radius > t.radius ||
+                          (opt.model && s.radius == t.radius && pr.s > pr.t))) {
             for (int b = 0; b < s.nchild; ++b) out.push_back({pr.t, s.child + b});
         } else {
             for (int a = 0; a < t.nchild; ++a) out.push_back({t.child + a, pr.s});
@@ -221,6 +296,17 @@ std::vector<std::int64_t> to_csr(std::size_t nnodes, std::vector<std::vector<Pai
     for (auto* v : parts)
         for (const Pair& p : *v) src[pos[p.t]++] = p.s;
     return off;
+}
+
+// The same CSR, carrying per-entry weights (and block offsets shifted into one store).
+template <class T>
+void csr_payload(std::size_t nnodes, const std::vector<std::int64_t>& off,
+                 std::vector<std::vector<Pair>*>& parts, std::vector<const std::vector<T>*>& pay,
+                 std::vector<T>& out) {
+    out.assign(off[nnodes], T());
+    std::vector<std::int64_t> pos(off.begin(), off.end() - 1);
+    for (std::size_t q = 0; q < parts.size(); ++q)
+        for (std::size_t k = 0; k < parts[q]->size(); ++k) out[pos[(*parts[q])[k].t]++] = (*pay[q])[k];
 }
 
 }  // namespace
@@ -273,6 +359,37 @@ InteractionLists build_interaction_lists(Context& ctx, const Octree& tree,
     }
     L.m2l_off = to_csr(nn, mparts, L.m2l_src);
     L.p2p_off = to_csr(nn, pparts, L.p2p_src);
+    if (opt.model) {
+        L.vis_valid_per_level.assign(Lv, 0); L.vis_invalid_per_level.assign(Lv, 0);
+        L.vis_partial_per_level.assign(Lv, 0);
+        std::vector<const std::vector<float>*> mw, pw;
+        std::vector<const std::vector<std::int64_t>*> pb;
+        std::size_t total = 0;
+        for (auto& w : walkers) {
+            for (auto& o : w.p2p_blk)
+                if (o >= 0) o += std::int64_t(total);
+            total += w.blk.size();
+            mw.push_back(&w.m2l_w);
+            pw.push_back(&w.p2p_w);
+            pb.push_back(&w.p2p_blk);
+            L.vis_m2l_weighted += w.nm2lw;
+            L.vis_p2p_weighted += w.np2pw;
+            L.vis_p2p_blocks += w.nblk;
+            for (std::size_t l = 0; l < Lv; ++l) {
+                L.vis_valid_per_level[l] += w.vv[l];
+                L.vis_invalid_per_level[l] += w.vi[l];
+                L.vis_partial_per_level[l] += w.vp[l];
+            }
+        }
+        L.blocks.reserve(total);
+        for (auto& w : walkers) {
+            L.blocks.insert(L.blocks.end(), w.blk.begin(), w.blk.end());
+            std::vector<std::uint8_t>().swap(w.blk);
+        }
+        csr_payload(nn, L.m2l_off, mparts, mw, L.m2l_w);
+        csr_payload(nn, L.p2p_off, pparts, pw, L.p2p_w);
+        csr_payload(nn, L.p2p_off, pparts, pb, L.p2p_blk);
+    }
     L.m2p_off = to_csr(nn, m2pparts, L.m2p_src);
     L.p2l_off = to_csr(nn, p2lparts, L.p2l_src);
     L.m2p_pairs = std::int64_t(L.m2p_src.size());

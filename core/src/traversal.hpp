@@ -11,6 +11,7 @@
 #pragma once
 
 #include "octree.hpp"
+#include "visibility.hpp"
 
 #include <functional>
 
@@ -26,7 +27,7 @@ namespace illumap {
 // SplitS / SplitT: split that side first (it is the one straddling the other's plane).
 enum class PairClass : std::uint8_t { Drop, Accept, Near, Split, M2P, P2L, SplitS, SplitT };
 
-// Visibility of a node pair (a later issue folds occlusion in here; V = 1 for now).
+// Visibility of a node pair (same values as visibility.hpp's VisClass).
 enum class Visibility : std::uint8_t { Valid, Invalid, Partial };
 using VisibilityFn = std::function<Visibility(std::int32_t target, std::int32_t source)>;
 
@@ -40,6 +41,18 @@ struct InteractionLists {
     std::int64_t m2p_pairs = 0, p2l_pairs = 0;
     // statistics
     std::int64_t m2l_pairs = 0, p2p_node_pairs = 0, p2p_surfel_pairs = 0;
+    // Visibility weights (empty when there is no visibility model), parallel to m2l_src and
+    // p2p_src: m2l_w = sampled fraction of a PARTIAL far leaf pair (1 otherwise); p2p_w = the
+    // same for a P2P node pair, and p2p_blk = offset into `blocks` of its per-pair V (row-major
+    // |t| x |s|, tree order) or -1 (then p2p_w applies to every pair of the entry). Blocks hold
+    // V quantised to 8 bits (round(255 V); exact and binary seed V are 0 or 1, exactly kept).
+    std::vector<float> m2l_w, p2p_w;
+    std::vector<std::int64_t> p2p_blk;
+    std::vector<std::uint8_t> blocks;
+    std::int64_t vis_m2l_weighted = 0, vis_p2p_weighted = 0, vis_p2p_blocks = 0;
+    // Visibility classes of the node pairs the traversal queried, per level [valid, invalid,
+    // partial] (ordered pairs: (t, s) and (s, t) both count).
+    std::vector<std::int64_t> vis_valid_per_level, vis_invalid_per_level, vis_partial_per_level;
     std::vector<std::int64_t> accepted_per_level, dropped_per_level, split_per_level,
         near_per_level;
     std::size_t bytes() const;
@@ -47,8 +60,12 @@ struct InteractionLists {
 
 struct TraversalOptions {
     double theta = 0.5;
-    NearField near_field = NearField::Disc;
-    const VisibilityFn* visibility = nullptr;  // nullptr: V = 1
+    const VisibilityFn* visibility = nullptr;  // nullptr: V = 1 (class only, no weights)
+    // A visibility model (takes precedence over `visibility`): classes, PARTIAL leaf pairs'
+    // fractions and per-pair blocks (visibility.hpp), self leaf pairs get per-pair V too, and
+    // radius ties in the split rule are broken by node id so the lists of (t, s) and (s, t)
+    // mirror each other (V symmetric: diag(A) F V stays symmetric).
+    const VisibilityModel* model = nullptr;
 };
 
 // Facing certificate for "owner" node o (whose normals are tested) against node q:

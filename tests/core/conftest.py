@@ -20,38 +20,101 @@ sys.modules.setdefault("illumap_core_testing", sys.modules[__name__])
 T0 = 16.0
 
 
-def near_weight(t):
-    """w(t) of the "disc" near-field rule."""
-    t = np.asarray(t, dtype=np.float64)
-    w_low = T0 / (1.0 + T0)
-    return np.where(t <= T0, t / (1.0 + t),
-                    np.where(t <= 2 * T0, w_low + (1.0 - w_low) * (t - T0) / T0, 1.0))
+POLYGON_SIDES = 8
 
 
-def reference_matrix(positions, normals, areas, near_field="disc", rows=None, chunk=256):
-    """Dense F[i, j] for the receivers ``rows`` (all by default)."""
+def _tangent_basis(m):
+    """Orthonormal (u, v) per unit normal m (P×3), from the axis least aligned with m."""
+    a = np.abs(m)
+    e = np.zeros_like(m)
+    ex = (a[:, 0] <= a[:, 1]) & (a[:, 0] <= a[:, 2])
+    ey = ~ex & (a[:, 1] <= a[:, 2])
+    e[ex, 0] = 1.0
+    e[ey, 1] = 1.0
+    e[~ex & ~ey, 2] = 1.0
+    u = np.cross(m, e)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    return u, np.cross(m, u)
+
+
+def point_to_polygon(x, n, c, m, area):
+    """Form factor from points x (normals n) to regular octagons of area ``area`` centred at c
+    with normals m, clipped to each receiver's front half-space (Lambert's formula)."""
+    k = POLYGON_SIDES
+    radius = np.sqrt(2.0 * area / (k * math.sin(2.0 * math.pi / k)))
+    u, v = _tangent_basis(m)
+    angles = 2.0 * math.pi * np.arange(k) / k
+    verts = (c[:, None, :] + radius[:, None, None] * (np.cos(angles)[None, :, None] * u[:, None, :]
+             + np.sin(angles)[None, :, None] * v[:, None, :])) - x[:, None, :]
+    h = np.einsum("pk,pvk->pv", n, verts)
+    nxt = np.roll(np.arange(k), -1)
+    keep = h > 0
+    cross = keep != keep[:, nxt]
+    s = h / np.where(cross, h - h[:, nxt], 1.0)
+    inter = verts + s[:, :, None] * (verts[:, nxt] - verts)
+    # Interleave (vertex k, intersection on edge k) and compact the kept ones in order.
+    cand = np.stack([verts, inter], axis=2).reshape(len(x), 2 * k, 3)
+    mask = np.stack([keep, cross], axis=2).reshape(len(x), 2 * k)
+    order = np.argsort(~mask, axis=1, kind="stable")
+    cand = np.take_along_axis(cand, order[:, :, None], axis=1)
+    count = mask.sum(axis=1)
+    idx = np.arange(2 * k)[None, :]
+    valid = idx < count[:, None]
+    nxt_idx = np.where(idx + 1 < count[:, None], idx + 1, 0)
+    b = np.take_along_axis(cand, nxt_idx[:, :, None], axis=1)
+    w = np.cross(cand, b)
+    lw = np.linalg.norm(w, axis=2)
+    term = np.where(valid & (lw > 0), np.arctan2(lw, np.einsum("pvk,pvk->pv", cand, b))
+                    * np.einsum("pk,pvk->pv", n, w) / np.where(lw > 0, lw, 1.0), 0.0)
+    f = np.minimum(1.0, np.abs(term.sum(axis=1)) / (2.0 * math.pi))
+    front = np.einsum("pk,pk->p", m, x - c) > 0
+    return np.where(front & (count >= 3), f, 0.0)
+
+
+def polygon_weight(t):
+    """Blend of the "disc" rule: 1 up to t0, linear to 0 at 2 t0."""
+    return np.clip(2.0 - np.asarray(t) / T0, 0.0, 1.0)
+
+
+ROW_SUM_CAP = 1.1
+
+
+def reference_matrix(positions, normals, areas, near_field="disc", rows=None):
+    """Dense F[i, j] for the receivers ``rows`` (all by default): the bare point kernel, and
+    with near_field="disc", for close facing pairs (π r² ≤ 2 t0 Ā), the symmetrized
+    point-to-octagon rule, with rows above 1.1 scaled back to 1.1 (docs/architecture.md)."""
     positions = np.asarray(positions, dtype=np.float64)
     normals = np.asarray(normals, dtype=np.float64)
     areas = np.asarray(areas, dtype=np.float64)
-    rows = np.arange(len(positions)) if rows is None else np.asarray(rows)
-    out = np.empty((len(rows), len(positions)))
-    for start in range(0, len(rows), chunk):
-        idx = rows[start:start + chunk]
-        d = positions[idx, None, :] - positions[None, :, :]          # r_i − r_j
-        r2 = np.einsum("ijk,ijk->ij", d, d)
-        r = np.sqrt(r2)
-        safe = np.where(r > 0, r, 1.0)
-        cos_i = -np.einsum("ik,ijk->ij", normals[idx], d) / safe
-        cos_j = np.einsum("jk,ijk->ij", normals, d) / safe
-        f = areas[None, :] * np.maximum(cos_i, 0) * np.maximum(cos_j, 0) / (
-            math.pi * np.where(r > 0, r2, 1.0))
-        if near_field == "disc":
-            abar = 0.5 * (areas[idx, None] + areas[None, :])
-            f = f * near_weight(math.pi * r2 / abar)
-        elif near_field != "point":
-            raise ValueError(near_field)
-        out[start:start + chunk] = np.where(r > 0, f, 0.0)
-    return out
+    if near_field not in ("disc", "point"):
+        raise ValueError(near_field)
+    d = positions[:, None, :] - positions[None, :, :]          # r_i − r_j
+    r2 = np.einsum("ijk,ijk->ij", d, d)
+    r = np.sqrt(r2)
+    safe = np.where(r > 0, r, 1.0)
+    cos_i = -np.einsum("ik,ijk->ij", normals, d) / safe
+    cos_j = np.einsum("jk,ijk->ij", normals, d) / safe
+    f = areas[None, :] * np.maximum(cos_i, 0) * np.maximum(cos_j, 0) / (
+        math.pi * np.where(r > 0, r2, 1.0))
+    f = np.where(r > 0, f, 0.0)
+    if near_field == "disc":
+        t = math.pi * r2 / (0.5 * (areas[:, None] + areas[None, :]))
+        close = (t <= 2 * T0) & (f > 0)
+        ii, jj = np.nonzero(close)
+        p = positions
+        f_ij = point_to_polygon(p[ii], normals[ii], p[jj], normals[jj], areas[jj])
+        f_ji = point_to_polygon(p[jj], normals[jj], p[ii], normals[ii], areas[ii])
+        g = 0.5 * (areas[ii] * f_ij + areas[jj] * f_ji)
+        w = polygon_weight(t[ii, jj])
+        f[ii, jj] = (1.0 - w) * f[ii, jj] + w * g / areas[ii]
+        sums = f.sum(axis=1)
+        close_sums = np.where(close, f, 0.0).sum(axis=1)
+        over = (sums > ROW_SUM_CAP) & (close_sums > 0)
+        gamma = np.ones(len(f))
+        gamma[over] = np.clip((ROW_SUM_CAP - (sums[over] - close_sums[over])) / close_sums[over],
+                              0, 1)
+        f[ii, jj] *= np.minimum(gamma[ii], gamma[jj])
+    return f if rows is None else f[np.asarray(rows)]
 
 
 class ReferenceOperator:

@@ -89,26 +89,29 @@ def box16():
 
 
 @pytest.mark.parametrize("kind", KINDS)
-@pytest.mark.parametrize("rho, furnace_tol", [(0.9, 0.10), (0.99, 0.45)])
+@pytest.mark.parametrize("rho, furnace_tol", [(0.9, 0.05), (0.99, 0.40)])
 def test_furnace_disc_near_field(box16, kind, rho, furnace_tol):
     """Uniform E and ρ in a closed box: B = E/(1−ρ) when the row sums of F are 1.
 
-    With the disc rule the 16×16-per-face box has row sums in [0.964, 1.005] (mean 0.994: the
-    near field under-counts pairs across an edge, and corners stay at 0.964 as the grid is
-    refined), and 1/(1−ρ) amplifies that deficit. Stated tolerance on B(1−ρ): 10 % at ρ = 0.9,
-    45 % at ρ = 0.99. Exact bound checked as well: B lies between E/(1−ρ·min row sum) and
+    With the disc rule (exact point-to-octagon form factors for close pairs) the 16×16-per-face
+    box has row sums in [0.989, 1.016], mean 1.0024; the excess is O(h) (mean 1.0047 at 8×8,
+    1.0013 at 32×32). 1/(1−ρ) amplifies it: B(1−ρ) is 1.00–1.04 at ρ = 0.9 and 1.30–1.34 at
+    ρ = 0.99 (1.12–1.16 at 32×32). Stated tolerance on B(1−ρ): 5 % at ρ = 0.9, 40 % at
+    ρ = 0.99. Exact bound checked as well: B lies between E/(1−ρ·min row sum) and
     E/(1−ρ·max row sum), since B = Σ_k (ρF)^k E with F ≥ 0."""
     s = box16.replace(albedo=np.full((box16.n, 3), rho))
     op = make_operator(kind, s, "disc")
     rows = op.apply(np.ones((s.n, 3)))[:, 0]
-    assert rows.max() <= 1.0 + 0.01
-    assert rows.mean() >= 0.99
+    assert 0.985 <= rows.min() and rows.max() <= 1.02
+    assert abs(rows.mean() - 1.0) <= 0.005
     sol = illumap.solve(s, operator=op, tol=1e-8)
     assert sol.converged and sol.stats["solver"] == "cg"
     B = sol.radiosity
     assert np.all(np.abs(B * (1 - rho) - 1.0) <= furnace_tol)
-    lo, hi = 1.0 / (1 - rho * rows.min()), 1.0 / (1 - rho * rows.max())
-    assert np.all(B >= lo * (1 - 1e-6)) and np.all(B <= hi * (1 + 1e-6))
+    lo = 1.0 / (1 - rho * rows.min())
+    assert np.all(B >= lo * (1 - 1e-6))
+    if rho * rows.max() < 1.0:       # the upper bound exists only then
+        assert np.all(B <= (1 + 1e-6) / (1 - rho * rows.max()))
     assert np.allclose(B[:, 0], B[:, 1]) and np.allclose(B[:, 0], B[:, 2])
 
 
@@ -162,19 +165,21 @@ def test_parallel_squares_second_order(kind, near_field):
 @pytest.mark.parametrize("kind", KINDS)
 def test_perpendicular_squares_first_order(kind):
     """Sharing an edge: the bare point rule reproduces DESIGN's 0.216744 / 0.208450 / 0.204261
-    (too high, O(h)); the disc rule converges O(h) from below: 0.197052 / 0.198500 / 0.199260."""
+    (too high, O(h)); the disc rule is ten times closer and also converges O(h) from above:
+    0.200977 / 0.200597 / 0.200342 (exact 0.200044)."""
     point, disc = [], []
     for n in (8, 16, 32):
         s, a, b = scenes.perpendicular_squares(n)
         point.append(scenes.view_factor(make_operator(kind, s, "point").apply, s, a, b))
         disc.append(scenes.view_factor(make_operator(kind, s, "disc").apply, s, a, b))
     np.testing.assert_allclose(point, [0.216744, 0.208450, 0.204261], atol=1e-6)
-    np.testing.assert_allclose(disc, [0.197052, 0.198500, 0.199260], atol=1e-6)
+    np.testing.assert_allclose(disc, [0.200977, 0.200597, 0.200342], atol=2e-6)
     exact = scenes.PERPENDICULAR_SQUARES_F
     for values in (point, disc):
         order = observed_order(values, exact)
         assert np.all(np.abs(order - 1.0) < 0.25), order
-    assert all(d < exact < p for d, p in zip(disc, point))
+    assert all(exact < d < p for d, p in zip(disc, point))
+    assert all(abs(d - exact) < 0.1 * abs(p - exact) for d, p in zip(disc, point))
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -257,7 +262,7 @@ def test_reciprocity_random_pairs(kind, near_field):
     sub = cols[idx]                                   # sub[a, b] = F[idx[a], idx[b]]
     A = s.areas[idx]
     lhs = A[:, None] * sub                            # A_i F_ij
-    np.testing.assert_allclose(lhs, lhs.T, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(lhs, lhs.T, rtol=1e-10, atol=1e-15)
     assert np.count_nonzero(sub) > 100                # the test has teeth
     if kind != "reference":
         assert op.symmetric
@@ -281,23 +286,26 @@ def test_native_direct_matches_numpy_reference(near_field):
 @pytest.mark.parametrize("kind", KINDS)
 def test_row_sums_closed_scenes_disc(kind):
     """No row sum above 1 beyond tolerance in closed convex scenes with the disc rule
-    (grid-sampled box: max 1.005; randomly sampled sphere with random areas: max 0.9995)."""
+    (grid-sampled box: max 1.016; randomly sampled sphere with random areas: below 1)."""
     for s in (scenes.closed_box(12),
               scenes.sphere_interior(1500, sampling="random", areas="random", seed=4)):
         rows = make_operator(kind, s, "disc").apply(np.ones((s.n, 3)))[:, 0]
-        assert rows.max() <= 1.0 + 0.01, rows.max()
+        assert rows.max() <= 1.0 + 0.02, rows.max()
         assert rows.mean() > 0.98
 
 
 @pytest.mark.parametrize("kind", KINDS)
 def test_random_box_energy_and_solve(kind):
-    """Randomly sampled box, disc rule: single rows exceed 1 (up to 1.3–1.7) where two surfels
-    nearly touch across an edge, but no energy is created overall: the area-weighted mean row
-    sum stays below 1 and CG converges at ρ = 0.99."""
+    """Randomly sampled box, disc rule: where two surfels nearly touch across an edge their
+    octagons overlap in the receiver's view and single rows would reach 1.3–1.7; rows above 1.1
+    are scaled back to 1.1 (symmetrically), so no row exceeds 1.1, no energy is created overall
+    (area-weighted mean row sum below 1) and CG converges at ρ = 0.99."""
     s = scenes.closed_box(12, sampling="random", seed=2, albedo=0.99)
     op = make_operator(kind, s, "disc")
     rows = op.apply(np.ones((s.n, 3)))[:, 0]
-    assert rows.max() > 1.1                                   # documented local excess
+    assert 1.05 < rows.max() <= 1.1 + 1e-9                    # limited, and the test has teeth
+    bare = make_operator(kind, s, "point").apply(np.ones((s.n, 3)))[:, 0]
+    assert bare.max() > 1.3
     assert (s.areas * rows).sum() / s.areas.sum() < 1.0
     sol = illumap.solve(s, operator=op, solver="cg", tol=1e-6)
     assert sol.converged and np.all(sol.radiosity > 0)

@@ -103,7 +103,7 @@ def test_reciprocity_and_symmetry_of_diag_a_f():
         F[:, j] = op.apply(e)[:, 0]
     S = A[:, None] * F
     np.testing.assert_allclose(S, S.T, rtol=1e-12, atol=1e-15 * abs(S).max())
-    assert (F >= 0).all() and F.max() > 0
+    assert (F >= -1e-14 * F.max()).all() and F.max() > 0     # rounding of the row limit
     # apply_rows gives the same rows
     x = np.random.default_rng(12).random((300, 3))
     rows = np.array([0, 17, 299, 17], dtype=np.int64)

@@ -206,8 +206,9 @@ def test_replace_revalidates():
     (dict(theta=1.5), "theta"),
     (dict(leaf_size=0), "leaf_size"),
     (dict(visibility="bogus"), "visibility"),
-    (dict(visibility="seed"), "not implemented yet"),
-    (dict(visibility="exact"), "not implemented yet"),
+    (dict(visibility="exact", coverage=0.0), "coverage"),
+    (dict(visibility="seed", seed_t1=1.5), "seed_t1"),
+    (dict(visibility="exact", visibility_leaf_mode="bogus"), "visibility_leaf_mode"),
 ])
 def test_operator_parameters_validated_before_native(keywords, expected):
     with pytest.raises(InputError, match=expected):
@@ -225,7 +226,7 @@ def test_operator_needs_surfels():
     (dict(tol=2.0), "tol"),
     (dict(max_iterations=0), "max_iterations"),
     (dict(progress=3), "progress"),
-    (dict(visibility="seed"), "not implemented yet"),
+    (dict(visibility="seed", seed_k=0), "seed_k"),
 ])
 def test_solve_parameters_validated(keywords, expected):
     with pytest.raises(InputError, match=expected):

@@ -7,7 +7,9 @@ For receiver i and source j (docs/architecture.md, "The kernel, exactly")::
 with the bounded "disc" near-field weight w(t) = t/(1+t) for close pairs (ramping to 1 by
 t = 32), or w ≡ 1 for ``near_field="point"`` (the bare point kernel, kept to show where it
 fails). ``apply(x)`` returns the gathered ``Σ_j F_ij V_ij x_j`` per colour channel, before
-albedo. V = 1 for now (``visibility="none"``).
+albedo. V is the visibility: ``"none"`` (V = 1), ``"exact"`` (rays against the surfels as
+oriented discs, Embree 3) or ``"seed"`` (the talk's point-based visibility); see
+:class:`TransportOperator` and core/src/visibility.hpp.
 
 The default expansion parameters live here, in one place: :data:`DEFAULT_ORDER`,
 :data:`DEFAULT_THETA`, :data:`DEFAULT_LEAF_SIZE`.
@@ -49,17 +51,36 @@ NEAR_FIELDS = ("disc", "point")
 MAX_ORDER = 16
 
 #: Visibility modes: name -> (implemented, reciprocal). A reciprocal mode has V_ij = V_ji, which
-#: keeps diag(A)·F·V symmetric so that CG applies. "seed" (the talk's attenuation lookup) is not
-#: reciprocal in general; "exact" (ray casting against the surfel discs) is.
+#: keeps diag(A)·F·V symmetric so that CG applies. Both native methods evaluate V(i, j) in the
+#: canonical order (min(i,j), max(i,j)) and classify node pairs symmetrically, and the traversal
+#: mirrors the lists of (t, s) and (s, t), so both are reciprocal.
 VISIBILITIES = {
     "none": (True, True),
-    "seed": (False, False),
-    "exact": (False, True),
+    "seed": (True, True),
+    "exact": (True, True),
+}
+VISIBILITY_LEAF_MODES = ("per_pair", "fractional", "binary")
+VISIBILITY_SHAPES = ("disc", "quad")
+
+#: Visibility keywords and their defaults (see TransportOperator for their meaning and units).
+VISIBILITY_DEFAULTS = {
+    "visibility_leaf_mode": "per_pair",
+    "visibility_samples": 8,
+    "coverage": 1.3,
+    "visibility_shape": "disc",
+    "endpoint_offset": 0.05,
+    "seed_delta": 2.0,
+    "seed_k": 8,
+    "seed_t1": 0.5,
+    "seed_t2": 0.5,
+    "seed_t3": 0.5,
+    "seed_leaf_points": 8,
+    "seed_binary_pairs": True,
 }
 
 #: The keywords ``solve`` forwards to TransportOperator.
 OPERATOR_KEYWORDS = ("method", "order", "theta", "leaf_size", "near_field", "visibility",
-                     "threads")
+                     "threads") + tuple(VISIBILITY_DEFAULTS)
 
 
 def _require_core():
@@ -104,7 +125,7 @@ def check_values(values, n: int, name: str = "values") -> np.ndarray:
 
 def validate_keywords(*, method=DEFAULT_METHOD, order=DEFAULT_ORDER, theta=DEFAULT_THETA,
                       leaf_size=DEFAULT_LEAF_SIZE, near_field=DEFAULT_NEAR_FIELD,
-                      visibility=DEFAULT_VISIBILITY, threads=0) -> dict:
+                      visibility=DEFAULT_VISIBILITY, threads=0, **visibility_keywords) -> dict:
     """Check the operator keywords (raises InputError) and return them normalized."""
     out = {}
     out["method"] = _check_choice("method", method, METHODS)
@@ -117,11 +138,36 @@ def validate_keywords(*, method=DEFAULT_METHOD, order=DEFAULT_ORDER, theta=DEFAU
     out["near_field"] = _check_choice("near_field", near_field, NEAR_FIELDS)
     out["visibility"] = _check_choice("visibility", visibility, tuple(VISIBILITIES))
     if not VISIBILITIES[out["visibility"]][0]:
-        raise InputError(
-            f"visibility={out['visibility']!r} is not implemented yet; only "
-            "visibility='none' (V = 1, no occlusion) is available in this version"
-        )
+        raise InputError(f"visibility={out['visibility']!r} is not implemented")
     out["threads"] = _check_int("threads", threads, 0)
+    unknown = set(visibility_keywords) - set(VISIBILITY_DEFAULTS)
+    if unknown:
+        raise TypeError(f"unexpected keyword(s) {sorted(unknown)}")
+    v = dict(VISIBILITY_DEFAULTS)
+    v.update(visibility_keywords)
+    out["visibility_leaf_mode"] = _check_choice("visibility_leaf_mode",
+                                                v["visibility_leaf_mode"], VISIBILITY_LEAF_MODES)
+    out["visibility_shape"] = _check_choice("visibility_shape", v["visibility_shape"],
+                                            VISIBILITY_SHAPES)
+    out["visibility_samples"] = _check_int("visibility_samples", v["visibility_samples"], 1, 4096)
+    out["seed_k"] = _check_int("seed_k", v["seed_k"], 1)
+    out["seed_leaf_points"] = _check_int("seed_leaf_points", v["seed_leaf_points"], 1)
+    for name, low, high, open_low in (("coverage", 0.0, None, True),
+                                      ("endpoint_offset", 0.0, None, False),
+                                      ("seed_delta", 0.0, None, True),
+                                      ("seed_t1", 0.0, 1.0, False), ("seed_t2", 0.0, 1.0, False),
+                                      ("seed_t3", 0.0, 1.0, False)):
+        x = v[name]
+        if isinstance(x, bool) or not isinstance(x, numbers.Real) or not np.isfinite(x) \
+                or (float(x) <= low if open_low else float(x) < low) \
+                or (high is not None and float(x) > high):
+            rng = f"({low}, inf)" if open_low else (f"[{low}, {high}]" if high is not None
+                                                    else f"[{low}, inf)")
+            raise InputError(f"{name}: expected a number in {rng}, got {x!r}")
+        out[name] = float(x)
+    if not isinstance(v["seed_binary_pairs"], (bool, np.bool_)):
+        raise InputError(f"seed_binary_pairs: expected a bool, got {v['seed_binary_pairs']!r}")
+    out["seed_binary_pairs"] = bool(v["seed_binary_pairs"])
     return out
 
 
@@ -141,9 +187,41 @@ class TransportOperator:
         Maximum surfels per octree leaf.
     near_field : "disc" | "point"
         Bounded point-to-disc rule (default) or the bare point kernel.
-    visibility : "none"
-        Only "none" (V = 1) is implemented. "seed" and "exact" are reserved for the
-        visibility issue and raise InputError for now.
+    visibility : "none" | "exact" | "seed"
+        Occlusion V_ij. "none": V = 1. "exact": one ray per surfel pair against every surfel
+        as an oriented disc (Embree 3). "seed": the talk's point-based visibility (occluders
+        near the segment attenuate it). Computed once here and reused by every apply. In the
+        FMM, node pairs are classified valid / invalid / partial from sampled rays (invalid:
+        dropped; partial: pushed down to the children; a partial leaf pair gets a sampled
+        fraction in M2L, or per-pair V in the near field); this rests on samples and can
+        misclassify pairs with a small blocked part. "direct" applies V per pair (O(N²) rays
+        once, small N only); ``apply_rows`` always applies V per pair.
+    visibility_leaf_mode : "per_pair" | "fractional" | "binary"
+        What a partial leaf pair gets: per-pair V in the near field and the sampled fraction
+        far away (default); the fraction everywhere; or all-or-nothing (the talk).
+    visibility_samples : int
+        Facing point pairs sampled per node pair to classify it (default 8).
+    coverage : float
+        "exact": disc radius = coverage·sqrt(A/π), in units of the surfel's own spacing.
+        1 leaves gaps between discs (light leaks through walls); larger closes them but discs
+        overhang edges (over-occlusion). Default 1.3 (a square grid is covered from 1.2533).
+    visibility_shape : "disc" | "quad"
+        "exact": occluders as oriented discs, or squares of equal area (faster rays).
+    endpoint_offset : float
+        "exact": occluders within endpoint_offset × (disc radius of the endpoint) of either
+        endpoint are ignored (own disc, coincident duplicates). Default 0.05.
+    seed_delta : float
+        "seed": an occluder k attenuates a segment within Δ_k = seed_delta·sqrt(A_k/π) of it
+        (units of the occluder's own spacing, so scale-free). Default 2.0.
+    seed_k : int
+        "seed": at most k closest occluders multiply their transmissions. Default 8.
+    seed_t1, seed_t2, seed_t3 : float in [0, 1]
+        "seed" thresholds: point–point (product of transmissions > t1), point–leaf (share of
+        the leaf's points visible > t2), leaf–leaf (share > t3). Default 0.5 each.
+    seed_leaf_points : int
+        "seed": points sampled per leaf in the leaf–leaf test. Default 8.
+    seed_binary_pairs : bool
+        "seed": per-pair V is 0/1 after t1 (default) or the attenuation product.
     threads : int
         Worker threads, 0 = all hardware threads.
     progress : callable(fraction, phase) -> bool | None, optional
@@ -154,7 +232,8 @@ class TransportOperator:
     def __init__(self, surfels: Surfels, method: str = DEFAULT_METHOD, *,
                  order: int = DEFAULT_ORDER, theta: float = DEFAULT_THETA,
                  leaf_size: int = DEFAULT_LEAF_SIZE, near_field: str = DEFAULT_NEAR_FIELD,
-                 visibility: str = DEFAULT_VISIBILITY, threads: int = 0, progress=None):
+                 visibility: str = DEFAULT_VISIBILITY, threads: int = 0, progress=None,
+                 **visibility_keywords):
         if not isinstance(surfels, Surfels):
             raise InputError(
                 f"surfels: expected an illumap.Surfels, got {type(surfels).__name__} "
@@ -162,7 +241,8 @@ class TransportOperator:
             )
         checked = validate_keywords(method=method, order=order, theta=theta,
                                     leaf_size=leaf_size, near_field=near_field,
-                                    visibility=visibility, threads=threads)
+                                    visibility=visibility, threads=threads,
+                                    **visibility_keywords)
         self.method = checked["method"]
         self.order = checked["order"]
         self.theta = checked["theta"]
@@ -171,6 +251,7 @@ class TransportOperator:
         self.visibility = checked["visibility"]
         self.threads = checked["threads"]
         self._reciprocal_visibility = VISIBILITIES[self.visibility][1]
+        self.visibility_options = {k: checked[k] for k in VISIBILITY_DEFAULTS}
         if progress is not None and not callable(progress):
             raise InputError(f"progress: expected a callable or None, got {progress!r}")
         self.surfels = surfels
@@ -181,7 +262,8 @@ class TransportOperator:
                 surfels.positions, surfels.normals, surfels.areas,
                 method=self.method, order=self.order, theta=self.theta,
                 leaf_size=self.leaf_size, near_field=self.near_field, threads=self.threads,
-                progress=guard.native_callback(),
+                progress=guard.native_callback(), visibility=self.visibility,
+                **self.visibility_options,
             )
 
     @property
@@ -219,6 +301,15 @@ class TransportOperator:
 
     @property
     def stats(self) -> dict:
+        """Build statistics. With visibility: ``visibility_{valid,invalid,partial}_per_level``
+        (the model's classify() calls per level max(level(a), level(b))),
+        ``lists_{valid,invalid,partial}_per_level`` (ordered pairs the traversal queried),
+        ``visibility_queries`` (rays or point_visible calls), ``visibility_no_facing``,
+        ``visibility_blocks`` / ``visibility_block_pairs`` (per-pair blocks computed),
+        ``visibility_m2l_weighted`` (partial far leaf pairs kept in M2L with their sampled
+        fraction), ``visibility_p2p_blocks`` / ``visibility_block_bytes`` (near pairs with
+        per-pair V, 8 bits per pair), ``visibility_blocked_pairs`` (direct method),
+        ``visibility_bytes``, ``time_build_visibility``."""
         stats = dict(self._op.stats)
         stats.update(method=self.method, order=self.order, theta=self.theta,
                      leaf_size=self.leaf_size, near_field=self.near_field,
@@ -227,9 +318,12 @@ class TransportOperator:
 
     def keywords(self) -> dict:
         """The keywords this operator was built with."""
-        return dict(method=self.method, order=self.order, theta=self.theta,
-                    leaf_size=self.leaf_size, near_field=self.near_field,
-                    visibility=self.visibility, threads=self.threads)
+        out = dict(method=self.method, order=self.order, theta=self.theta,
+                   leaf_size=self.leaf_size, near_field=self.near_field,
+                   visibility=self.visibility, threads=self.threads)
+        if self.visibility != "none":
+            out.update(self.visibility_options)
+        return out
 
     def __repr__(self) -> str:
         return (f"TransportOperator(N={self.n}, method={self.method!r}, order={self.order}, "

@@ -368,7 +368,10 @@ def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float =
     ----------
     surfels : Surfels
     method, order, theta, leaf_size, near_field, visibility, threads
-        Passed on to :class:`TransportOperator` (defaults there).
+        Passed on to :class:`TransportOperator` (defaults there), as are the visibility
+        keywords (visibility_leaf_mode, visibility_samples, coverage, visibility_shape,
+        endpoint_offset, seed_delta, seed_k, seed_t1, seed_t2, seed_t3, seed_leaf_points,
+        seed_binary_pairs; meanings and units in TransportOperator's docstring).
     solver : "auto" | "cg" | "gmres" | "jacobi"
         See the module docstring. "auto" = CG when the operator is symmetric, else GMRES.
     tol : float
