@@ -14,6 +14,11 @@ mkdir -p "$STAMPS"
 log() { printf '[setup] %s\n' "$*" >&2; }
 stamp_ok() { [ -f "$STAMPS/$1" ] && [ "$(cat "$STAMPS/$1")" = "$2" ]; }
 stamp_set() { printf '%s' "$2" > "$STAMPS/$1"; }
+# pip, without the machine-wide index warnings about local mirror folders that do not exist.
+pip_quiet() {
+    "$PY" -m pip -q --disable-pip-version-check "$@" \
+        2> >(grep -v "is ignored: it is neither a file nor a directory" >&2)
+}
 
 apt_install() {
     local missing=()
@@ -45,8 +50,8 @@ fi
 REQ_HASH="$(sha256sum "$ROOT/scripts/requirements.txt" | cut -d' ' -f1)"
 if ! stamp_ok requirements "$REQ_HASH"; then
     log "installing Python requirements (bpy is large: this takes a few minutes once)"
-    "$PY" -m pip install -q --disable-pip-version-check --upgrade pip
-    "$PY" -m pip install -q --disable-pip-version-check -r "$ROOT/scripts/requirements.txt"
+    pip_quiet install --upgrade pip
+    pip_quiet install -r "$ROOT/scripts/requirements.txt"
     stamp_set requirements "$REQ_HASH"
 fi
 
@@ -67,7 +72,7 @@ CORE_HASH="$(cd "$ROOT" && find core -type f \( -name '*.cpp' -o -name '*.hpp' -
     | sort -z | xargs -0 sha256sum | sha256sum | cut -d' ' -f1)"
 if ! stamp_ok core "$CORE_HASH" || ! "$PY" -c "import illumap._core" >/dev/null 2>&1; then
     log "building the native core"
-    (cd "$ROOT" && "$PY" -m pip install -q --disable-pip-version-check --no-build-isolation ./core)
+    (cd "$ROOT" && pip_quiet install --no-build-isolation ./core)
     stamp_set core "$CORE_HASH"
 fi
 "$PY" -c "import illumap._core" || { log "the native core does not import"; exit 1; }

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import illumap
-from illumap import accuracy
+from illumap import accuracy, scenes
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "bench"))
 import scenes as S  # noqa: E402  (bench/scenes.py)
@@ -129,3 +129,18 @@ def test_discretization_estimate_tracks_the_error(name, low, high):
     err = S.relative_rms(sol.radiosity, S.reference_at(ref, ref_sol.radiosity, q), q.emission)
     assert est["discretization"] is not None
     assert low * err <= est["discretization"] <= high * err, (err, est)
+
+
+def test_solve_with_target_error_chooses_and_reports_settings():
+    q = scenes.closed_box(6, albedo=0.7, emission=0.0).replace(
+        emission=np.where(np.arange(216)[:, None] < 36, 1.0, 0.0) * np.ones((216, 3)))
+    sol = illumap.solve(q, target_error=0.03)
+    info = sol.stats["accuracy"]
+    assert info["settings"]["target_error"] == 0.03
+    assert info["solve_keywords"]["tol"] == info["settings"]["tol"]
+    assert sol.converged and "estimate" in info
+    # an explicit keyword overrides the chosen one
+    jac = illumap.solve(q, target_error=0.03, solver="jacobi")
+    assert jac.stats["solver"] == "jacobi" and jac.stats["accuracy"]["solve_keywords"]["solver"] == "jacobi"
+    ref = illumap.solve(q, method="direct", tol=1e-10)
+    assert np.sqrt(np.mean((sol.radiosity - ref.radiosity) ** 2)) / np.sqrt(np.mean(ref.radiosity ** 2)) < 0.03

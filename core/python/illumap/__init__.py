@@ -6,10 +6,11 @@ Public API (docs/architecture.md)::
     TransportOperator(surfels, method="fmm", order=…, theta=…, leaf_size=…, near_field="disc",
                       visibility="none")                      # .apply(values), .stats, .symmetric
     solve(surfels, *, method=…, solver="auto"|"cg"|"gmres"|"jacobi", tol=…, max_iterations=…,
-          progress=None, operator=None, **operator_keywords) -> Solution
+          progress=None, operator=None, target_error=None, **operator_keywords) -> Solution
     InputError(ValueError), Cancelled(Exception)
 """
 
+from . import accuracy
 from ._progress import Cancelled
 from .operator import (DEFAULT_LEAF_SIZE, DEFAULT_METHOD, DEFAULT_NEAR_FIELD, DEFAULT_ORDER,
                        DEFAULT_THETA, DEFAULT_VISIBILITY, TransportOperator)
@@ -21,7 +22,7 @@ __version__ = "0.1.0"
 __all__ = [
     "Surfels", "TransportOperator", "solve", "Solution", "InputError", "Cancelled",
     "DEFAULT_METHOD", "DEFAULT_ORDER", "DEFAULT_THETA", "DEFAULT_LEAF_SIZE",
-    "DEFAULT_NEAR_FIELD", "DEFAULT_VISIBILITY", "DEFAULT_TOL", "native_available",
+    "DEFAULT_NEAR_FIELD", "DEFAULT_VISIBILITY", "DEFAULT_TOL", "native_available", "accuracy",
 ]
 
 
