@@ -69,6 +69,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--budget", type=int, help="total surfel count")
     p.add_argument("--method", choices=["fmm", "direct"], type=str.lower)
     p.add_argument("--tol", type=float)
+    p.add_argument("--target-error", type=float,
+                   help="relative RMS error wanted (e.g. 0.03): Illumap picks order, θ, "
+                        "visibility and tolerance, and reports an error estimate")
     p.add_argument("--transfer", choices=["point", "corner"], type=str.lower)
     p.add_argument("--no-lamps", action="store_true")
     p.add_argument("--world", action="store_true")
@@ -157,7 +160,7 @@ def select_objects(scene, view_layer, names: str | None, collection: str | None)
 def make_settings(args) -> pipeline.Settings:
     """Settings from the preset and the overriding options."""
     overrides = dict(density=args.density, budget=args.budget, method=args.method, tol=args.tol,
-                     seed=args.seed)
+                     seed=args.seed, target_error=args.target_error)
     settings = pipeline.settings_from_preset(args.quality, **overrides)
     if args.density is not None and args.density <= 0:
         raise UsageError("--density must be positive")
@@ -227,6 +230,15 @@ def _report(frame: int, result: pipeline.Result, out) -> None:
           f"final residual {result.residual:.3g}, converged {result.converged}", file=out)
     for phase, seconds in result.timings.items():
         print(f"  {phase:<16} {seconds:8.3f} s", file=out)
+    accuracy = result.stats.get("accuracy")
+    if accuracy:
+        chosen = accuracy["settings"]
+        estimate = accuracy.get("estimate", {}).get("total")
+        print(f"  target error {chosen['target_error']:.3g}: method {chosen['method']}, "
+              f"order {chosen['order']}, theta {chosen['theta']}, visibility "
+              f"{chosen['visibility']}, tol {chosen['tol']:.2g}; estimated error "
+              f"{estimate if estimate is None else format(estimate, '.3g')} (needs about "
+              f"{chosen['density']:.0f} surfels/m²)", file=out)
     for w in result.warnings:
         print(f"  Warning: {w}", file=out)
 

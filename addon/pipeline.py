@@ -49,6 +49,7 @@ class Settings:
     solver: str = "auto"              # 'auto' | 'cg' | 'gmres' | 'jacobi'
     tol: float = 1e-4                 # relative residual
     max_iterations: int = 200
+    target_error: float | None = None  # relative RMS wanted; chooses order/θ/visibility/tol
     lamps: bool = True                # add direct light from Blender lamps
     world_ambient: bool = False       # add the world colour as uniform ambient light
     transfer: bool = False            # write 'illumination' onto the source meshes too
@@ -258,12 +259,18 @@ def run(job: Job, progress: Progress | None = None) -> Result:
                                   job.emission + job.direct)
     except illumap.InputError as exc:
         raise IllumapError(f"Invalid surfels: {exc}", 3) from None
-    kwargs = dict(method=s.method, solver=s.solver, tol=s.tol, max_iterations=s.max_iterations,
-                  progress=progress, near_field=s.near_field)
-    if s.method == "fmm":
-        kwargs.update(order=s.order, theta=s.theta, leaf_size=s.leaf_size)
-    if s.visibility != "none":
-        kwargs["visibility"] = s.visibility
+    if s.target_error is not None:
+        if not 0.0 < s.target_error < 1.0:
+            raise IllumapError(f"Target error must lie in (0, 1), got {s.target_error}", 2)
+        kwargs = dict(target_error=s.target_error, progress=progress, near_field=s.near_field)
+    else:
+        kwargs = dict(method=s.method, solver=s.solver, tol=s.tol,
+                      max_iterations=s.max_iterations, progress=progress,
+                      near_field=s.near_field)
+        if s.method == "fmm":
+            kwargs.update(order=s.order, theta=s.theta, leaf_size=s.leaf_size)
+        if s.visibility != "none":
+            kwargs["visibility"] = s.visibility
     t0 = time.perf_counter()
     try:
         sol = illumap.solve(surfels, **kwargs)

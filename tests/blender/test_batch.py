@@ -155,3 +155,15 @@ def test_budget_too_large_exit_3_with_estimate(capsys):
     make_plane("Floor")
     assert batch.main(["--budget", str(10 ** 12)]) == 3
     assert "GiB" in capsys.readouterr().err
+
+
+def test_target_error_option_reports_chosen_settings(tmp_path, capfd):
+    make_plane("Floor", size=2.0, material=diffuse_material("F", (0.5,) * 3))
+    make_plane("Emitter", size=0.5, location=(0, 0, 1), flip=True,
+               material=emission_material("E", (1, 1, 1), 1.0))
+    assert batch.main(["--target-error", "0.05", "--density", "100",
+                       "--output", str(tmp_path / "t.blend")]) == 0
+    assert (tmp_path / "t.blend").exists()
+    printed = capfd.readouterr().out
+    assert "target error 0.05" in printed and "estimated error" in printed
+    assert batch.main(["--target-error", "1.5", "--density", "100"]) == 2
