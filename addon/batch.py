@@ -243,8 +243,9 @@ def _report(frame: int, result: pipeline.Result, out) -> None:
         print(f"  Warning: {w}", file=out)
 
 
-def run_frames(args, out=sys.stdout) -> int:
+def run_frames(args, out=None) -> int:
     """Compute every requested frame; returns the exit code (raises IllumapError on failure)."""
+    out = out or sys.stdout  # looked up per call, so redirected output is honoured
     context = bpy.context
     scene = context.scene
     settings = make_settings(args)
