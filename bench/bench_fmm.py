@@ -70,9 +70,12 @@ def box_room(n, seed=0):
 
 
 def _reference(n, seed, subset, cache):
-    """Exact y on the receivers `rows` (all receivers if subset == 0), cached per N."""
+    """Exact y on the receivers `rows` (all receivers if subset == 0), cached per N and per
+    build of the native module (a rebuilt kernel must not be compared with an old reference)."""
     from illumap import _core
-    path = os.path.join(cache, f"ref_{n}_{seed}_{subset}.npz")
+    stat = os.stat(_core.__file__)
+    build = f"{stat.st_size:x}{int(stat.st_mtime):x}"
+    path = os.path.join(cache, f"ref_{n}_{seed}_{subset}_{build}.npz")
     if os.path.exists(path):
         z = np.load(path)
         return z["rows"], z["y"], float(z["t"])
