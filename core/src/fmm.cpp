@@ -62,10 +62,7 @@ TransportOperator::TransportOperator(Context& ctx, const double* positions, cons
         build_direct_visibility(ctx);
         timings_["build_direct_visibility"] = seconds_since(tn);
     }
-    if (!opt_.fmm || n == 0) {
-        limit_near_rows(ctx);
-        return;
-    }
+    if (!opt_.fmm || n == 0) return;
     auto t0 = Clock::now();
     if (!tree_) {
         ctx.set_phase("tree", 0.0, 0.3);
@@ -98,21 +95,8 @@ TransportOperator::TransportOperator(Context& ctx, const double* positions, cons
             internal_.push_back(std::int32_t(k));
         }
     }
-    limit_near_rows(ctx);
 }
 
-// Energy: one apply of F to ones gives every row sum; rows above 1 get their close pairs scaled
-// down (NearCorrection::limit_row_sums). Only the "disc" rule does this: "point" is kept bare.
-void TransportOperator::limit_near_rows(Context& ctx) {
-    if (!near_ || n_ < 2) return;
-    const auto t0 = Clock::now();
-    std::vector<double> ones(3 * n_, 0.0), rows3(3 * n_, 0.0), rows(n_);
-    for (std::size_t i = 0; i < n_; ++i) ones[3 * i] = 1.0;
-    apply(ctx, ones.data(), rows3.data());
-    for (std::size_t i = 0; i < n_; ++i) rows[i] = rows3[3 * i];
-    near_->limited_rows = near_->limit_row_sums(rows.data());
-    timings_["build_row_limit"] = seconds_since(t0);
-}
 
 // Direct method with visibility: C_ij = -(1 - V_ij) F_point_ij over the facing pairs that are
 // not fully visible (each unordered pair queried once), so that F_point x + C x = (F_point∘V) x.

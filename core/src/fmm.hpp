@@ -53,7 +53,6 @@ public:
 private:
     void apply_fmm(Context& ctx, const double* x, double* y);
     void build_direct_visibility(Context& ctx);
-    void limit_near_rows(Context& ctx);
 
     std::size_t n_;
     OperatorOptions opt_;

@@ -35,6 +35,9 @@ inline double polygon_weight(double t) {
     return t <= kT0 ? 1.0 : (t >= 2.0 * kT0 ? 0.0 : 2.0 - t / kT0);
 }
 
+// |cos| below this is coplanar up to rounding (scale-free: cosines are ratios).
+constexpr double kCoplanarCos = 1e-9;
+
 struct Triplet {
     std::int64_t row, col;
     double value, full;
@@ -142,27 +145,20 @@ std::size_t NearCorrection::bytes() const {
            (values.capacity() + full.capacity()) * sizeof(double);
 }
 
-// Rows a little above 1 are the O(h) error of the quadrature and shrink with refinement;
-// scaling them would make neighbouring rows too dark. Only the excess over this cap is
-// removed; capping at (not below) the trigger keeps the rule continuous, so an FMM and a
-// direct operator, whose row sums differ by the expansion error, scale alike.
-constexpr double kRowSumCap = 1.1;
-
-std::size_t NearCorrection::limit_row_sums(const double* rows) {
+std::size_t NearCorrection::limit_close_sums() {
     const std::size_t n = offsets.empty() ? 0 : offsets.size() - 1;
     std::vector<double> gamma(n, 1.0);
     std::size_t limited = 0;
     for (std::size_t i = 0; i < n; ++i) {
-        if (rows[i] <= kRowSumCap) continue;
         double close = 0.0;
         for (std::int64_t p = offsets[i]; p < offsets[i + 1]; ++p) close += full[p];
-        if (close <= 0.0) continue;
-        const double others = rows[i] - close;
-        gamma[i] = std::clamp((kRowSumCap - others) / close, 0.0, 1.0);
-        ++limited;
+        if (close > 1.0) {
+            gamma[i] = 1.0 / close;
+            ++limited;
+        }
     }
     if (limited == 0) return 0;
-    // min(γ_i, γ_j) keeps A_i F_ij = A_j F_ji; each row then sums to at most the cap.
+    // min(γ_i, γ_j) keeps A_i F_ij = A_j F_ji, and every row's close part sums to at most 1.
     for (std::size_t i = 0; i < n; ++i)
         for (std::int64_t p = offsets[i]; p < offsets[i + 1]; ++p) {
             const double g = std::min(gamma[i], gamma[std::size_t(columns[p])]);
@@ -236,8 +232,14 @@ NearCorrection build_near_correction(Context& ctx, const SurfelSoA& s,
                                                            ni[0], ni[1], ni[2], Ai);
                             // Centres that do not face stay at zero, as in the far field:
                             // otherwise octagons overhanging an edge, or tilted neighbours on
-                            // a convex surface, would let a surface light itself.
-                            if (p_ij == 0.0) continue;
+                            // a convex surface, would let a surface light itself. Coplanar
+                            // pairs count as not facing even when rounding tilts them by
+                            // 1e-16 (a box standing on a floor would otherwise flip between
+                            // seeing a full hemisphere and nothing with the scene's scale).
+                            const double rr = std::sqrt(r2);
+                            const double cos_i = -dot(ni, d) / rr, cos_j = dot(nj, d) / rr;
+                            if (p_ij == 0.0 || cos_i <= kCoplanarCos || cos_j <= kCoplanarCos)
+                                continue;
                             const double f_ij = point_to_polygon(xi, ni, xj, nj, Aj);
                             const double f_ji = point_to_polygon(xj, nj, xi, ni, Ai);
                             const double g = 0.5 * (Ai * f_ij + Aj * f_ji);  // symmetric
@@ -281,6 +283,7 @@ NearCorrection build_near_correction(Context& ctx, const SurfelSoA& s,
         }
         std::vector<Triplet>().swap(chunk);
     }
+    out.limited_rows = out.limit_close_sums();
     return out;
 }
 

@@ -35,14 +35,14 @@ struct NearCorrection {
     std::vector<double> values;  // F_near_ij − F_point_ij (times V_ij with visibility)
     std::vector<double> full;    // F_near_ij (times V_ij): the whole entry of the operator
     std::size_t candidate_pairs = 0;  // close pairs examined (both directions)
-    std::size_t limited_rows = 0;     // rows scaled down by limit_row_sums
+    std::size_t limited_rows = 0;     // rows scaled down by limit_close_sums
 
-    // Where a row of the whole operator sums clearly above 1 (`rows` are the row sums of F·1)
-    // because of overlapping surfels from uneven sampling or faces touching face to face,
-    // scales that row's close pairs down so it sums to 1.1, symmetrically (pair factor
-    // min(γ_i, γ_j)): no surfel receives much more than its hemisphere, and the symmetrized
-    // system stays positive definite. Returns the number of rows scaled.
-    std::size_t limit_row_sums(const double* rows);
+    // The close pairs of one receiver all lie within a few surfel spacings, so together they
+    // can cover at most its hemisphere. Where they sum above 1 — overlapping discs of nearly
+    // coincident surfels, faces touching face to face — that row's close pairs are scaled so
+    // they sum to 1, symmetrically (pair factor min(γ_i, γ_j), so reciprocity holds). Local and
+    // exact: the same for every method. Returns the number of rows scaled.
+    std::size_t limit_close_sums();
 
     // y += C x (x, y: n x 3 row-major).
     void apply_add(Context& ctx, const double* x, double* y) const;

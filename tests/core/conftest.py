@@ -76,13 +76,11 @@ def polygon_weight(t):
     return np.clip(2.0 - np.asarray(t) / T0, 0.0, 1.0)
 
 
-ROW_SUM_CAP = 1.1
-
-
 def reference_matrix(positions, normals, areas, near_field="disc", rows=None):
     """Dense F[i, j] for the receivers ``rows`` (all by default): the bare point kernel, and
     with near_field="disc", for close facing pairs (π r² ≤ 2 t0 Ā), the symmetrized
-    point-to-octagon rule, with rows above 1.1 scaled back to 1.1 (docs/architecture.md)."""
+    point-to-octagon rule; where a row's close pairs sum above 1 they are scaled back to 1,
+    symmetrically (docs/architecture.md)."""
     positions = np.asarray(positions, dtype=np.float64)
     normals = np.asarray(normals, dtype=np.float64)
     areas = np.asarray(areas, dtype=np.float64)
@@ -99,7 +97,7 @@ def reference_matrix(positions, normals, areas, near_field="disc", rows=None):
     f = np.where(r > 0, f, 0.0)
     if near_field == "disc":
         t = math.pi * r2 / (0.5 * (areas[:, None] + areas[None, :]))
-        close = (t <= 2 * T0) & (f > 0)
+        close = (t <= 2 * T0) & (f > 0) & (cos_i > 1e-9) & (cos_j > 1e-9)
         ii, jj = np.nonzero(close)
         p = positions
         f_ij = point_to_polygon(p[ii], normals[ii], p[jj], normals[jj], areas[jj])
@@ -107,12 +105,8 @@ def reference_matrix(positions, normals, areas, near_field="disc", rows=None):
         g = 0.5 * (areas[ii] * f_ij + areas[jj] * f_ji)
         w = polygon_weight(t[ii, jj])
         f[ii, jj] = (1.0 - w) * f[ii, jj] + w * g / areas[ii]
-        sums = f.sum(axis=1)
         close_sums = np.where(close, f, 0.0).sum(axis=1)
-        over = (sums > ROW_SUM_CAP) & (close_sums > 0)
-        gamma = np.ones(len(f))
-        gamma[over] = np.clip((ROW_SUM_CAP - (sums[over] - close_sums[over])) / close_sums[over],
-                              0, 1)
+        gamma = 1.0 / np.maximum(close_sums, 1.0)
         f[ii, jj] *= np.minimum(gamma[ii], gamma[jj])
     return f if rows is None else f[np.asarray(rows)]
 

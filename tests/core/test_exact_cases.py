@@ -296,16 +296,16 @@ def test_row_sums_closed_scenes_disc(kind):
 
 @pytest.mark.parametrize("kind", KINDS)
 def test_random_box_energy_and_solve(kind):
-    """Randomly sampled box, disc rule: where two surfels nearly touch across an edge their
-    octagons overlap in the receiver's view and single rows would reach 1.3–1.7; rows above 1.1
-    are scaled back to 1.1 (symmetrically), so no row exceeds 1.1, no energy is created overall
-    (area-weighted mean row sum below 1) and CG converges at ρ = 0.99."""
+    """Randomly sampled box, disc rule: where surfels nearly touch across an edge their octagons
+    overlap in the receiver's view and single rows exceed 1 (up to ~1.5; the bare point kernel
+    reaches ~2.0), but no energy is created overall: the area-weighted mean row sum stays
+    below 1 and CG converges at ρ = 0.99."""
     s = scenes.closed_box(12, sampling="random", seed=2, albedo=0.99)
     op = make_operator(kind, s, "disc")
     rows = op.apply(np.ones((s.n, 3)))[:, 0]
-    assert 1.05 < rows.max() <= 1.1 + 1e-9                    # limited, and the test has teeth
+    assert 1.1 < rows.max() < 1.6                             # documented local excess
     bare = make_operator(kind, s, "point").apply(np.ones((s.n, 3)))[:, 0]
-    assert bare.max() > 1.3
+    assert bare.max() > rows.max() + 0.3
     assert (s.areas * rows).sum() / s.areas.sum() < 1.0
     sol = illumap.solve(s, operator=op, solver="cg", tol=1e-6)
     assert sol.converged and np.all(sol.radiosity > 0)

@@ -175,9 +175,7 @@ def test_radiosity_is_scale_invariant(scale, method):
     a = illumap.solve(s, method=method, tol=1e-10)
     b = illumap.solve(big, method=method, tol=1e-10)
     assert a.converged and b.converged
-    # Lengths enter only as ratios; the residue (~3e-7 here) comes from the near field's
-    # per-row cap, whose trigger is decided on floating-point row sums (see docs/stability.md).
-    assert rel_rms(b.radiosity, a.radiosity) < 1e-5
+    assert rel_rms(b.radiosity, a.radiosity) < 1e-8
 
 
 # --- 6. duplicate and coincident points -------------------------------------------------------------
