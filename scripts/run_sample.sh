@@ -9,4 +9,4 @@ cd "$ROOT"
 mkdir -p out
 "$ROOT/scripts/blender" -b sample_blends/cornell_box.blend \
     --python scripts/illumap_batch.py -- \
-    --output out/cornell_box_lit.blend --render out/cornell_box.png "$@"
+    --output out/cornell_box_lit.blend --render out/cornell_box.png --overwrite "$@"
