@@ -188,7 +188,6 @@ struct Walker {
         for (float v : tmp) all = all && v == 1.0f;
         if (all) return -1;
         const std::int64_t off = std::int64_t(blk.size());
-        blk.reserve(blk.size() + m);
         for (float v : tmp) blk.push_back(std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)));
         return off;
     }
