@@ -65,7 +65,7 @@ class Settings:
 PRESETS: dict[str, dict] = {
     "DRAFT": dict(density=100.0, order=3, theta=0.6, visibility="none", tol=1e-3),
     "MEDIUM": dict(density=400.0, order=4, theta=0.5, visibility="none", tol=1e-4),
-    "HIGH": dict(density=1600.0, order=6, theta=0.4, visibility="none", tol=1e-5),
+    "HIGH": dict(density=1600.0, order=6, theta=0.4, visibility="exact", tol=1e-5),
 }
 
 
