@@ -9,4 +9,5 @@ cd "$ROOT"
 mkdir -p out
 "$ROOT/scripts/blender" -b sample_blends/cornell_box.blend \
     --python scripts/illumap_batch.py -- \
+    --quality high --resolution 512 --samples 32 \
     --output out/cornell_box_lit.blend --render out/cornell_box.png --overwrite "$@"
