@@ -2,11 +2,11 @@
 
 For receiver i and source j (docs/architecture.md, "The kernel, exactly")::
 
-    F_ij = A_j · max(0, cos_i) · max(0, cos_j) / (π r²) · w(t),   t = π r² / ((A_i + A_j)/2)
+    P_ij = A_j · max(0, cos_i) · max(0, cos_j) / (π r²)        (the bare point kernel)
 
-with the bounded "disc" near-field weight w(t) = t/(1+t) for close pairs (ramping to 1 by
-t = 32), or w ≡ 1 for ``near_field="point"`` (the bare point kernel, kept to show where it
-fails). ``apply(x)`` returns the gathered ``Σ_j F_ij V_ij x_j`` per colour channel, before
+With ``near_field="disc"`` (default), close pairs (π r² ≤ 2·16·(A_i + A_j)/2) use the exact
+form factor to a regular octagon of the surfel's area instead, symmetrized and blended into P;
+``near_field="point"`` keeps the bare kernel everywhere, to show where it fails. ``apply(x)`` returns the gathered ``Σ_j F_ij V_ij x_j`` per colour channel, before
 albedo. V is the visibility: ``"none"`` (V = 1), ``"exact"`` (rays against the surfels as
 oriented discs, Embree 3) or ``"seed"`` (the talk's point-based visibility); see
 :class:`TransportOperator` and core/src/visibility.hpp.
