@@ -103,10 +103,9 @@ TransportOperator::TransportOperator(Context& ctx, const double* positions, cons
 void TransportOperator::build_direct_visibility(Context& ctx) {
     const SurfelSoA& s = orig_;
     const std::size_t n = n_;
-    struct Trip { std::int64_t r, c; double v; };
     const std::size_t grain = 16;
     const std::size_t nchunks = (n + grain - 1) / grain;
-    std::vector<std::vector<Trip>> found(nchunks);
+    std::vector<std::vector<SparseEntry>> found(nchunks);
     parallel_for(ctx, n, grain, [&](std::size_t b, std::size_t e) {
         auto& mine = found[b / grain];
         for (std::size_t i = b; i < e; ++i) {
@@ -120,32 +119,13 @@ void TransportOperator::build_direct_visibility(Context& ctx) {
                 if (v >= 1.0f) continue;
                 const double fji = pair_factor(-dx, -dy, -dz, s.nx[j], s.ny[j], s.nz[j], s.nx[i],
                                                s.ny[i], s.nz[i], s.area[i]);
-                mine.push_back({std::int64_t(i), std::int64_t(j), -(1.0 - v) * fij});
-                mine.push_back({std::int64_t(j), std::int64_t(i), -(1.0 - v) * fji});
+                mine.push_back({std::int64_t(i), std::int64_t(j), -(1.0 - v) * fij, v * fij});
+                mine.push_back({std::int64_t(j), std::int64_t(i), -(1.0 - v) * fji, v * fji});
             }
         }
     });
     checkpoint(ctx, 1.0);
-    auto C = std::make_unique<NearCorrection>();
-    C->offsets.assign(n + 1, 0);
-    std::size_t total = 0;
-    for (auto& f : found) {
-        total += f.size();
-        for (const Trip& t : f) C->offsets[t.r + 1]++;
-    }
-    for (std::size_t i = 0; i < n; ++i) C->offsets[i + 1] += C->offsets[i];
-    C->columns.resize(total);
-    C->values.resize(total);
-    std::vector<std::int64_t> fill(C->offsets.begin(), C->offsets.end() - 1);
-    for (auto& f : found) {
-        for (const Trip& t : f) {
-            const std::int64_t p = fill[t.r]++;
-            C->columns[p] = t.c;
-            C->values[p] = t.v;
-        }
-        std::vector<Trip>().swap(f);
-    }
-    vis_direct_ = std::move(C);
+    vis_direct_ = std::make_unique<NearCorrection>(assemble_correction(n, found));
 }
 
 void TransportOperator::apply(Context& ctx, const double* x, double* y) {

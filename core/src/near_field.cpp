@@ -38,11 +38,6 @@ inline double polygon_weight(double t) {
 // |cos| below this is coplanar up to rounding (scale-free: cosines are ratios).
 constexpr double kCoplanarCos = 1e-9;
 
-struct Triplet {
-    std::int64_t row, col;
-    double value, full;
-};
-
 struct CellKey {
     std::int64_t x, y, z;
     bool operator==(const CellKey& o) const { return x == o.x && y == o.y && z == o.z; }
@@ -168,12 +163,38 @@ std::size_t NearCorrection::limit_close_sums() {
     return limited;
 }
 
+NearCorrection assemble_correction(std::size_t n, std::vector<std::vector<SparseEntry>>& chunks) {
+    NearCorrection out;
+    out.offsets.assign(n + 1, 0);
+    std::size_t total = 0;
+    for (const auto& chunk : chunks) {
+        total += chunk.size();
+        for (const SparseEntry& t : chunk) ++out.offsets[t.row + 1];
+    }
+    for (std::size_t i = 0; i < n; ++i) out.offsets[i + 1] += out.offsets[i];
+    out.columns.resize(total);
+    out.values.resize(total);
+    out.full.resize(total);
+    std::vector<std::int64_t> fill(out.offsets.begin(), out.offsets.end() - 1);
+    for (auto& chunk : chunks) {
+        for (const SparseEntry& t : chunk) {
+            const std::int64_t p = fill[t.row]++;
+            out.columns[p] = t.col;
+            out.values[p] = t.value;
+            out.full[p] = t.full;
+        }
+        std::vector<SparseEntry>().swap(chunk);
+    }
+    return out;
+}
+
 NearCorrection build_near_correction(Context& ctx, const SurfelSoA& s,
                                      const PairVisibilityFn* vis) {
     const std::size_t n = s.n;
-    NearCorrection out;
-    out.offsets.assign(n + 1, 0);
-    if (n < 2) return out;
+    if (n < 2) {
+        std::vector<std::vector<SparseEntry>> none;
+        return assemble_correction(n, none);
+    }
 
     // A pair is close when π r² ≤ 2 t0 Ā ≤ 2 t0 max(A_i, A_j): it is found from the side with
     // the larger area, within that surfel's own search radius.
@@ -199,7 +220,7 @@ NearCorrection build_near_correction(Context& ctx, const SurfelSoA& s,
 
     const std::size_t grain = 2048;
     const std::size_t nchunks = (n + grain - 1) / grain;
-    std::vector<std::vector<Triplet>> found(nchunks);
+    std::vector<std::vector<SparseEntry>> found(nchunks);
     std::vector<std::size_t> examined(nchunks, 0);
     parallel_for(ctx, n, grain, [&](std::size_t b, std::size_t e) {
         auto& mine = found[b / grain];
@@ -263,26 +284,10 @@ NearCorrection build_near_correction(Context& ctx, const SurfelSoA& s,
         examined[b / grain] = count;
     });
 
-    std::size_t total = 0;
-    for (std::size_t c = 0; c < nchunks; ++c) {
-        total += found[c].size();
-        out.candidate_pairs += 2 * examined[c];
-        for (const Triplet& t : found[c]) ++out.offsets[t.row + 1];
-    }
-    for (std::size_t i = 0; i < n; ++i) out.offsets[i + 1] += out.offsets[i];
-    out.columns.resize(total);
-    out.values.resize(total);
-    out.full.resize(total);
-    std::vector<std::int64_t> fill(out.offsets.begin(), out.offsets.end() - 1);
-    for (auto& chunk : found) {
-        for (const Triplet& t : chunk) {
-            const std::int64_t p = fill[t.row]++;
-            out.columns[p] = t.col;
-            out.values[p] = t.value;
-            out.full[p] = t.full;
-        }
-        std::vector<Triplet>().swap(chunk);
-    }
+    std::size_t candidates = 0;
+    for (std::size_t c = 0; c < nchunks; ++c) candidates += 2 * examined[c];
+    NearCorrection out = assemble_correction(n, found);
+    out.candidate_pairs = candidates;
     out.limited_rows = out.limit_close_sums();
     return out;
 }

@@ -53,6 +53,15 @@ struct NearCorrection {
     std::size_t bytes() const;
 };
 
+// One stored entry: row, column, correction value and the whole operator entry (`full`).
+struct SparseEntry {
+    std::int64_t row, col;
+    double value, full;
+};
+
+// Builds the CSR from per-chunk entry lists (emptied on the way), for n receivers.
+NearCorrection assemble_correction(std::size_t n, std::vector<std::vector<SparseEntry>>& chunks);
+
 // V(i, j) in [0, 1] for surfels i, j in the caller's order (symmetric), or nullptr for V = 1.
 using PairVisibilityFn = std::function<float(std::uint32_t, std::uint32_t)>;
 
