@@ -65,6 +65,42 @@ inline bool make_ray(const SurfelSoA& s, const float* rad, const double* c, doub
     return true;
 }
 
+// Incoherent occlusion rays cast 64 at a time (rtcOccluded1M); each ray writes 0 (blocked) or
+// 1 (visible) into its own output slot. Slots without a ray are the caller's to fill.
+class RayBatch {
+public:
+    RayBatch(RTCScene scene, float* out) : scene_(scene), out_(out) {
+        rtcInitIntersectContext(&ctx_);
+        ctx_.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+    }
+    // The ray to fill for output slot `slot`; call commit() once it is filled.
+    RTCRay& next(std::size_t slot) {
+        slot_[k_] = slot;
+        return rays_[k_];
+    }
+    void commit() {
+        if (++k_ == kSize) flush();
+    }
+    void flush() {
+        if (!k_) return;
+        rtcOccluded1M(scene_, &ctx_, rays_, unsigned(k_), sizeof(RTCRay));
+        for (std::size_t m = 0; m < k_; ++m) out_[slot_[m]] = rays_[m].tfar < 0.0f ? 0.0f : 1.0f;
+        cast_ += k_;
+        k_ = 0;
+    }
+    std::uint64_t cast() const { return cast_; }
+
+private:
+    static constexpr std::size_t kSize = 64;
+    RTCScene scene_;
+    float* out_;
+    RTCIntersectContext ctx_;
+    RTCRay rays_[kSize];
+    std::size_t slot_[kSize];
+    std::size_t k_ = 0;
+    std::uint64_t cast_ = 0;
+};
+
 }  // namespace
 
 RaycastVisibility::RaycastVisibility(Context& ctx, const Octree& tree,
@@ -198,34 +234,18 @@ float RaycastVisibility::pair(std::uint32_t i, std::uint32_t j) const {
 
 void RaycastVisibility::pairs(const std::uint32_t* I, const std::uint32_t* J, std::size_t n,
                               float* visible) const {
-    constexpr std::size_t kBatch = 64;
-    RTCRay rays[kBatch];
-    std::size_t idx[kBatch];
-    RTCIntersectContext c;
-    rtcInitIntersectContext(&c);
-    c.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
-    std::size_t k = 0;
-    std::uint64_t cast = 0;
-    auto flush = [&] {
-        if (!k) return;
-        rtcOccluded1M(impl_->scene, &c, reinterpret_cast<RTCRay*>(rays), unsigned(k),
-                      sizeof(RTCRay));
-        for (std::size_t m = 0; m < k; ++m) visible[idx[m]] = rays[m].tfar < 0.0f ? 0.0f : 1.0f;
-        cast += k;
-        k = 0;
-    };
+    RayBatch batch(impl_->scene, visible);
     for (std::size_t m = 0; m < n; ++m) {
         std::uint32_t i = I[m], j = J[m];
         if (i > j) std::swap(i, j);
         visible[m] = 1.0f;
         if (i == j || !make_ray(tree_.s, radius_.data(), center_, opt_.endpoint_offset, back_, i, j,
-                                rays[k]))
+                                batch.next(m)))
             continue;
-        idx[k++] = m;
-        if (k == kBatch) flush();
+        batch.commit();
     }
-    flush();
-    count_queries(cast);
+    batch.flush();
+    count_queries(batch.cast());
 }
 
 void RaycastVisibility::pairs_batch(const std::uint32_t* I, const std::uint32_t* J, int n,
@@ -266,21 +286,7 @@ void RaycastVisibility::pairs_batch(const std::uint32_t* I, const std::uint32_t*
 void RaycastVisibility::block(std::int32_t a, std::int32_t b, float* out) const {
     const OctreeNode &A = tree_.nodes[a], &B = tree_.nodes[b];
     const std::uint32_t nb = B.count();
-    constexpr std::size_t kBatch = 64;
-    RTCRay rays[kBatch];
-    std::size_t idx[kBatch];
-    RTCIntersectContext c;
-    rtcInitIntersectContext(&c);
-    c.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
-    std::size_t k = 0;
-    std::uint64_t cast = 0;
-    auto flush = [&] {
-        if (!k) return;
-        rtcOccluded1M(impl_->scene, &c, rays, unsigned(k), sizeof(RTCRay));
-        for (std::size_t m = 0; m < k; ++m) out[idx[m]] = rays[m].tfar < 0.0f ? 0.0f : 1.0f;
-        cast += k;
-        k = 0;
-    };
+    RayBatch batch(impl_->scene, out);
     for (std::uint32_t i = A.begin; i < A.end; ++i)
         for (std::uint32_t j = B.begin; j < B.end; ++j) {
             const std::size_t o = std::size_t(i - A.begin) * nb + (j - B.begin);
@@ -288,13 +294,12 @@ void RaycastVisibility::block(std::int32_t a, std::int32_t b, float* out) const 
             if (i == j || !vis_facing(tree_.s, i, j)) continue;
             const std::uint32_t lo = i < j ? i : j, hi = i < j ? j : i;
             if (!make_ray(tree_.s, radius_.data(), center_, opt_.endpoint_offset, back_, lo, hi,
-                          rays[k]))
+                          batch.next(o)))
                 continue;
-            idx[k++] = o;
-            if (k == kBatch) flush();
+            batch.commit();
         }
-    flush();
-    count_queries(cast);
+    batch.flush();
+    count_queries(batch.cast());
     blocks_.fetch_add(1, std::memory_order_relaxed);
     block_pairs_.fetch_add(std::uint64_t(A.count()) * nb, std::memory_order_relaxed);
 }

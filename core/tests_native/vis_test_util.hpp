@@ -116,9 +116,9 @@ inline void build(Built& b, const Scene& sc, int leaf = 32, int threads = 0) {
 
 inline double F(const SurfelSoA& s, std::size_t i, std::size_t j) {
     if (i == j) return 0.0;
-    return pair_factor<NearField::Disc>(s.px[i] - s.px[j], s.py[i] - s.py[j], s.pz[i] - s.pz[j],
-                                        s.nx[i], s.ny[i], s.nz[i], s.area[i], s.nx[j], s.ny[j],
-                                        s.nz[j], s.area[j]);
+    // The bare point kernel: these tests compare transfers with and without occlusion.
+    return pair_factor(s.px[i] - s.px[j], s.py[i] - s.py[j], s.pz[i] - s.pz[j], s.nx[i],
+                       s.ny[i], s.nz[i], s.nx[j], s.ny[j], s.nz[j], s.area[j]);
 }
 
 // Sum over receivers with tag rt and sources with tag st of A_i F_ij V_ij, V from `vis`
