@@ -10,7 +10,7 @@
 
 namespace illumap {
 
-struct RaycastVisibility::Impl {
+struct OccluderScene::Impl {
     RTCDevice device = nullptr;
     RTCScene scene = nullptr;
     std::atomic<bool>* cancel = nullptr;  // the build's context flag
@@ -33,36 +33,6 @@ void throw_embree(RTCDevice dev, const char* what) {
     if (e == RTC_ERROR_CANCELLED) throw Cancelled();
     throw std::runtime_error(std::string("embree: ") + what + " failed (error " +
                              std::to_string(int(e)) + ")");
-}
-
-// One segment i -> j (i < j), trimmed by off * (disc radius) at both ends. The ray starts
-// `back` (> 2 * largest disc radius) BEHIND p_i: Debian's Embree is built with
-// EMBREE_DISC_POINT_SELF_INTERSECTION_AVOIDANCE, which skips every disc whose bounding sphere
-// contains the ray origin; from p_i itself that would hide real occluders next to p_i (a wall
-// beside a floor surfel). A disc whose sphere contains the shifted origin lies entirely within
-// 2 r_k < back of it and so cannot reach the segment: nothing relevant is skipped.
-// Returns false when nothing remains of the segment.
-inline bool make_ray(const SurfelSoA& s, const float* rad, const double* c, double off,
-                     double back, std::uint32_t i, std::uint32_t j, RTCRay& r) {
-    const double dx = s.px[j] - s.px[i], dy = s.py[j] - s.py[i], dz = s.pz[j] - s.pz[i];
-    const double len = std::sqrt(dx * dx + dy * dy + dz * dz);
-    const double t0 = off * rad[i], t1 = off * rad[j];
-    if (!(len > t0 + t1) || !(len > 0)) return false;
-    const double ux = dx / len, uy = dy / len, uz = dz / len;
-    const double total = len + back;
-    r.org_x = float(s.px[i] - back * ux - c[0]);
-    r.org_y = float(s.py[i] - back * uy - c[1]);
-    r.org_z = float(s.pz[i] - back * uz - c[2]);
-    r.dir_x = float(ux * total);
-    r.dir_y = float(uy * total);
-    r.dir_z = float(uz * total);
-    r.tnear = float((back + t0) / total);
-    r.tfar = float((back + len - t1) / total);
-    r.time = 0.0f;
-    r.mask = 0xffffffffu;
-    r.id = 0;
-    r.flags = 0;
-    return true;
 }
 
 // Incoherent occlusion rays cast 64 at a time (rtcOccluded1M); each ray writes 0 (blocked) or
@@ -103,14 +73,13 @@ private:
 
 }  // namespace
 
-RaycastVisibility::RaycastVisibility(Context& ctx, const Octree& tree,
-                                     const VisibilityOptions& opt)
-    : VisibilityModel(tree, opt), impl_(new Impl) {
+OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
+                             VisibilityOptions::Shape shape)
+    : shape_(shape) {
     const auto t_start = std::chrono::steady_clock::now();
-    const SurfelSoA& s = tree.s;
     const std::size_t n = s.n;
-    if (!(opt.coverage > 0) || !(opt.endpoint_offset >= 0))
-        throw std::invalid_argument("coverage must be > 0 and endpoint_offset >= 0");
+    if (!(coverage > 0) || !std::isfinite(coverage))
+        throw std::invalid_argument("coverage must be a finite number > 0");
     // Box centre: float coordinates relative to the scene, not to the world origin.
     double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
     for (std::size_t i = 0; i < n; ++i) {
@@ -118,9 +87,14 @@ RaycastVisibility::RaycastVisibility(Context& ctx, const Octree& tree,
         lo[1] = std::min(lo[1], s.py[i]); hi[1] = std::max(hi[1], s.py[i]);
         lo[2] = std::min(lo[2], s.pz[i]); hi[2] = std::max(hi[2], s.pz[i]);
     }
-    for (int d = 0; d < 3; ++d) center_[d] = n ? 0.5 * (lo[d] + hi[d]) : 0.0;
+    for (int d = 0; d < 3; ++d) {
+        center_[d] = n ? 0.5 * (lo[d] + hi[d]) : 0.0;
+        lo_[d] = n ? lo[d] : 0.0;
+        hi_[d] = n ? hi[d] : 0.0;
+    }
 
     radius_.resize(n);
+    impl_ = new Impl;
     const std::string cfg = "threads=" + std::to_string(ctx.nthreads());
     impl_->device = rtcNewDevice(cfg.c_str());
     if (!impl_->device) {
@@ -133,16 +107,21 @@ RaycastVisibility::RaycastVisibility(Context& ctx, const Octree& tree,
         rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);
         impl_->cancel = &ctx.cancel;
         rtcSetSceneProgressMonitorFunction(impl_->scene, build_progress, &ctx.cancel);
-        if (n > 0 && opt.shape == VisibilityOptions::Shape::Quad) {
+        if (n > 0 && shape == VisibilityOptions::Shape::Quad) {
             // Equal-area squares (side coverage * sqrt(A)) in each tangent plane; the frame is a
             // fixed function of the normal (Duff et al. 2017), so the build is deterministic.
-            RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_QUAD);
+            // Each square is two triangles that OVERLAP along the diagonal (the first reaches
+            // kOverlap of the side past it): Embree's triangle and quad tests are not
+            // watertight, and a single quad let rays through its own diagonal (measured: lamp
+            // rays through a regular grid of quads leaked at every cell's diagonal).
+            constexpr double kOverlap = 0.02;
+            RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
             float* v = static_cast<float*>(rtcSetNewGeometryBuffer(
-                g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 4 * n));
+                g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 6 * n));
             unsigned* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-                g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4, 4 * sizeof(unsigned), n));
+                g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), 2 * n));
             throw_embree(impl_->device, "buffers");
-            const double cov = opt.coverage;
+            const double cov = coverage;
             ctx.set_phase("visibility: quads", 0.0, 0.2);
             parallel_for(ctx, n, 1 << 15, [&](std::size_t b, std::size_t e) {
                 for (std::size_t i = b; i < e; ++i) {
@@ -156,11 +135,15 @@ RaycastVisibility::RaycastVisibility(Context& ctx, const Octree& tree,
                     const double t[3] = {1.0 + sg * nx * nx * a, sg * bb, -sg * nx};
                     const double u[3] = {bb, sg + ny * ny * a, -ny};
                     const double c[3] = {s.px[i] - center_[0], s.py[i] - center_[1], s.pz[i] - center_[2]};
-                    const double sgn[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
-                    for (int k = 0; k < 4; ++k)
+                    // corners 0..3 counter-clockwise, then 1 and 3 moved towards 2
+                    const double w = 2.0 * kOverlap - 1.0;
+                    const double sgn[6][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}, {1, w}, {w, 1}};
+                    for (int k = 0; k < 6; ++k)
                         for (int d = 0; d < 3; ++d)
-                            v[3 * (4 * i + k) + d] = float(c[d] + half * (sgn[k][0] * t[d] + sgn[k][1] * u[d]));
-                    for (int k = 0; k < 4; ++k) ib[4 * i + k] = unsigned(4 * i + k);
+                            v[3 * (6 * i + k) + d] = float(c[d] + half * (sgn[k][0] * t[d] + sgn[k][1] * u[d]));
+                    const unsigned o = unsigned(6 * i);
+                    const unsigned tri[6] = {o, o + 4, o + 5, o + 2, o + 3, o + 1};
+                    for (int k = 0; k < 6; ++k) ib[6 * i + k] = tri[k];
                 }
             });
             float rmax = 0;
@@ -176,7 +159,7 @@ RaycastVisibility::RaycastVisibility(Context& ctx, const Octree& tree,
             float* nb = static_cast<float*>(rtcSetNewGeometryBuffer(
                 g, RTC_BUFFER_TYPE_NORMAL, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), n));
             throw_embree(impl_->device, "buffers");
-            const double cov = opt.coverage;
+            const double cov = coverage;
             ctx.set_phase("visibility: discs", 0.0, 0.2);
             parallel_for(ctx, n, 1 << 15, [&](std::size_t b, std::size_t e) {
                 for (std::size_t i = b; i < e; ++i) {
@@ -198,6 +181,12 @@ RaycastVisibility::RaycastVisibility(Context& ctx, const Octree& tree,
             rtcAttachGeometry(impl_->scene, g);
             rtcReleaseGeometry(g);
         }
+        // The occluders' box, padded by the farthest reach of a disc or quad corner (1.26 r)
+        // plus float noise, for clipping segments (a sun's target may be very far away).
+        double ext = 0;
+        for (int d = 0; d < 3; ++d) ext = std::max(ext, hi_[d] - lo_[d]);
+        const double pad = 0.8 * back_ + 1e-6 * ext + 1e-30;
+        for (int d = 0; d < 3; ++d) { lo_[d] -= pad; hi_[d] += pad; }
         // The BVH build runs on Embree's threads, started from one of our workers, while the
         // calling thread polls the monitor; a cancel makes build_progress stop Embree.
         ctx.set_phase("visibility: BVH", 0.2, 0.8);
@@ -213,35 +202,118 @@ RaycastVisibility::RaycastVisibility(Context& ctx, const Octree& tree,
     }
     build_seconds_ =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-    // Buffers (16 + 12 bytes per disc), our radii, and Embree's BVH (measured: ~ see report;
-    // estimated here as 64 bytes per primitive).
-    bytes_ = n * (opt.shape == VisibilityOptions::Shape::Quad ? 48 + 16 + 4 + 64 : 16 + 12 + 4 + 64);
 }
 
-RaycastVisibility::~RaycastVisibility() { delete impl_; }
+OccluderScene::~OccluderScene() { delete impl_; }
+
+void* OccluderScene::rtc_scene() const { return impl_->scene; }
+
+std::size_t OccluderScene::bytes() const {
+    // Buffers (discs 16 + 12 bytes, quads as two triangles 72 + 24), our radii, and Embree's
+    // BVH (estimated as 64 bytes per primitive).
+    return size() * (shape_ == VisibilityOptions::Shape::Quad ? 72 + 24 + 4 + 128 : 16 + 12 + 4 + 64);
+}
+
+// Segment p -> q with its first t0 and last t1 ignored, clipped to the occluders' box in
+// double precision. The ray starts `back` (> 2 * largest disc radius) BEHIND its first point:
+// Debian's Embree is built with EMBREE_DISC_POINT_SELF_INTERSECTION_AVOIDANCE, which skips
+// every disc whose bounding sphere contains the ray origin; from the endpoint itself that
+// would hide real occluders next to it (a wall beside a floor surfel). A disc whose sphere
+// contains the shifted origin lies entirely within 2 r_k < back of it and so cannot reach the
+// segment: nothing relevant is skipped. Returns false when nothing remains of the segment.
+bool OccluderScene::make_ray(const double* p, const double* q, double t0, double t1,
+                             void* rtc_ray) const {
+    RTCRay& r = *static_cast<RTCRay*>(rtc_ray);
+    const double dx = q[0] - p[0], dy = q[1] - p[1], dz = q[2] - p[2];
+    const double len = std::sqrt(dx * dx + dy * dy + dz * dz);
+    if (!(len > t0 + t1) || !(len > 0) || !std::isfinite(len)) return false;
+    const double u[3] = {dx / len, dy / len, dz / len};
+    // [a, e]: the part of [0, len] inside the box (slabs); a = 0, e = len when both ends are
+    // inside, which is always the case for surfel pairs.
+    double a = 0, e = len;
+    for (int d = 0; d < 3; ++d) {
+        if (u[d] != 0.0) {
+            double ta = (lo_[d] - p[d]) / u[d], tb = (hi_[d] - p[d]) / u[d];
+            if (ta > tb) std::swap(ta, tb);
+            a = std::max(a, ta);
+            e = std::min(e, tb);
+        } else if (p[d] < lo_[d] || p[d] > hi_[d]) {
+            return false;
+        }
+    }
+    const double s0 = std::max(t0, a), s1 = std::min(len - t1, e);
+    if (!(s1 > s0)) return false;
+    const double total = (e - a) + back_;
+    r.org_x = float(p[0] + (a - back_) * u[0] - center_[0]);
+    r.org_y = float(p[1] + (a - back_) * u[1] - center_[1]);
+    r.org_z = float(p[2] + (a - back_) * u[2] - center_[2]);
+    r.dir_x = float(u[0] * total);
+    r.dir_y = float(u[1] * total);
+    r.dir_z = float(u[2] * total);
+    r.tnear = float((back_ + s0 - a) / total);
+    r.tfar = float((back_ + s1 - a) / total);
+    r.time = 0.0f;
+    r.mask = 0xffffffffu;
+    r.id = 0;
+    r.flags = 0;
+    return true;
+}
+
+void OccluderScene::segments(Context& ctx, const double* a, const double* b,
+                             const std::int64_t* skip, double endpoint_offset, std::size_t n,
+                             float* out) const {
+    parallel_for(ctx, n, 1024, [&](std::size_t lo, std::size_t hi) {
+        RayBatch batch(impl_->scene, out);
+        for (std::size_t k = lo; k < hi; ++k) {
+            out[k] = 1.0f;
+            const std::int64_t sk = skip ? skip[k] : -1;
+            const double t0 = sk >= 0 ? endpoint_offset * double(radius_[std::size_t(sk)]) : 0.0;
+            if (make_ray(a + 3 * k, b + 3 * k, t0, 0.0, &batch.next(k))) batch.commit();
+        }
+        batch.flush();
+    });
+}
+
+RaycastVisibility::RaycastVisibility(Context& ctx, const Octree& tree,
+                                     const VisibilityOptions& opt)
+    : VisibilityModel(tree, opt) {
+    if (!(opt.endpoint_offset >= 0))
+        throw std::invalid_argument("endpoint_offset must be >= 0");
+    scene_ = std::make_unique<OccluderScene>(ctx, tree.s, opt.coverage, opt.shape);
+    build_seconds_ = scene_->build_seconds();
+    bytes_ = scene_->bytes();
+}
+
+RaycastVisibility::~RaycastVisibility() = default;
+
+// Surfel pair i < j, trimmed by endpoint_offset * (disc radius) at both ends.
+bool RaycastVisibility::make_pair_ray(std::uint32_t i, std::uint32_t j, void* r) const {
+    const SurfelSoA& s = tree_.s;
+    const double p[3] = {s.px[i], s.py[i], s.pz[i]}, q[3] = {s.px[j], s.py[j], s.pz[j]};
+    const double off = opt_.endpoint_offset;
+    return scene_->make_ray(p, q, off * scene_->radius(i), off * scene_->radius(j), r);
+}
 
 float RaycastVisibility::pair(std::uint32_t i, std::uint32_t j) const {
     if (i == j) return 1.0f;
     if (i > j) std::swap(i, j);
     RTCRay r;
-    if (!make_ray(tree_.s, radius_.data(), center_, opt_.endpoint_offset, back_, i, j, r)) return 1.0f;
+    if (!make_pair_ray(i, j, &r)) return 1.0f;
     RTCIntersectContext c;
     rtcInitIntersectContext(&c);
-    rtcOccluded1(impl_->scene, &c, &r);
+    rtcOccluded1(static_cast<RTCScene>(scene_->rtc_scene()), &c, &r);
     count_queries(1);
     return r.tfar < 0.0f ? 0.0f : 1.0f;  // Embree sets tfar = -inf on a hit
 }
 
 void RaycastVisibility::pairs(const std::uint32_t* I, const std::uint32_t* J, std::size_t n,
                               float* visible) const {
-    RayBatch batch(impl_->scene, visible);
+    RayBatch batch(static_cast<RTCScene>(scene_->rtc_scene()), visible);
     for (std::size_t m = 0; m < n; ++m) {
         std::uint32_t i = I[m], j = J[m];
         if (i > j) std::swap(i, j);
         visible[m] = 1.0f;
-        if (i == j || !make_ray(tree_.s, radius_.data(), center_, opt_.endpoint_offset, back_, i, j,
-                                batch.next(m)))
-            continue;
+        if (i == j || !make_pair_ray(i, j, &batch.next(m))) continue;
         batch.commit();
     }
     batch.flush();
@@ -266,9 +338,7 @@ void RaycastVisibility::pairs_batch(const std::uint32_t* I, const std::uint32_t*
             std::uint32_t i = I[k], j = J[k];
             if (i > j) std::swap(i, j);
             RTCRay r;
-            if (i == j || !make_ray(tree_.s, radius_.data(), center_, opt_.endpoint_offset, back_,
-                                    i, j, r))
-                continue;
+            if (i == j || !make_pair_ray(i, j, &r)) continue;
             valid[l] = -1;
             p.org_x[l] = r.org_x; p.org_y[l] = r.org_y; p.org_z[l] = r.org_z;
             p.dir_x[l] = r.dir_x; p.dir_y[l] = r.dir_y; p.dir_z[l] = r.dir_z;
@@ -276,7 +346,7 @@ void RaycastVisibility::pairs_batch(const std::uint32_t* I, const std::uint32_t*
             p.mask[l] = 0xffffffffu; p.id[l] = 0; p.flags[l] = 0;
             cast++;
         }
-        rtcOccluded8(valid, impl_->scene, &c, &p);
+        rtcOccluded8(valid, static_cast<RTCScene>(scene_->rtc_scene()), &c, &p);
         for (int l = 0; l < 8 && base + l < n; ++l)
             if (valid[l]) out[base + l] = p.tfar[l] < 0.0f ? 0.0f : 1.0f;
     }
@@ -286,16 +356,14 @@ void RaycastVisibility::pairs_batch(const std::uint32_t* I, const std::uint32_t*
 void RaycastVisibility::block(std::int32_t a, std::int32_t b, float* out) const {
     const OctreeNode &A = tree_.nodes[a], &B = tree_.nodes[b];
     const std::uint32_t nb = B.count();
-    RayBatch batch(impl_->scene, out);
+    RayBatch batch(static_cast<RTCScene>(scene_->rtc_scene()), out);
     for (std::uint32_t i = A.begin; i < A.end; ++i)
         for (std::uint32_t j = B.begin; j < B.end; ++j) {
             const std::size_t o = std::size_t(i - A.begin) * nb + (j - B.begin);
             out[o] = 1.0f;
             if (i == j || !vis_facing(tree_.s, i, j)) continue;
             const std::uint32_t lo = i < j ? i : j, hi = i < j ? j : i;
-            if (!make_ray(tree_.s, radius_.data(), center_, opt_.endpoint_offset, back_, lo, hi,
-                          batch.next(o)))
-                continue;
+            if (!make_pair_ray(lo, hi, &batch.next(o))) continue;
             batch.commit();
         }
     batch.flush();

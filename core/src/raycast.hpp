@@ -23,7 +23,8 @@
 // pairs near edges, light blocked by a wall's overhanging rim). Default 1.3.
 //
 // shape = Quad (VisibilityOptions::Shape) replaces each disc by a square of the same area,
-// side coverage * sqrt(A), in the tangent plane (frame a fixed function of the normal).
+// side coverage * sqrt(A), in the tangent plane (frame a fixed function of the normal), made
+// of two triangles that overlap along its diagonal (a single Embree quad leaks along it).
 // Measured here: ~3x more occlusion rays per CPU-second than oriented discs (Embree's quad
 // kernels are its most optimised), no leak through the test occluders at coverage 1.3 where
 // discs leak 0.46% (jittered sampling), slightly more over-occlusion at edges (corners reach
@@ -35,6 +36,51 @@
 #include "visibility.hpp"
 
 namespace illumap {
+
+// The Embree scene of a set of surfels as occluders (discs or quads, per VisibilityOptions'
+// coverage and shape), in float coordinates relative to the surfels' box centre. Shared by
+// RaycastVisibility (pairs of surfels) and the arbitrary-segment query behind
+// illumap.Occluders (lamp shadows), so both see exactly the same occluders.
+class OccluderScene {
+public:
+    // Builds the BVH over s (indices are s's own order). Embree's threads build it while the
+    // calling thread polls ctx.monitor. Throws Cancelled, std::invalid_argument on bad
+    // options, or std::runtime_error on an Embree error.
+    OccluderScene(Context& ctx, const SurfelSoA& s, double coverage, VisibilityOptions::Shape shape);
+    ~OccluderScene();
+    OccluderScene(const OccluderScene&) = delete;
+    OccluderScene& operator=(const OccluderScene&) = delete;
+
+    std::size_t size() const { return radius_.size(); }
+    float radius(std::uint32_t i) const { return radius_[i]; }  // disc radius, for trims
+    const float* radii() const { return radius_.data(); }
+    VisibilityOptions::Shape shape() const { return shape_; }
+    double build_seconds() const { return build_seconds_; }
+    std::size_t bytes() const;
+
+    // Visibility of n segments a[k] -> b[k] (world coordinates, 3 doubles each). skip[k] >= 0
+    // (skip may be null) names a surfel at a[k]: the first endpoint_offset * radius(skip[k])
+    // of the segment is ignored, as pair() does (its own disc, coincident duplicates).
+    // out[k] = 1 when no occluder meets the remaining segment, else 0. Segments are clipped
+    // to the occluders' box in double precision first, so a target may lie arbitrarily far.
+    // Runs on ctx's workers with progress and cancellation (throws Cancelled).
+    void segments(Context& ctx, const double* a, const double* b, const std::int64_t* skip,
+                  double endpoint_offset, std::size_t n, float* out) const;
+
+    // Internal: the ray for segment p -> q trimmed by t0 / t1 (false: nothing to test).
+    bool make_ray(const double* p, const double* q, double t0, double t1, void* rtc_ray) const;
+    void* rtc_scene() const;  // RTCScene
+
+private:
+    struct Impl;
+    Impl* impl_ = nullptr;
+    std::vector<float> radius_;  // disc radius per surfel
+    VisibilityOptions::Shape shape_;
+    double center_[3] = {0, 0, 0};
+    double lo_[3] = {0, 0, 0}, hi_[3] = {0, 0, 0};  // occluders' box (padded), world units
+    double back_ = 0;  // rays start this far behind their first endpoint (see raycast.cpp)
+    double build_seconds_ = 0;
+};
 
 class RaycastVisibility final : public VisibilityModel {
 public:
@@ -51,19 +97,17 @@ public:
                      float* out) const override;
     bool batched() const override { return opt_.packets; }
 
-    // Occlusion of n arbitrary segments (for benchmarks and callers with their own samples):
+    // Occlusion of n surfel pairs (for benchmarks and callers with their own samples):
     // visible[k] = 1 if nothing lies between i[k] and j[k], with the same trimming as pair().
     void pairs(const std::uint32_t* i, const std::uint32_t* j, std::size_t n,
                float* visible) const;
 
-    float disc_radius(std::uint32_t i) const { return radius_[i]; }
+    float disc_radius(std::uint32_t i) const { return scene_->radius(i); }
+    const OccluderScene& scene() const { return *scene_; }
 
 private:
-    struct Impl;
-    Impl* impl_ = nullptr;
-    std::vector<float> radius_;  // disc radius per surfel (tree order)
-    double center_[3] = {0, 0, 0};
-    double back_ = 0;  // rays start this far behind their first endpoint (see raycast.cpp)
+    bool make_pair_ray(std::uint32_t i, std::uint32_t j, void* rtc_ray) const;
+    std::unique_ptr<OccluderScene> scene_;
 };
 
 }  // namespace illumap

@@ -85,8 +85,8 @@ struct VisibilityOptions {
     double endpoint_offset = 0.05;
     // "exact": the occluder shape. Disc: Embree's oriented-disc points (radius coverage *
     // sqrt(A/pi)). Quad: a square of the same area in the tangent plane (side
-    // coverage * sqrt(A)), two triangles' worth of Embree's fastest primitive; measured ~3x
-    // more rays per CPU-second than discs here; its corners reach 1.25x the disc radius.
+    // coverage * sqrt(A)), two overlapping triangles; measured ~3x more rays per CPU-second
+    // than discs here; its corners reach 1.25x the disc radius.
     enum class Shape : std::uint8_t { Disc = 0, Quad = 1 } shape = Shape::Disc;
     // "exact": cast the samples of a node pair as packets of 8 rays (no early exit) instead of
     // one by one with early exit on the first disagreement.

@@ -7,11 +7,13 @@ Public API (docs/architecture.md)::
                       visibility="none")                      # .apply(values), .stats, .symmetric
     solve(surfels, *, method=…, solver="auto"|"cg"|"gmres"|"jacobi", tol=…, max_iterations=…,
           progress=None, operator=None, target_error=None, **operator_keywords) -> Solution
+    Occluders(surfels, coverage=1.3, shape="disc")           # .visible(origins, targets, skip=)
     InputError(ValueError), Cancelled(Exception)
 """
 
 from . import accuracy
 from ._progress import Cancelled
+from .occluders import Occluders
 from .operator import (DEFAULT_LEAF_SIZE, DEFAULT_METHOD, DEFAULT_NEAR_FIELD, DEFAULT_ORDER,
                        DEFAULT_THETA, DEFAULT_VISIBILITY, TransportOperator)
 from .solver import DEFAULT_TOL, Solution, solve
@@ -20,7 +22,7 @@ from .surfels import InputError, Surfels
 __version__ = "0.1.0"
 
 __all__ = [
-    "Surfels", "TransportOperator", "solve", "Solution", "InputError", "Cancelled",
+    "Surfels", "TransportOperator", "Occluders", "solve", "Solution", "InputError", "Cancelled",
     "DEFAULT_METHOD", "DEFAULT_ORDER", "DEFAULT_THETA", "DEFAULT_LEAF_SIZE",
     "DEFAULT_NEAR_FIELD", "DEFAULT_VISIBILITY", "DEFAULT_TOL", "native_available", "accuracy",
 ]
