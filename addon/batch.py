@@ -11,8 +11,14 @@ Options (after ``--``)::
     --budget N             total surfels (overrides density)
     --method M             fmm | direct
     --tol T                relative residual
+    --target-error E       relative RMS error wanted (e.g. 0.05): chooses the surfel density
+                           (--budget caps the count), FMM order, opening angle and tolerance
+    --no-adaptive          with --target-error: one uniform pass (default: pass 1 with half
+                           the surfels, then pass 2 denser where its illumination varies)
     --transfer DOMAIN      also write 'illumination' onto the meshes: point | corner
     --no-lamps             ignore Blender lamps
+    --no-lamp-shadows      lamp light unshadowed (default: rays against the surfels)
+    --shadow-samples N     rays per surfel for lamps with a size (default 16)
     --world                add the world colour as uniform ambient light
     --frames A-B[,C...]    frames to compute, one result per frame (default: the current frame)
     --output out.blend     save the result (#### → frame number; added before the extension
@@ -70,10 +76,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=["fmm", "direct"], type=str.lower)
     p.add_argument("--tol", type=float)
     p.add_argument("--target-error", type=float,
-                   help="relative RMS error wanted (e.g. 0.03): Illumap picks order, θ, "
-                        "visibility and tolerance, and reports an error estimate")
+                   help="relative RMS error wanted (e.g. 0.03): Illumap picks the surfel "
+                        "density, order, θ and tolerance, and reports an error estimate")
     p.add_argument("--transfer", choices=["point", "corner"], type=str.lower)
+    p.add_argument("--no-adaptive", action="store_true")
     p.add_argument("--no-lamps", action="store_true")
+    p.add_argument("--no-lamp-shadows", action="store_true")
+    p.add_argument("--shadow-samples", type=int, default=16)
     p.add_argument("--world", action="store_true")
     p.add_argument("--frames", help="e.g. 1-3 or 1,5,7-9")
     p.add_argument("--output", help="output .blend (#### = frame)")
@@ -168,7 +177,17 @@ def make_settings(args) -> pipeline.Settings:
         raise UsageError("--budget must be positive")
     if args.lightmap_size <= 0 or args.resolution <= 0 or args.samples <= 0:
         raise UsageError("--lightmap-size, --resolution and --samples must be positive")
+    if args.shadow_samples <= 0:
+        raise UsageError("--shadow-samples must be positive")
+    if args.target_error is not None and not 0.0 < args.target_error < 1.0:
+        raise UsageError("--target-error must lie in (0, 1), e.g. 0.05")
+    if args.target_error is not None and args.density is not None:
+        raise UsageError("--density and --target-error exclude each other: the target error "
+                         "chooses the density (use --budget to cap the surfel count)")
     settings.lamps = not args.no_lamps
+    settings.lamp_shadows = not args.no_lamp_shadows
+    settings.shadow_samples = args.shadow_samples
+    settings.adaptive = not args.no_adaptive
     settings.world_ambient = args.world
     if args.transfer:
         settings.transfer, settings.transfer_domain = True, args.transfer.upper()
@@ -230,6 +249,21 @@ def _report(frame: int, result: pipeline.Result, out) -> None:
           f"final residual {result.residual:.3g}, converged {result.converged}", file=out)
     for phase, seconds in result.timings.items():
         print(f"  {phase:<16} {seconds:8.3f} s", file=out)
+    density = result.stats.get("density")
+    if density:
+        print(f"  target error {density['target_error']:.3g}: {density['density']:.0f} surfels/m² "
+              f"({density['surfels']} surfels, predicted discretization error "
+              f"{density['predicted_discretization']:.3g})", file=out)
+    adaptive = result.stats.get("adaptive")
+    if adaptive:
+        first = adaptive["pass1"]
+        print(f"  adaptive: pass 1 {first['surfels']} surfels, {first['iterations']} iterations, "
+              f"{first['seconds']:.3f} s; pass 2 {adaptive['pass2_surfels']} surfels, density "
+              f"multiplier {adaptive['mean_multiplier']:.2f} on average, "
+              f"{adaptive['max_multiplier']:.2f} at most, over {adaptive['regions']} regions",
+              file=out)
+    if result.stats.get("shadow_rays"):
+        print(f"  shadow rays      {result.stats['shadow_rays']}", file=out)
     accuracy = result.stats.get("accuracy")
     if accuracy:
         chosen = accuracy["settings"]

@@ -126,9 +126,19 @@ def record_stats(stats, result, seconds):
         item.name = str(phase)
         item.seconds = float(value)
     stats.total_seconds = float(seconds)
+    extra = dict(_first(result, "stats", default={}) or {})
+    density = extra.get("density") or {}
+    stats.density = float(density.get("density", 0.0))
+    stats.predicted_error = float(density.get("predicted_discretization", 0.0))
+    first = (extra.get("adaptive") or {}).get("pass1") or {}
+    stats.first_pass_surfels = int(first.get("surfels", 0))
+    stats.first_pass_iterations = int(first.get("iterations", 0))
+    stats.shadow_rays = int(extra.get("shadow_rays", 0))
     stats.valid = True
     stats.summary = (f"{stats.surfels} surfels, {stats.iterations} iterations, "
                      f"residual {stats.residual:.2e}, {stats.total_seconds:.2f} s")
+    if stats.first_pass_surfels:
+        stats.summary += f" (adaptive; pass 1: {stats.first_pass_surfels} surfels)"
     return stats
 
 
@@ -258,6 +268,21 @@ class ComputeTask:
         return f"Illumap: {self.phase} {100.0 * self.fraction:.0f} %  (Esc to cancel)"
 
 
+def next_task(task):
+    """Main thread, after a pass finished: the started task of the next pass (adaptive
+    density: pass 2 resamples from pass 1's result), or None when this was the last pass."""
+    if task.state != "DONE":
+        return None
+    next_pass = getattr(_pipeline(), "next_pass", None)
+    job = next_pass(task.job, task.result) if next_pass is not None else None
+    if job is None:
+        return None
+    started = task.started
+    follow = ComputeTask(job, task._run).start()
+    follow.started = started  # the statistics time the whole run
+    return follow
+
+
 def finish_task(context, task, report):
     """Main thread, after the worker stopped: write on success, report otherwise.
 
@@ -372,6 +397,17 @@ class ILLUMAP_OT_compute_illumination_map(bpy.types.Operator):
             for area in context.screen.areas if context.screen else ():
                 if area.type == "VIEW_3D":
                     area.tag_redraw()  # the panel shows the progress too
+            return {"RUNNING_MODAL"}
+        try:
+            follow = next_task(task)
+        except Exception as error:
+            self._cleanup(context)
+            self.report({"ERROR"}, f"Illumap failed: {error_message(error)}")
+            return {"CANCELLED"}
+        if follow is not None:  # adaptive density: pass 2 runs on the worker in turn
+            self._task = follow
+            _current["task"] = follow
+            self._status(context, follow.status_text())
             return {"RUNNING_MODAL"}
         self._cleanup(context)
         return finish_task(context, task, self.report)

@@ -50,6 +50,12 @@ def draw_advanced(layout, context):
     col.prop(props, "sampling")
     col.prop(props, "density" if props.sampling == "DENSITY" else "budget")
     col.prop(props, "seed")
+    col = layout.column(heading="Accuracy")
+    col.prop(props, "use_target_error")
+    sub = col.column()
+    sub.active = props.use_target_error
+    sub.prop(props, "target_error")
+    sub.prop(props, "adaptive")
     col = layout.column(heading="Solver")
     col.prop(props, "method")
     sub = col.column()
@@ -64,6 +70,12 @@ def draw_advanced(layout, context):
     col.prop(props, "near_field")
     col = layout.column(heading="Light")
     col.prop(props, "lamps")
+    sub = col.column()
+    sub.active = props.lamps
+    sub.prop(props, "lamp_shadows")
+    sub2 = sub.column()
+    sub2.active = props.lamps and props.lamp_shadows
+    sub2.prop(props, "shadow_samples")
     col.prop(props, "world_ambient")
     col = layout.column(heading="Output")
     col.prop(props, "transfer")
@@ -95,6 +107,14 @@ def draw_stats(layout, context):
     col.label(text=f"Iterations: {stats.iterations}"
                    + ("" if stats.converged else "  (not converged)"))
     col.label(text=f"Final residual: {stats.residual:.3e}")
+    if stats.density > 0:
+        col.label(text=f"Density for target: {stats.density:,.0f} /m² "
+                       f"(predicted {stats.predicted_error:.3f})")
+    if stats.first_pass_surfels > 0:
+        col.label(text=f"Adaptive pass 1: {stats.first_pass_surfels:,} surfels, "
+                       f"{stats.first_pass_iterations} iterations")
+    if stats.shadow_rays > 0:
+        col.label(text=f"Shadow rays: {stats.shadow_rays:,}")
     col.label(text=f"Total: {stats.total_seconds:.3f} s")
     if len(stats.phases):
         col = layout.column(align=True)

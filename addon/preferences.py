@@ -39,6 +39,8 @@ class IllumapPreferences(bpy.types.AddonPreferences):
                                  default=properties.DEFAULT_PRESET)
     default_lamps: BoolProperty(name="Lamps", default=True,
                                 description="Add Blender lamps as direct light in new scenes")
+    default_lamp_shadows: BoolProperty(name="Lamp Shadows", default=True,
+                                       description="Shadow lamp light in new scenes")
     default_world_ambient: BoolProperty(name="World Ambient", default=False)
     default_build_preview: BoolProperty(name="Build Preview After Compute", default=True)
     default_disc_scale: FloatProperty(name="Disc Scale", default=1.5, min=0.0, soft_max=4.0)
@@ -56,6 +58,7 @@ class IllumapPreferences(bpy.types.AddonPreferences):
         col.use_property_split = True
         col.prop(self, "default_preset")
         col.prop(self, "default_lamps")
+        col.prop(self, "default_lamp_shadows")
         col.prop(self, "default_world_ambient")
         col.prop(self, "default_build_preview")
         col.prop(self, "default_disc_scale")
@@ -68,6 +71,7 @@ def apply_defaults(scene_settings, prefs=None):
     properties.apply_preset(scene_settings, preset)
     if prefs is not None:
         scene_settings.lamps = prefs.default_lamps
+        scene_settings.lamp_shadows = prefs.default_lamp_shadows
         scene_settings.world_ambient = prefs.default_world_ambient
         scene_settings.build_preview = prefs.default_build_preview
         scene_settings.disc_scale = prefs.default_disc_scale

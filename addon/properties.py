@@ -133,6 +133,14 @@ class IllumapStats(bpy.types.PropertyGroup):
     total_seconds: FloatProperty(name="Total Time", default=0.0, precision=3)
     phases: CollectionProperty(type=IllumapPhaseTime)
     summary: StringProperty(name="Summary", default="")
+    density: FloatProperty(name="Density", default=0.0, precision=1,
+                           description="Surfels per m² chosen for the target error (0: none)")
+    predicted_error: FloatProperty(name="Predicted Discretization Error", default=0.0,
+                                   precision=4)
+    first_pass_surfels: IntProperty(name="Pass 1 Surfels", default=0,
+                                    description="Surfels of the adaptive first pass (0: one pass)")
+    first_pass_iterations: IntProperty(name="Pass 1 Iterations", default=0)
+    shadow_rays: IntProperty(name="Shadow Rays", default=0)
 
     def clear(self):
         self.valid = False
@@ -143,6 +151,11 @@ class IllumapStats(bpy.types.PropertyGroup):
         self.total_seconds = 0.0
         self.phases.clear()
         self.summary = ""
+        self.density = 0.0
+        self.predicted_error = 0.0
+        self.first_pass_surfels = 0
+        self.first_pass_iterations = 0
+        self.shadow_rays = 0
 
 
 class IllumapSettings(bpy.types.PropertyGroup):
@@ -162,6 +175,18 @@ class IllumapSettings(bpy.types.PropertyGroup):
                         min=1, soft_max=1_000_000, update=_field_update)
     seed: IntProperty(name="Seed", description="Sampling seed (results are reproducible)",
                       default=0, min=0, update=_field_update)
+    use_target_error: BoolProperty(
+        name="Target Error", default=False, update=_field_update,
+        description="Choose the surfel density, FMM order, opening angle and tolerance from "
+                    "a target error instead of the settings below")
+    target_error: FloatProperty(
+        name="Error", default=0.05, min=0.001, max=0.5, precision=3, update=_field_update,
+        description="Relative RMS error wanted per surfel (0.05 = 5%)")
+    adaptive: BoolProperty(
+        name="Adaptive Density", default=True, update=_field_update,
+        description="With a target error: solve once with half the surfels, then resample "
+                    "denser where that illumination varies (shadow edges, near lights, corners) "
+                    "and solve again with the same total count")
     # Solver
     method: EnumProperty(name="Method", items=METHOD_ITEMS, default="FMM", update=_field_update)
     order: IntProperty(name="FMM Order", description="Expansion order p of the multipole method",
@@ -184,6 +209,14 @@ class IllumapSettings(bpy.types.PropertyGroup):
     # Light
     lamps: BoolProperty(name="Lamps", description="Add Blender lamps as direct light",
                         default=True, update=_field_update)
+    lamp_shadows: BoolProperty(
+        name="Lamp Shadows", default=True, update=_field_update,
+        description="Shadow lamp light by casting rays from every surfel to samples on each "
+                    "lamp, against the surfels themselves")
+    shadow_samples: IntProperty(
+        name="Shadow Samples", default=16, min=1, soft_max=128, update=_field_update,
+        description="Rays per surfel for lamps with a size (radius, area, sun angle): more "
+                    "give smoother penumbrae; cost grows in proportion")
     world_ambient: BoolProperty(name="World Ambient",
                                 description="Add the world colour as uniform ambient light",
                                 default=False, update=_field_update)
@@ -211,7 +244,8 @@ class IllumapSettings(bpy.types.PropertyGroup):
 # Names of the scene settings and the lower-case spelling the core uses for enum values.
 _SETTINGS_FIELDS = ("density", "budget", "seed", "method", "order", "theta", "leaf_size",
                     "visibility", "tol", "max_iterations", "solver", "near_field", "lamps",
-                    "world_ambient", "transfer", "transfer_domain")
+                    "lamp_shadows", "shadow_samples", "world_ambient", "transfer",
+                    "transfer_domain", "target_error", "adaptive")
 _LOWER_ENUMS = ("visibility", "solver", "near_field", "method")
 # Alternative field names a Settings dataclass may use for the same knob.
 _ALIASES = {
@@ -233,6 +267,7 @@ def settings_values(props):
         values["budget"] = None
     else:
         values["density"] = None
+    values["target_error"] = float(props.target_error) if props.use_target_error else None
     return values
 
 

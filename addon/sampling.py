@@ -1,5 +1,8 @@
 """Surfels from mesh objects: area-weighted, stratified sampling of evaluated meshes.
 
+This module reads Blender data (evaluated meshes, instances) with ``foreach_get``; the sampling
+itself is ``illumap.sampling`` (numpy only, shared with the benchmarks).
+
 Units: positions in metres (world space), areas in m², density in surfels per m².
 
 Sampling is done per object in two stages, so that no surfel clumps:
@@ -21,10 +24,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import IllumapError
+from illumap import sampling as core_sampling
 
-# R2 sequence constants (1/g, 1/g² with g the plastic number): a well-spread 2-D lattice.
-_R2 = np.array([0.7548776662466927, 0.5698402909980532])
+from .errors import IllumapError
 
 
 @dataclass
@@ -200,52 +202,31 @@ def allocate(areas: np.ndarray, *, density: float | None = None,
     """Surfel counts per object from a density (surfels/m²) or a total budget.
 
     Every object gets at least one surfel (so small emitters are never lost); a budget is
-    shared in proportion to area by largest remainder.
+    shared in proportion to area by largest remainder (``illumap.sampling.allocate``).
     """
-    areas = np.asarray(areas, dtype=np.float64)
-    if budget is not None:
-        budget = int(budget)
-        if budget < len(areas):
-            raise IllumapError(f"Surfel budget {budget} is smaller than the number of objects ({len(areas)})")
-        exact = budget * areas / areas.sum()
-        counts = np.floor(exact).astype(np.int64)
-        rest = budget - counts.sum()
-        counts[np.argsort(-(exact - counts), kind="stable")[:rest]] += 1
-        return np.maximum(counts, 1)
-    if density is None or not density > 0 or not np.isfinite(density):
-        raise IllumapError(f"Surfel density must be a positive number, got {density}")
-    if density * areas.sum() > 2.0 ** 53:
-        raise IllumapError(f"Density {density:g}/m² over {areas.sum():g} m² asks for "
-                           f"{density * areas.sum():.3g} surfels, far beyond any memory")
-    return np.maximum(np.rint(density * areas).astype(np.int64), 1)
+    try:
+        return core_sampling.allocate(areas, density=density, budget=budget)
+    except core_sampling.InputError as exc:
+        raise IllumapError(str(exc)) from None
 
 
-def sample_mesh(mesh: TriangleMesh, count: int, rng: np.random.Generator) -> MeshSamples:
-    """Place ``count`` stratified surfels on ``mesh`` (see the module docstring)."""
-    count = int(count)
-    cum = np.cumsum(mesh.area)
-    total = cum[-1]
-    u = (np.arange(count) + rng.random()) * (total / count)
-    tri = np.minimum(np.searchsorted(cum, u, side="right"), len(cum) - 1)
-    # u is increasing, so tri is sorted: rank of each sample inside its triangle.
-    first = np.searchsorted(tri, tri, side="left")
-    rank = np.arange(count) - first
-    shift = rng.random((len(cum), 2))
-    st = np.mod((rank[:, None] + 0.5) * _R2 + shift[tri], 1.0)
-    # Heitz's low-distortion square→triangle map (2019): area-preserving and far less
-    # distorting than folding, so the lattice's spacing survives.
-    u1, u2 = st[:, 0], st[:, 1]
-    upper = u2 > u1
-    t1 = np.where(upper, u1 / 2, u1 - u2 / 2)
-    t2 = np.where(upper, u2 - u1 / 2, u2 / 2)
-    bary = np.column_stack([1.0 - t1 - t2, t1, t2])
-    pos = np.einsum("nk,nkc->nc", bary, mesh.corners[tri])
-    nrm = np.einsum("nk,nkc->nc", bary, mesh.corner_normals[tri])
-    length = np.linalg.norm(nrm, axis=1)
-    bad = length < 1e-8  # opposite split normals cancel: use the face normal
-    nrm[bad] = mesh.normal[tri[bad]]
-    length[bad] = 1.0
-    nrm /= length[:, None]
-    areas = np.full(count, total / count)
-    return MeshSamples(mesh=mesh, positions=pos, normals=nrm, areas=areas, triangle=tri,
-                       bary=bary, material_index=mesh.material_index[tri])
+def sample_mesh(mesh: TriangleMesh, count: int, rng: np.random.Generator,
+                regions: "core_sampling.Regions | None" = None,
+                weights: np.ndarray | None = None) -> MeshSamples:
+    """Place ``count`` stratified surfels on ``mesh`` (see the module docstring).
+
+    With ``regions`` (the mesh's triangles split by ``illumap.sampling.Regions.build``) and
+    ``weights`` (a density multiplier per region), the surfels follow the weights; triangle
+    and barycentric coordinates still refer to the mesh's own triangles.
+    """
+    if regions is None:
+        s = core_sampling.sample_triangles(mesh.corners, int(count), rng,
+                                           corner_normals=mesh.corner_normals, areas=mesh.area)
+        tri, bary = s.triangle, s.bary
+    else:
+        s = core_sampling.sample_triangles(regions.corners, int(count), rng,
+                                           corner_normals=regions.interpolate(mesh.corner_normals),
+                                           weights=weights, areas=regions.area)
+        tri, bary = regions.to_parent(s.triangle, s.bary)
+    return MeshSamples(mesh=mesh, positions=s.positions, normals=s.normals, areas=s.areas,
+                       triangle=tri, bary=bary, material_index=mesh.material_index[tri])

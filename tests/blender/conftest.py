@@ -251,3 +251,33 @@ def snapshot():
         "node_groups": sorted(g.name for g in bpy.data.node_groups),
         "modifiers": sorted((o.name, m.name) for o in bpy.data.objects for m in o.modifiers),
     }
+
+
+def disc_segment_query(positions, normals, areas, coverage=1.3):
+    """A brute-force numpy stand-in for the core's segment query: ``visible(origins, targets,
+    skip)`` is 0 where the open segment crosses a surfel disc (radius coverage·sqrt(A/π))
+    other than ``skip``, else 1. O(rays × surfels): small test scenes only."""
+    centres = np.asarray(positions, dtype=np.float64)
+    nrm = np.asarray(normals, dtype=np.float64)
+    rad2 = (coverage * np.sqrt(np.asarray(areas, dtype=np.float64) / np.pi)) ** 2
+    plane = np.einsum("ij,ij->i", nrm, centres)
+    index = np.arange(len(centres))
+
+    def visible(origins, targets, skip):
+        origins = np.asarray(origins, dtype=np.float64)
+        d = np.asarray(targets, dtype=np.float64) - origins
+        out = np.ones(len(origins), dtype=np.float32)
+        step = max(1, 2_000_000 // max(len(centres), 1))
+        for a in range(0, len(origins), step):
+            o, dd = origins[a:a + step], d[a:a + step]
+            denom = dd @ nrm.T
+            safe = np.where(np.abs(denom) > 1e-300, denom, 1.0)
+            s = (plane[None, :] - o @ nrm.T) / safe
+            hit_pts = o[:, None, :] + s[..., None] * dd[:, None, :]
+            dist2 = ((hit_pts - centres[None]) ** 2).sum(-1)
+            hit = (np.abs(denom) > 1e-300) & (s > 1e-9) & (s < 1 - 1e-9) & (dist2 < rad2[None]) \
+                & (index[None, :] != np.asarray(skip)[a:a + step, None])
+            out[a:a + step] = np.where(hit.any(axis=1), 0.0, 1.0)
+        return out
+
+    return visible

@@ -161,9 +161,26 @@ def test_target_error_option_reports_chosen_settings(tmp_path, capfd):
     make_plane("Floor", size=2.0, material=diffuse_material("F", (0.5,) * 3))
     make_plane("Emitter", size=0.5, location=(0, 0, 1), flip=True,
                material=emission_material("E", (1, 1, 1), 1.0))
-    assert batch.main(["--target-error", "0.05", "--density", "100",
+    assert batch.main(["--target-error", "0.05", "--budget", "600",
                        "--output", str(tmp_path / "t.blend")]) == 0
     assert (tmp_path / "t.blend").exists()
     printed = capfd.readouterr().out
     assert "target error 0.05" in printed and "estimated error" in printed
-    assert batch.main(["--target-error", "1.5", "--density", "100"]) == 2
+    # The density the target asks for (capped by the budget) and both adaptive passes.
+    assert "surfels/m² (600 surfels, predicted discretization error" in printed
+    assert "adaptive: pass 1 300 surfels" in printed and "pass 2 600 surfels" in printed
+    assert batch.main(["--target-error", "1.5", "--budget", "100"]) == 2
+    assert batch.main(["--target-error", "0.05", "--density", "100"]) == 2
+    assert "exclude each other" in capfd.readouterr().err
+    assert batch.main(["--target-error", "0.05", "--budget", "300", "--no-adaptive"]) == 0
+    printed = capfd.readouterr().out
+    assert "adaptive:" not in printed and "Illumap frame 1: 300 surfels" in printed
+
+
+def test_lamp_shadow_options():
+    args = batch.build_parser().parse_args(["--no-lamp-shadows", "--shadow-samples", "4"])
+    settings = batch.make_settings(args)
+    assert settings.lamp_shadows is False and settings.shadow_samples == 4
+    settings = batch.make_settings(batch.build_parser().parse_args([]))
+    assert settings.lamp_shadows is True and settings.shadow_samples == 16 and settings.adaptive
+    assert batch.main(["--shadow-samples", "0"]) == 2

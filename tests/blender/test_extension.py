@@ -95,3 +95,43 @@ def test_launcher_passes_script_arguments(tmp_path: Path) -> None:
     result = subprocess.run([str(LAUNCHER), "-b", "--python", str(script), "--", "--x", "1"],
                             cwd=ROOT, text=True, capture_output=True, timeout=120)
     assert result.returncode == 0 and "ARGS ['--x', '1']" in result.stdout, result.stderr
+
+
+def test_batch_script_runs_the_installed_extension(extension_zip: Path, tmp_path: Path) -> None:
+    """scripts/illumap_batch.py away from a checkout (copied into a bare folder) finds the
+    installed extension's add-on, computes a small scene and saves the result."""
+    script_dir = tmp_path / "scripts"
+    script_dir.mkdir()
+    script = script_dir / "illumap_batch.py"
+    script.write_text((ROOT / "scripts" / "illumap_batch.py").read_text())
+    out = tmp_path / "lit.blend"
+    code = f"""
+        import runpy, sys
+        import bpy
+        bpy.ops.extensions.package_install_files(repo="user_default", filepath={str(extension_zip)!r},
+                                                 enable_on_install=True)
+        bpy.ops.mesh.primitive_plane_add(size=2.0)
+        bpy.ops.mesh.primitive_plane_add(size=0.5, location=(0, 0, 1), rotation=(3.14159, 0, 0))
+        light = bpy.data.lights.new("Lamp", "POINT")
+        light.energy = 50.0
+        lamp = bpy.data.objects.new("Lamp", light)
+        bpy.context.scene.collection.objects.link(lamp)
+        lamp.location = (0.3, 0.0, 2.0)
+        sys.argv = ["blender", "--python", {str(script)!r}, "--", "--quality", "draft",
+                    "--output", {str(out)!r}]
+        try:
+            runpy.run_path({str(script)!r}, run_name="__main__")
+        except SystemExit as exc:
+            code = exc.code
+        else:
+            code = None
+        used = sorted(m for m in sys.modules if m.endswith("addon.batch"))
+        print("EXIT", code, "MODULES", used)
+    """
+    result = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], cwd=tmp_path, text=True,
+                            capture_output=True, timeout=600,
+                            env={**os.environ, "BLENDER_USER_RESOURCES": str(tmp_path / "user")})
+    log = result.stdout + result.stderr
+    assert "EXIT 0 MODULES ['bl_ext.user_default.illumap.addon.batch']" in result.stdout, log
+    assert "Illumap frame 1:" in result.stdout and out.is_file(), log
+    assert "shadow rays" in result.stdout and "unshadowed" not in result.stdout, log

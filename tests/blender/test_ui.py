@@ -525,6 +525,64 @@ def test_real_pipeline_modal_logic_writes(registered_addon, two_planes):
     assert "illumination" in bpy.data.objects[SURFELS].data.attributes
 
 
+@requires_core
+def test_real_pipeline_modal_runs_the_adaptive_second_pass(registered_addon, two_planes):
+    """With a target error the timer handler starts pass 2 on the worker when pass 1 is done,
+    and writes only after pass 2: the file is untouched in between."""
+    from addon import operators, pipeline, properties
+    props = bpy.context.scene.illumap
+    props.use_target_error, props.target_error, props.adaptive = True, 0.1, True
+    props.sampling, props.budget = "BUDGET", 400
+    settings = properties.make_settings(props, pipeline.Settings)
+    assert settings.target_error == pytest.approx(0.1) and settings.adaptive
+    before = snapshot()
+    job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), list(two_planes), settings)
+    assert job.count == 200 and job.refine is not None
+    task = operators.ComputeTask(job, pipeline.run).start()
+    op = _fake_operator(task)
+    assert task.wait(60) == "DONE", task.error
+    assert op.modal(bpy.context, _event("TIMER")) == {"RUNNING_MODAL"}
+    second = op._task
+    assert second is not task and operators._current["task"] is second
+    assert second.job.count == 400 and second.job.refine is None
+    assert snapshot() == before
+    assert second.wait(60) == "DONE", second.error
+    assert op.modal(bpy.context, _event("TIMER")) == {"FINISHED"}
+    stats = props.stats
+    assert stats.surfels == 400 and stats.first_pass_surfels == 200
+    assert any(p.name.startswith("pass 1: ") for p in stats.phases)
+    assert operators._current["task"] is None
+    from addon import panel
+    layout = LayoutRecorder()
+    panel.draw_stats(layout, bpy.context)
+    labels = layout.texts("label")
+    assert any(t.startswith("Density for target: ") for t in labels), labels
+    assert any(t.startswith("Adaptive pass 1: 200 surfels") for t in labels), labels
+    layout = LayoutRecorder()
+    panel.draw_advanced(layout, bpy.context)
+    for name in ("use_target_error", "target_error", "adaptive", "lamp_shadows", "shadow_samples"):
+        assert name in layout.texts("prop"), name
+
+
+@requires_core
+def test_real_pipeline_modal_cancel_during_second_pass(registered_addon, two_planes):
+    from addon import operators, pipeline, properties
+    props = bpy.context.scene.illumap
+    props.use_target_error, props.target_error = True, 0.1
+    props.sampling, props.budget = "BUDGET", 400
+    settings = properties.make_settings(props, pipeline.Settings)
+    before = snapshot()
+    job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), list(two_planes), settings)
+    task = operators.ComputeTask(job, pipeline.run).start()
+    op = _fake_operator(task)
+    task.wait(60)
+    assert op.modal(bpy.context, _event("TIMER")) == {"RUNNING_MODAL"}
+    op._task.cancel()       # Esc while pass 2 runs
+    op._task.wait(60)
+    assert op.modal(bpy.context, _event("TIMER")) == {"CANCELLED"}
+    assert snapshot() == before and operators._current["task"] is None
+
+
 # --- panel drawing and the reduced UI -------------------------------------------------------
 
 class LayoutRecorder:
@@ -610,7 +668,8 @@ def test_reduced_ui_when_the_core_is_missing(registered_addon):
         # The preferences say it too.
         from addon import preferences
         fake_prefs = types.SimpleNamespace(layout=LayoutRecorder(), default_preset="MEDIUM",
-                                           default_lamps=True, default_world_ambient=False,
+                                           default_lamps=True, default_lamp_shadows=True,
+                                           default_world_ambient=False,
                                            default_build_preview=True, default_disc_scale=1.5)
         preferences.IllumapPreferences.draw(fake_prefs, bpy.context)
         labels = fake_prefs.layout.texts("label")
@@ -682,5 +741,6 @@ def test_scene_defaults_match_the_pipeline_defaults(registered_addon):
     settings = properties.make_settings(bpy.context.scene.illumap, pipeline.Settings)
     defaults = pipeline.Settings()
     for name in ("leaf_size", "solver", "near_field", "max_iterations", "lamps",
+                 "lamp_shadows", "shadow_samples", "adaptive", "target_error",
                  "world_ambient", "transfer", "transfer_domain", "seed", "method"):
         assert getattr(settings, name) == getattr(defaults, name), name
