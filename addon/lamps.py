@@ -28,6 +28,10 @@ beyond the scene. Samples are weighted by their unshadowed contribution (cosines
 distance), and each surfel's pattern is shifted at random so that penumbrae show noise rather
 than bands. When no ray is blocked the fraction is exactly 1, so the unshadowed value is
 unchanged. Only lit surfels cast rays: the cost is about (lit surfels) × (samples) rays per lamp.
+
+Everything here is numpy only (no bpy) except ``read_lamps`` and ``world_ambient``: the
+pipeline casts shadow rays on its worker thread, reporting the share of rays cast through
+``Shadows.progress`` (a ``progress(fraction, phase)`` that returns False to cancel).
 """
 
 from __future__ import annotations
@@ -39,11 +43,17 @@ from typing import Callable
 
 import numpy as np
 
+from .errors import IllumapCancelled
+
 Visibility = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 #: A segment query: origins (M, 3), targets (M, 3), skip (M,) surfel index to ignore per ray
 #: (-1: none) → (M,) visibility in [0, 1] (1: the segment is free).
-SegmentQuery = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+#: It may take a fourth argument, ``progress`` (fraction of its rays, phase) → False to cancel;
+#: it is passed only when ``Shadows.progress`` is set.
+SegmentQuery = Callable[..., np.ndarray]
 _RAY_CHUNK = 1 << 20
+#: The progress phase of shadow-ray casting.
+PHASE = "lamp shadows"
 
 _DISK_SIDES = 48
 _CHUNK = 16384
@@ -72,7 +82,8 @@ class Lamp:
 class Shadows:
     """How lamp shadows are cast: the segment query and the samples per surfel and lamp.
 
-    ``rays`` and ``seconds`` accumulate what was cast (for the statistics)."""
+    ``rays`` and ``seconds`` accumulate what was cast (for the statistics). ``progress``
+    (optional) hears the share of the planned ``total`` rays cast so far."""
 
     visible: SegmentQuery
     samples: int = 16            # rays per surfel for lamps with a size (radius, area, angle)
@@ -80,6 +91,23 @@ class Shadows:
     extent: float = 1.0          # m, scene size: sun rays end this far beyond the surfel (×4)
     rays: int = 0
     seconds: float = 0.0
+    progress: Callable[[float, str], "bool | None"] | None = None
+    total: int = 0               # rays planned over all lamps (set by incident_radiance)
+
+    def report(self, done: float) -> None:
+        """Tell ``progress`` that ``done`` of the planned rays were cast; raise
+        IllumapCancelled when it answers False."""
+        if self.progress is None:
+            return
+        if self.progress(min(1.0, done / max(self.total, 1)), PHASE) is False:
+            raise IllumapCancelled("Cancelled")
+
+    def _query_progress(self, start: int, count: int):
+        """A progress callable for one query of ``count`` rays starting at ray ``start``."""
+        if self.progress is None:
+            return None
+        total = max(self.total, 1)
+        return lambda f, _phase="": self.progress(min(1.0, (start + f * count) / total), PHASE)
 
 
 def read_lamps(depsgraph, warnings: list[str]) -> list[Lamp]:
@@ -301,12 +329,17 @@ def _lamp_samples(lamp: Lamp, p: np.ndarray, n: np.ndarray, k: int, rng: np.rand
     return pts, np.maximum(np.einsum("mkc,mc->mk", d, n), 0.0) / (r2 * np.sqrt(r2))
 
 
+def rays_per_surfel(lamp: Lamp, shadows: Shadows) -> int:
+    """Shadow rays per lit surfel: ``shadows.samples`` for a lamp with a size, else one."""
+    sized = (lamp.kind == "AREA" or (lamp.kind == "SUN" and lamp.angle > 0)
+             or (lamp.kind in ("POINT", "SPOT") and lamp.radius > 0))
+    return max(1, int(shadows.samples)) if sized else 1
+
+
 def lamp_visibility(lamp: Lamp, p: np.ndarray, n: np.ndarray, rows: np.ndarray,
                     shadows: Shadows) -> np.ndarray:
     """Fraction (len(rows),) of ``lamp`` that surfels ``rows`` see (see the module docstring)."""
-    sized = (lamp.kind == "AREA" or (lamp.kind == "SUN" and lamp.angle > 0)
-             or (lamp.kind in ("POINT", "SPOT") and lamp.radius > 0))
-    k = max(1, int(shadows.samples)) if sized else 1
+    k = rays_per_surfel(lamp, shadows)
     rng = np.random.default_rng([shadows.seed, zlib.crc32(lamp.name.encode()), int(rows.size)])
     out = np.empty(len(rows))
     far = 4.0 * max(shadows.extent, 1e-3)
@@ -316,8 +349,14 @@ def lamp_visibility(lamp: Lamp, p: np.ndarray, n: np.ndarray, rows: np.ndarray,
         targets, weight = _lamp_samples(lamp, p[r], n[r], k, rng, far)
         origins = np.repeat(p[r], k, axis=0)
         skip = np.repeat(r.astype(np.int64), k)
+        shadows.report(shadows.rays)
         t0 = time.perf_counter()
-        vis = np.asarray(shadows.visible(origins, targets.reshape(-1, 3), skip), dtype=np.float64)
+        if shadows.progress is None:
+            vis = shadows.visible(origins, targets.reshape(-1, 3), skip)
+        else:
+            vis = shadows.visible(origins, targets.reshape(-1, 3), skip,
+                                  shadows._query_progress(shadows.rays, len(origins)))
+        vis = np.asarray(vis, dtype=np.float64)
         shadows.seconds += time.perf_counter() - t0
         shadows.rays += len(origins)
         vis = vis.reshape(len(r), k)
@@ -341,13 +380,21 @@ def incident_radiance(lamps: list[Lamp], positions: np.ndarray, normals: np.ndar
     p = np.asarray(positions, dtype=np.float64)
     n = np.asarray(normals, dtype=np.float64)
     h = np.zeros((len(p), 3))
+    scalars = []
     for lamp in lamps:
         if lamp.kind == "SUN":
-            scalar = np.maximum(n @ -lamp.direction, 0.0) / np.pi
+            scalars.append(np.maximum(n @ -lamp.direction, 0.0) / np.pi)
         elif lamp.kind == "AREA":
-            scalar = _area(lamp, p, n)
+            scalars.append(_area(lamp, p, n))
         else:
-            scalar = _point_like(lamp, p, n)
+            scalars.append(_point_like(lamp, p, n))
+        if shadows is not None:
+            shadows.report(0)  # area lamps' form factors take seconds at millions of surfels
+    if shadows is not None:
+        # Every lamp's lit surfels are known before the first ray: progress over all rays.
+        shadows.total = shadows.rays + sum(int((sc > 0).sum()) * rays_per_surfel(lamp, shadows)
+                                           for lamp, sc in zip(lamps, scalars))
+    for lamp, scalar in zip(lamps, scalars):
         if shadows is not None:
             lit = np.flatnonzero(scalar > 0)
             if lit.size:
@@ -355,6 +402,8 @@ def incident_radiance(lamps: list[Lamp], positions: np.ndarray, normals: np.ndar
         if visibility is not None:
             scalar = scalar * np.asarray(visibility(p, n, _lamp_points(lamp)), dtype=np.float64)
         h += scalar[:, None] * lamp.color[None, :]
+    if shadows is not None:
+        shadows.report(shadows.rays)
     if ambient is not None:
         h += np.asarray(ambient, dtype=np.float64)[None, :]
     return h

@@ -4,9 +4,10 @@ Compute has two paths (docs/architecture.md, add-on contract):
 
 * ``execute`` — synchronous: ``pipeline.compute`` on the main thread. Used in background mode,
   from scripts (``bpy.ops.illumap.compute_illumination_map()``), and for redo.
-* ``invoke`` in an interactive session — ``pipeline.prepare`` on the main thread, then
-  ``pipeline.run`` on a worker thread (no bpy there), polled by a modal timer that drives the
-  progress bar and status line; Esc cancels. On success ``pipeline.write`` runs on the main
+* ``invoke`` in an interactive session — ``pipeline.prepare`` on the main thread (reads the
+  scene, samples surfels), then ``pipeline.run`` on a worker thread (no bpy there: lamp shadow
+  rays, then the solve), polled by a modal timer that drives the progress bar and status line
+  with the current phase; Esc cancels either phase. On success ``pipeline.write`` runs on the main
   thread. The UNDO flag makes Blender push one undo step when the modal operator finishes, so
   the write is undoable and no extra ``ed.undo_push`` is needed (it would add an empty step).
 

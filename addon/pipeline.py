@@ -3,11 +3,15 @@
 Contract (docs/architecture.md):
 
 * ``prepare(depsgraph, objects, settings) -> Job``: main thread; reads bpy, samples surfels,
-  evaluates materials and direct light (numpy only afterwards).
-* ``run(job, progress) -> Result``: no bpy, safe on a worker thread.
+  evaluates materials and reads the lamps (numpy only afterwards).
+* ``run(job, progress) -> Result``: no bpy, safe on a worker thread: direct light from the
+  lamps with its shadow rays (``light``, phase "lamp shadows"), then the solve.
 * ``write(context, job, result) -> Object``: main thread; creates/replaces ``Illumap Surfels``,
   transfers to meshes, exports files.
 * ``compute(context, objects, settings, progress=None) -> Result``: the synchronous path.
+
+Shadow rays are the slow part of direct light (a second at 40k surfels, minutes at millions),
+so they run on the worker where Esc can stop them, not in ``prepare``.
 
 Nothing in the file changes unless ``run`` succeeded: ``prepare`` only reads, ``run`` never
 touches bpy, and ``write`` is called only with a successful result. Problems a user can fix
@@ -107,7 +111,7 @@ class Job:
     areas: np.ndarray
     albedo: np.ndarray
     emission: np.ndarray          # self-emission (radiance)
-    direct: np.ndarray            # albedo × incident lamp/world radiance
+    direct: np.ndarray | None     # albedo × incident lamp/world radiance; None until ``light``
     uv: np.ndarray                # (N, 2) active UV per surfel (NaN: none)
     triangle: np.ndarray          # (N,) int64 triangle of the evaluated mesh (-1: point input)
     bary: np.ndarray              # (N, 3) barycentric coordinates in it (NaN: point input)
@@ -119,6 +123,8 @@ class Job:
     # Pass 2 of an adaptive run (``next_pass``): the scene as read, for resampling on the main
     # thread. None when there is no further pass.
     refine: "_Scene | None" = None
+    lamps: list = field(default_factory=list)   # lamps.Lamp records, lit by ``light``
+    ambient: np.ndarray | None = None           # uniform world radiance (3,), or None
 
     @property
     def count(self) -> int:
@@ -208,29 +214,45 @@ def _split_objects(depsgraph, objects) -> tuple[list, list, list[str]]:
 ADAPTIVE_SURFELS_PER_REGION = 6
 #: Neighbours compared per surfel to measure how much the first pass's illumination varies.
 ADAPTIVE_NEIGHBOURS = 8
-#: Disc radius of the occluders that shadow lamps, in units of each surfel's own radius
-#: sqrt(A/π). Holes in a stratified surfel set reach 1.7 of that radius inside a surface and
-#: 2.2 at its outline (measured on sampled squares). Measured on a 1 m plate over a floor
-#: (100 and 400 surfels/m², the four lamp types, 16 rays per surfel): the worst umbra surfel
-#: keeps 31–50% of its light at exact visibility's 1.3, 19% at 1.5, 6% (one ray in 16) at 1.7,
-#: none at 2.0; larger discs also darken the region around an occluder's outline: against a
-#: Cycles bake of a box with a lamp-shadowing block the relative RMS is 0.065 / 0.070 / 0.075 /
-#: 0.085 for 1.3 / 1.5 / 1.7 / 2.0. 1.7 keeps speckles out of shadows at a small cost.
-SHADOW_COVERAGE = 1.7
+#: Disc radius of the surfels as occluders, in units of each surfel's own radius sqrt(A/π):
+#: for lamp shadows (``make_segment_query``) and for exact visibility between surfels
+#: (``TransportOperator``'s ``coverage``), so both see the same walls. Holes in a stratified
+#: surfel set reach 1.7 of that radius inside a surface and 2.2 at its outline. Too small leaks
+#: light, too large darkens: discs overhang outlines and block pairs that see each other.
+#: Measured for 1.3 (the core's default) / 1.5 / 1.7 / 2.0:
+#: * lamp shadows, a 1 m plate over a floor (100 and 400 surfels/m², four lamp types, 16 rays
+#:   per surfel): the worst umbra surfel keeps 31–50% / 19% / 6% (one ray in 16) / 0%.
+#: * interreflection through a one-sided thin wall between two rooms (High preset, 400/m²;
+#:   tests/blender/test_thin_wall.py): the dark room gets 1.4–1.5% / 0.10–0.17% / 0.04–0.06% /
+#:   0.03–0.04% of the lit room's level (0.08–0.09% / 0.02% / 0.01% / 0.01% at 1600/m²; a
+#:   two-sided wall leaks ten times less).
+#: * over-occlusion, a closed box holding a block, where every row of F·V sums to 1: mean
+#:   |row sum − 1| 0.041 / 0.049 / 0.058 / 0.074 at 400/m² (0.020 / 0.024 / 0.029 / 0.037 at
+#:   1600/m²; 0.024 and 0.012 without the block or visibility, the operator's own error).
+#: * against a Cycles bake of a box with a lamp-shadowing block (tests/blender/
+#:   test_bake_compare.py, this value for both uses): relative RMS 0.065 / 0.074 / 0.084 / 0.103,
+#:   mean ratio 0.988 / 0.975 / 0.962 / 0.942.
+#: 1.7 keeps speckles out of lamp shadows and light out of closed rooms; the price is a few
+#: per cent less light in enclosed scenes, shrinking with density.
+SURFEL_COVERAGE = 1.7
 
 
-def make_segment_query(positions, normals, areas):
-    """The segment query lamp shadows are cast with, ``visible(origins, targets, skip)``: the
-    core's ``illumap.Occluders`` built once on the surfels (discs of SHADOW_COVERAGE), or None
-    when the installed core has none."""
+def make_segment_query(positions, normals, areas, progress=None):
+    """The segment query lamp shadows are cast with, ``visible(origins, targets, skip,
+    progress=None)``: the core's ``illumap.Occluders`` built once on the surfels (discs of
+    SURFEL_COVERAGE), or None when the installed core has none. ``progress`` hears the build."""
     import illumap
     occluders = getattr(illumap, "Occluders", None)
     if occluders is None:
         return None
     n = len(areas)
     surfels = illumap.Surfels(positions, normals, areas, np.zeros((n, 3)), np.zeros((n, 3)))
-    occ = occluders(surfels, coverage=SHADOW_COVERAGE, shape="disc")
-    return lambda origins, targets, skip: occ.visible(origins, targets, skip=skip)
+    build = None if progress is None else (lambda f, _phase="": progress(0.0, lamps.PHASE))
+    occ = occluders(surfels, coverage=SURFEL_COVERAGE, shape="disc", progress=build)
+
+    def visible(origins, targets, skip, progress=None):
+        return occ.visible(origins, targets, skip=skip, progress=progress)
+    return visible
 
 
 def target_density(settings: Settings, mesh_area: float, point_count: int, point_area: float,
@@ -269,7 +291,8 @@ def target_density(settings: Settings, mesh_area: float, point_count: int, point
 
 
 def prepare(depsgraph, objects, settings: Settings) -> Job:
-    """Read the scene on the main thread and build the job (surfels + direct light).
+    """Read the scene on the main thread and build the job (surfels, materials, lamps; the
+    direct light is ``run``'s first phase, ``light``).
 
     With a target error and ``settings.adaptive``, this is pass 1 (a fraction of the surfels,
     uniform); ``next_pass`` builds pass 2 from its result.
@@ -336,7 +359,7 @@ def prepare(depsgraph, objects, settings: Settings) -> Job:
 
 def _assemble(settings: Settings, samples: list, point_parts: list, point_sources: list,
               lamp_list: list, ambient, warnings: list[str], stats: dict, t0: float) -> Job:
-    """Materials, direct light (shadowed) and the Job from sampled meshes and point clouds."""
+    """Materials and the Job from sampled meshes and point clouds (direct light: ``light``)."""
     parts, sources, start = [], [], 0
     for s in samples:
         albedo, emission = materials.surfel_materials(s, warnings)
@@ -353,37 +376,64 @@ def _assemble(settings: Settings, samples: list, point_parts: list, point_source
     check_memory(start, settings)
     pos, nrm, area, albedo, emission, uv, tri, bary, mat_idx = (
         np.concatenate([p[i] for p in parts]) for i in range(9))
-    t1 = time.perf_counter()
-    timings = {"sampling": t1 - t0}
-    incident = np.zeros_like(pos)
-    if lamp_list or ambient is not None:
-        shadows = None
-        if lamp_list and settings.lamp_shadows:
-            query = make_segment_query(pos, nrm, area)
-            if query is None:
-                warnings.append("Lamp shadows need the core's occluder query, which this build "
-                                "lacks: lamp light is unshadowed")
-            else:
-                extent = float(np.ptp(pos, axis=0).max()) if len(pos) else 1.0
-                shadows = lamps.Shadows(query, samples=settings.shadow_samples,
-                                        seed=settings.seed, extent=extent)
-        try:
-            incident = lamps.incident_radiance(lamp_list, pos, nrm, ambient=ambient,
-                                               shadows=shadows)
-        except IllumapError:
-            raise
-        except Exception as exc:  # noqa: BLE001 - a failing ray query is reported, not raised raw
-            raise IllumapError(f"Lamp shadows failed: {type(exc).__name__}: {exc}", 4) from exc
-        if shadows is not None:
-            timings["shadow rays"] = shadows.seconds
-            stats["shadow_rays"] = int(shadows.rays)
-    t2 = time.perf_counter()
-    timings["direct light"] = t2 - t1
+    timings = {"sampling": time.perf_counter() - t0}
+    unlit = not lamp_list and ambient is None
     return Job(settings=settings, positions=np.ascontiguousarray(pos), normals=np.ascontiguousarray(nrm),
                areas=np.ascontiguousarray(area), albedo=np.ascontiguousarray(albedo),
-               emission=np.ascontiguousarray(emission), direct=np.ascontiguousarray(albedo * incident), uv=uv,
+               emission=np.ascontiguousarray(emission),
+               direct=np.zeros_like(pos) if unlit else None, uv=uv,
                triangle=tri.astype(np.int64), bary=bary, material_index=mat_idx.astype(np.int64),
-               sources=sources, warnings=warnings, timings=timings, stats=stats)
+               sources=sources, warnings=warnings, timings=timings, stats=stats,
+               lamps=list(lamp_list), ambient=ambient)
+
+
+def light(job: Job, progress: Progress | None = None) -> Job:
+    """Direct light of ``job.lamps`` (and world ambient) into ``job.direct``, lamp shadows cast
+    against the surfels; no bpy, runs on the worker (``run`` calls it first). Adds the
+    "direct light" and "shadow rays" timings and ``stats["shadow_rays"]``. Does nothing when
+    ``job.direct`` is already set. Raises IllumapCancelled when ``progress`` returns False."""
+    if job.direct is not None:
+        return job
+    t0 = time.perf_counter()
+    s = job.settings
+    pos, nrm = job.positions, job.normals
+    shadows = None
+    try:
+        if progress is not None and progress(0.0, lamps.PHASE if job.lamps and s.lamp_shadows
+                                             else "direct light") is False:
+            raise IllumapCancelled("Cancelled")
+        if job.lamps and s.lamp_shadows:
+            query = make_segment_query(pos, nrm, job.areas, progress)
+            if query is None:
+                job.warnings.append("Lamp shadows need the core's occluder query, which this "
+                                    "build lacks: lamp light is unshadowed")
+            else:
+                extent = float(np.ptp(pos, axis=0).max()) if len(pos) else 1.0
+                shadows = lamps.Shadows(query, samples=s.shadow_samples, seed=s.seed,
+                                        extent=extent, progress=progress)
+        incident = lamps.incident_radiance(job.lamps, pos, nrm, ambient=job.ambient,
+                                           shadows=shadows)
+    except IllumapError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - a failing ray query is reported, not raised raw
+        if _is_cancelled(exc):
+            raise IllumapCancelled("Cancelled") from None
+        raise IllumapError(f"Lamp shadows failed: {type(exc).__name__}: {exc}", 4) from exc
+    if shadows is not None:
+        job.timings["shadow rays"] = shadows.seconds
+        job.stats["shadow_rays"] = int(shadows.rays)
+    job.direct = np.ascontiguousarray(job.albedo * incident)
+    job.timings["direct light"] = time.perf_counter() - t0
+    return job
+
+
+def _is_cancelled(exc: BaseException) -> bool:
+    """The core's ``Cancelled`` (from a progress callable that returned False)."""
+    try:
+        import illumap
+    except ImportError:
+        return False
+    return isinstance(exc, getattr(illumap, "Cancelled", ()))
 
 
 def luminance(rgb: np.ndarray) -> np.ndarray:
@@ -451,7 +501,8 @@ def next_pass(job: Job, result: "Result") -> Job | None:
 
 
 def run(job: Job, progress: Progress | None = None) -> Result:
-    """Solve B = E + ρ F V B for the job. Pure numpy/illumap: never touches bpy.
+    """Direct light (``light``), then solve B = E + ρ F V B for the job. Pure numpy/illumap:
+    never touches bpy.
 
     Raises IllumapCancelled when ``progress`` returns False, IllumapError on bad input
     (exit code 3) or solver failure (exit code 4).
@@ -461,6 +512,7 @@ def run(job: Job, progress: Progress | None = None) -> Result:
     except ImportError as exc:
         raise IllumapError(f"The Illumap core module is not installed ({exc})", 4) from None
     s = job.settings
+    light(job, progress)
     try:
         surfels = illumap.Surfels(job.positions, job.normals, job.areas, job.albedo,
                                   job.emission + job.direct)
@@ -469,7 +521,9 @@ def run(job: Job, progress: Progress | None = None) -> Result:
     if s.target_error is not None:
         if not 0.0 < s.target_error < 1.0:
             raise IllumapError(f"Target error must lie in (0, 1), got {s.target_error}", 2)
-        kwargs = dict(target_error=s.target_error, progress=progress, near_field=s.near_field)
+        # Should the error model choose exact visibility, its occluders are the shadows' too.
+        kwargs = dict(target_error=s.target_error, progress=progress, near_field=s.near_field,
+                      coverage=SURFEL_COVERAGE)
     else:
         kwargs = dict(method=s.method, solver=s.solver, tol=s.tol,
                       max_iterations=s.max_iterations, progress=progress,
@@ -478,6 +532,8 @@ def run(job: Job, progress: Progress | None = None) -> Result:
             kwargs.update(order=s.order, theta=s.theta, leaf_size=s.leaf_size)
         if s.visibility != "none":
             kwargs["visibility"] = s.visibility
+        if s.visibility == "exact":
+            kwargs["coverage"] = SURFEL_COVERAGE  # the lamp shadows' occluders
     t0 = time.perf_counter()
     try:
         sol = illumap.solve(surfels, **kwargs)
@@ -564,4 +620,4 @@ def compute(context, objects, settings: Settings, progress: Progress | None = No
 
 
 __all__ = ["Settings", "PRESETS", "settings_from_preset", "Job", "Result", "Source", "prepare",
-           "run", "write", "compute", "next_pass", "IllumapError", "IllumapCancelled", "replace"]
+           "light", "run", "write", "compute", "next_pass", "IllumapError", "IllumapCancelled", "replace"]

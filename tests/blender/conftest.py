@@ -255,7 +255,7 @@ def snapshot():
 
 def disc_segment_query(positions, normals, areas, coverage=1.3):
     """A brute-force numpy stand-in for the core's segment query: ``visible(origins, targets,
-    skip)`` is 0 where the open segment crosses a surfel disc (radius coverage·sqrt(A/π))
+    skip, progress=None)`` is 0 where the open segment crosses a surfel disc (radius coverage·sqrt(A/π))
     other than ``skip``, else 1. O(rays × surfels): small test scenes only."""
     centres = np.asarray(positions, dtype=np.float64)
     nrm = np.asarray(normals, dtype=np.float64)
@@ -263,7 +263,7 @@ def disc_segment_query(positions, normals, areas, coverage=1.3):
     plane = np.einsum("ij,ij->i", nrm, centres)
     index = np.arange(len(centres))
 
-    def visible(origins, targets, skip):
+    def visible(origins, targets, skip, progress=None):  # progress: not reported
         origins = np.asarray(origins, dtype=np.float64)
         d = np.asarray(targets, dtype=np.float64) - origins
         out = np.ones(len(origins), dtype=np.float32)

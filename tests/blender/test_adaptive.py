@@ -152,7 +152,8 @@ def test_adaptive_pass_is_denser_at_a_shadow_edge(monkeypatch):
     from illumap_bpy_testing import disc_segment_query
     if not hasattr(illumap, "Occluders"):
         monkeypatch.setattr(pipeline, "make_segment_query",
-                            lambda p, n, a: disc_segment_query(p, n, a, pipeline.SHADOW_COVERAGE))
+                            lambda p, n, a, progress=None:
+                            disc_segment_query(p, n, a, pipeline.SURFEL_COVERAGE))
     mat = diffuse_material("D", (0.5,) * 3)
     floor = make_plane("Floor", size=4.0, material=mat)
     plate = make_plane("Plate", size=1.0, location=(0, 0, 1), material=mat)

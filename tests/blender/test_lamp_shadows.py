@@ -39,7 +39,8 @@ def segment_query(monkeypatch):
     """The segment query used for shadows: the core's, or the numpy stand-in."""
     if not REAL_QUERY:
         monkeypatch.setattr(pipeline, "make_segment_query",
-                            lambda p, n, a: disc_segment_query(p, n, a, pipeline.SHADOW_COVERAGE))
+                            lambda p, n, a, progress=None:
+                            disc_segment_query(p, n, a, pipeline.SURFEL_COVERAGE))
     return "core" if REAL_QUERY else "stand-in"
 
 
@@ -58,8 +59,8 @@ def floor_and_plate(density=100.0, **settings):
     plate = make_plane("Plate", size=1.0, location=(0, 0, 1), material=mat)
     bpy.context.view_layer.update()
     depsgraph = bpy.context.evaluated_depsgraph_get()
-    job = pipeline.prepare(depsgraph, [floor, plate],
-                           pipeline.Settings(density=density, lamps=True, **settings))
+    job = pipeline.light(pipeline.prepare(depsgraph, [floor, plate],
+                                          pipeline.Settings(density=density, lamps=True, **settings)))
     src = next(s for s in job.sources if s.name == "Floor")
     rows = slice(src.start, src.stop)
     lamp_list = lamps.read_lamps(depsgraph, [])
@@ -111,8 +112,8 @@ def test_area_lamp_penumbra_is_monotonic(segment_query):
     wall.scale = (3.0, 3.0, 1.0)       # x ∈ [−3, 0]
     bpy.context.view_layer.update()
     depsgraph = bpy.context.evaluated_depsgraph_get()
-    job = pipeline.prepare(depsgraph, [floor, wall], pipeline.Settings(
-        density=800.0, lamps=True, shadow_samples=64))
+    job = pipeline.light(pipeline.prepare(depsgraph, [floor, wall], pipeline.Settings(
+        density=800.0, lamps=True, shadow_samples=64)))
     src = next(s for s in job.sources if s.name == "Floor")
     rows = slice(src.start, src.stop)
     free = lamps.incident_radiance(lamps.read_lamps(depsgraph, []), job.positions[rows],
@@ -140,7 +141,8 @@ def test_shadows_off_and_unoccluded_give_the_old_values(segment_query):
     bpy.data.objects.remove(bpy.data.objects["Plate"])
     floor = bpy.data.objects["Floor"]
     depsgraph = bpy.context.evaluated_depsgraph_get()
-    job_on = pipeline.prepare(depsgraph, [floor], pipeline.Settings(density=100.0, lamps=True))
+    job_on = pipeline.light(pipeline.prepare(depsgraph, [floor],
+                                             pipeline.Settings(density=100.0, lamps=True)))
     plain = lamps.incident_radiance(lamps.read_lamps(depsgraph, []), job_on.positions, job_on.normals)
     assert job_on.stats["shadow_rays"] > 16 * len(job_on.positions) * 0.9
     assert np.array_equal(job_on.direct, ALBEDO * plain)
@@ -154,9 +156,10 @@ def test_segment_query_failure_is_reported(monkeypatch):
     monkeypatch.setattr(pipeline, "make_segment_query", broken)
     add_lamp("POINT", energy=10.0)
     floor = make_plane("Floor", material=diffuse_material("D", (ALBEDO,) * 3))
+    job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), [floor],
+                           pipeline.Settings(density=16.0))
     with pytest.raises(pipeline.IllumapError, match="Lamp shadows failed: RuntimeError: device lost"):
-        pipeline.prepare(bpy.context.evaluated_depsgraph_get(), [floor],
-                         pipeline.Settings(density=16.0))
+        pipeline.run(job)
 
 
 def test_lamp_visibility_unit():

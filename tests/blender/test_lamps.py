@@ -27,8 +27,8 @@ def add_lamp(kind, location=(0, 0, 1), rotation=(0, 0, 0), **props):
 
 def floor_job(size=4.0, density=64.0):
     floor = make_plane("Floor", size=size, material=diffuse_material("D", (ALBEDO,) * 3))
-    job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), [floor],
-                           pipeline.Settings(density=density, lamps=True))
+    job = pipeline.light(pipeline.prepare(bpy.context.evaluated_depsgraph_get(), [floor],
+                                          pipeline.Settings(density=density, lamps=True)))
     return job.positions, job.direct[:, 0] / ALBEDO
 
 
@@ -124,6 +124,8 @@ def test_world_ambient():
     floor = make_plane("Floor", material=diffuse_material("D", (ALBEDO,) * 3))
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), [floor],
                            pipeline.Settings(density=16, lamps=False, world_ambient=True))
+    assert job.direct is None  # direct light is run's first phase
+    pipeline.light(job)
     assert np.allclose(job.direct, ALBEDO * np.array([0.4, 0.8, 1.2]))
 
 

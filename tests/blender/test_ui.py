@@ -583,6 +583,114 @@ def test_real_pipeline_modal_cancel_during_second_pass(registered_addon, two_pla
     assert snapshot() == before and operators._current["task"] is None
 
 
+def _lamp_scene(size=4.0):
+    """A floor under a plate and a sized area lamp: every floor surfel casts shadow rays."""
+    mat = diffuse_material("White", (0.8, 0.8, 0.8))
+    floor = make_plane("Floor", size, material=mat)
+    plate = make_plane("Plate", 1.0, location=(0.0, 0.0, 1.0), material=mat)
+    lamp = bpy.data.lights.new("Area", "AREA")
+    lamp.energy, lamp.size = 100.0, 0.5
+    obj = bpy.data.objects.new("Area", lamp)
+    bpy.context.scene.collection.objects.link(obj)
+    obj.location = (0.0, 0.0, 3.0)
+    select_only(floor, plate)
+    return floor, plate
+
+
+def _lamp_settings(**values):
+    from addon import pipeline, properties
+    props = bpy.context.scene.illumap
+    props.preset = "DRAFT"
+    props.lamps = props.lamp_shadows = True
+    for name, value in values.items():
+        setattr(props, name, value)
+    return properties.make_settings(props, pipeline.Settings)
+
+
+@requires_core
+def test_real_pipeline_modal_cancel_during_lamp_shadows(registered_addon, monkeypatch):
+    """Shadow rays run on the worker (prepare casts none), the status line names the phase,
+    and Esc stops them mid-phase: the worker returns before the remaining ray batches, the
+    report is clear and the file is untouched."""
+    from addon import lamps, operators, pipeline
+    _lamp_scene()
+    # (16 + 1) m² × 6400 = 108,800 lit surfels × 64 rays: seven batches of 2^20 rays.
+    settings = _lamp_settings(density=6400.0, shadow_samples=64)
+    real = pipeline.make_segment_query
+    calls = {"started": 0, "finished": 0}
+
+    def counting(positions, normals, areas, progress=None):
+        query = real(positions, normals, areas, progress)
+
+        def visible(origins, targets, skip, progress=None):
+            calls["started"] += 1
+            out = query(origins, targets, skip, progress)
+            calls["finished"] += 1
+            return out
+        return visible
+
+    monkeypatch.setattr(pipeline, "make_segment_query", counting)
+    before = snapshot()
+    job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), bpy.context.selected_objects,
+                           settings)
+    assert job.direct is None and calls["started"] == 0 and "shadow rays" not in job.timings
+    assert job.count > 100_000
+    task = operators.ComputeTask(job, pipeline.run).start()
+    op = _fake_operator(task)
+    deadline = time.monotonic() + 120
+    while calls["started"] == 0 and task.state == "RUNNING" and time.monotonic() < deadline:
+        time.sleep(0.005)
+    assert task.state == "RUNNING" and task.phase == lamps.PHASE, (task.state, task.error)
+    assert op.modal(bpy.context, _event("TIMER")) == {"RUNNING_MODAL"}
+    assert task.status_text().startswith("Illumap: lamp shadows ")
+    assert op.modal(bpy.context, _event("ESC", "PRESS")) == {"RUNNING_MODAL"}
+    assert task.wait(60) == "CANCELLED", task.error
+    assert isinstance(task.error, pipeline.IllumapCancelled) and task.result is None
+    # Stopped within the phase: at most the batch in flight completed, no light was stored.
+    assert calls["finished"] <= 2 < 7
+    assert job.direct is None and "direct light" not in job.timings
+    assert op.modal(bpy.context, _event("TIMER")) == {"CANCELLED"}
+    assert op.reports == [({"WARNING"}, "Illumap: cancelled, nothing was written")]
+    assert snapshot() == before and operators._current["task"] is None
+
+
+@requires_core
+def test_real_pipeline_lamp_shadow_phase_reports_progress_and_timings(registered_addon):
+    """The worker reports the shadow phase from 0 to 1 before the solve, and its time reaches
+    the result and the statistics; the synchronous operator path records the same phases."""
+    from addon import lamps, operators, pipeline
+    _lamp_scene(size=2.0)
+    settings = _lamp_settings(density=400.0, shadow_samples=16)
+    job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), bpy.context.selected_objects,
+                           settings)
+    task = operators.ComputeTask(job, pipeline.run)
+    seen = []
+    report = task.progress
+
+    def recording(fraction, phase=""):
+        seen.append((fraction, phase))
+        return report(fraction, phase)
+    task.progress = recording
+    assert task.start().wait(120) == "DONE", task.error
+    shadow = [f for f, ph in seen if ph == lamps.PHASE]
+    first_other = next(i for i, (_, ph) in enumerate(seen) if ph != lamps.PHASE)
+    assert seen[0][1] == lamps.PHASE and all(ph != lamps.PHASE for _, ph in seen[first_other:])
+    assert shadow[0] == 0.0 and shadow[-1] == 1.0 and np.all(np.diff(shadow) >= 0)
+    assert len(shadow) >= 3
+    timings = task.result.timings
+    assert timings["shadow rays"] > 0 and timings["direct light"] >= timings["shadow rays"]
+    assert task.result.stats["shadow_rays"] > 16 * 1600 * 0.5
+    assert operators.finish_task(bpy.context, task, lambda k, m: None) == {"FINISHED"}
+    phases = {p.name: p.seconds for p in bpy.context.scene.illumap.stats.phases}
+    assert phases["shadow rays"] == pytest.approx(timings["shadow rays"])
+    assert "direct light" in phases and "solve" in phases
+    # The synchronous path (background, scripts) runs the same phase.
+    assert bpy.ops.illumap.compute_illumination_map() == {"FINISHED"}
+    stats = bpy.context.scene.illumap.stats
+    assert {"direct light", "shadow rays"} <= {p.name for p in stats.phases}
+    assert stats.shadow_rays > 0
+
+
 # --- panel drawing and the reduced UI -------------------------------------------------------
 
 class LayoutRecorder:
