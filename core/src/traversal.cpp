@@ -92,12 +92,7 @@ bool points_decided(const SurfelSoA& s, const OctreeNode& o, const OctreeNode& q
 }
 }  // namespace
 
-PairClass classify(const SurfelSoA& surf, const OctreeNode& t, const OctreeNode& s,
-                   const TraversalOptions& opt, Visibility vis) {
-    const Facing rt = facing(surf, t, s);  // receivers in t facing sources in s
-    if (rt.none_pos) return PairClass::Drop;
-    const Facing rs = facing(surf, s, t);  // sources in s facing receivers in t
-    if (rt.none_pos || rs.none_pos || vis == Visibility::Invalid) return PairClass::Drop;
+bool mac_holds(const OctreeNode& t, const OctreeNode& s, double theta) {
     const double R[3] = {t.center[0] - s.center[0], t.center[1] - s.center[1],
                          t.center[2] - s.center[2]};
     const double dist = std::sqrt(R[0] * R[0] + R[1] * R[1] + R[2] * R[2]);
@@ -107,7 +102,16 @@ PairClass classify(const SurfelSoA& surf, const OctreeNode& t, const OctreeNode&
     // large terms would otherwise carry the expansion's relative error.
     const bool well_separated =
         rmin > 0 && kPi * rmin * rmin > 2.0 * kT0 * 0.5 * (t.amax + s.amax);
-    const bool mac = sep < opt.theta * dist && well_separated;
+    return sep < theta * dist && well_separated;
+}
+
+PairClass classify(const SurfelSoA& surf, const OctreeNode& t, const OctreeNode& s,
+                   const TraversalOptions& opt, Visibility vis) {
+    const Facing rt = facing(surf, t, s);  // receivers in t facing sources in s
+    if (rt.none_pos) return PairClass::Drop;
+    const Facing rs = facing(surf, s, t);  // sources in s facing receivers in t
+    if (rt.none_pos || rs.none_pos || vis == Visibility::Invalid) return PairClass::Drop;
+    const bool mac = mac_holds(t, s, opt.theta);
     if (mac && vis == Visibility::Valid) {
         if (rt.all_pos && rs.all_pos) return PairClass::Accept;
         // Mixed facing. If only the receivers' test is mixed, the source straddles the
@@ -228,7 +232,11 @@ struct Walker {
                     k = PairClass::Drop;
                 } else if (c == VisClass::Partial) {
                     if (leaves) {  // cannot be pushed down: Accept (far) or Near
-                        if (k == PairClass::Near && m.leaf_mode() == LeafMode::PerPair)
+                        // Per-pair V only in the true near field; a leaf pair that is Near
+                        // only because its facing is mixed (a sphere's leaf against a distant
+                        // wall) is far apart and gets the fraction, as far leaf pairs in M2L.
+                        if (k == PairClass::Near && m.leaf_mode() == LeafMode::PerPair &&
+                            !mac_holds(t, s, opt.theta))
                             b = store_block(pr.t, pr.s);
                         else
                             w = frac;
