@@ -94,6 +94,13 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
     }
 
     radius_.resize(n);
+    normal_.resize(3 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+        double nx = s.nx[i], ny = s.ny[i], nz = s.nz[i];
+        const double nl = std::sqrt(nx * nx + ny * ny + nz * nz);
+        if (nl > 0) { nx /= nl; ny /= nl; nz /= nl; }
+        normal_[3 * i] = float(nx); normal_[3 * i + 1] = float(ny); normal_[3 * i + 2] = float(nz);
+    }
     impl_ = new Impl;
     const std::string cfg = "threads=" + std::to_string(ctx.nthreads());
     impl_->device = rtcNewDevice(cfg.c_str());
@@ -259,6 +266,20 @@ bool OccluderScene::make_ray(const double* p, const double* q, double t0, double
     return true;
 }
 
+// A neighbour's disc that contains the endpoint (overlapping discs of a random sampling, or the
+// tangent discs of a curved surface) passes within a small height h of it and crosses a ray
+// leaving at elevation sin = |n . u| about h / sin from it: on a convex surface h ~ d^2 / 2R
+// for a neighbour at distance d, so grazing rays from a sphere were blocked by its own
+// neighbours (most near leaf pairs on curved surfaces came out PARTIAL). Ignoring the part of
+// the ray within off * r of the tangent plane removes that; such a disc reaches at most 2 r
+// from the endpoint (its centre within r, plus its radius), hence the cap.
+double OccluderScene::trim(std::uint32_t k, const double* u, double off) const {
+    const float* nk = &normal_[3 * std::size_t(k)];
+    const double c = std::fabs(double(nk[0]) * u[0] + double(nk[1]) * u[1] + double(nk[2]) * u[2]);
+    const double r = radius_[k];
+    return off * r < kTrimReach * r * c ? off * r / c : kTrimReach * r;
+}
+
 void OccluderScene::segments(Context& ctx, const double* a, const double* b,
                              const std::int64_t* skip, double endpoint_offset, std::size_t n,
                              float* out) const {
@@ -267,8 +288,17 @@ void OccluderScene::segments(Context& ctx, const double* a, const double* b,
         for (std::size_t k = lo; k < hi; ++k) {
             out[k] = 1.0f;
             const std::int64_t sk = skip ? skip[k] : -1;
-            const double t0 = sk >= 0 ? endpoint_offset * double(radius_[std::size_t(sk)]) : 0.0;
-            if (make_ray(a + 3 * k, b + 3 * k, t0, 0.0, &batch.next(k))) batch.commit();
+            const double* p = a + 3 * k;
+            const double* q = b + 3 * k;
+            double t0 = 0.0;
+            if (sk >= 0) {
+                double u[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]};
+                const double len = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+                if (!(len > 0)) continue;
+                for (double& x : u) x /= len;
+                t0 = trim(std::uint32_t(sk), u, endpoint_offset);
+            }
+            if (make_ray(p, q, t0, 0.0, &batch.next(k))) batch.commit();
         }
         batch.flush();
     });
@@ -286,12 +316,16 @@ RaycastVisibility::RaycastVisibility(Context& ctx, const Octree& tree,
 
 RaycastVisibility::~RaycastVisibility() = default;
 
-// Surfel pair i < j, trimmed by endpoint_offset * (disc radius) at both ends.
+// Surfel pair i < j, trimmed at both ends (OccluderScene::trim).
 bool RaycastVisibility::make_pair_ray(std::uint32_t i, std::uint32_t j, void* r) const {
     const SurfelSoA& s = tree_.s;
     const double p[3] = {s.px[i], s.py[i], s.pz[i]}, q[3] = {s.px[j], s.py[j], s.pz[j]};
+    double u[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]};
+    const double len = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    if (!(len > 0)) return false;
+    for (double& x : u) x /= len;
     const double off = opt_.endpoint_offset;
-    return scene_->make_ray(p, q, off * scene_->radius(i), off * scene_->radius(j), r);
+    return scene_->make_ray(p, q, scene_->trim(i, u, off), scene_->trim(j, u, off), r);
 }
 
 float RaycastVisibility::pair(std::uint32_t i, std::uint32_t j) const {

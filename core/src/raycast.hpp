@@ -4,12 +4,14 @@
 // coverage * sqrt(A_k / pi) and normal n_k (discs occlude from both sides). V(i, j) is one
 // occlusion ray between the centres of i and j, cast from min(i,j) to max(i,j) so that V is
 // symmetric. Degenerate cases:
-//   * the endpoints' own discs and coincident duplicates of an endpoint: the segment is trimmed
-//     by endpoint_offset * (disc radius) at each end (tnear / tfar; default 0.05, well above
-//     float noise for all but extremely grazing rays), so nothing within that distance of an
-//     endpoint occludes. Flat neighbours of an endpoint are cut by the ray only at the endpoint
-//     (inside the trim); on a convex surface a neighbour's rim can stick out above the tangent
-//     plane and occlude rays leaving at grazing angles (those carry little weight, cos ~ 0);
+//   * the endpoints' own discs, coincident duplicates and overlapping neighbours: each end of
+//     the segment is trimmed by the part of the ray within endpoint_offset * r (r: that
+//     endpoint's disc radius) of the endpoint's tangent plane, i.e. endpoint_offset * r /
+//     |cos| along the ray, at most 2 r (OccluderScene::trim; default 0.05, well above float
+//     noise). A perpendicular ray loses 0.05 r; a grazing one up to 2 r, the farthest a disc
+//     that contains the endpoint can reach. Without the angle, neighbours' discs on a curved
+//     surface (they pass ~d^2/2R above the endpoint) blocked rays leaving at up to ~10 degrees
+//     and made most near leaf pairs on a sphere PARTIAL;
 //   * pairs closer than the two trims together, and coincident pairs, are visible (V = 1);
 //   * a disc seen exactly edge-on (the segment lies in its plane) does not occlude (Embree's
 //     disc test divides by n.d = 0 and reports no hit; no NaN reaches our side).
@@ -53,14 +55,20 @@ public:
 
     std::size_t size() const { return radius_.size(); }
     float radius(std::uint32_t i) const { return radius_[i]; }  // disc radius, for trims
+    // How much of a segment leaving surfel k along unit direction u is ignored: the part of
+    // the ray within off * r_k of k's tangent plane, off * r_k / |n_k . u|, at most
+    // kTrimReach * r_k (see raycast.cpp).
+    double trim(std::uint32_t k, const double* u, double off) const;
+    static constexpr double kTrimReach = 2.0;
     const float* radii() const { return radius_.data(); }
     VisibilityOptions::Shape shape() const { return shape_; }
     double build_seconds() const { return build_seconds_; }
     std::size_t bytes() const;
 
     // Visibility of n segments a[k] -> b[k] (world coordinates, 3 doubles each). skip[k] >= 0
-    // (skip may be null) names a surfel at a[k]: the first endpoint_offset * radius(skip[k])
-    // of the segment is ignored, as pair() does (its own disc, coincident duplicates).
+    // (skip may be null) names a surfel at a[k]: the first trim(skip[k], u, endpoint_offset)
+    // of the segment is ignored, as pair() does (its own disc, coincident duplicates, and
+    // neighbours' discs that pass just above it).
     // out[k] = 1 when no occluder meets the remaining segment, else 0. Segments are clipped
     // to the occluders' box in double precision first, so a target may lie arbitrarily far.
     // Runs on ctx's workers with progress and cancellation (throws Cancelled).
@@ -75,6 +83,7 @@ private:
     struct Impl;
     Impl* impl_ = nullptr;
     std::vector<float> radius_;  // disc radius per surfel
+    std::vector<float> normal_;  // unit normal per surfel (3 floats), for the trims
     VisibilityOptions::Shape shape_;
     double center_[3] = {0, 0, 0};
     double lo_[3] = {0, 0, 0}, hi_[3] = {0, 0, 0};  // occluders' box (padded), world units

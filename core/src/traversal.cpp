@@ -92,12 +92,7 @@ bool points_decided(const SurfelSoA& s, const OctreeNode& o, const OctreeNode& q
 }
 }  // namespace
 
-PairClass classify(const SurfelSoA& surf, const OctreeNode& t, const OctreeNode& s,
-                   const TraversalOptions& opt, Visibility vis) {
-    const Facing rt = facing(surf, t, s);  // receivers in t facing sources in s
-    if (rt.none_pos) return PairClass::Drop;
-    const Facing rs = facing(surf, s, t);  // sources in s facing receivers in t
-    if (rt.none_pos || rs.none_pos || vis == Visibility::Invalid) return PairClass::Drop;
+bool mac_holds(const OctreeNode& t, const OctreeNode& s, double theta) {
     const double R[3] = {t.center[0] - s.center[0], t.center[1] - s.center[1],
                          t.center[2] - s.center[2]};
     const double dist = std::sqrt(R[0] * R[0] + R[1] * R[1] + R[2] * R[2]);
@@ -107,7 +102,16 @@ PairClass classify(const SurfelSoA& surf, const OctreeNode& t, const OctreeNode&
     // large terms would otherwise carry the expansion's relative error.
     const bool well_separated =
         rmin > 0 && kPi * rmin * rmin > 2.0 * kT0 * 0.5 * (t.amax + s.amax);
-    const bool mac = sep < opt.theta * dist && well_separated;
+    return sep < theta * dist && well_separated;
+}
+
+PairClass classify(const SurfelSoA& surf, const OctreeNode& t, const OctreeNode& s,
+                   const TraversalOptions& opt, Visibility vis) {
+    const Facing rt = facing(surf, t, s);  // receivers in t facing sources in s
+    if (rt.none_pos) return PairClass::Drop;
+    const Facing rs = facing(surf, s, t);  // sources in s facing receivers in t
+    if (rt.none_pos || rs.none_pos || vis == Visibility::Invalid) return PairClass::Drop;
+    const bool mac = mac_holds(t, s, opt.theta);
     if (mac && vis == Visibility::Valid) {
         if (rt.all_pos && rs.all_pos) return PairClass::Accept;
         // Mixed facing. If only the receivers' test is mixed, the source straddles the
@@ -156,8 +160,10 @@ struct Walker {
     std::vector<std::int64_t> vv, vi, vp;
     std::int64_t nm2lw = 0, np2pw = 0, nblk = 0;
     std::vector<float> tmp;
+    const bool mutual;  // with a visibility model: visit each unordered pair once (step)
 
-    Walker(const Octree& tr, const TraversalOptions& o) : tree(tr), opt(o) {
+    Walker(const Octree& tr, const TraversalOptions& o)
+        : tree(tr), opt(o), mutual(o.model != nullptr) {
         const std::size_t L = tree.levels.size() + 1;
         acc.assign(L, 0); drop.assign(L, 0); split.assign(L, 0); nearc.assign(L, 0);
         vv.assign(L, 0); vi.assign(L, 0); vp.assign(L, 0);
@@ -179,24 +185,42 @@ struct Walker {
             if (b >= 0) nblk++;
         }
     }
-    // Per-pair V of two leaves; -1 when every pair is visible (nothing stored).
-    std::int64_t store_block(std::int32_t a, std::int32_t b) {
-        const std::size_t m = std::size_t(tree.nodes[a].count()) * tree.nodes[b].count();
+    // Per-pair V of two leaves, stored for (a, b) (row-major |a| x |b|) and, when `mirror`,
+    // transposed for (b, a) right after it; -1 when every pair is visible (nothing stored).
+    std::int64_t store_block(std::int32_t a, std::int32_t b, bool mirror = false) {
+        const std::size_t na = tree.nodes[a].count(), nb = tree.nodes[b].count();
+        const std::size_t m = na * nb;
         tmp.resize(m);
         opt.model->block(a, b, tmp.data());
         bool all = true;
         for (float v : tmp) all = all && v == 1.0f;
         if (all) return -1;
         const std::int64_t off = std::int64_t(blk.size());
-        for (float v : tmp) blk.push_back(std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)));
+        auto q = [](float v) { return std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); };
+        for (float v : tmp) blk.push_back(q(v));
+        if (mirror)
+            for (std::size_t j = 0; j < nb; ++j)
+                for (std::size_t i = 0; i < na; ++i) blk.push_back(q(tmp[i * nb + j]));
         return off;
     }
 
+    // Split children, in canonical order (lower id first) when the walk is mutual.
+    void push(std::vector<Pair>& out, std::int32_t a, std::int32_t b) const {
+        if (mutual && a > b) std::swap(a, b);
+        out.push_back({a, b});
+    }
+
     // Classifies one pair; appends its children pairs to `out` when it must be split.
+    // Mutual walk (with a visibility model): only pairs t <= s are visited and each records
+    // the mirrored interaction of (s, t) too. The kernel classes of (t, s) and (s, t) mirror
+    // each other (Accept, Drop, Near alike; M2P <-> P2L; the split rule picks the same node,
+    // radius ties broken by id), so the lists are those of the ordered walk while each node
+    // pair is classified, sampled and blocked once.
     void step(Pair pr, std::vector<Pair>& out) {
         const OctreeNode& t = tree.nodes[pr.t];
         const OctreeNode& s = tree.nodes[pr.s];
         const int lev = std::max(t.level, s.level);
+        const Pair mr{pr.s, pr.t};
         if (pr.t == pr.s) {  // self pair: all ordered child pairs, or direct at a leaf
             if (t.leaf()) {
                 // Surfels of one leaf can hide each other (a corner, a block on a floor).
@@ -206,10 +230,12 @@ struct Walker {
             } else {
                 split[lev]++;
                 for (int a = 0; a < t.nchild; ++a)
-                    for (int b = 0; b < t.nchild; ++b) out.push_back({t.child + a, t.child + b});
+                    for (int b = mutual ? a : 0; b < t.nchild; ++b)
+                        out.push_back({t.child + a, t.child + b});
             }
             return;
         }
+        const std::int64_t both = mutual ? 2 : 1;  // ordered pairs this visit stands for
         // The kernel alone first; visibility only where an interaction would be produced.
         PairClass k = classify(tree.s, t, s, opt, Visibility::Valid);
         float w = 1.0f;
@@ -223,13 +249,17 @@ struct Walker {
                 const VisClass c = (leaves && m.leaf_mode() != LeafMode::Binary)
                                        ? m.classify_fraction(pr.t, pr.s, &frac)
                                        : m.classify(pr.t, pr.s);
-                (c == VisClass::Valid ? vv : c == VisClass::Invalid ? vi : vp)[lev]++;
+                (c == VisClass::Valid ? vv : c == VisClass::Invalid ? vi : vp)[lev] += both;
                 if (c == VisClass::Invalid) {
                     k = PairClass::Drop;
                 } else if (c == VisClass::Partial) {
                     if (leaves) {  // cannot be pushed down: Accept (far) or Near
-                        if (k == PairClass::Near && m.leaf_mode() == LeafMode::PerPair)
-                            b = store_block(pr.t, pr.s);
+                        // Per-pair V only in the true near field; a leaf pair that is Near
+                        // only because its facing is mixed (a sphere's leaf against a distant
+                        // wall) is far apart and gets the fraction, as far leaf pairs in M2L.
+                        if (k == PairClass::Near && m.leaf_mode() == LeafMode::PerPair &&
+                            !mac_holds(t, s, opt.theta))
+                            b = store_block(pr.t, pr.s, mutual);
                         else
                             w = frac;
                     } else {
@@ -241,34 +271,47 @@ struct Walker {
             }
         }
         switch (k) {
-            case PairClass::Drop: drop[lev]++; return;
-            case PairClass::Accept: acc[lev]++; add_m2l(pr, w); return;
-            case PairClass::M2P: acc[lev]++; m2p.push_back(pr); return;
-            case PairClass::P2L: acc[lev]++; p2l.push_back(pr); return;
+            case PairClass::Drop: drop[lev] += both; return;
+            case PairClass::Accept:
+                acc[lev] += both;
+                add_m2l(pr, w);
+                if (mutual) add_m2l(mr, w);
+                return;
+            case PairClass::M2P:
+                acc[lev] += both;
+                m2p.push_back(pr);
+                if (mutual) p2l.push_back(mr);
+                return;
+            case PairClass::P2L:
+                acc[lev] += both;
+                p2l.push_back(pr);
+                if (mutual) m2p.push_back(mr);
+                return;
             case PairClass::Near:
-                nearc[lev]++;
+                nearc[lev] += both;
                 add_p2p(pr, w, b);
-                surfel_pairs += std::int64_t(t.count()) * s.count();
+                if (mutual) add_p2p(mr, w, b < 0 ? -1 : b + std::int64_t(t.count()) * s.count());
+                surfel_pairs += both * std::int64_t(t.count()) * s.count();
                 return;
             case PairClass::SplitS:
-                split[lev]++;
-                for (int b = 0; b < s.nchild; ++b) out.push_back({pr.t, s.child + b});
+                split[lev] += both;
+                for (int c = 0; c < s.nchild; ++c) push(out, pr.t, s.child + c);
                 return;
             case PairClass::SplitT:
-                split[lev]++;
-                for (int a = 0; a < t.nchild; ++a) out.push_back({t.child + a, pr.s});
+                split[lev] += both;
+                for (int c = 0; c < t.nchild; ++c) push(out, t.child + c, pr.s);
                 return;
             case PairClass::Split: break;
         }
-        split[lev]++;
+        split[lev] += both;
         // Split the source when the target is a leaf or the source is the larger one.
         // With a visibility model radius ties go by node id, so (t, s) and (s, t) split the same
         // node and their lists mirror each other (exact reciprocity of the sampled classes).
         if (!s.leaf() && (t.leaf() || s.radius > t.radius ||
                           (opt.model && s.radius == t.radius && pr.s > pr.t))) {
-            for (int b = 0; b < s.nchild; ++b) out.push_back({pr.t, s.child + b});
+            for (int c = 0; c < s.nchild; ++c) push(out, pr.t, s.child + c);
         } else {
-            for (int a = 0; a < t.nchild; ++a) out.push_back({t.child + a, pr.s});
+            for (int c = 0; c < t.nchild; ++c) push(out, t.child + c, pr.s);
         }
     }
 

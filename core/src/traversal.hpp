@@ -80,6 +80,9 @@ Facing facing_points(const SurfelSoA& s, const OctreeNode& o, const OctreeNode& 
 // -1 mixed. Used by the traversal and again by M2P/P2L at apply time (same answer).
 int point_node_class(const SurfelSoA& s, std::uint32_t i, const OctreeNode& q);
 
+// The multipole acceptance criterion alone (separation and strong coupling), facing aside.
+bool mac_holds(const OctreeNode& t, const OctreeNode& s, double theta);
+
 PairClass classify(const SurfelSoA& s, const OctreeNode& t, const OctreeNode& src,
                    const TraversalOptions& opt, Visibility vis);
 

@@ -79,9 +79,10 @@ struct VisibilityOptions {
     // "exact": disc radius = coverage * sqrt(A/pi). 1 leaves gaps between discs (light leaks);
     // larger closes them but lets discs stick out past edges and corners (over-occlusion).
     double coverage = 1.3;
-    // "exact": occluders closer than endpoint_offset * (disc radius of the endpoint) to either
-    // endpoint along the segment are ignored (the endpoints' own discs and coincident
-    // duplicates). Pairs closer than the two offsets together are visible.
+    // "exact": occluders that cross the segment within endpoint_offset * (disc radius r of the
+    // endpoint) of an endpoint's tangent plane are ignored: endpoint_offset * r / |cos| along
+    // the segment, at most 2 r (the endpoints' own discs, coincident duplicates, overlapping
+    // neighbours on curved surfaces). Pairs closer than the two trims together are visible.
     double endpoint_offset = 0.05;
     // "exact": the occluder shape. Disc: Embree's oriented-disc points (radius coverage *
     // sqrt(A/pi)). Quad: a square of the same area in the tangent plane (side
@@ -120,12 +121,16 @@ inline std::uint64_t vis_mix(std::uint64_t x) {  // splitmix64 finaliser
     return x ^ (x >> 31);
 }
 
-// i and j face each other (both cosines strictly positive); false for coincident points.
+// i and j face each other: both cosines above 1e-9 (the near field's coplanar tolerance), so
+// round-off between coplanar surfels (the two sides of a thin panel, random samples on one
+// plane) neither costs rays nor makes a node pair PARTIAL; the kernel is ~0 there anyway.
+// False for coincident points.
 inline bool vis_facing(const SurfelSoA& s, std::uint32_t i, std::uint32_t j) {
     const double dx = s.px[j] - s.px[i], dy = s.py[j] - s.py[i], dz = s.pz[j] - s.pz[i];
     const double ci = s.nx[i] * dx + s.ny[i] * dy + s.nz[i] * dz;
     const double cj = -(s.nx[j] * dx + s.ny[j] * dy + s.nz[j] * dz);
-    return ci > 0.0 && cj > 0.0;
+    const double tol = 1e-9 * std::sqrt(dx * dx + dy * dy + dz * dz);
+    return ci > tol && cj > tol;
 }
 
 // ---- the interface ---------------------------------------------------------------------

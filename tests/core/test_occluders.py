@@ -224,3 +224,31 @@ def test_same_occluders_as_exact_visibility():
         blocked += int((~v_op).sum())
     assert total > 200 and 0.05 * total < blocked < 0.95 * total
     assert agree >= 0.99 * total
+
+
+@pytest.mark.parametrize("shape", ["disc", "quad"])
+def test_no_self_shadow_acne_on_a_sphere(shape):
+    """A sphere (Fibonacci lattice: evenly spaced, so coverage 1.3 closes it) lit by a distant
+    lamp: every surfel facing the lamp by more than ~3 degrees is lit (the trim at the skipped
+    origin ignores neighbours' discs that pass just above it), every surfel facing away is
+    shadowed by the sphere itself."""
+    n = 20000
+    k = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * k / n
+    phi = np.pi * (3.0 - np.sqrt(5.0)) * k
+    rho = np.sqrt(1.0 - z * z)
+    unit = np.column_stack([rho * np.cos(phi), rho * np.sin(phi), z])
+    # tilt the lattice so that the lamp axis is not its own axis
+    c, s_ = np.cos(0.3), np.sin(0.3)
+    unit = unit @ np.array([[1, 0, 0], [0, c, -s_], [0, s_, c]])
+    s = illumap.Surfels(0.6 * unit, unit, np.full(n, 4 * np.pi * 0.36 / n),
+                        np.full((n, 3), 0.5), np.zeros((n, 3)))
+    lamp = np.array([0.0, 0.0, 1e4])
+    v = Occluders(s, shape=shape).visible(s.positions, np.tile(lamp, (n, 1)),
+                                          skip=np.arange(n))
+    elevation = unit[:, 2]  # cos between the normal and the (nearly parallel) lamp direction
+    assert np.all(v[elevation > 0.05] == 1.0)
+    # the far side shadows the rest (squares, rotated by their own frames, leave a few
+    # pinholes in a lattice that discs close: measured 4e-4)
+    leak = (v[elevation < -0.05] == 1.0).mean()
+    assert leak <= (0.0 if shape == "disc" else 2e-3)

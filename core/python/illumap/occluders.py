@@ -121,14 +121,18 @@ class Occluders:
             Segment ends in world metres (the surfels' units), finite.
         skip : (M,) array_like of int, optional
             A surfel at the origin (or -1 for none) whose own disc must not occlude: the
-            first ``endpoint_offset × (its disc radius)`` metres of the segment are ignored,
-            as the operator does for its endpoints; that also hides coincident duplicates of
-            that surfel. Without it, a segment that starts on a surfel is blocked by it.
+            part of the segment within ``endpoint_offset × r`` of its tangent plane is
+            ignored (r: its disc radius; along the segment ``endpoint_offset × r / cos``, at
+            most 2 r), as the operator trims its pairs; that also hides coincident duplicates
+            and neighbours' discs that pass just above it on a curved surface (no shadow acne
+            at grazing lamp angles). Without it, a segment that starts on a surfel is blocked
+            by it.
             Nothing is trimmed at the target (a lamp is not a surfel).
         progress : callable(fraction, phase) -> bool | None, optional
             Returning False or raising cancels with :class:`illumap.Cancelled`.
         endpoint_offset : float
-            The trim at a skipped origin, in units of that surfel's disc radius (default 0.05).
+            The trim at a skipped origin, a height above its tangent plane in units of its
+            disc radius (default 0.05).
 
         Returns
         -------

@@ -208,8 +208,10 @@ class TransportOperator:
     visibility_shape : "disc" | "quad"
         "exact": occluders as oriented discs, or squares of equal area (faster rays).
     endpoint_offset : float
-        "exact": occluders within endpoint_offset × (disc radius of the endpoint) of either
-        endpoint are ignored (own disc, coincident duplicates). Default 0.05.
+        "exact": occluders crossing the segment within endpoint_offset × r of an endpoint's
+        tangent plane are ignored (r: the endpoint's disc radius; along the segment that is
+        endpoint_offset × r / cos, at most 2 r): own disc, coincident duplicates, neighbours'
+        discs on curved surfaces. Default 0.05.
     seed_delta : float
         "seed": an occluder k attenuates a segment within Δ_k = seed_delta·sqrt(A_k/π) of it
         (units of the occluder's own spacing, so scale-free). Default 2.0.
