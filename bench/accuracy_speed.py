@@ -1,27 +1,35 @@
 #!/usr/bin/env python3
 """Error against wall time for every method, on the three benchmark scenes (bench/scenes.py).
 
-For each scene a converged reference is solved once: the direct O(N^2) operator at high density
-(``--ref-n`` surfels), CG to a relative residual of 1e-9, with the best visibility mode the
-build has (``exact`` when available, else ``none``). Every setting is then run at several
-densities; its error is the relative RMS per surfel (emitters excluded) against the reference
-evaluated at its own surfels by one exact gather (bench/scenes.py: ``reference_at``), and its
-time is the wall time of ``illumap.solve`` (operator build + solve). The reference's own floor
-(the gather evaluated at the reference's surfels) is recorded as ``reference_floor``: errors
-below it are not resolved.
+Reference, per scene: the direct O(N^2) operator with exact visibility (rays against the
+surfels as discs, ``scenes.EXACT_KEYWORDS``) at high density (``--ref-n``), CG to a relative
+residual of 1e-9. Its own accuracy is checked with a second reference at half the density
+(another sampling): their difference d, gathered at the half reference's points, bounds what
+the reference resolves (``reference.check``; with error ~ N^-a, the reference's own error is
+d / (2^a - 1), from d at a = 1 to 2.4 d at a = 1/2; ``reference.floor`` is the latter; the
+automatic mode is not run at targets below 1.5 d).
+References are cached (``$ILLUMAP_BENCH_CACHE``, default /tmp/illumap_bench_cache) by scene,
+size and core commit.
 
-Curves (one per method; points along a curve are surfel densities):
-  fmm p in {0,2,3,4,6,8} x visibility in {none, seed, exact} (modes the build lacks are listed
-  under "unavailable" with the reason), direct, and Jacobi / CG / GMRES (FMM p=4).
-  With --auto it also runs ``illumap.accuracy.choose_settings`` at targets 10%, 3%, 1%.
+Every setting is then run at several densities (points along a curve); its error is the
+relative RMS per surfel over up to ``error_points`` random non-emitting surfels, against the
+reference gathered at those surfels with exact visibility (``scenes.reference_at``), and its
+time is the wall time of ``illumap.solve`` (operator build + solve; best of 3 under 0.5 s).
 
-    .venv/bin/python bench/accuracy_speed.py --quick --out bench/results/accuracy_speed.json
+Curves: FMM p in {0,2,3,4,6,8} x visibility none / seed / exact (theta 0.5); FMM exact at
+theta 0.3 and 0.2 (the visibility classification of node pairs improves as theta shrinks);
+direct with each visibility (small N); Jacobi / CG / GMRES (FMM p=4, exact, theta 0.2).
+With --auto the automatic mode (``illumap.accuracy``) runs at 10%, 3%, 1% and 0.3% where the
+reference resolves the target.
+
+    .venv/bin/python bench/accuracy_speed.py --quick --auto --out bench/results/accuracy_speed.json
 
 Times are from this run on this machine; compare ratios, not absolute times.
 """
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import os
 import platform
@@ -39,35 +47,72 @@ import scenes as S  # noqa: E402
 ORDERS = (0, 2, 3, 4, 6, 8)
 VISIBILITY_MODES = ("none", "seed", "exact")
 SOLVE_TOL = 1e-4
+AUTO_TARGETS = (0.1, 0.03, 0.01, 0.003)
 
-QUICK = dict(ref_n=12000, sizes=(500, 1000, 2000, 4000), orders=ORDERS)
-FULL = dict(ref_n=24000, sizes=(500, 1000, 2000, 4000, 8000, 12000), orders=ORDERS)
+#: ref_n: requested size of the reference (the bunny scene has ~1.5 n surfels); sizes: the
+#: densities swept (per scene in full mode: the scan's curved surfaces cost more); direct_vis_max: largest N for the direct operator with visibility (N^2 rays)
+#: high_order_max: largest N for p >= 6 (slow, and dominated there: the error is the
+#: discretization's); seed_max: largest N for seed visibility (its build is the slowest)
+QUICK = dict(ref_n=dict(cornell=12000, bunny=8000, interior=12000), sizes=(500, 1000, 2000, 4000),
+             direct_max=8000, direct_vis_max=dict(seed=2500, exact=4500), error_points=800,
+             high_order_max=10 ** 9, seed_max=10 ** 9)
+FULL = dict(ref_n=dict(cornell=24000, bunny=8000, interior=24000),
+            sizes=dict(cornell=(500, 1000, 2000, 4000, 8000),
+                       interior=(500, 1000, 2000, 4000, 8000),
+                       bunny=(500, 1000, 2000, 4000)), direct_max=8500,
+            direct_vis_max=dict(seed=3000, exact=8500), error_points=1200,
+            high_order_max=2500, seed_max=4500)
+#: The bunny's reference stays at 12k surfels: at 25k it differs from the 12k one by 8.3%, more
+#: than the 12k one from the 6k one (6.1%): with exact visibility, random subsets of the scan
+#: do not converge further at these densities (docs/benchmarks.md).
+
+
+def cache_dir():
+    path = os.environ.get("ILLUMAP_BENCH_CACHE", "/tmp/illumap_bench_cache")
+    os.makedirs(path, exist_ok=True)
+    return path
 
 
 def available_visibilities():
     """(available list, {mode: reason} for the rest)."""
     ok, missing = [], {}
     for mode in VISIBILITY_MODES:
-        implemented = VISIBILITIES.get(mode, (False, False))[0]
-        if implemented:
+        if VISIBILITIES.get(mode, (False, False))[0]:
             ok.append(mode)
         else:
             missing[mode] = "not available in this build (illumap.operator.VISIBILITIES)"
     return ok, missing
 
 
+def vis_keywords(vis):
+    if vis == "none":
+        return {}
+    if vis == "exact":
+        return dict(visibility="exact", **S.EXACT_KEYWORDS)
+    return dict(visibility=vis)
+
+
 def settings(orders, visibilities):
     """Every hand-picked setting: (family, label, solve keywords)."""
-    out = [("direct", "direct", dict(method="direct", solver="auto", tol=SOLVE_TOL))]
+    out = []
     for vis in visibilities:
+        out.append((f"direct/{vis}", f"direct vis={vis}",
+                    dict(method="direct", solver="auto", tol=SOLVE_TOL, **vis_keywords(vis))))
         for p in orders:
-            kw = dict(method="fmm", order=p, theta=0.5, solver="auto", tol=SOLVE_TOL)
-            if vis != "none":
-                kw["visibility"] = vis
-            out.append((f"fmm/{vis}", f"FMM p={p} vis={vis}", kw))
+            out.append((f"fmm/{vis}", f"FMM p={p} vis={vis}",
+                        dict(method="fmm", order=p, theta=0.5, solver="auto", tol=SOLVE_TOL,
+                             **vis_keywords(vis))))
+    if "exact" in visibilities:
+        for theta in (0.3, 0.2):
+            for p in (2, 3, 4):
+                out.append((f"fmm/exact/θ{theta}", f"FMM p={p} vis=exact θ={theta}",
+                            dict(method="fmm", order=p, theta=theta, solver="auto",
+                                 tol=SOLVE_TOL, **vis_keywords("exact"))))
+    vis = "exact" if "exact" in visibilities else "none"
     for solver in ("jacobi", "cg", "gmres"):
-        out.append(("solver", f"{solver} (FMM p=4)",
-                    dict(method="fmm", order=4, theta=0.5, solver=solver, tol=SOLVE_TOL)))
+        out.append(("solver", f"{solver} (FMM p=4, vis={vis}, θ=0.2)",
+                    dict(method="fmm", order=4, theta=0.2, solver=solver, tol=SOLVE_TOL,
+                         **vis_keywords(vis))))
     return out
 
 
@@ -77,95 +122,136 @@ def timed_solve(surfels, kw):
     return sol, time.perf_counter() - t
 
 
-def run_scene(name, cfg, visibilities, auto_targets, log, sweep=True):
-    ref_vis = "exact" if "exact" in visibilities else "none"
+def best_of_three(fn):
+    """Run fn() -> (result, seconds); repeat twice more when it took under 0.5 s (the machine is
+    shared) and keep the first result with the least time."""
+    res, dt = fn()
+    if dt < 0.5:
+        for _ in range(2):
+            dt = min(dt, fn()[1])
+    return res, dt
+
+
+def cached_reference(name, n, seed):
+    """(surfels, solution radiosity, info) of a reference solve, cached by scene, size, seed,
+    exact-visibility keywords and the source of the scene's code (not by core commit: a core
+    that computes the same operator faster reuses it; ``info["core"]`` says which core solved
+    it)."""
+    key = hashlib.sha1(json.dumps([name, n, seed, S.EXACT_KEYWORDS, S.source_hash(name)])
+                       .encode()).hexdigest()[:12]
+    path = os.path.join(cache_dir(), f"ref_{name}_{n}_{key}.npz")
+    ref = S.build(name, n, seed=seed)
+    if os.path.exists(path):
+        z = np.load(path, allow_pickle=False)
+        if z["B"].shape == (ref.n, 3):
+            info = json.loads(str(z["info"]))
+            return ref, z["B"], dict(info, cached=True)
     t = time.perf_counter()
-    ref = S.build(name, cfg["ref_n"], seed=12345)
-    ref_sol = S.reference_solution(ref, visibility=ref_vis)
-    ref_time = time.perf_counter() - t
-    floor = S.relative_rms(S.reference_at(ref, ref_sol.radiosity, ref), ref_sol.radiosity,
-                           ref.emission)
-    log(f"[{name}] reference N={ref.n} vis={ref_vis} {ref_time:.1f}s "
-        f"iterations={ref_sol.iterations} floor={floor:.4f}")
+    sol = S.reference_solution(ref)
+    info = dict(time=time.perf_counter() - t, iterations=sol.iterations,
+                core=S.provenance(), date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()))
+    np.savez(path, B=sol.radiosity, info=json.dumps(info))
+    return ref, sol.radiosity, dict(info, cached=False)
+
+
+def reference(name, cfg, log):
+    n = cfg["ref_n"][name]
+    ref, B, info = cached_reference(name, n, 12345)
+    half, Bh, hinfo = cached_reference(name, n // 2, 54321)
+    idx = S.error_subset(half, cfg["error_points"])
+    d = S.relative_rms(Bh[idx], S.reference_at(ref, B, S.subset(half, idx)))
+    out = dict(n=ref.n, visibility="exact", keywords=S.EXACT_KEYWORDS, time=info["time"],
+               iterations=info["iterations"], cached=info["cached"], core=info["core"],
+               date=info["date"], half_n=half.n, half_time=hinfo["time"], check=d,
+               floor=d / (2 ** 0.5 - 1))
+    log(f"[{name}] reference N={ref.n} {info['time']:.1f}s"
+        f"{' (cached, ' + info['date'] + ')' if info['cached'] else ''} it={info['iterations']}; "
+        f"half-density reference N={half.n} differs by {d:.4f}")
+    return ref, B, out
+
+
+def run_scene(name, cfg, visibilities, auto_targets, log, sweep=True, hand=None):
+    ref, ref_B, ref_info = reference(name, cfg, log)
     points = []
-    for n in (cfg["sizes"] if sweep else ()):
+    sizes = cfg["sizes"][name] if isinstance(cfg["sizes"], dict) else cfg["sizes"]
+    for n in (sizes if sweep else ()):
         q = S.build(name, n)
-        B_ref = S.reference_at(ref, ref_sol.radiosity, q)
-        for family, label, kw in settings(cfg["orders"], visibilities):
-            if kw["method"] == "direct" and q.n > 8000:
+        idx = S.error_subset(q, cfg["error_points"])
+        B_ref = S.reference_at(ref, ref_B, S.subset(q, idx))
+        for family, label, kw in settings(ORDERS, visibilities):
+            if kw["method"] == "direct" and q.n > (
+                    cfg["direct_max"] if "visibility" not in kw
+                    else cfg["direct_vis_max"][kw["visibility"]]):
                 continue
-            sol, dt = timed_solve(q, kw)
-            err = S.relative_rms(sol.radiosity, B_ref, q.emission)
-            if dt < 0.5:   # best of 3 for short runs: the machine is shared
-                for _ in range(2):
-                    sol2, dt2 = timed_solve(q, kw)
-                    dt = min(dt, dt2)
-            points.append(dict(scene=name, family=family, label=label, n=q.n, time=dt,
+            if kw.get("order", 0) >= 6 and q.n > cfg["high_order_max"]:
+                continue
+            if kw.get("visibility") == "seed" and q.n > cfg["seed_max"]:
+                continue
+            sol, dt = best_of_three(lambda: timed_solve(q, kw))
+            err = S.relative_rms(sol.radiosity[idx], B_ref)
+            points.append(dict(scene=name, family=family, label=label, n=q.n, size=n, time=dt,
                                error=err, iterations=sol.iterations, converged=sol.converged,
-                               settings={k: v for k, v in kw.items()}))
-            log(f"  {name} N={q.n:6d} {label:24s} {dt:8.3f}s err={err:.4f} it={sol.iterations}")
+                               settings=dict(kw)))
+            log(f"  {name} N={q.n:6d} {label:36s} {dt:8.3f}s err={err:.4f} "
+                f"it={sol.iterations}")
     for target in auto_targets:
-        from illumap import accuracy
-        kind = "point_cloud" if name == "bunny" else None
-        probe = S.build(name, cfg["sizes"][0])
-        summary = accuracy.scene_summary(probe, kind)
-        summary["n"] = S.BUNNY_MAX if name == "bunny" else 10 ** 9   # what sampling allows
-        chosen = accuracy.choose_settings(summary, target, kind=kind)
-        kw = accuracy.solve_keywords(chosen)
-        if chosen["n"] > ref.n / 1.2:
-            log(f"  {name} auto target={target:g}: needs N={chosen['n']}, beyond what the "
-                f"reference (N={ref.n}) resolves; not run")
-            points.append(dict(scene=name, family="auto", label=f"auto {target:g}",
-                               n=chosen["n"], time=None, error=None, target=target,
-                               settings=kw, chosen=chosen, skipped="beyond the reference"))
-            continue
-        q = S.build(name, chosen["n"])
-        B_ref = S.reference_at(ref, ref_sol.radiosity, q)
-        chosen = accuracy.choose_settings(q, target, kind=kind)   # cost model at the real N
-        kw = accuracy.solve_keywords(chosen)
-        sol, dt = timed_solve(q, kw)
-        if dt < 0.5:   # best of 3, as for the hand-picked settings
-            dt = min([dt] + [timed_solve(q, kw)[1] for _ in range(2)])
-        err = S.relative_rms(sol.radiosity, B_ref, q.emission)
-        est = accuracy.estimate_error(sol, q, coarse=True)
-        points.append(dict(scene=name, family="auto", label=f"auto {target:g}", n=q.n,
-                           time=dt, error=err, iterations=sol.iterations, target=target,
-                           converged=sol.converged, settings=kw, chosen=chosen, estimate=est))
-        log(f"  {name} N={q.n:6d} auto target={target:<6g} {dt:8.3f}s err={err:.4f} "
-            f"estimate={est['total']:.4f} {kw}")
-    return dict(reference=dict(n=ref.n, visibility=ref_vis, time=ref_time,
-                               iterations=ref_sol.iterations, floor=floor), points=points)
+        points.append(run_auto(name, target, ref, ref_B, ref_info, cfg, log,
+                               points if hand is None else hand))
+    return dict(reference=ref_info, points=points)
 
 
-def calibrate(names, n, orders=ORDERS, thetas=(0.35, 0.5, 0.7), log=print):
-    """The FMM error model of illumap.accuracy: for each scene at about ``n`` surfels, the
-    relative RMS difference between the FMM solution (order p, opening angle theta) and the
-    direct solution on the same surfels (both to a residual of 1e-9), and the FMM's apply time
-    relative to the direct apply time."""
-    rows = []
-    for name in names:
-        q = S.build(name, n)
-        direct_op = illumap.TransportOperator(q, method="direct")
-        ref = illumap.solve(q, operator=direct_op, tol=1e-9)
-        x = ref.radiosity
-        t = time.perf_counter()
-        direct_op.apply(x)
-        t_direct = time.perf_counter() - t
-        for theta in thetas:
-            for p in orders:
-                t = time.perf_counter()
-                op = illumap.TransportOperator(q, method="fmm", order=p, theta=theta)
-                t_build = time.perf_counter() - t
-                t = time.perf_counter()
-                op.apply(x)
-                t_apply = time.perf_counter() - t
-                sol = illumap.solve(q, operator=op, tol=1e-9)
-                err = S.relative_rms(sol.radiosity, ref.radiosity, q.emission)
-                rows.append(dict(scene=name, n=q.n, order=p, theta=theta, error=err,
-                                 t_build=t_build, t_apply=t_apply, t_direct_apply=t_direct))
-                log(f"  calibrate {name} N={q.n} theta={theta} p={p}: err={err:.2e} "
-                    f"apply={t_apply:.3f}s (direct {t_direct:.3f}s) build={t_build:.3f}s")
-    return rows
+def run_auto(name, target, ref, ref_B, ref_info, cfg, log, hand=()):
+    """The automatic mode at ``target``: choose the density for the scene, sample it, then
+    ``illumap.accuracy.solve`` (settings, visibility probe and solve, all timed). The best
+    hand-picked setting for that error (the fastest sweep point within the target) is timed
+    again right after it, in the same process, for the time ratio."""
+    from illumap import accuracy
+    kind = S.KIND[name]
+    base = dict(scene=name, family="auto", label=f"auto {target:g}", target=target)
+    if target < 1.5 * ref_info["check"]:
+        log(f"  {name} auto target={target:g}: below 1.5 x the reference check "
+            f"({ref_info['check']:.4f}); not run")
+        return dict(base, n=None, time=None, error=None,
+                    skipped=f"below what the reference resolves (check "
+                            f"{100 * ref_info['check']:.2f}%)")
+    summary = accuracy.scene_summary(S.build(name, 500), kind)
+    summary["n"] = S.max_surfels(name)
+    chosen = accuracy.choose_settings(summary, target, kind=kind)
+    if chosen["n"] > ref.n / 1.5:
+        log(f"  {name} auto target={target:g}: needs N={chosen['n']}, beyond what the "
+            f"reference (N={ref.n}) resolves; not run")
+        return dict(base, n=chosen["n"], time=None, error=None, chosen=chosen,
+                    skipped=f"needs N={chosen['n']}, beyond the reference (N={ref.n})")
+    q = S.build_at_least(name, chosen["n"])
+    idx = S.error_subset(q, cfg["error_points"])
+    B_ref = S.reference_at(ref, ref_B, S.subset(q, idx))
+    sol, dt = best_of_three(lambda: timed_auto(q, target, kind))
+    err = S.relative_rms(sol.radiosity[idx], B_ref)
+    info = sol.stats["accuracy"]
+    est = accuracy.estimate_error(sol, q, settings=info["settings"])
+    log(f"  {name} N={q.n:6d} auto target={target:<6g} {dt:8.3f}s err={err:.4f} "
+        f"estimate={est['total']:.4f} {info['solve_keywords']}")
+    out = dict(base, n=q.n, time=dt, error=err, iterations=sol.iterations,
+               converged=sol.converged, settings=info["solve_keywords"],
+               chosen=info["settings"], estimate=est)
+    ok = [p for p in hand if p.get("family") not in ("auto", None) and p.get("time")
+          and p["error"] <= target and "size" in p]
+    if ok:
+        best = min(ok, key=lambda p: p["time"])
+        qh = S.build(name, best["size"])
+        _, th = best_of_three(lambda: timed_solve(qh, best["settings"]))
+        out["best_hand"] = dict(label=best["label"], n=qh.n, error=best["error"],
+                                sweep_time=best["time"], time=th, ratio=dt / th)
+        log(f"  {name} best hand-picked at {target:g}: {best['label']} N={qh.n} {th:.3f}s "
+            f"(sweep {best['time']:.3f}s) -> auto/best = {dt / th:.2f}")
+    return out
+
+
+def timed_auto(q, target, kind):
+    from illumap import accuracy
+    t = time.perf_counter()
+    sol = accuracy.solve(q, target, kind=kind, estimate=False)
+    return sol, time.perf_counter() - t
 
 
 def main(argv=None):
@@ -176,48 +262,56 @@ def main(argv=None):
     ap.add_argument("--scenes", nargs="+", default=list(S.SCENES), choices=S.SCENES)
     ap.add_argument("--auto", action="store_true", help="also run the automatic mode")
     ap.add_argument("--auto-only", action="store_true",
-                    help="run only the reference and the automatic mode, and replace the "
-                         "automatic-mode points of an existing --out file (same mode)")
+                    help="run only the references and the automatic mode, and replace the "
+                         "automatic-mode points of an existing --out file")
+    ap.add_argument("--targets", nargs="+", type=float, default=list(AUTO_TARGETS),
+                    help="targets of the automatic mode (relative RMS)")
     ap.add_argument("--out", default="bench/results/accuracy_speed.json")
-    ap.add_argument("--calibrate", type=int, metavar="N", default=0,
-                    help="only measure the FMM error model at about N surfels per scene and "
-                         "write it to --out (illumap.accuracy.CALIBRATION comes from this)")
     args = ap.parse_args(argv)
-    if args.calibrate:
-        rows = calibrate(args.scenes, args.calibrate)
-        os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
-        with open(args.out, "w") as f:
-            json.dump(dict(calibration=rows, date=time.strftime("%Y-%m-%d %H:%M UTC",
-                                                                   time.gmtime())), f, indent=1)
-        print(f"wrote {args.out}")
-        return
     cfg = dict(FULL if args.full else QUICK)
     visibilities, unavailable = available_visibilities()
-    for mode, why in unavailable.items():
-        print(f"visibility={mode!r}: skipped, {why}", flush=True)
+    for m, why in unavailable.items():
+        print(f"visibility={m!r}: skipped, {why}", flush=True)
     results = dict(mode="full" if args.full else "quick", config=cfg, solve_tol=SOLVE_TOL,
                    visibilities=visibilities, unavailable=unavailable,
+                   exact_keywords=S.EXACT_KEYWORDS,
                    machine=dict(platform=platform.platform(), cpus=os.cpu_count(),
                                 threads=illumap._core.hardware_threads()),
+                   core=S.provenance(),
                    date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), scenes={})
     t0 = time.perf_counter()
+    targets = tuple(args.targets) if (args.auto or args.auto_only) else ()
+    partial = args.out + ".partial"
+    old_points = {}
+    if args.auto_only and os.path.exists(args.out):
+        with open(args.out) as f:
+            old_points = {k: v["points"] for k, v in json.load(f)["scenes"].items()}
     for name in args.scenes:
-        results["scenes"][name] = run_scene(name, cfg, visibilities,
-                                            (0.1, 0.03, 0.01) if (args.auto or args.auto_only)
-                                            else (), lambda s: print(s, flush=True),
-                                            sweep=not args.auto_only)
-    if args.auto_only:
+        results["scenes"][name] = run_scene(name, cfg, visibilities, targets,
+                                            lambda s: print(s, flush=True),
+                                            sweep=not args.auto_only,
+                                            hand=old_points.get(name) if args.auto_only
+                                            else None)
+        with open(partial, "w") as f:   # what is done so far, should a later scene fail
+            json.dump(results, f, indent=1, default=float)
+    if args.auto_only and os.path.exists(args.out):
         with open(args.out) as f:
             old = json.load(f)
         for name, new in results["scenes"].items():
+            if name not in old["scenes"]:
+                old["scenes"][name] = new
+                continue
             kept = [p for p in old["scenes"][name]["points"] if p["family"] != "auto"]
             old["scenes"][name]["points"] = kept + new["points"]
         old["auto_date"] = results["date"]
+        old["auto_core"] = results["core"]
         results = old
     results["wall_time"] = time.perf_counter() - t0
     os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
     with open(args.out, "w") as f:
-        json.dump(results, f, indent=1)
+        json.dump(results, f, indent=1, default=float)
+    if os.path.exists(partial):
+        os.remove(partial)
     print(f"wrote {args.out} ({results['wall_time']:.0f}s)")
 
 

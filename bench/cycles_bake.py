@@ -1,15 +1,17 @@
 #!/usr/bin/env python3
 """Cycles "Bake to Color Attribute" against Illumap on the same vertices (the Cornell box).
 
-For each grid n, the Cornell box of bench/scenes.py is built as Blender meshes whose interior
-vertices are exactly Illumap's surfels (``scenes.cornell_mesh``). Cycles bakes
-``bpy.ops.object.bake(type='DIFFUSE', pass_filter={'DIRECT','INDIRECT'},
-target='VERTEX_COLORS')`` into a POINT FLOAT_COLOR attribute at 4, 16, 64, 256, 1024 and 4096
-samples (CPU, 64 diffuse bounces, no clamping, no world); that is incident radiance, and the
-outgoing radiance is ``albedo x baked + emission`` (DESIGN.md section 4). The bake call alone is
-timed (scene set-up excluded). In the same run Illumap solves the same surfels with a few
-settings, timed the same way. Both are scored against the converged direct reference of
-bench/accuracy_speed.py (same ``--ref-n``), evaluated at these vertices.
+For each grid n, the Cornell box of bench/scenes.py (with its two blocks) is built as Blender
+meshes whose interior vertices are exactly Illumap's surfels (``scenes.cornell_mesh``). Cycles
+bakes ``bpy.ops.object.bake(type='DIFFUSE', pass_filter={'DIRECT','INDIRECT'},
+target='VERTEX_COLORS')`` into a POINT FLOAT_COLOR attribute at 4 ... 4096 samples (CPU, 64
+diffuse bounces, no clamping, no world); that is incident radiance, and the outgoing radiance is
+``albedo x baked + emission`` (DESIGN.md section 4). The bake call alone is timed (scene set-up
+excluded). In the same run Illumap solves the same surfels with a few settings and the automatic
+mode, timed the same way (best of 3 under 0.5 s). Both are scored on the same random subset of
+vertices against the converged reference of bench/accuracy_speed.py (direct, exact visibility,
+same ``ref_n``, shared cache), gathered at those vertices. Cycles at the highest sample count is
+also the cross-check of that reference: it integrates the true geometry at the vertices.
 
     .venv/bin/python bench/cycles_bake.py --quick --out bench/results/cycles_bake.json
 """
@@ -28,18 +30,21 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import illumap  # noqa: E402
 
 import scenes as S  # noqa: E402
+import accuracy_speed as AS  # noqa: E402
 
 SAMPLES = (4, 16, 64, 256, 1024, 4096)
 #: (grid cells per wall side, sample counts): the bake costs samples x vertices, so the finer
 #: grids stop at fewer samples
-QUICK = dict(ref_n=12000, grids=((8, SAMPLES[:4]), (14, SAMPLES[:3])))
-FULL = dict(ref_n=24000, grids=((8, SAMPLES), (14, SAMPLES[:5]), (20, SAMPLES[:4])))
+QUICK = dict(grids=((8, SAMPLES[:4]), (14, SAMPLES[:3])))
+FULL = dict(grids=((8, SAMPLES), (14, SAMPLES[:5]), (20, SAMPLES[:4]), (26, SAMPLES[:3])))
+EXACT = dict(visibility="exact", **S.EXACT_KEYWORDS)
 ILLUMAP_SETTINGS = [
-    ("FMM p=2", dict(method="fmm", order=2, theta=0.5, tol=1e-3)),
-    ("FMM p=3", dict(method="fmm", order=3, theta=0.5, tol=1e-3)),
-    ("FMM p=4", dict(method="fmm", order=4, theta=0.5, tol=1e-4)),
-    ("direct", dict(method="direct", tol=1e-4)),
+    ("FMM p=3 vis=none", dict(method="fmm", order=3, theta=0.5, tol=1e-4)),
+    ("FMM p=2 vis=exact θ=0.3", dict(method="fmm", order=2, theta=0.3, tol=1e-4, **EXACT)),
+    ("FMM p=3 vis=exact θ=0.2", dict(method="fmm", order=3, theta=0.2, tol=1e-4, **EXACT)),
+    ("direct vis=exact", dict(method="direct", tol=1e-4, **EXACT)),
 ]
+AUTO_TARGETS = (0.1, 0.03)
 
 
 def _material(bpy, name, albedo=None, emission=None):
@@ -117,44 +122,56 @@ def main(argv=None):
     mode.add_argument("--quick", action="store_true")
     mode.add_argument("--full", action="store_true")
     ap.add_argument("--out", default="bench/results/cycles_bake.json")
+    ap.add_argument("--grids", nargs="*", default=None, metavar="N:S1,S2",
+                    help="grid sizes and sample counts, e.g. 8:4,16,64 (default: the mode's)")
+    ap.add_argument("--ref-n", type=int, default=None, help="reference size (default: the "
+                    "mode's, as bench/accuracy_speed.py)")
     args = ap.parse_args(argv)
     cfg = dict(FULL if args.full else QUICK)
+    acfg = dict(AS.FULL if args.full else AS.QUICK)
+    if args.grids:
+        cfg["grids"] = tuple((int(g.split(":")[0]), tuple(int(x) for x in g.split(":")[1]
+                                                          .split(","))) for g in args.grids)
+    if args.ref_n:
+        acfg["ref_n"] = dict(acfg["ref_n"], cornell=args.ref_n)
+    cfg["ref_n"] = acfg["ref_n"]["cornell"]
     try:
         import bpy
     except ImportError as exc:
         print(f"Cycles bake skipped: the bpy module is not importable ({exc})")
         return 1
     t0 = time.perf_counter()
-    ref = S.build("cornell", cfg["ref_n"], seed=12345)
-    ref_sol = S.reference_solution(ref)
-    print(f"reference N={ref.n} {time.perf_counter() - t0:.1f}s", flush=True)
+    ref, ref_B, ref_info = AS.reference("cornell", acfg, lambda s: print(s, flush=True))
     points = []
     for n, sample_counts in cfg["grids"]:
         surf = S.cornell(n)
-        B_ref = S.reference_at(ref, ref_sol.radiosity, surf)
-        walls_mask = ~(surf.emission.max(axis=1) > 0)
-        for label, kw in ILLUMAP_SETTINGS:
-            best = None
-            for _ in range(3):   # best of 3: the machine is shared
-                t = time.perf_counter()
-                sol = illumap.solve(surf, **kw)
-                dt = time.perf_counter() - t
-                best = dt if best is None else min(best, dt)
-            err = S.relative_rms(sol.radiosity, B_ref, surf.emission)
+        idx = S.error_subset(surf, acfg["error_points"])
+        B_ref = S.reference_at(ref, ref_B, S.subset(surf, idx))
+        runs = [(label, lambda kw=kw: AS.timed_solve(surf, kw), kw)
+                for label, kw in ILLUMAP_SETTINGS]
+        runs += [(f"auto {t:g}", lambda t=t: AS.timed_auto(surf, t, "grid"), None)
+                 for t in AUTO_TARGETS]
+        for label, fn, kw in runs:
+            sol, best = AS.best_of_three(fn)
+            if kw is None:
+                kw = sol.stats["accuracy"]["solve_keywords"]
+            err = S.relative_rms(sol.radiosity[idx], B_ref)
             points.append(dict(tool="illumap", label=label, grid=n, n=surf.n, time=best,
                                error=err, settings=kw))
-            print(f"grid {n:3d} N={surf.n:5d} Illumap {label:10s} {best:8.3f}s err={err:.4f}",
+            print(f"grid {n:3d} N={surf.n:5d} Illumap {label:26s} {best:8.3f}s err={err:.4f}",
                   flush=True)
         walls = build_blender_scene(bpy, n)
+        pos = np.flatnonzero(~(surf.emission.max(axis=1) > 0))   # vertex rows of B_walls
+        where = np.searchsorted(pos, idx)
         for samples in sample_counts:
             B_walls, dt = bake(bpy, walls, samples)
-            err = S.relative_rms(B_walls, B_ref[walls_mask])
+            err = S.relative_rms(B_walls[where], B_ref)
             points.append(dict(tool="cycles", label=f"Cycles {samples} spp", grid=n, n=surf.n,
                                samples=samples, time=dt, error=err))
             print(f"grid {n:3d} N={surf.n:5d} Cycles {samples:5d} spp {dt:8.3f}s err={err:.4f}",
                   flush=True)
     results = dict(mode="full" if args.full else "quick", config=cfg,
-                   reference=dict(n=ref.n, visibility="none"),
+                   reference=ref_info, core=S.provenance(),
                    blender=bpy.app.version_string,
                    machine=dict(platform=platform.platform(), cpus=os.cpu_count()),
                    date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), points=points,

@@ -1,14 +1,16 @@
 #!/usr/bin/env python3
 """Regenerate every benchmark result, chart and docs/benchmarks.md with one command.
 
-    .venv/bin/python bench/run_all.py --quick     # a few minutes (default)
+    .venv/bin/python bench/run_all.py --quick     # ~20 minutes on 2 shared cores (default)
     .venv/bin/python bench/run_all.py --full      # larger references, sizes and sample counts
     .venv/bin/python bench/run_all.py --charts-only
 
-Runs, in order and each in its own process: bench/accuracy_speed.py --auto,
-bench/cycles_bake.py, bench/scaling.py (results in bench/results/*.json), then bench/charts.py
-(docs/images/*.png and docs/benchmarks.md). A step that fails is reported and the others still
-run; the exit status is non-zero if any failed.
+Runs, in order and each in its own process (with a time limit): bench/accuracy_speed.py (the
+sweep), bench/calibrate.py --write (the automatic mode's models, fitted on that sweep),
+scripts/setup_env.sh (reinstalls the package with them), bench/accuracy_speed.py --auto-only
+(the automatic mode), bench/cycles_bake.py, bench/scaling.py (results in bench/results/*.json),
+then bench/charts.py (docs/images/*.png and docs/benchmarks.md). A step that fails is reported
+and the others still run; the exit status is non-zero if any failed.
 """
 import argparse
 import os
@@ -18,6 +20,7 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
+STEPS = ("accuracy", "calibrate", "install", "auto", "cycles", "scaling")
 
 
 def main(argv=None):
@@ -26,24 +29,37 @@ def main(argv=None):
     mode.add_argument("--quick", action="store_true")
     mode.add_argument("--full", action="store_true")
     mode.add_argument("--charts-only", action="store_true")
-    ap.add_argument("--skip", nargs="*", default=[], choices=["accuracy", "cycles", "scaling"])
+    ap.add_argument("--skip", nargs="*", default=[], choices=STEPS)
+    ap.add_argument("--timeout", type=int, default=None,
+                    help="seconds per step (default 3600 quick, 7200 full)")
     args = ap.parse_args(argv)
     flag = "--full" if args.full else "--quick"
+    timeout = args.timeout or (7200 if args.full else 3600)
     results = os.path.join(HERE, "results")
+    acc = os.path.join(results, "accuracy_speed.json")
+    py = [sys.executable]
     steps = [] if args.charts_only else [
-        ("accuracy", ["accuracy_speed.py", flag, "--auto", "--out",
-                      os.path.join(results, "accuracy_speed.json")]),
-        ("cycles", ["cycles_bake.py", flag, "--out", os.path.join(results, "cycles_bake.json")]),
-        ("scaling", ["scaling.py", flag, "--out", os.path.join(results, "scaling.json")]),
+        ("accuracy", py + [os.path.join(HERE, "accuracy_speed.py"), flag, "--out", acc]),
+        ("calibrate", py + [os.path.join(HERE, "calibrate.py"), "--results", acc, "--write"]),
+        ("install", [os.path.join(ROOT, "scripts", "setup_env.sh")]),
+        ("auto", py + [os.path.join(HERE, "accuracy_speed.py"), flag, "--auto-only", "--out",
+                       acc]),
+        ("cycles", py + [os.path.join(HERE, "cycles_bake.py"), flag, "--out",
+                         os.path.join(results, "cycles_bake.json")]),
+        ("scaling", py + [os.path.join(HERE, "scaling.py"), flag, "--out",
+                          os.path.join(results, "scaling.json")]),
     ]
-    steps.append(("charts", ["charts.py"]))
+    steps.append(("charts", py + [os.path.join(HERE, "charts.py")]))
     failed = []
     for name, cmd in steps:
         if name in args.skip:
             continue
         t = time.perf_counter()
         print(f"== {name}: {' '.join(cmd)}", flush=True)
-        rc = subprocess.call([sys.executable, os.path.join(HERE, cmd[0]), *cmd[1:]], cwd=ROOT)
+        try:
+            rc = subprocess.call(cmd, cwd=ROOT, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            rc = f"timed out after {timeout}s"
         print(f"== {name}: exit {rc} after {time.perf_counter() - t:.0f}s", flush=True)
         if rc != 0:
             failed.append(name)

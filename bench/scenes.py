@@ -3,11 +3,12 @@
 Three scenes, each built at a requested density so that error can be charted against cost:
 
 * ``cornell(n)`` -- Cornell's box (0.556 m, open front, Cornell RGB reflectances, light
-  radiance (17, 12, 4) in a 0.13 x 0.105 m hole of the ceiling), empty: the two blocks are left
-  out because only ``visibility="none"`` exists so far, and an empty box is convex, where V = 1
-  is exact. Every wall is an n x n grid of cells with a surfel at each midpoint; Cycles bakes at
-  exactly the same points (bench/cycles_bake.py builds meshes from ``cornell_mesh`` whose
-  interior vertices are those midpoints).
+  radiance (17, 12, 4) on a 0.13 x 0.105 m quad just below the ceiling) with its two blocks
+  (Cornell's published footprints and heights): occluders, so visibility matters. Every wall is
+  an n x n grid of cells, each block face and the light a grid of cells of about the same size,
+  with a surfel at each midpoint; Cycles bakes at exactly the same points (bench/cycles_bake.py
+  builds meshes from ``cornell_mesh`` whose interior vertices are those midpoints).
+  ``cornell_geometry`` gives the same box as planar quads (for other samplings).
 * ``bunny(n)`` -- the Stanford bunny scan (Turk and Levoy, Stanford 3D Scanning Repository,
   1994) as a raw point cloud: vertices only, normals estimated by PCA over 12 nearest
   neighbours and oriented away from the centroid, areas from the local point spacing; on a
@@ -41,101 +42,167 @@ BUNNY_CREDIT = ("Stanford Bunny: Stanford 3D Scanning Repository, Stanford Unive
                 "Graphics Laboratory (Greg Turk and Marc Levoy, 1994)")
 
 SCENES = ("cornell", "bunny", "interior")
+
+#: Keywords of ``visibility="exact"`` used by the references and the benchmarks: occluders within
+#: one disc radius of either end of a ray are ignored. With the operator's default (0.05 radius)
+#: the neighbours' discs on a curved or scanned surface shadow a surfel's own grazing rays: on the
+#: bunny scan the median radiosity of the bunny comes out 3x lower (0.03 against 0.07-0.08),
+#: and it changes with density; from 0.5 radius on it is stable (docs/benchmarks.md).
+EXACT_KEYWORDS = dict(endpoint_offset=1.0)
 #: Surfels of bunny(n) with every scan point (35,947 of them are 70%)
 BUNNY_MAX = 51000
 
 
 # ------------------------------------------------------------------------------------------------
-# Cornell box on a vertex grid
+# Cornell box with its two blocks, on vertex grids
 
-def cornell_mesh(n):
-    """Walls as grid meshes whose interior vertices are the surfels.
+#: Cornell's blocks (mm, Cornell's frame: x across, y up, z depth): footprint corners, height.
+_SHORT_BLOCK = (((130.0, 65.0), (82.0, 225.0), (240.0, 272.0), (290.0, 114.0)), 165.0)
+_TALL_BLOCK = (((423.0, 247.0), (265.0, 296.0), (314.0, 456.0), (472.0, 406.0)), 330.0)
 
-    Each wall is split into n x n cells of side h = BOX / n; its mesh has vertices at the cell
-    midpoints plus a border ring on the wall's edges (coordinates 0, h/2, 3h/2, ..., BOX), so
-    that Cycles bakes at exactly the midpoint surfels (border vertices, on the box's edges where
-    incident light is discontinuous, are not compared). The light is a separate quad, the union
-    of the ceiling cells whose centres fall inside Cornell's 130 x 105 mm rectangle, 0.1 mm below
-    the ceiling, its radiance scaled so that its power is that of Cornell's light at every n; the ceiling cells it covers carry no surfels.
 
-    Returns a list of dicts: name, verts (V x 3), faces (F x 4), normal, albedo, emission,
-    surfel (bool V: which vertices are surfels, in the order ``cornell(n)`` uses)."""
+def _cornell_xy(x_mm, z_mm):
+    """Cornell's (x, depth) in mm to ours in m: x mirrored so the red wall is at x = 0."""
+    return np.array([BOX - 1e-3 * x_mm, 1e-3 * z_mm])
+
+
+def block_footprints():
+    """The two blocks' footprints (4 x 2 arrays, counter-clockwise seen from above) and
+    heights, in metres."""
+    out = []
+    for corners, height in (_SHORT_BLOCK, _TALL_BLOCK):
+        fp = np.array([_cornell_xy(x, z) for x, z in corners])
+        c = fp.mean(axis=0)
+        ang = np.arctan2(fp[:, 1] - c[1], fp[:, 0] - c[0])
+        out.append((fp[np.argsort(ang)], 1e-3 * height))
+    return out
+
+
+def _inside_footprints(xy):
+    """True for the points (K x 2) that lie inside a block's footprint."""
+    inside = np.zeros(len(xy), bool)
+    for fp, _ in block_footprints():
+        ok = np.ones(len(xy), bool)
+        for k in range(4):
+            a, b = fp[k], fp[(k + 1) % 4]
+            ok &= (b[0] - a[0]) * (xy[:, 1] - a[1]) - (b[1] - a[1]) * (xy[:, 0] - a[0]) > 0
+        inside |= ok
+    return inside
+
+
+def cornell_geometry(blocks=True):
+    """The Cornell box as planar quads: a list of dicts ``name``, ``origin``, ``u``, ``v``
+    (edge vectors, m; normal = u x v, into the box or out of a block), ``albedo``,
+    ``emission`` (radiance). The light is the 130 x 105 mm quad 0.1 mm below the ceiling;
+    the box is 0.556 m wide, deep and high, open at y = 0."""
     L = BOX
-    mid = (np.arange(n) + 0.5) / n
-    s = np.concatenate([[0.0], mid, [1.0]])
-    m = len(s)
-    walls = [
+    quads = [
         ("Floor", (0, 0, 0), (L, 0, 0), (0, L, 0), WHITE),
         ("Back", (0, L, 0), (L, 0, 0), (0, 0, L), WHITE),
         ("Left", (0, 0, 0), (0, L, 0), (0, 0, L), RED),       # x = 0, normal +x
         ("Right", (L, 0, 0), (0, 0, L), (0, L, 0), GREEN),    # x = L, normal -x
         ("Ceiling", (0, 0, L), (0, L, 0), (L, 0, 0), WHITE),  # normal -z
     ]
-    inside_x = np.abs(mid * L - L / 2) < LIGHT_HALF[0]
-    inside_y = np.abs(mid * L - L / 2) < LIGHT_HALF[1]
-    if not inside_x.any():
-        inside_x[n // 2] = True
-    if not inside_y.any():
-        inside_y[n // 2] = True
+    if blocks:
+        for label, (fp, height) in zip(("Short", "Tall"), block_footprints()):
+            quads.append((f"{label}Top", (*fp[0], height), (*(fp[1] - fp[0]), 0),
+                          (*(fp[3] - fp[0]), 0), WHITE))
+            for k in range(4):
+                a, b = fp[k], fp[(k + 1) % 4]
+                quads.append((f"{label}Side{k}", (*a, 0), (*(b - a), 0), (0, 0, height), WHITE))
     out = []
-    for name, origin, u, v, albedo in walls:
+    for name, origin, u, v, albedo in quads:
         origin, u, v = (np.array(x, float) for x in (origin, u, v))
         normal = np.cross(u, v)
-        normal /= np.linalg.norm(normal)
-        a, b = np.meshgrid(s, s, indexing="xy")        # vertex (row b, column a)
-        verts = origin + a.reshape(-1, 1) * u + b.reshape(-1, 1) * v
-        faces = np.array([(j * m + i, j * m + i + 1, (j + 1) * m + i + 1, (j + 1) * m + i)
-                          for j in range(m - 1) for i in range(m - 1)], dtype=np.int64)
-        interior = np.zeros((m, m), bool)
-        interior[1:-1, 1:-1] = True
-        if name == "Ceiling":    # u = +y (column index i), v = +x (row index j)
-            interior[1:-1, 1:-1] &= ~(inside_x[:, None] & inside_y[None, :])
-        out.append(dict(name=name, verts=verts, faces=faces, normal=normal,
-                        albedo=np.array(albedo, float), emission=np.zeros(3),
-                        surfel=interior.reshape(-1)))
-    # the light: cells (x index, y index) inside the rectangle, as one grid
-    xs = np.flatnonzero(inside_x)
-    ys = np.flatnonzero(inside_y)
-    h = L / n
-    gx = np.concatenate([xs * h, [(xs[-1] + 1) * h]])
-    gy = np.concatenate([ys * h, [(ys[-1] + 1) * h]])
-    z = L - 1e-4
-    verts = np.array([(x, y, z) for y in gy for x in gx])
-    mx = len(gx)
-    faces = np.array([(j * mx + i, (j + 1) * mx + i, (j + 1) * mx + i + 1, j * mx + i + 1)
-                      for j in range(len(gy) - 1) for i in range(mx - 1)], dtype=np.int64)
-    # scale the radiance so that the emitted power equals Cornell's light at every n
-    scale = (4 * LIGHT_HALF[0] * LIGHT_HALF[1]) / (len(xs) * len(ys) * h * h)
-    out.append(dict(name="Light", verts=verts, faces=faces, normal=np.array([0, 0, -1.0]),
-                    albedo=np.zeros(3), emission=scale * np.array(LIGHT_RADIANCE, float),
-                    surfel=np.zeros(len(verts), bool),
-                    light_cells=np.array([(x + 0.5, y + 0.5) for y in ys for x in xs]) * h))
+        if name.endswith("Top") and normal[2] < 0:
+            u, v = v, u
+        out.append(dict(name=name, origin=origin, u=u, v=v, albedo=np.array(albedo, float),
+                        emission=np.zeros(3)))
+    c = np.array([L / 2, L / 2])
+    out.append(dict(name="Light", origin=np.array([c[0] - LIGHT_HALF[0], c[1] - LIGHT_HALF[1],
+                                                   L - 1e-4]),
+                    u=np.array([0, 2 * LIGHT_HALF[1], 0.0]), v=np.array([2 * LIGHT_HALF[0], 0, 0.0]),
+                    albedo=np.zeros(3), emission=np.array(LIGHT_RADIANCE, float)))
     return out
 
 
-def cornell(n):
-    """Surfels at the cell midpoints of ``cornell_mesh(n)``: 5 n^2 (the light cells are
-    emitter surfels in the ceiling plane, the ceiling keeps the rest)."""
-    h = BOX / n
+def _grid_mesh(origin, u, v, nu, nv):
+    """A grid mesh on origin + s u + t v whose interior vertices are the nu x nv cell
+    midpoints and whose border ring lies on the quad's edges. Returns verts, faces, interior
+    (bool per vertex), the midpoints' (s, t)."""
+    su = np.concatenate([[0.0], (np.arange(nu) + 0.5) / nu, [1.0]])
+    sv = np.concatenate([[0.0], (np.arange(nv) + 0.5) / nv, [1.0]])
+    mu, mv = len(su), len(sv)
+    a, b = np.meshgrid(su, sv, indexing="xy")        # vertex (row b, column a)
+    verts = origin + a.reshape(-1, 1) * u + b.reshape(-1, 1) * v
+    j, i = np.meshgrid(np.arange(mv - 1), np.arange(mu - 1), indexing="ij")
+    j, i = j.ravel(), i.ravel()
+    faces = np.stack([j * mu + i, j * mu + i + 1, (j + 1) * mu + i + 1, (j + 1) * mu + i],
+                     axis=1).astype(np.int64)
+    interior = np.zeros((mv, mu), bool)
+    interior[1:-1, 1:-1] = True
+    return verts, faces, interior.reshape(-1)
+
+
+def cornell_mesh(n, blocks=True):
+    """The Cornell box (``cornell_geometry``) as grid meshes whose interior vertices are the
+    surfels of ``cornell(n, blocks)``.
+
+    Each quad (wall, block face, light) is split into cells of side about h = BOX / n (the
+    walls into exactly n x n); a mesh has vertices at the cell midpoints plus a border ring on
+    the quad's edges, so that Cycles bakes at exactly the midpoint surfels (border vertices, on
+    edges where incident light is discontinuous, are not compared). The light is Cornell's
+    130 x 105 mm quad 0.1 mm below the ceiling at every n (at least 2 x 2 emitter surfels);
+    floor cells whose midpoint lies under a block and ceiling cells whose midpoint lies behind
+    the light carry no surfel.
+
+    Returns a list of dicts: name, verts (V x 3), faces (F x 4), normal, albedo, emission,
+    area (per surfel, m^2), surfel (bool V: which vertices are surfels, in the order
+    ``cornell(n)`` uses; the light's are its emitters)."""
+    L = BOX
+    h = L / n
+    out = []
+    for q in cornell_geometry(blocks):
+        lu, lv = np.linalg.norm(q["u"]), np.linalg.norm(q["v"])
+        least = 2 if q["name"] == "Light" else 1
+        nu, nv = max(least, int(round(lu / h))), max(least, int(round(lv / h)))
+        verts, faces, interior = _grid_mesh(q["origin"], q["u"], q["v"], nu, nv)
+        surfel = interior.copy()
+        if q["name"] == "Ceiling":
+            surfel &= ~((np.abs(verts[:, 0] - L / 2) < LIGHT_HALF[0])
+                        & (np.abs(verts[:, 1] - L / 2) < LIGHT_HALF[1]))
+        if q["name"] == "Floor" and blocks:
+            surfel &= ~_inside_footprints(verts[:, :2])
+        normal = np.cross(q["u"], q["v"])
+        out.append(dict(name=q["name"], verts=verts, faces=faces,
+                        normal=normal / np.linalg.norm(normal), albedo=q["albedo"],
+                        emission=q["emission"], area=lu * lv / (nu * nv), surfel=surfel))
+    return out
+
+
+def cornell(n, blocks=True):
+    """Surfels at the cell midpoints of ``cornell_mesh(n, blocks)``: about 6 n^2 on the walls
+    and the blocks' faces, then the light's emitter surfels last."""
     P, N, A, R, E = [], [], [], [], []
-    for w in cornell_mesh(n):
-        if w["name"] == "Light":
-            c = w["light_cells"]
-            pts = np.column_stack([c, np.full(len(c), BOX)])
-        else:
-            pts = w["verts"][w["surfel"]]
+    for w in cornell_mesh(n, blocks):
+        pts = w["verts"][w["surfel"]]
         k = len(pts)
         P.append(pts)
         N.append(np.tile(w["normal"], (k, 1)))
-        A.append(np.full(k, h * h))
+        A.append(np.full(k, w["area"]))
         R.append(np.tile(w["albedo"], (k, 1)))
         E.append(np.tile(w["emission"], (k, 1)))
     return illumap.Surfels(*(np.concatenate(x) for x in (P, N, A, R, E)))
 
 
+#: Surfels per wall-cell count n^2 of ``cornell(n)`` with blocks (walls 5 n^2, blocks ~1.2 n^2
+#: on their faces, less ~0.2 n^2 floor cells under them)
+CORNELL_PER_N2 = 6.0
+
+
 def cornell_n_for(count):
-    """Grid cells per side giving about ``count`` surfels."""
-    return max(2, int(round(math.sqrt(count / 5.0))))
+    """Grid cells per wall side giving about ``count`` surfels (with the blocks)."""
+    return max(2, int(round(math.sqrt(count / CORNELL_PER_N2))))
 
 
 # ------------------------------------------------------------------------------------------------
@@ -186,8 +253,15 @@ def bunny(n, seed=0):
     rng = np.random.default_rng(seed)
     pts = bunny_points()
     m = min(len(pts), max(200, int(0.7 * n)))
-    sub = pts[np.sort(rng.choice(len(pts), m, replace=False))] if m < len(pts) else pts
-    normals, areas = estimate_normals_areas(sub, orient_from=sub.mean(axis=0) * [1, 1, 0.8])
+    pick = np.sort(rng.choice(len(pts), m, replace=False)) if m < len(pts) else np.arange(m)
+    sub = pts[pick]
+    # normals from the whole scan (as a scanner's software gives them), areas from the subset's
+    # own spacing
+    if "normals" not in _BUNNY_CACHE:
+        _BUNNY_CACHE["normals"] = estimate_normals_areas(
+            pts, orient_from=pts.mean(axis=0) * [1, 1, 0.8])[0]
+    normals = _BUNNY_CACHE["normals"][pick]
+    _, areas = estimate_normals_areas(sub, orient_from=sub.mean(axis=0) * [1, 1, 0.8])
     bunny_area = areas.sum()
     # floor 0.5 x 0.5 m and an emitter 0.15 x 0.15 m at 0.35 m: regular grids (midpoints), the
     # floor at the bunny's density, the emitter with at least 10 x 10 surfels
@@ -224,6 +298,15 @@ def interior(n, seed=0):
     return s.replace(emission=s.emission * (1.0 / power))
 
 
+#: The accuracy mode's scene kind per benchmark scene (how its surfels are sampled)
+KIND = {"cornell": "grid", "bunny": "point_cloud", "interior": "random"}
+
+
+def max_surfels(name):
+    """The most surfels a scene can be sampled with (a scan has its points; meshes: no cap)."""
+    return BUNNY_MAX if name == "bunny" else 10 ** 9
+
+
 def build(name, n, seed=0):
     """Scene ``name`` with about ``n`` surfels."""
     if name == "cornell":
@@ -235,30 +318,73 @@ def build(name, n, seed=0):
     raise ValueError(f"unknown scene {name!r}; expected one of {SCENES}")
 
 
+def build_at_least(name, count, seed=0):
+    """Scene ``name`` with at least ``count`` surfels (the fewest the scene's sampling gives,
+    up to what a scan holds)."""
+    n = max(int(count), 2)
+    q = build(name, n, seed=seed)
+    for _ in range(6):
+        if q.n >= count:
+            break
+        n = int(math.ceil(n * count / q.n * 1.02)) + 1
+        q2 = build(name, n, seed=seed)
+        if q2.n <= q.n:   # a scan cannot grow past its points
+            break
+        q = q2
+    return q
+
+
 # ------------------------------------------------------------------------------------------------
 # reference and error
 
-def reference_solution(surfels, tol=1e-9, visibility="none"):
-    """The converged reference: direct O(N^2) operator, CG/GMRES to ``tol``."""
-    kw = {} if visibility == "none" else {"visibility": visibility}
-    return illumap.solve(surfels, method="direct", tol=tol, **kw)
+def reference_solution(surfels, tol=1e-9, visibility="exact"):
+    """The converged reference: direct O(N^2) operator (with ``visibility``, default exact
+    ray casting), CG to ``tol``."""
+    kw = EXACT_KEYWORDS if visibility == "exact" else {}
+    return illumap.solve(surfels, method="direct", tol=tol, visibility=visibility, **kw)
 
 
-def reference_at(ref, ref_B, query, chunk=4096):
+def reference_at(ref, ref_B, query, chunk=2048, visibility="exact"):
     """Exact gather of the reference radiosity at the points of ``query`` (Surfels):
-    ``B_q = E_q + rho_q sum_j F_qj B_ref_j``. The query points get a tiny area so that they
-    neither emit into the sum nor change the near-field rule much (Ā ≈ A_j / 2)."""
+    ``B_q = E_q + rho_q sum_j F_qj V_qj B_j``, one ray per facing pair with ``visibility``
+    (default exact). Each query point takes the area of its nearest reference surfel, so that
+    the near-field rule and the rays' endpoint offset are those of a reference surfel there;
+    it sends nothing (x = 0). Only ``apply_rows`` of the union operator is used, which sums
+    every pair exactly whatever the method (the FMM build just hosts the visibility model)."""
+    from illumap import _core
     nq = query.n
+    idx, _ = _core.knn(np.ascontiguousarray(ref.positions),
+                       np.ascontiguousarray(query.positions), 1)
     P = np.concatenate([ref.positions, query.positions])
     N = np.concatenate([ref.normals, query.normals])
-    A = np.concatenate([ref.areas, np.full(nq, 1e-3 * ref.areas.min())])
+    A = np.concatenate([ref.areas, ref.areas[np.asarray(idx).reshape(-1)]])
     zeros = np.zeros((ref.n + nq, 3))
     union = illumap.Surfels(P, N, A, zeros, zeros)
-    op = illumap.TransportOperator(union, method="direct")
+    if visibility == "none":
+        op = illumap.TransportOperator(union, method="direct")
+    else:
+        kw = EXACT_KEYWORDS if visibility == "exact" else {}
+        op = illumap.TransportOperator(union, method="fmm", order=0, visibility=visibility,
+                                       **kw)
     x = np.concatenate([ref_B, np.zeros((nq, 3))])
     rows = np.arange(ref.n, ref.n + nq)
     gathered = np.concatenate([op.apply_rows(x, rows[i:i + chunk]) for i in range(0, nq, chunk)])
     return query.emission + query.albedo * gathered
+
+
+def error_subset(surfels, count=1200, seed=7):
+    """Indices of at most ``count`` non-emitting surfels, drawn at random: the relative RMS
+    error is estimated on them (each point costs one ray per reference surfel)."""
+    cand = np.flatnonzero(~(surfels.emission.max(axis=1) > 0))
+    if len(cand) <= count:
+        return cand
+    return np.sort(np.random.default_rng(seed).choice(cand, count, replace=False))
+
+
+def subset(surfels, idx):
+    """The surfels ``idx`` as a Surfels object (for ``reference_at``)."""
+    return illumap.Surfels(surfels.positions[idx], surfels.normals[idx], surfels.areas[idx],
+                           surfels.albedo[idx], surfels.emission[idx])
 
 
 def relative_rms(B, B_ref, emission=None):
@@ -267,3 +393,41 @@ def relative_rms(B, B_ref, emission=None):
     mask = np.ones(len(B), bool) if emission is None else ~(emission.max(axis=1) > 0)
     d = B[mask] - B_ref[mask]
     return float(math.sqrt(np.mean(d * d)) / math.sqrt(np.mean(B_ref[mask] ** 2)))
+
+
+def provenance() -> dict:
+    """Where the results come from: the repository's HEAD commit (short hash and subject), the
+    last commit that changed core/src, whether core/src has uncommitted changes, and the native
+    module's file time (UTC)."""
+    import subprocess
+    import time as _time
+    from illumap import _core
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+    def git(*args):
+        try:
+            return subprocess.run(["git", "-C", root, *args], capture_output=True, text=True,
+                                  timeout=20).stdout.strip()
+        except (OSError, subprocess.SubprocessError):
+            return ""
+    path = getattr(_core, "__file__", "") or ""
+    built = (_time.strftime("%Y-%m-%d %H:%M UTC", _time.gmtime(os.path.getmtime(path)))
+             if path and os.path.exists(path) else None)
+    return dict(commit=git("rev-parse", "--short", "HEAD"),
+                subject=git("log", "-1", "--format=%s"),
+                core_src_commit=git("log", "-1", "--format=%h", "--", "core/src"),
+                core_src_modified=bool(git("status", "--porcelain", "--", "core/src")),
+                core_module_built=built)
+
+
+def source_hash(name) -> str:
+    """A hash of the code that builds scene ``name`` and its reference (cache key)."""
+    import hashlib
+    import inspect
+    funcs = {"cornell": (cornell_geometry, block_footprints, _inside_footprints, _grid_mesh,
+                         cornell_mesh, cornell, cornell_n_for),
+             "bunny": (bunny_points, estimate_normals_areas, bunny),
+             "interior": (interior, core_scenes.box_room)}[name]
+    text = "".join(inspect.getsource(f) for f in funcs + (build, reference_solution))
+    return hashlib.sha1(text.encode()).hexdigest()
+

@@ -1,38 +1,42 @@
-"""Automatic accuracy: model no more than the scene needs.
+"""Automatic accuracy: the user asks for an error, Illumap chooses how to get it cheaply.
 
 ``choose_settings(scene, target_error)`` turns a target error (relative RMS per surfel, emitters
-excluded, as in bench/accuracy_speed.py) into settings: surfel density, method (direct or FMM),
-expansion order p, opening angle theta, leaf size, visibility mode and solver tolerance. It
-splits the target into budgets for the three error sources and picks, for each, the cheapest
-setting that the calibrated error models say meets its budget:
+excluded, against a converged reference with exact visibility, as in bench/accuracy_speed.py)
+into settings: surfel count (density), method (direct or FMM), expansion order p, opening angle
+theta, leaf size, visibility mode (``none``, ``seed`` or ``exact``) and solver tolerance.
 
-* discretization (surfel density):  ``e_disc(N) = c_kind · N^(−a_kind)`` per scene kind (meshes
-  sampled on grids, randomly sampled meshes, point clouds); the density is that of N surfels
-  over the scene's area. A point cloud cannot be made denser than its points: the density is
-  capped there and ``notes`` says so.
-* FMM expansion (p, theta): the table :data:`FMM_ERROR` (worst relative RMS difference between
-  the FMM and direct solutions over the benchmark scenes) and the cost table :data:`FMM_COST`
-  (seconds per surfel per application) against the direct operator's :data:`DIRECT_COST`
-  (seconds per surfel pair); at small N the direct operator is both exact and cheaper.
-* solver: a relative residual ``tol`` bounds the error by about ``tol * ‖E‖ / ((1 − ρ_max)
-  ‖B‖)``, so ``tol = budget * (1 − ρ_max) * ‖B‖/‖E‖`` with ‖B‖/‖E‖ estimated from the emitter
-  fraction.
+The error models are calibrated on the benchmarks (bench/accuracy_speed.py, fitted by
+bench/calibrate.py into :data:`CALIBRATION`): for each scene kind ("grid": meshes sampled on
+grids, the Cornell box; "random": randomly sampled meshes, the room with occluders;
+"point_cloud": scans, the bunny) and each benchmarked setting (method, p, θ, visibility), the
+measured error against N, as a non-increasing upper envelope, and the measured wall time
+against N, both interpolated log-log (and extrapolated with fitted slopes beyond the measured
+sizes). An error curve holds everything the setting does: density, expansion, visibility model
+(the FMM classifies node pairs as visible / hidden / partial from sampled rays, which blurs
+shadows at large θ) and the solver at its tolerance. For each candidate setting the model gives
+the N that meets ``SAFETY`` × target and the time it takes there; the cheapest wins.
+
+Visibility: settings without occlusion (``visibility="none"``) are modelled as
+``sqrt(e_exact(N)² + e_fmm(p, θ)² + e_occlusion²)``, where ``e_exact`` is the direct exact-
+visibility fit of the scene kind, ``e_fmm`` the expansion error table :data:`FMM_ERROR` and
+``e_occlusion`` a probe of the scene: the direct solution on a few hundred of its surfels with
+and without exact visibility (:func:`occlusion_probe`, tens of milliseconds). A convex or
+open scene has ``e_occlusion`` ≈ 0 and gets the cheap ``none``; a scene with occluders gets
+``exact`` (or ``seed`` where its fit says so). The probe runs only where a setting without
+visibility could win and the saving could exceed its cost (``probe="auto"``); without
+surfels (a summary dict) no probe runs and ``none`` is not chosen.
+
+Density here is a surfel count over the scene's area, sampled uniformly by the caller; denser
+sampling where the illumination varies is the add-on's second pass (``illumap.sampling``).
 
 ``estimate_error(solution, surfels)`` is the a-posteriori estimate: the solver part from the
-final residual, the FMM part from a probe (the FMM applied to the solution against the exact
-direct sum on a random subset of receivers, ``apply_rows``), and, optionally, the
-discretization part by comparing with a solve on a random half of the surfels.
+final residual, the FMM part (expansion and visibility classification) from one FMM
+application against the exact per-pair sum on a random subset of receivers (``apply_rows``,
+which applies visibility per pair), the discretization part from the calibrated model at the
+solution's N (or, with ``coarse=True``, measured on a spatially even half of the surfels).
 
 ``solve(surfels, target_error)`` does both and puts the chosen settings and the estimate in
 ``Solution.stats["accuracy"]``.
-
-The calibration tables below were produced by::
-
-    .venv/bin/python bench/accuracy_speed.py --calibrate 3000 --out bench/results/calibration.json
-
-(2026-11-22, 2 shared cores; cornell, bunny and interior scenes of bench/scenes.py at about
-3000 surfels each) and, for the discretization constants, by the direct-solve points of
-``bench/accuracy_speed.py --full`` (see :data:`DISCRETIZATION`).
 """
 
 from __future__ import annotations
@@ -42,70 +46,183 @@ import time
 
 import numpy as np
 
-from .operator import (DEFAULT_LEAF_SIZE, VISIBILITIES, TransportOperator)
+from .operator import DEFAULT_LEAF_SIZE, TransportOperator
 from .surfels import InputError, Surfels
 
 __all__ = ["choose_settings", "solve_keywords", "estimate_error", "solve", "scene_summary",
-           "FMM_ERROR", "FMM_COST", "DIRECT_COST", "DISCRETIZATION", "BUDGET_SPLIT",
-           "PRESETS"]
+           "occlusion_probe", "CALIBRATION", "FMM_ERROR", "VISIBILITY_KEYWORDS", "PRESETS",
+           "KINDS"]
 
-# --- calibration ---------------------------------------------------------------------------------
-#: Worst relative RMS difference (FMM solution − direct solution, same surfels, residual 1e-9)
-#: over the three benchmark scenes, by theta then order p.
+KINDS = ("grid", "random", "point_cloud")
+
+#: Worst relative RMS difference (FMM solution − direct solution, same surfels, no visibility,
+#: residual 1e-9) over the benchmark scenes, by theta then order p: the expansion error alone.
+#: (Measured with visibility "none" before the exact near field; settings at a smaller theta
+#: use the 0.35 row, an upper bound.)
 FMM_ERROR = {
     0.35: {0: 1.2e-01, 2: 4.6e-03, 3: 1.1e-03, 4: 2.5e-04, 6: 1.7e-05, 8: 1.3e-06},
     0.5: {0: 1.6e-01, 2: 1.9e-02, 3: 6.9e-03, 4: 2.8e-03, 6: 4.8e-04, 8: 9.0e-05},
     0.7: {0: 2.3e-01, 2: 4.7e-02, 3: 2.5e-02, 4: 1.1e-02, 6: 3.5e-03, 8: 1.3e-03},
 }
-#: Median seconds per surfel for one FMM application (build included once per solve
-#: separately; both 2 threads), by theta then order.
-FMM_COST = {
-    0.35: {0: 1.0e-06, 2: 3.0e-06, 3: 6.0e-06, 4: 1.4e-05, 6: 6.0e-05, 8: 2.0e-04},
-    0.5: {0: 1.0e-06, 2: 1.5e-06, 3: 3.0e-06, 4: 6.0e-06, 6: 2.5e-05, 8: 1.0e-04},
-    0.7: {0: 1.0e-06, 2: 1.5e-06, 3: 3.0e-06, 4: 5.0e-06, 6: 2.5e-05, 8: 6.0e-05},
-}
-#: Seconds per surfel pair for one direct application (2 threads).
-DIRECT_COST = 2.5e-9
-#: Discretization error model ``e_disc(N) = c · N^(−a)`` (relative RMS against a converged
-#: reference), by scene kind: (c, a, n_min), an upper envelope of the direct-solve points of
-#: ``bench/accuracy_speed.py --full`` (references of 24k surfels, 37k for the bunny).
-#: Convergence is slow (a ≈ 0.27–0.65, often below 0.5): O(h) at edges and corners, random
-#: sampling noise, PCA normals on the scan. Below ``n_min`` the model does not hold (small
-#: lights are not resolved: the Cornell box has 24% error at 80 surfels, 1.8% at 245), so no
-#: fewer are recommended.
-DISCRETIZATION = {
-    "grid": (0.068, 0.27, 250),        # Cornell box: 1.27% at 500, 0.95% at 2000, 0.60% at 8000
-    "random": (1.68, 0.364, 1000),     # interior: 10.5% at 1003, 6.9% at 3999, 5.3% at 11998
-    "point_cloud": (33.0, 0.65, 1000),  # bunny scan: 18% at 1641, 10.7% at 6225, 5.3% at 18457
-}
-#: Fractions of the target given to (discretization, FMM, solver).
-BUDGET_SPLIT = (0.8, 0.12, 0.08)
+
+#: Keywords of ``visibility="exact"`` that the automatic mode uses: occluders within one disc
+#: radius of either end of a ray are ignored (the default 0.05 lets neighbouring discs on a
+#: curved or scanned surface shadow a surfel's grazing rays).
+VISIBILITY_KEYWORDS = {"exact": {"endpoint_offset": 1.0}, "seed": {}, "none": {}}
+
 #: Named presets of the add-on → target error.
 PRESETS = {"draft": 0.10, "preview": 0.10, "medium": 0.03, "high": 0.01, "final": 0.01,
            "reference": 0.003}
-#: Operator applications a solve needs (CG at ρ ≤ 0.9 in the benchmarks: 5–15) + build ≈ 2.
-APPLICATIONS_ESTIMATE = 12
+
+#: Surfels of the occlusion probe, and when it runs (see choose_settings: ``probe``).
+PROBE_SURFELS = 200
+PROBE_WORTH = 0.25   # s
+PROBE_GAIN = 0.67
+#: The settings are chosen to meet SAFETY × target by the models (sampling noise, scenes that
+#: differ from the calibration ones).
+SAFETY = 0.9
+#: Fewest surfels recommended per kind when the calibration has none (small lights and
+#: occluders are not resolved below it).
+DEFAULT_N_MIN = 250
+
+# --- calibration (generated by bench/calibrate.py; do not edit by hand) ---
+CALIBRATION = {
+    'source': 'bench/results/accuracy_speed.json',
+    'date': '2026-11-22 07:35 UTC',
+    'mode': 'full',
+    'core_commit': '7b988bc',
+    'solve_tol': 0.0001,
+    'kinds': {
+        'grid': {
+            'scene': 'cornell',
+            'n_min': 506,
+            'reference_check': 0.008365,
+            'discretization': 'direct vis=exact',
+            'settings': {
+                'direct vis=none': {'keywords': {'method': 'direct', 'visibility': 'none'}, 'error': {'points': [[506, 0.4136], [1036, 0.4136], [1927, 0.4136], [4128, 0.4029], [8295, 0.4029]], 'slope': 0.05}, 'cost': {'points': [[506, 0.03594], [1036, 0.0509], [1927, 0.07072], [4128, 0.2014], [8295, 1.023]], 'slope': 2.329}, 'n_range': [506, 8295]},
+                'FMM p=0 vis=none': {'keywords': {'method': 'fmm', 'order': 0, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[506, 0.4346], [1036, 0.4346], [1927, 0.4346], [4128, 0.4346], [8295, 0.403]], 'slope': 0.05}, 'cost': {'points': [[506, 0.01267], [1036, 0.01311], [1927, 0.1478], [4128, 0.0466], [8295, 0.3159]], 'slope': 2.5}, 'n_range': [506, 8295]},
+                'FMM p=2 vis=none': {'keywords': {'method': 'fmm', 'order': 2, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[506, 0.4203], [1036, 0.4203], [1927, 0.4203], [4128, 0.4129], [8295, 0.4129]], 'slope': 0.05}, 'cost': {'points': [[506, 0.2621], [1036, 0.03591], [1927, 0.03596], [4128, 0.06742], [8295, 0.2361]], 'slope': 1.796}, 'n_range': [506, 8295]},
+                'FMM p=3 vis=none': {'keywords': {'method': 'fmm', 'order': 3, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[506, 0.4129], [1036, 0.4129], [1927, 0.4129], [4128, 0.4024], [8295, 0.4024]], 'slope': 0.05}, 'cost': {'points': [[506, 0.02799], [1036, 0.2732], [1927, 0.03402], [4128, 0.1319], [8295, 0.3441]], 'slope': 1.374}, 'n_range': [506, 8295]},
+                'FMM p=4 vis=none': {'keywords': {'method': 'fmm', 'order': 4, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[506, 0.4134], [1036, 0.4134], [1927, 0.4134], [4128, 0.4023], [8295, 0.4023]], 'slope': 0.05}, 'cost': {'points': [[506, 0.01144], [1036, 0.03861], [1927, 0.0471], [4128, 0.2003], [8295, 0.367]], 'slope': 1.0}, 'n_range': [506, 8295]},
+                'FMM p=6 vis=none': {'keywords': {'method': 'fmm', 'order': 6, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[506, 0.4135], [1036, 0.4135], [1927, 0.4135]], 'slope': 0.05}, 'cost': {'points': [[506, 0.01563], [1036, 0.1299], [1927, 0.1153]], 'slope': 1.0}, 'n_range': [506, 1927]},
+                'FMM p=8 vis=none': {'keywords': {'method': 'fmm', 'order': 8, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[506, 0.4136], [1036, 0.4136], [1927, 0.4136]], 'slope': 0.05}, 'cost': {'points': [[506, 0.2917], [1036, 0.2045], [1927, 0.3162]], 'slope': 1.0}, 'n_range': [506, 1927]},
+                'direct vis=seed': {'keywords': {'method': 'direct', 'visibility': 'seed'}, 'error': {'points': [[506, 0.187], [1036, 0.1488], [1927, 0.1052]], 'slope': 0.4272}, 'cost': {'points': [[506, 0.1347], [1036, 0.4391], [1927, 2.061]], 'slope': 2.492}, 'n_range': [506, 1927]},
+                'FMM p=0 vis=seed': {'keywords': {'method': 'fmm', 'order': 0, 'theta': 0.5, 'visibility': 'seed'}, 'error': {'points': [[506, 0.2096], [1036, 0.2096], [1927, 0.1877], [4128, 0.1877]], 'slope': 0.05}, 'cost': {'points': [[506, 0.07642], [1036, 0.07589], [1927, 0.155], [4128, 0.2929]], 'slope': 1.0}, 'n_range': [506, 4128]},
+                'FMM p=2 vis=seed': {'keywords': {'method': 'fmm', 'order': 2, 'theta': 0.5, 'visibility': 'seed'}, 'error': {'points': [[506, 0.1847], [1036, 0.1728], [1927, 0.1384], [4128, 0.08694]], 'slope': 0.3607}, 'cost': {'points': [[506, 0.07999], [1036, 0.08049], [1927, 0.1211], [4128, 0.3319]], 'slope': 1.324}, 'n_range': [506, 4128]},
+                'FMM p=3 vis=seed': {'keywords': {'method': 'fmm', 'order': 3, 'theta': 0.5, 'visibility': 'seed'}, 'error': {'points': [[506, 0.1874], [1036, 0.175], [1927, 0.1391], [4128, 0.0849]], 'slope': 0.3785}, 'cost': {'points': [[506, 0.07889], [1036, 0.1044], [1927, 0.1306], [4128, 0.3756]], 'slope': 1.387}, 'n_range': [506, 4128]},
+                'FMM p=4 vis=seed': {'keywords': {'method': 'fmm', 'order': 4, 'theta': 0.5, 'visibility': 'seed'}, 'error': {'points': [[506, 0.1878], [1036, 0.1749], [1927, 0.139], [4128, 0.08448]], 'slope': 0.3817}, 'cost': {'points': [[506, 0.08192], [1036, 0.121], [1927, 0.1512], [4128, 0.4948]], 'slope': 1.556}, 'n_range': [506, 4128]},
+                'FMM p=6 vis=seed': {'keywords': {'method': 'fmm', 'order': 6, 'theta': 0.5, 'visibility': 'seed'}, 'error': {'points': [[506, 0.1873], [1036, 0.1749], [1927, 0.1391]], 'slope': 0.2193}, 'cost': {'points': [[506, 0.08857], [1036, 0.2417], [1927, 0.2552]], 'slope': 1.0}, 'n_range': [506, 1927]},
+                'FMM p=8 vis=seed': {'keywords': {'method': 'fmm', 'order': 8, 'theta': 0.5, 'visibility': 'seed'}, 'error': {'points': [[506, 0.1873], [1036, 0.1748], [1927, 0.139]], 'slope': 0.2196}, 'cost': {'points': [[506, 0.103], [1036, 0.5083], [1927, 0.6753]], 'slope': 1.0}, 'n_range': [506, 1927]},
+                'direct vis=exact': {'keywords': {'method': 'direct', 'visibility': 'exact'}, 'error': {'points': [[506, 0.06842], [1036, 0.04801], [1927, 0.03216], [4128, 0.01885], [8295, 0.009998]], 'slope': 0.6861}, 'cost': {'points': [[506, 0.03589], [1036, 0.1631], [1927, 0.3766], [4128, 1.841], [8295, 7.988]], 'slope': 2.103}, 'n_range': [506, 8295]},
+                'FMM p=0 vis=exact': {'keywords': {'method': 'fmm', 'order': 0, 'theta': 0.5, 'visibility': 'exact'}, 'error': {'points': [[506, 0.1817], [1036, 0.1817], [1927, 0.1817], [4128, 0.1817], [8295, 0.1769]], 'slope': 0.05}, 'cost': {'points': [[506, 0.204], [1036, 0.08022], [1927, 0.03578], [4128, 0.2506], [8295, 0.38]], 'slope': 1.0}, 'n_range': [506, 8295]},
+                'FMM p=2 vis=exact': {'keywords': {'method': 'fmm', 'order': 2, 'theta': 0.5, 'visibility': 'exact'}, 'error': {'points': [[506, 0.1346], [1036, 0.1346], [1927, 0.114], [4128, 0.06629], [8295, 0.06629]], 'slope': 0.2357}, 'cost': {'points': [[506, 0.03138], [1036, 0.2], [1927, 0.04306], [4128, 0.3235], [8295, 0.2408]], 'slope': 1.0}, 'n_range': [506, 8295]},
+                'FMM p=3 vis=exact': {'keywords': {'method': 'fmm', 'order': 3, 'theta': 0.5, 'visibility': 'exact'}, 'error': {'points': [[506, 0.1361], [1036, 0.1361], [1927, 0.1137], [4128, 0.06559], [8295, 0.06559]], 'slope': 0.2571}, 'cost': {'points': [[506, 0.03463], [1036, 0.09153], [1927, 0.2518], [4128, 0.21], [8295, 0.5306]], 'slope': 1.328}, 'n_range': [506, 8295]},
+                'FMM p=4 vis=exact': {'keywords': {'method': 'fmm', 'order': 4, 'theta': 0.5, 'visibility': 'exact'}, 'error': {'points': [[506, 0.1358], [1036, 0.1358], [1927, 0.1137], [4128, 0.06538], [8295, 0.06538]], 'slope': 0.2604}, 'cost': {'points': [[506, 0.2438], [1036, 0.1758], [1927, 0.269], [4128, 0.4267], [8295, 0.6398]], 'slope': 1.0}, 'n_range': [506, 8295]},
+                'FMM p=6 vis=exact': {'keywords': {'method': 'fmm', 'order': 6, 'theta': 0.5, 'visibility': 'exact'}, 'error': {'points': [[506, 0.1358], [1036, 0.1358], [1927, 0.1137]], 'slope': 0.05}, 'cost': {'points': [[506, 0.04561], [1036, 0.2876], [1927, 0.2237]], 'slope': 1.0}, 'n_range': [506, 1927]},
+                'FMM p=8 vis=exact': {'keywords': {'method': 'fmm', 'order': 8, 'theta': 0.5, 'visibility': 'exact'}, 'error': {'points': [[506, 0.1358], [1036, 0.1358], [1927, 0.1137]], 'slope': 0.05}, 'cost': {'points': [[506, 0.1846], [1036, 0.536], [1927, 0.5129]], 'slope': 1.0}, 'n_range': [506, 1927]},
+                'FMM p=2 vis=exact θ=0.3': {'keywords': {'method': 'fmm', 'order': 2, 'theta': 0.3, 'visibility': 'exact'}, 'error': {'points': [[506, 0.1214], [1036, 0.1214], [1927, 0.1057], [4128, 0.0551], [8295, 0.0551]], 'slope': 0.2003}, 'cost': {'points': [[506, 0.292], [1036, 0.0434], [1927, 0.221], [4128, 0.348], [8295, 0.5196]], 'slope': 1.0}, 'n_range': [506, 8295]},
+                'FMM p=3 vis=exact θ=0.3': {'keywords': {'method': 'fmm', 'order': 3, 'theta': 0.3, 'visibility': 'exact'}, 'error': {'points': [[506, 0.1215], [1036, 0.1215], [1927, 0.106], [4128, 0.05513], [8295, 0.05513]], 'slope': 0.2006}, 'cost': {'points': [[506, 0.1687], [1036, 0.05865], [1927, 0.248], [4128, 0.2659], [8295, 0.4632]], 'slope': 1.0}, 'n_range': [506, 8295]},
+                'FMM p=4 vis=exact θ=0.3': {'keywords': {'method': 'fmm', 'order': 4, 'theta': 0.3, 'visibility': 'exact'}, 'error': {'points': [[506, 0.1214], [1036, 0.1214], [1927, 0.1059], [4128, 0.05512], [8295, 0.05512]], 'slope': 0.2007}, 'cost': {'points': [[506, 0.04188], [1036, 0.0793], [1927, 0.2774], [4128, 0.5659], [8295, 0.5705]], 'slope': 1.0}, 'n_range': [506, 8295]},
+                'FMM p=2 vis=exact θ=0.2': {'keywords': {'method': 'fmm', 'order': 2, 'theta': 0.2, 'visibility': 'exact'}, 'error': {'points': [[506, 0.07249], [1036, 0.07093], [1927, 0.05165], [4128, 0.05165], [8295, 0.05141]], 'slope': 0.141}, 'cost': {'points': [[506, 0.03304], [1036, 0.2797], [1927, 0.1833], [4128, 0.5318], [8295, 0.671]], 'slope': 1.0}, 'n_range': [506, 8295]},
+                'FMM p=3 vis=exact θ=0.2': {'keywords': {'method': 'fmm', 'order': 3, 'theta': 0.2, 'visibility': 'exact'}, 'error': {'points': [[506, 0.07249], [1036, 0.07096], [1927, 0.05169], [4128, 0.05169], [8295, 0.05143]], 'slope': 0.1409}, 'cost': {'points': [[506, 0.03226], [1036, 0.1358], [1927, 0.1898], [4128, 0.6321], [8295, 0.9309]], 'slope': 1.0}, 'n_range': [506, 8295]},
+                'FMM p=4 vis=exact θ=0.2': {'keywords': {'method': 'fmm', 'order': 4, 'theta': 0.2, 'visibility': 'exact'}, 'error': {'points': [[506, 0.07249], [1036, 0.07095], [1927, 0.05167], [4128, 0.05167], [8295, 0.05142]], 'slope': 0.141}, 'cost': {'points': [[506, 0.03159], [1036, 0.2983], [1927, 0.1554], [4128, 0.8192], [8295, 0.8509]], 'slope': 1.0}, 'n_range': [506, 8295]},
+            },
+        },
+        'point_cloud': {
+            'scene': 'bunny',
+            'n_min': 891,
+            'reference_check': 0.07367,
+            'discretization': 'direct vis=exact',
+            'settings': {
+                'direct vis=none': {'keywords': {'method': 'direct', 'visibility': 'none'}, 'error': {'points': [[891, 0.6207], [1641, 0.6054], [3225, 0.6054], [6225, 0.6054]], 'slope': 0.05}, 'cost': {'points': [[891, 0.04802], [1641, 0.03505], [3225, 0.09333], [6225, 0.4189]], 'slope': 2.283}, 'n_range': [891, 6225]},
+                'FMM p=0 vis=none': {'keywords': {'method': 'fmm', 'order': 0, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[891, 0.694], [1641, 0.66], [3225, 0.66], [6225, 0.66]], 'slope': 0.05}, 'cost': {'points': [[891, 0.09817], [1641, 0.03883], [3225, 0.0764], [6225, 0.5065]], 'slope': 2.5}, 'n_range': [891, 6225]},
+                'FMM p=2 vis=none': {'keywords': {'method': 'fmm', 'order': 2, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[891, 0.6166], [1641, 0.6028], [3225, 0.6028], [6225, 0.6028]], 'slope': 0.05}, 'cost': {'points': [[891, 0.02876], [1641, 0.0572], [3225, 0.1067], [6225, 0.7477]], 'slope': 2.5}, 'n_range': [891, 6225]},
+                'FMM p=3 vis=none': {'keywords': {'method': 'fmm', 'order': 3, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[891, 0.6228], [1641, 0.6062], [3225, 0.6062], [6225, 0.6062]], 'slope': 0.05}, 'cost': {'points': [[891, 0.02974], [1641, 0.06044], [3225, 0.1598], [6225, 0.8478]], 'slope': 2.5}, 'n_range': [891, 6225]},
+                'FMM p=4 vis=none': {'keywords': {'method': 'fmm', 'order': 4, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[891, 0.6211], [1641, 0.6056], [3225, 0.6056], [6225, 0.6056]], 'slope': 0.05}, 'cost': {'points': [[891, 0.03596], [1641, 0.08773], [3225, 0.2202], [6225, 1.46]], 'slope': 2.5}, 'n_range': [891, 6225]},
+                'FMM p=6 vis=none': {'keywords': {'method': 'fmm', 'order': 6, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[891, 0.6207], [1641, 0.5552]], 'slope': 0.1826}, 'cost': {'points': [[891, 0.08116], [1641, 0.2225]], 'slope': 1.651}, 'n_range': [891, 1641]},
+                'FMM p=8 vis=none': {'keywords': {'method': 'fmm', 'order': 8, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[891, 0.6207], [1641, 0.5552]], 'slope': 0.1827}, 'cost': {'points': [[891, 0.1986], [1641, 0.7819]], 'slope': 2.244}, 'n_range': [891, 1641]},
+                'direct vis=seed': {'keywords': {'method': 'direct', 'visibility': 'seed'}, 'error': {'points': [[891, 0.3705], [1641, 0.2569]], 'slope': 0.5997}, 'cost': {'points': [[891, 0.1424], [1641, 0.531]], 'slope': 2.155}, 'n_range': [891, 1641]},
+                'FMM p=0 vis=seed': {'keywords': {'method': 'fmm', 'order': 0, 'theta': 0.5, 'visibility': 'seed'}, 'error': {'points': [[891, 0.4286], [1641, 0.346], [3225, 0.3083]], 'slope': 0.2546}, 'cost': {'points': [[891, 0.06851], [1641, 0.1261], [3225, 0.3173]], 'slope': 1.365}, 'n_range': [891, 3225]},
+                'FMM p=2 vis=seed': {'keywords': {'method': 'fmm', 'order': 2, 'theta': 0.5, 'visibility': 'seed'}, 'error': {'points': [[891, 0.4047], [1641, 0.3274], [3225, 0.301]], 'slope': 0.2282}, 'cost': {'points': [[891, 0.06754], [1641, 0.5461], [3225, 0.3667]], 'slope': 1.0}, 'n_range': [891, 3225]},
+                'FMM p=3 vis=seed': {'keywords': {'method': 'fmm', 'order': 3, 'theta': 0.5, 'visibility': 'seed'}, 'error': {'points': [[891, 0.4055], [1641, 0.3278], [3225, 0.3009]], 'slope': 0.2302}, 'cost': {'points': [[891, 0.07945], [1641, 0.5559], [3225, 0.3766]], 'slope': 1.0}, 'n_range': [891, 3225]},
+                'FMM p=4 vis=seed': {'keywords': {'method': 'fmm', 'order': 4, 'theta': 0.5, 'visibility': 'seed'}, 'error': {'points': [[891, 0.4059], [1641, 0.3277], [3225, 0.3006]], 'slope': 0.2315}, 'cost': {'points': [[891, 0.08133], [1641, 0.6194], [3225, 0.4376]], 'slope': 1.0}, 'n_range': [891, 3225]},
+                'FMM p=6 vis=seed': {'keywords': {'method': 'fmm', 'order': 6, 'theta': 0.5, 'visibility': 'seed'}, 'error': {'points': [[891, 0.4058], [1641, 0.3277]], 'slope': 0.3501}, 'cost': {'points': [[891, 0.121], [1641, 0.6635]], 'slope': 2.5}, 'n_range': [891, 1641]},
+                'FMM p=8 vis=seed': {'keywords': {'method': 'fmm', 'order': 8, 'theta': 0.5, 'visibility': 'seed'}, 'error': {'points': [[891, 0.4058], [1641, 0.3277]], 'slope': 0.3501}, 'cost': {'points': [[891, 0.2254], [1641, 1.196]], 'slope': 2.5}, 'n_range': [891, 1641]},
+                'direct vis=exact': {'keywords': {'method': 'direct', 'visibility': 'exact'}, 'error': {'points': [[891, 0.2388], [1641, 0.1349], [3225, 0.124], [6225, 0.07375]], 'slope': 0.5522}, 'cost': {'points': [[891, 0.05944], [1641, 0.1857], [3225, 0.5316], [6225, 2.255]], 'slope': 2.198}, 'n_range': [891, 6225]},
+                'FMM p=0 vis=exact': {'keywords': {'method': 'fmm', 'order': 0, 'theta': 0.5, 'visibility': 'exact'}, 'error': {'points': [[891, 0.3919], [1641, 0.2731], [3225, 0.2731], [6225, 0.1734]], 'slope': 0.3692}, 'cost': {'points': [[891, 0.3197], [1641, 0.218], [3225, 0.1332], [6225, 0.8]], 'slope': 2.5}, 'n_range': [891, 6225]},
+                'FMM p=2 vis=exact': {'keywords': {'method': 'fmm', 'order': 2, 'theta': 0.5, 'visibility': 'exact'}, 'error': {'points': [[891, 0.3516], [1641, 0.2392], [3225, 0.2392], [6225, 0.1398]], 'slope': 0.4226}, 'cost': {'points': [[891, 0.1531], [1641, 0.06088], [3225, 0.2962], [6225, 0.8553]], 'slope': 1.613}, 'n_range': [891, 6225]},
+                'FMM p=3 vis=exact': {'keywords': {'method': 'fmm', 'order': 3, 'theta': 0.5, 'visibility': 'exact'}, 'error': {'points': [[891, 0.3527], [1641, 0.2402], [3225, 0.2402], [6225, 0.1399]], 'slope': 0.4234}, 'cost': {'points': [[891, 0.3427], [1641, 0.2595], [3225, 0.5858], [6225, 0.7636]], 'slope': 1.0}, 'n_range': [891, 6225]},
+                'FMM p=4 vis=exact': {'keywords': {'method': 'fmm', 'order': 4, 'theta': 0.5, 'visibility': 'exact'}, 'error': {'points': [[891, 0.3532], [1641, 0.24], [3225, 0.24], [6225, 0.1398]], 'slope': 0.4243}, 'cost': {'points': [[891, 0.05416], [1641, 0.3801], [3225, 0.5918], [6225, 1.193]], 'slope': 1.066}, 'n_range': [891, 6225]},
+                'FMM p=6 vis=exact': {'keywords': {'method': 'fmm', 'order': 6, 'theta': 0.5, 'visibility': 'exact'}, 'error': {'points': [[891, 0.3532], [1641, 0.2375]], 'slope': 0.6496}, 'cost': {'points': [[891, 0.3752], [1641, 0.5125]], 'slope': 1.0}, 'n_range': [891, 1641]},
+                'FMM p=8 vis=exact': {'keywords': {'method': 'fmm', 'order': 8, 'theta': 0.5, 'visibility': 'exact'}, 'error': {'points': [[891, 0.3532], [1641, 0.2375]], 'slope': 0.6496}, 'cost': {'points': [[891, 0.5702], [1641, 0.8989]], 'slope': 1.0}, 'n_range': [891, 1641]},
+                'FMM p=2 vis=exact θ=0.3': {'keywords': {'method': 'fmm', 'order': 2, 'theta': 0.3, 'visibility': 'exact'}, 'error': {'points': [[891, 0.2714], [1641, 0.2262], [3225, 0.2262], [6225, 0.1397]], 'slope': 0.3054}, 'cost': {'points': [[891, 0.04305], [1641, 0.2423], [3225, 0.3815], [6225, 0.5879]], 'slope': 1.0}, 'n_range': [891, 6225]},
+                'FMM p=3 vis=exact θ=0.3': {'keywords': {'method': 'fmm', 'order': 3, 'theta': 0.3, 'visibility': 'exact'}, 'error': {'points': [[891, 0.2715], [1641, 0.2264], [3225, 0.2264], [6225, 0.1398]], 'slope': 0.3054}, 'cost': {'points': [[891, 0.2792], [1641, 0.2466], [3225, 0.528], [6225, 0.78]], 'slope': 1.0}, 'n_range': [891, 6225]},
+                'FMM p=4 vis=exact θ=0.3': {'keywords': {'method': 'fmm', 'order': 4, 'theta': 0.3, 'visibility': 'exact'}, 'error': {'points': [[891, 0.2716], [1641, 0.2264], [3225, 0.2264], [6225, 0.1398]], 'slope': 0.3055}, 'cost': {'points': [[891, 0.3076], [1641, 0.3879], [3225, 0.6235], [6225, 1.177]], 'slope': 1.0}, 'n_range': [891, 6225]},
+                'FMM p=2 vis=exact θ=0.2': {'keywords': {'method': 'fmm', 'order': 2, 'theta': 0.2, 'visibility': 'exact'}, 'error': {'points': [[891, 0.2511], [1641, 0.1874], [3225, 0.1874], [6225, 0.1176]], 'slope': 0.3195}, 'cost': {'points': [[891, 0.05056], [1641, 0.3612], [3225, 0.5438], [6225, 0.6974]], 'slope': 1.0}, 'n_range': [891, 6225]},
+                'FMM p=3 vis=exact θ=0.2': {'keywords': {'method': 'fmm', 'order': 3, 'theta': 0.2, 'visibility': 'exact'}, 'error': {'points': [[891, 0.251], [1641, 0.1873], [3225, 0.1873], [6225, 0.1176]], 'slope': 0.3194}, 'cost': {'points': [[891, 0.2624], [1641, 0.3833], [3225, 0.6078], [6225, 0.8765]], 'slope': 1.0}, 'n_range': [891, 6225]},
+                'FMM p=4 vis=exact θ=0.2': {'keywords': {'method': 'fmm', 'order': 4, 'theta': 0.2, 'visibility': 'exact'}, 'error': {'points': [[891, 0.2511], [1641, 0.1873], [3225, 0.1873], [6225, 0.1176]], 'slope': 0.3195}, 'cost': {'points': [[891, 0.04941], [1641, 0.4117], [3225, 0.6278], [6225, 1.215]], 'slope': 1.004}, 'n_range': [891, 6225]},
+            },
+        },
+        'random': {
+            'scene': 'interior',
+            'n_min': 508,
+            'reference_check': 0.04319,
+            'discretization': 'direct vis=exact',
+            'settings': {
+                'direct vis=none': {'keywords': {'method': 'direct', 'visibility': 'none'}, 'error': {'points': [[508, 0.8596], [1003, 0.8074], [2000, 0.8074], [3999, 0.8074], [8000, 0.742]], 'slope': 0.05}, 'cost': {'points': [[508, 0.03747], [1003, 0.04252], [2000, 0.05113], [3999, 0.1881], [8000, 0.5771]], 'slope': 1.617}, 'n_range': [508, 8000]},
+                'FMM p=0 vis=none': {'keywords': {'method': 'fmm', 'order': 0, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[508, 0.9191], [1003, 0.84], [2000, 0.84], [3999, 0.84], [8000, 0.8172]], 'slope': 0.05}, 'cost': {'points': [[508, 0.01189], [1003, 0.1678], [2000, 0.03794], [3999, 0.2028], [8000, 0.1305]], 'slope': 1.0}, 'n_range': [508, 8000]},
+                'FMM p=2 vis=none': {'keywords': {'method': 'fmm', 'order': 2, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[508, 0.8569], [1003, 0.8122], [2000, 0.8122], [3999, 0.8122], [8000, 0.7471]], 'slope': 0.05}, 'cost': {'points': [[508, 0.01365], [1003, 0.3417], [2000, 0.05573], [3999, 0.308], [8000, 0.1844]], 'slope': 1.0}, 'n_range': [508, 8000]},
+                'FMM p=3 vis=none': {'keywords': {'method': 'fmm', 'order': 3, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[508, 0.8547], [1003, 0.808], [2000, 0.808], [3999, 0.808], [8000, 0.7426]], 'slope': 0.05}, 'cost': {'points': [[508, 0.01463], [1003, 0.1862], [2000, 0.07319], [3999, 0.5278], [8000, 0.2693]], 'slope': 1.0}, 'n_range': [508, 8000]},
+                'FMM p=4 vis=none': {'keywords': {'method': 'fmm', 'order': 4, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[508, 0.8604], [1003, 0.8073], [2000, 0.8073], [3999, 0.8073], [8000, 0.7417]], 'slope': 0.05}, 'cost': {'points': [[508, 0.01745], [1003, 0.2504], [2000, 0.09595], [3999, 0.5477], [8000, 0.4059]], 'slope': 1.0}, 'n_range': [508, 8000]},
+                'FMM p=6 vis=none': {'keywords': {'method': 'fmm', 'order': 6, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[508, 0.8594], [1003, 0.8002], [2000, 0.7525]], 'slope': 0.09692}, 'cost': {'points': [[508, 0.03149], [1003, 0.09034], [2000, 0.2238]], 'slope': 1.314}, 'n_range': [508, 2000]},
+                'FMM p=8 vis=none': {'keywords': {'method': 'fmm', 'order': 8, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[508, 0.8596], [1003, 0.8002], [2000, 0.7525]], 'slope': 0.09707}, 'cost': {'points': [[508, 0.2502], [1003, 0.2246], [2000, 0.6553]], 'slope': 1.552}, 'n_range': [508, 2000]},
+                'direct vis=seed': {'keywords': {'method': 'direct', 'visibility': 'seed'}, 'error': {'points': [[508, 0.3949], [1003, 0.3026], [2000, 0.2247]], 'slope': 0.4117}, 'cost': {'points': [[508, 0.1998], [1003, 0.6027], [2000, 2.719]], 'slope': 2.183}, 'n_range': [508, 2000]},
+                'FMM p=0 vis=seed': {'keywords': {'method': 'fmm', 'order': 0, 'theta': 0.5, 'visibility': 'seed'}, 'error': {'points': [[508, 0.398], [1003, 0.3605], [2000, 0.2888], [3999, 0.2376]], 'slope': 0.2572}, 'cost': {'points': [[508, 0.07992], [1003, 0.139], [2000, 0.7055], [3999, 0.6313]], 'slope': 1.0}, 'n_range': [508, 3999]},
+                'FMM p=2 vis=seed': {'keywords': {'method': 'fmm', 'order': 2, 'theta': 0.5, 'visibility': 'seed'}, 'error': {'points': [[508, 0.392], [1003, 0.3428], [2000, 0.2656], [3999, 0.2068]], 'slope': 0.316}, 'cost': {'points': [[508, 0.08158], [1003, 0.1382], [2000, 0.3981], [3999, 0.4771]], 'slope': 1.0}, 'n_range': [508, 3999]},
+                'FMM p=3 vis=seed': {'keywords': {'method': 'fmm', 'order': 3, 'theta': 0.5, 'visibility': 'seed'}, 'error': {'points': [[508, 0.3925], [1003, 0.3447], [2000, 0.267], [3999, 0.2074]], 'slope': 0.3155}, 'cost': {'points': [[508, 0.08208], [1003, 0.1381], [2000, 0.3657], [3999, 0.6134]], 'slope': 1.0}, 'n_range': [508, 3999]},
+                'FMM p=4 vis=seed': {'keywords': {'method': 'fmm', 'order': 4, 'theta': 0.5, 'visibility': 'seed'}, 'error': {'points': [[508, 0.3927], [1003, 0.3447], [2000, 0.2671], [3999, 0.2075]], 'slope': 0.3154}, 'cost': {'points': [[508, 0.08545], [1003, 0.1477], [2000, 0.3968], [3999, 0.694]], 'slope': 1.0}, 'n_range': [508, 3999]},
+                'FMM p=6 vis=seed': {'keywords': {'method': 'fmm', 'order': 6, 'theta': 0.5, 'visibility': 'seed'}, 'error': {'points': [[508, 0.3928], [1003, 0.3446], [2000, 0.267]], 'slope': 0.282}, 'cost': {'points': [[508, 0.1005], [1003, 0.2166], [2000, 0.78]], 'slope': 1.857}, 'n_range': [508, 2000]},
+                'FMM p=8 vis=seed': {'keywords': {'method': 'fmm', 'order': 8, 'theta': 0.5, 'visibility': 'seed'}, 'error': {'points': [[508, 0.3928], [1003, 0.3446], [2000, 0.267]], 'slope': 0.2819}, 'cost': {'points': [[508, 0.1396], [1003, 0.3969], [2000, 1.44]], 'slope': 1.867}, 'n_range': [508, 2000]},
+                'direct vis=exact': {'keywords': {'method': 'direct', 'visibility': 'exact'}, 'error': {'points': [[508, 0.2383], [1003, 0.121], [2000, 0.1113], [3999, 0.07807], [8000, 0.07807]], 'slope': 0.3919}, 'cost': {'points': [[508, 0.03548], [1003, 0.1573], [2000, 0.5401], [3999, 2.5], [8000, 10.2]], 'slope': 2.029}, 'n_range': [508, 8000]},
+                'FMM p=0 vis=exact': {'keywords': {'method': 'fmm', 'order': 0, 'theta': 0.5, 'visibility': 'exact'}, 'error': {'points': [[508, 0.2601], [1003, 0.2041], [2000, 0.2041], [3999, 0.1748], [8000, 0.1748]], 'slope': 0.138}, 'cost': {'points': [[508, 0.3877], [1003, 0.2627], [2000, 0.09207], [3999, 0.1409], [8000, 0.5875]], 'slope': 2.06}, 'n_range': [508, 8000]},
+                'FMM p=2 vis=exact': {'keywords': {'method': 'fmm', 'order': 2, 'theta': 0.5, 'visibility': 'exact'}, 'error': {'points': [[508, 0.2443], [1003, 0.1664], [2000, 0.1619], [3999, 0.1069], [8000, 0.1035]], 'slope': 0.3131}, 'cost': {'points': [[508, 0.3037], [1003, 0.04737], [2000, 0.386], [3999, 0.2162], [8000, 0.76]], 'slope': 1.813}, 'n_range': [508, 8000]},
+                'FMM p=3 vis=exact': {'keywords': {'method': 'fmm', 'order': 3, 'theta': 0.5, 'visibility': 'exact'}, 'error': {'points': [[508, 0.2441], [1003, 0.1681], [2000, 0.163], [3999, 0.1069], [8000, 0.103]], 'slope': 0.3158}, 'cost': {'points': [[508, 0.192], [1003, 0.228], [2000, 0.1025], [3999, 0.6294], [8000, 0.9357]], 'slope': 1.0}, 'n_range': [508, 8000]},
+                'FMM p=4 vis=exact': {'keywords': {'method': 'fmm', 'order': 4, 'theta': 0.5, 'visibility': 'exact'}, 'error': {'points': [[508, 0.2456], [1003, 0.1683], [2000, 0.1633], [3999, 0.1068], [8000, 0.1027]], 'slope': 0.3186}, 'cost': {'points': [[508, 0.3767], [1003, 0.1719], [2000, 0.4114], [3999, 0.8075], [8000, 0.9166]], 'slope': 1.0}, 'n_range': [508, 8000]},
+                'FMM p=6 vis=exact': {'keywords': {'method': 'fmm', 'order': 6, 'theta': 0.5, 'visibility': 'exact'}, 'error': {'points': [[508, 0.2455], [1003, 0.1681], [2000, 0.1632]], 'slope': 0.2974}, 'cost': {'points': [[508, 0.3003], [1003, 0.2906], [2000, 0.6795]], 'slope': 1.231}, 'n_range': [508, 2000]},
+                'FMM p=8 vis=exact': {'keywords': {'method': 'fmm', 'order': 8, 'theta': 0.5, 'visibility': 'exact'}, 'error': {'points': [[508, 0.2455], [1003, 0.1681], [2000, 0.1632]], 'slope': 0.2974}, 'cost': {'points': [[508, 0.3167], [1003, 0.5797], [2000, 1.246]], 'slope': 1.108}, 'n_range': [508, 2000]},
+                'FMM p=2 vis=exact θ=0.3': {'keywords': {'method': 'fmm', 'order': 2, 'theta': 0.3, 'visibility': 'exact'}, 'error': {'points': [[508, 0.2375], [1003, 0.1269], [2000, 0.121], [3999, 0.1061], [8000, 0.09991]], 'slope': 0.2764}, 'cost': {'points': [[508, 0.2126], [1003, 0.38], [2000, 0.4343], [3999, 0.5541], [8000, 0.9229]], 'slope': 1.0}, 'n_range': [508, 8000]},
+                'FMM p=3 vis=exact θ=0.3': {'keywords': {'method': 'fmm', 'order': 3, 'theta': 0.3, 'visibility': 'exact'}, 'error': {'points': [[508, 0.2375], [1003, 0.1269], [2000, 0.1211], [3999, 0.1061], [8000, 0.09991]], 'slope': 0.2764}, 'cost': {'points': [[508, 0.06763], [1003, 0.3686], [2000, 0.2051], [3999, 0.4379], [8000, 1.152]], 'slope': 1.394}, 'n_range': [508, 8000]},
+                'FMM p=4 vis=exact θ=0.3': {'keywords': {'method': 'fmm', 'order': 4, 'theta': 0.3, 'visibility': 'exact'}, 'error': {'points': [[508, 0.2375], [1003, 0.1269], [2000, 0.1211], [3999, 0.1061], [8000, 0.09989]], 'slope': 0.2765}, 'cost': {'points': [[508, 0.2483], [1003, 0.3089], [2000, 0.5067], [3999, 0.6013], [8000, 1.072]], 'slope': 1.0}, 'n_range': [508, 8000]},
+                'FMM p=2 vis=exact θ=0.2': {'keywords': {'method': 'fmm', 'order': 2, 'theta': 0.2, 'visibility': 'exact'}, 'error': {'points': [[508, 0.2377], [1003, 0.127], [2000, 0.1159], [3999, 0.08926], [8000, 0.08926]], 'slope': 0.3382}, 'cost': {'points': [[508, 0.4], [1003, 0.3464], [2000, 0.462], [3999, 0.5193], [8000, 1.194]], 'slope': 1.201}, 'n_range': [508, 8000]},
+                'FMM p=3 vis=exact θ=0.2': {'keywords': {'method': 'fmm', 'order': 3, 'theta': 0.2, 'visibility': 'exact'}, 'error': {'points': [[508, 0.2377], [1003, 0.127], [2000, 0.1159], [3999, 0.08927], [8000, 0.08927]], 'slope': 0.3382}, 'cost': {'points': [[508, 0.1272], [1003, 0.1012], [2000, 0.3675], [3999, 0.8386], [8000, 1.358]], 'slope': 1.0}, 'n_range': [508, 8000]},
+                'FMM p=4 vis=exact θ=0.2': {'keywords': {'method': 'fmm', 'order': 4, 'theta': 0.2, 'visibility': 'exact'}, 'error': {'points': [[508, 0.2377], [1003, 0.127], [2000, 0.1159], [3999, 0.08927], [8000, 0.08927]], 'slope': 0.3382}, 'cost': {'points': [[508, 0.1749], [1003, 0.1079], [2000, 0.4599], [3999, 0.7078], [8000, 1.894]], 'slope': 1.42}, 'n_range': [508, 8000]},
+            },
+        },
+    },
+}
+# --- end calibration ---
 
 
 # --- scene summary -------------------------------------------------------------------------------
 
 def _grid_like(surfels: Surfels) -> bool:
-    """True when areas are (nearly) all equal and positions sit on a lattice-like spacing."""
+    """True when most areas are equal (regular sampling)."""
     a = surfels.areas
-    return bool(np.std(a) <= 1e-6 * np.mean(a))
+    med = float(np.median(a))
+    return bool(np.mean(np.abs(a - med) <= 1e-6 * med) > 0.5)
 
 
-def scene_summary(scene, kind=None) -> dict:
-    """What :func:`choose_settings` needs: n, total_area, albedo_max, emitter_area_fraction,
-    kind ("grid", "random" or "point_cloud"). ``scene`` is Surfels or such a dict."""
+def scene_summary(scene, kind: str | None = None) -> dict:
+    """What :func:`choose_settings` needs: ``n``, ``total_area`` (m²), ``albedo_max``,
+    ``albedo_mean``, ``emitter_area_fraction``, ``kind`` ("grid", "random" or
+    "point_cloud"). ``scene`` is Surfels or such a dict (``n`` and ``total_area`` required)."""
     if isinstance(scene, Surfels):
         emitters = scene.emission.max(axis=1) > 0
-        out = dict(n=scene.n, total_area=scene.total_area,
-                   albedo_max=float(scene.albedo.max()),
-                   albedo_mean=float(np.average(scene.albedo.mean(axis=1), weights=scene.areas)),
-                   emitter_area_fraction=float(scene.areas[emitters].sum() / scene.total_area),
-                   kind=kind or ("grid" if _grid_like(scene) else "random"))
-        return out
+        return dict(n=scene.n, total_area=scene.total_area,
+                    albedo_max=float(scene.albedo.max()),
+                    albedo_mean=float(np.average(scene.albedo.mean(axis=1), weights=scene.areas)),
+                    emitter_area_fraction=float(scene.areas[emitters].sum() / scene.total_area),
+                    kind=kind or ("grid" if _grid_like(scene) else "random"))
     if isinstance(scene, dict):
         missing = {"n", "total_area"} - set(scene)
         if missing:
@@ -118,19 +235,15 @@ def scene_summary(scene, kind=None) -> dict:
     raise InputError(f"scene: expected Surfels or a summary dict, got {type(scene).__name__}")
 
 
-def available_visibilities():
-    return [m for m, (ok, _) in VISIBILITIES.items() if ok]
-
-
-# --- choosing ------------------------------------------------------------------------------------
-
-def _check_target(target_error):
+def _check_target(target_error) -> float:
     if isinstance(target_error, str):
-        target_error = target_error.lower()
-        if target_error not in PRESETS:
+        key = target_error.lower()
+        if key not in PRESETS:
             raise InputError(f"target_error: unknown preset {target_error!r}; "
                              f"expected a number or one of {sorted(PRESETS)}")
-        return PRESETS[target_error]
+        return PRESETS[key]
+    if isinstance(target_error, bool):
+        raise InputError(f"target_error: expected a number, got {target_error!r}")
     try:
         t = float(target_error)
     except (TypeError, ValueError):
@@ -140,85 +253,233 @@ def _check_target(target_error):
     return t
 
 
-def choose_settings(scene, target_error, *, kind=None, allow_direct=True,
-                    max_surfels=None) -> dict:
-    """Settings meeting ``target_error`` (relative RMS per surfel) at the least modelled cost.
+# --- occlusion probe -----------------------------------------------------------------------------
 
-    scene : Surfels, or a summary dict with at least ``n`` and ``total_area`` (optionally
-        ``albedo_max``, ``emitter_area_fraction``, ``kind``).
+def _probe_subset(surfels: Surfels, count: int, seed: int) -> Surfels:
+    """About ``count`` surfels drawn at random, emitters and the rest apart, each group's areas
+    scaled to keep its total (and so each light's power and each surface's disc coverage)."""
+    rng = np.random.default_rng(seed)
+    emit = surfels.emission.max(axis=1) > 0
+    parts = []
+    for group, share in ((np.flatnonzero(emit), 0.25), (np.flatnonzero(~emit), 0.75)):
+        if group.size == 0:
+            continue
+        k = min(group.size, max(8, int(share * count)))
+        pick = np.sort(rng.choice(group, k, replace=False))
+        parts.append((pick, group.size / k))
+    idx = np.concatenate([p for p, _ in parts])
+    scale = np.concatenate([np.full(p.size, s) for p, s in parts])
+    return Surfels(surfels.positions[idx], surfels.normals[idx], surfels.areas[idx] * scale,
+                   surfels.albedo[idx], surfels.emission[idx])
+
+
+def occlusion_probe(surfels: Surfels, count: int = PROBE_SURFELS, seed: int = 0) -> dict:
+    """How much occlusion changes this scene: relative RMS difference (non-emitters) between
+    the direct solutions without and with exact visibility on about ``count`` of its surfels.
+    Returns ``error_none`` (that difference, the error of ``visibility="none"``), ``surfels``
+    and ``seconds``."""
+    from .solver import solve as _solve
+    t0 = time.perf_counter()
+    sub = surfels if surfels.n <= count else _probe_subset(surfels, count, seed)
+    if not (sub.emission > 0).any():
+        return dict(error_none=0.0, surfels=sub.n, seconds=time.perf_counter() - t0)
+    plain = _solve(sub, method="direct", tol=1e-3)   # a few per cent is all it needs
+    occluded = _solve(sub, method="direct", tol=1e-3, visibility="exact",
+                      **VISIBILITY_KEYWORDS["exact"])
+    m = ~(sub.emission.max(axis=1) > 0)
+    ref = occluded.radiosity[m]
+    den = float(np.sqrt(np.mean(ref ** 2))) or 1.0
+    err = float(np.sqrt(np.mean((plain.radiosity[m] - ref) ** 2))) / den
+    return dict(error_none=err, surfels=sub.n, seconds=time.perf_counter() - t0)
+
+
+# --- choosing ------------------------------------------------------------------------------------
+
+def _kind_table(kind: str) -> dict:
+    kinds = CALIBRATION.get("kinds", {})
+    for k in (kind, "random", "grid", *kinds):   # the closest calibrated kind
+        if k in kinds:
+            return kinds[k]
+    raise InputError("illumap.accuracy has no calibration (run bench/calibrate.py)")
+
+
+def _loglog(model: dict, n: float, *, error: bool) -> float:
+    """A calibrated curve at ``n``: log-log interpolation between the measured points; beyond
+    them the model's slope (error ∝ N^-slope, time ∝ N^slope), and below the first point, for
+    time, proportional to N."""
+    pts = model["points"]
+    ns = [p[0] for p in pts]
+    vs = [p[1] for p in pts]
+    if n <= ns[0]:
+        return vs[0] * (ns[0] / n) ** model["slope"] if error else vs[0] * n / ns[0]
+    if n >= ns[-1]:
+        k = -model["slope"] if error else model["slope"]
+        return vs[-1] * (n / ns[-1]) ** k
+    i = int(np.searchsorted(ns, n)) - 1
+    w = math.log(n / ns[i]) / math.log(ns[i + 1] / ns[i])
+    return math.exp((1 - w) * math.log(vs[i]) + w * math.log(vs[i + 1]))
+
+
+def _predicted_error(entry: dict, table: dict, n: float, e_occlusion) -> float | None:
+    """The model's error of one calibrated setting at ``n`` surfels (None: not usable)."""
+    kw = entry["keywords"]
+    vis = kw.get("visibility", "none")
+    if vis != "none":
+        return _loglog(entry["error"], n, error=True)
+    if e_occlusion is None:
+        return None
+    base = table["settings"].get(table.get("discretization", ""))
+    if base is None:
+        return None
+    e_fmm = 0.0
+    if kw["method"] == "fmm":
+        row = min((t for t in FMM_ERROR if t >= kw["theta"]), default=max(FMM_ERROR))
+        e_fmm = FMM_ERROR[row].get(kw["order"], FMM_ERROR[row][0])
+    e_disc = _loglog(base["error"], n, error=True)
+    return math.sqrt(e_disc ** 2 + e_fmm ** 2 + e_occlusion ** 2)
+
+
+def _discretization(table: dict, n: float) -> float | None:
+    base = table["settings"].get(table.get("discretization", ""))
+    return None if base is None else _loglog(base["error"], n, error=True)
+
+
+def _needed_n(entry, table, target, e_occlusion, n_min, cap):
+    """Smallest N in [n_min, cap] with predicted error <= target (None when none is)."""
+    lo = max(n_min, 2)
+    if _predicted_error(entry, table, lo, e_occlusion) is None:
+        return None
+    if _predicted_error(entry, table, lo, e_occlusion) <= target:
+        return lo
+    if _predicted_error(entry, table, cap, e_occlusion) > target:
+        return None
+    hi = cap
+    for _ in range(60):   # bisection on log N (the error decreases with N)
+        mid = math.sqrt(lo * hi)
+        if _predicted_error(entry, table, mid, e_occlusion) <= target:
+            hi = mid
+        else:
+            lo = mid
+        if hi / lo < 1.01:
+            break
+    return int(math.ceil(hi))
+
+
+def _candidates(table, s, fixed, target, e_occ, n_min, cap, allow_direct):
+    """Every calibrated setting with its N, predicted error and time, and whether it meets
+    ``target`` (at the scene's own N when ``fixed``)."""
+    out = []
+    for label, entry in table["settings"].items():
+        kw = entry["keywords"]
+        if kw["method"] == "direct" and not allow_direct:
+            continue
+        if fixed:
+            n = s["n"]
+            err = _predicted_error(entry, table, n, e_occ)
+            if err is None:
+                continue
+            need = _needed_n(entry, table, target, e_occ, n_min, 10 ** 9)
+            ok = err <= target
+        else:
+            need = _needed_n(entry, table, target, e_occ, n_min, cap)
+            n = need if need is not None else cap
+            err = _predicted_error(entry, table, n, e_occ)
+            if err is None:
+                continue
+            ok = need is not None
+        out.append(dict(label=label, entry=entry, n=n, need=need, error=err, ok=ok,
+                        time=_loglog(entry["cost"], n, error=False)))
+    return out
+
+
+def choose_settings(scene, target_error, *, kind: str | None = None, allow_direct: bool = True,
+                    max_surfels: int | None = None, probe="auto") -> dict:
+    """Settings meeting ``target_error`` (relative RMS per surfel) at the least modelled time.
+
+    scene : Surfels (its N is then fixed: the setting is chosen for it, and ``n`` reports the
+        count the target needs), or a summary dict with at least ``n`` (surfels available:
+        the points of a scan; any large number for meshes) and ``total_area`` (m²).
     target_error : float in (0, 1), or a preset name from :data:`PRESETS`.
     kind : "grid" | "random" | "point_cloud"; default guessed (equal areas → "grid").
     allow_direct : when False, only FMM settings are considered.
     max_surfels : cap on the recommended surfel count (e.g. the points of a scan).
+    probe : "auto" (default): run :func:`occlusion_probe` on Surfels when a setting without
+        visibility would be at least 1/PROBE_GAIN times faster were the scene unoccluded and
+        the best setting with visibility is predicted above PROBE_WORTH seconds (below, the
+        probe costs about what it could save); True: whenever such a setting could win;
+        False: never (``visibility="none"`` is then not chosen); or a probe result to reuse.
 
-    Returns a dict: ``target_error``, ``density`` (surfels per m²), ``n`` (recommended count),
-    ``method``, ``order``, ``theta``, ``leaf_size``, ``visibility``, ``solver``, ``tol``,
-    ``budget`` and ``predicted`` (per error source), ``predicted_time`` (s) and ``notes``.
-    Pass it to :func:`solve_keywords` for ``illumap.solve``.
+    Returns a dict: ``target_error``, ``kind``, ``density`` (surfels per m²), ``n``
+    (recommended count), ``method``, ``order``, ``theta``, ``leaf_size``, ``visibility``,
+    ``visibility_keywords``, ``solver``, ``tol``, ``label`` (the calibrated setting),
+    ``predicted`` (``total`` error and ``discretization``, the setting's error at N),
+    ``predicted_time`` (s, calibration machine), ``probe`` and ``notes``. Pass it to
+    :func:`solve_keywords` for ``illumap.solve``.
     """
     target = _check_target(target_error)
     s = scene_summary(scene, kind)
+    table = _kind_table(s["kind"])
     notes = []
-    b_disc, b_fmm, b_solve = (f * target for f in BUDGET_SPLIT)
-    c, a, n_min = DISCRETIZATION.get(s["kind"], DISCRETIZATION["random"])
-    n_needed = max(int(math.ceil(min((c / b_disc) ** (1.0 / a), 1e12))), n_min)
-    if s["kind"] == "point_cloud":
-        cap = s["n"] if max_surfels is None else min(max_surfels, s["n"])
-        if n_needed > cap:
-            notes.append(f"point cloud: {n_needed} surfels would be needed for a discretization "
-                         f"error of {b_disc:.3g}; the scan has {cap}, so its error is bounded "
-                         f"below by about {c * cap ** -a:.3g}")
-        n_needed = min(n_needed, cap)
-    elif max_surfels is not None and n_needed > max_surfels:
-        notes.append(f"surfel budget {max_surfels} below the {n_needed} the target needs")
-        n_needed = max_surfels
-    n_used = s["n"] if isinstance(scene, Surfels) else n_needed
-    e_disc = c * max(n_needed, 1) ** -a
+    fixed = isinstance(scene, Surfels)
+    cap = s["n"] if (fixed or s["kind"] == "point_cloud") else 10 ** 9
+    if max_surfels is not None:
+        cap = min(cap, int(max_surfels))
+    n_min = min(int(table.get("n_min", DEFAULT_N_MIN)), cap)
+    probe_info = probe if isinstance(probe, dict) else None
 
-    # method, p, theta: cheapest meeting the FMM budget
-    candidates = []
-    if allow_direct:
-        candidates.append((DIRECT_COST * n_used * n_used, "direct", None, None, 0.0))
-    for theta, row in FMM_ERROR.items():
-        for p, err in row.items():
-            if err <= b_fmm:
-                candidates.append((FMM_COST[theta][p] * n_used, "fmm", p, theta, err))
-    if not candidates:   # nothing meets it: the most accurate FMM setting
-        theta = min(FMM_ERROR)
-        p = max(FMM_ERROR[theta])
-        candidates.append((FMM_COST[theta][p] * n_used, "fmm", p, theta, FMM_ERROR[theta][p]))
-        notes.append(f"no calibrated FMM setting reaches {b_fmm:.2g}; using p={p}, θ={theta}")
-    cost, method, p, theta, e_fmm = min(candidates, key=lambda c_: c_[0])
-
-    # solver tolerance: ‖δB‖/‖B‖ ≲ tol ‖E‖ / ((1 − ρmax) ‖B‖); ‖B_ne‖/‖E‖ ~ sqrt(f_emit)·ρ_mean
+    def rank(e_occ):   # aim a little below the target: the fits are of a few sampled scenes
+        return _candidates(table, s, fixed, SAFETY * target, e_occ, n_min, cap, allow_direct)
+    candidates = rank(None if probe_info is None else float(probe_info["error_none"]))
+    if fixed and (probe is True or probe == "auto"):
+        # probe when a setting without visibility could win were the scene unoccluded, and
+        # ("auto") when that would save more than the probe costs
+        meeting = [c for c in candidates if c["ok"]]
+        best_time = min((c["time"] for c in meeting), default=math.inf)
+        worth = probe is True or best_time > PROBE_WORTH
+        if worth and any(c["ok"] and c["time"] < PROBE_GAIN * best_time for c in rank(0.0)
+                         if c["entry"]["keywords"].get("visibility", "none") == "none"):
+            probe_info = occlusion_probe(scene)
+            candidates = rank(float(probe_info["error_none"]))
+    e_occ = None if probe_info is None else float(probe_info["error_none"])
+    if not candidates:
+        raise InputError("illumap.accuracy: no calibrated setting applies")
+    meeting = [c for c in candidates if c["ok"]]
+    if meeting:
+        best = min(meeting, key=lambda c: c["time"])
+    else:
+        best = min(candidates, key=lambda c: (c["error"], c["time"]))
+        notes.append(f"no calibrated setting reaches {target:.3g} with {cap} surfels; "
+                     f"the most accurate one is predicted at {best['error']:.3g}")
+    kw = best["entry"]["keywords"]
+    vis = kw.get("visibility", "none")
+    if e_occ is None:
+        notes.append("visibility: no occlusion probe (a summary, probe=False, or too small a "
+                     "scene for it to pay off): visibility='none' not considered")
+    else:
+        notes.append(f"visibility: the probe puts the error of visibility='none' at "
+                     f"{e_occ:.3g}")
     rho = min(s["albedo_max"], 0.995)
-    f_emit = max(s["emitter_area_fraction"], 1e-6)
-    b_over_e = max(min(math.sqrt(f_emit) * max(s.get("albedo_mean", 0.6), 0.05), 1.0), 1e-3)
-    tol = float(min(1e-2, max(1e-10, b_solve * (1 - rho) * b_over_e)))
-
-    # The calibrated budgets cover expansion and solver error only; the sampled visibility
-    # classification adds its own per-surfel error (tests/core/test_visibility.py), so
-    # occlusion is not switched on here: pass visibility= explicitly to solve().
-    visibility = "none"
-    notes.append("visibility: 'none' (occlusion is not in the error model; "
-                  f"available: {available_visibilities()})")
-    total_area = s["total_area"]
+    tol = float(min(1e-4, max(1e-8, 0.01 * target * (1 - rho) / 0.2)))
+    n_out = best["n"] if not fixed else (best["need"] or s["n"])
+    e_disc = _discretization(table, n_out)
     return dict(
         target_error=target,
         kind=s["kind"],
-        density=n_needed / total_area,
-        n=n_needed,
-        method=method,
-        order=p if p is not None else 0,
-        theta=theta if theta is not None else 0.5,
-        leaf_size=DEFAULT_LEAF_SIZE,
-        visibility=visibility,
+        density=n_out / s["total_area"],
+        n=int(n_out),
+        method=kw["method"],
+        order=int(kw.get("order", 0)),
+        theta=float(kw.get("theta", 0.5)),
+        leaf_size=int(kw.get("leaf_size", DEFAULT_LEAF_SIZE)),
+        visibility=vis,
+        visibility_keywords=dict(VISIBILITY_KEYWORDS.get(vis, {})),
         solver="auto",
         tol=tol,
-        budget=dict(discretization=b_disc, fmm=b_fmm, solver=b_solve),
-        predicted=dict(discretization=e_disc, fmm=e_fmm, solver=b_solve,
-                       total=e_disc + e_fmm + b_solve),
-        predicted_time=cost * APPLICATIONS_ESTIMATE,
+        label=best["label"],
+        predicted=dict(total=float(best["error"]), discretization=e_disc,
+                       occlusion=e_occ if vis == "none" else None),
+        predicted_time=float(best["time"]),
+        probe=probe_info,
         notes=notes,
     )
 
@@ -232,12 +493,13 @@ def solve_keywords(settings: dict) -> dict:
                   leaf_size=settings["leaf_size"])
     if settings.get("visibility", "none") != "none":
         kw["visibility"] = settings["visibility"]
+        kw.update(settings.get("visibility_keywords", {}))
     return kw
 
 
 # --- a-posteriori estimate -------------------------------------------------------------------------
 
-def _rms(x):
+def _rms(x) -> float:
     return float(math.sqrt(np.mean(np.square(x)))) if x.size else 0.0
 
 
@@ -252,11 +514,10 @@ def _morton_keys(points, bits=20):
     return key
 
 
-def _even_half(surfels: Surfels) -> np.ndarray:
-    """Every other surfel along a Morton curve, per orientation class and emitter flag (so
-    that each surface and each light keeps about half of its surfels): a spatially even half, unlike a random one."""
+def _even_half(surfels: Surfels):
+    """Every other surfel along a Morton curve, per orientation class and emitter flag (so that
+    each surface and each light keeps about half of its surfels): a spatially even half."""
     order = np.argsort(_morton_keys(surfels.positions), kind="stable")
-    # group by the dominant normal direction so that two touching walls alternate separately
     axis = np.argmax(np.abs(surfels.normals), axis=1)
     dominant = (axis * 2 + (surfels.normals[np.arange(surfels.n), axis] > 0)) * 2 + (
         surfels.emission.max(axis=1) > 0)
@@ -273,20 +534,25 @@ def _even_half(surfels: Surfels) -> np.ndarray:
     return keep[order], areas[order]
 
 
+_OPERATOR_STATS = ("method", "order", "theta", "leaf_size", "near_field", "visibility")
+
+
 def estimate_error(solution, surfels: Surfels, *, operator: TransportOperator | None = None,
-                   probe: int = 256, coarse: bool = False, seed: int = 0) -> dict:
+                   probe: int = 256, coarse: bool = False, settings: dict | None = None,
+                   kind: str | None = None, seed: int = 0) -> dict:
     """A-posteriori estimate of the relative RMS error (emitters excluded) of ``solution``.
 
     * ``solver``: ‖r‖/((1 − ρ_max)‖B‖) from the final true residual (r = E − (B − ρ K B)).
-    * ``fmm``: the FMM applied to B against the exact direct sum on ``probe`` random receivers
-      (``apply_rows`` of a direct operator), times ρ, relative to B there, amplified by
-      1/(1 − ρ_max) for the propagation through the solve. Zero for a direct solution.
-    * ``discretization`` (``coarse=True``): the same solve on a spatially even half of the
-      surfels (every other one along a Morton curve, areas scaled to keep each surface's
-      total); the difference d at the common surfels gives e ≈ d/(√2 − 1) for error
-      O(N^-1/2). None when not asked.
-    ``total`` is their sum. Costs: one FMM application, probe × N kernel evaluations, and with
-    ``coarse`` one solve at N/2.
+    * ``fmm``: the FMM applied to B against the exact per-pair sum (with the same visibility,
+      applied per pair) on ``probe`` random receivers, times ρ, relative to B there, amplified
+      by 1/(1 − ρ_max): expansion error plus the visibility classification of node pairs.
+      Zero for a direct solution.
+    * ``occlusion``: for ``visibility="none"``, the probe's estimate from ``settings`` (the
+      :func:`choose_settings` result), else 0.
+    * ``discretization``: with ``coarse=True`` measured on a spatially even half of the surfels
+      (e ≈ d/(√2 − 1)); otherwise the calibrated model of the scene kind at this N (None when
+      there is no calibration).
+    ``total`` = sqrt of the sum of squares (independent sources); ``numerical`` = solver + fmm.
     """
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
@@ -298,62 +564,77 @@ def estimate_error(solution, surfels: Surfels, *, operator: TransportOperator | 
     if not non_emit.any():
         non_emit = np.ones(surfels.n, bool)
     b_rms = _rms(B[non_emit]) or 1.0
-    # solver part: relative residual in the norm of E → relative to B over non-emitters
     e_norm = math.sqrt(float(np.sum(surfels.emission ** 2)))
     res = float(stats.get("final_residual", 0.0) or 0.0)
     e_solver = res * e_norm / math.sqrt(max(non_emit.sum(), 1)) * amplification / b_rms
-    # FMM part
+    vis = stats.get("visibility", "none")
+    vis_kw = dict(VISIBILITY_KEYWORDS.get(vis, {}))
+    if settings is not None:
+        vis_kw = dict(settings.get("visibility_keywords", vis_kw))
     method = stats.get("method", "direct")
     e_fmm = 0.0
     rows = np.array([], dtype=np.int64)
     if method == "fmm":
+        kw = {k: stats[k] for k in _OPERATOR_STATS if k in stats}
+        kw.pop("method", None)
+        if vis != "none":
+            kw.update(vis_kw)
         if operator is None:
-            operator = TransportOperator(surfels, method="fmm", order=stats.get("order", 4),
-                                         theta=stats.get("theta", 0.5),
-                                         leaf_size=stats.get("leaf_size", DEFAULT_LEAF_SIZE),
-                                         near_field=stats.get("near_field", "disc"))
+            operator = TransportOperator(surfels, method="fmm", **kw)
         candidates = np.flatnonzero(non_emit)
         rows = np.sort(rng.choice(candidates, min(probe, len(candidates)), replace=False))
         fmm_y = operator.apply(B)[rows]
-        direct = TransportOperator(surfels, method="direct",
-                                   near_field=stats.get("near_field", "disc"))
-        exact_y = direct.apply_rows(B, rows)
+        exact_y = operator.apply_rows(B, rows)   # exact per pair, same visibility
         diff = surfels.albedo[rows] * (fmm_y - exact_y)
         e_fmm = _rms(diff) / (_rms(B[rows]) or 1.0) * amplification
+    e_occ = 0.0
+    if vis == "none" and settings is not None and settings.get("predicted", {}).get("occlusion"):
+        e_occ = float(settings["predicted"]["occlusion"])
     e_disc = None
+    source = None
     if coarse:
         from .solver import solve as _solve
         half, half_areas = _even_half(surfels)
         sub = Surfels(surfels.positions[half], surfels.normals[half], half_areas,
                       surfels.albedo[half], surfels.emission[half])
-        keys = {k: stats[k] for k in ("method", "order", "theta", "leaf_size", "near_field")
-                if k in stats}
+        keys = {k: stats[k] for k in _OPERATOR_STATS if k in stats}
         if keys.get("method") == "direct":
-            keys = {k: v for k, v in keys.items() if k in ("method", "near_field")}
+            keys = {k: v for k, v in keys.items() if k in ("method", "near_field", "visibility")}
+        if vis != "none":
+            keys.update(vis_kw)
         coarse_sol = _solve(sub, tol=max(float(stats.get("tol", 1e-6)), 1e-10), **keys)
         m = non_emit[half]
         d = _rms(coarse_sol.radiosity[m] - B[half][m]) / (_rms(B[half][m]) or 1.0)
         e_disc = d / (math.sqrt(2.0) - 1.0)
-    total = e_solver + e_fmm + (e_disc or 0.0)
-    return dict(solver=e_solver, fmm=e_fmm, discretization=e_disc, total=total,
-                numerical=e_solver + e_fmm, probe_rows=int(rows.size),
-                seconds=time.perf_counter() - t0)
+        source = "coarse"
+    elif CALIBRATION.get("kinds"):
+        k = kind or (settings or {}).get("kind") or scene_summary(surfels)["kind"]
+        e_disc = _discretization(_kind_table(k), surfels.n)
+        if e_disc is not None:
+            source = "model"
+    total = math.sqrt(e_solver ** 2 + e_fmm ** 2 + e_occ ** 2 + (e_disc or 0.0) ** 2)
+    return dict(solver=e_solver, fmm=e_fmm, occlusion=e_occ, discretization=e_disc,
+                discretization_source=source, total=total, numerical=e_solver + e_fmm,
+                probe_rows=int(rows.size), seconds=time.perf_counter() - t0)
 
 
 # --- one call ----------------------------------------------------------------------------------------
 
-def solve(surfels: Surfels, target_error, *, kind=None, allow_direct=True, estimate=True,
-          coarse=False, progress=None, **overrides):
-    """Choose settings for ``target_error`` and solve; ``stats["accuracy"]`` holds the chosen
-    settings and (``estimate=True``) the a-posteriori estimate. ``overrides`` replace chosen
+def solve(surfels: Surfels, target_error, *, kind: str | None = None, allow_direct: bool = True,
+          estimate: bool = True, coarse: bool = False, settings: dict | None = None,
+          progress=None, **overrides):
+    """Choose settings for ``target_error`` (or use ``settings``, a :func:`choose_settings`
+    result) and solve ``surfels``; ``stats["accuracy"]`` holds the chosen settings, the solve
+    keywords and (``estimate=True``) the a-posteriori estimate. ``overrides`` replace chosen
     solve keywords (e.g. ``solver="jacobi"``)."""
     from .solver import solve as _solve
-    chosen = choose_settings(surfels, target_error, kind=kind, allow_direct=allow_direct)
+    chosen = settings if settings is not None else choose_settings(
+        surfels, target_error, kind=kind, allow_direct=allow_direct)
     kw = solve_keywords(chosen)
     kw.update(overrides)
     sol = _solve(surfels, progress=progress, **kw)
     info = dict(settings=chosen, solve_keywords=kw)
     if estimate:
-        info["estimate"] = estimate_error(sol, surfels, coarse=coarse)
+        info["estimate"] = estimate_error(sol, surfels, settings=chosen, coarse=coarse, kind=kind)
     sol.stats["accuracy"] = info
     return sol
