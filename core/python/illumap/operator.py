@@ -304,7 +304,8 @@ class TransportOperator:
     @property
     def stats(self) -> dict:
         """Build statistics. With visibility: ``visibility_{valid,invalid,partial}_per_level``
-        (the model's classify() calls per level max(level(a), level(b))),
+        (the model's classify() calls per level max(level(a), level(b)); the FMM classifies
+        each unordered node pair once),
         ``lists_{valid,invalid,partial}_per_level`` (ordered pairs the traversal queried),
         ``visibility_queries`` (rays or point_visible calls), ``visibility_no_facing``,
         ``visibility_blocks`` / ``visibility_block_pairs`` (per-pair blocks computed),
