@@ -56,6 +56,23 @@ const T* view(nb::handle h, const char* name, std::size_t ndim, std::int64_t col
     return static_cast<const T*>(a.data());
 }
 
+// Checked views of the surfel arrays every constructor takes, of one common length n.
+struct SurfelViews {
+    const double *P, *N, *A;
+    std::size_t n;
+    nb::object keep[3];
+    SurfelViews(nb::handle positions, nb::handle normals, nb::handle areas) {
+        std::size_t nn, na;
+        P = view<double>(positions, "positions", 2, 3, n, keep[0]);
+        N = view<double>(normals, "normals", 2, 3, nn, keep[1]);
+        A = view<double>(areas, "areas", 1, 0, na, keep[2]);
+        if (nn != n || na != n)
+            throw nb::value_error(("positions, normals and areas must have the same length, got " +
+                                   std::to_string(n) + ", " + std::to_string(nn) + ", " +
+                                   std::to_string(na)).c_str());
+    }
+};
+
 nb::ndarray<nb::numpy, double> new_array(std::size_t rows, std::size_t cols, double** data) {
     double* p = new double[std::max<std::size_t>(1, rows * cols)]();
     nb::capsule owner(p, [](void* q) noexcept { delete[] static_cast<double*>(q); });
@@ -143,15 +160,9 @@ NB_MODULE(_core, m) {
                  if (!(theta > 0.0 && theta < 1.0)) throw nb::value_error("theta must be in (0, 1)");
                  if (leaf_size < 1) throw nb::value_error("leaf_size must be >= 1");
                  if (threads < 0) throw nb::value_error("threads must be >= 0");
-                 std::size_t np, nn, na;
-                 nb::object k1, k2, k3;
-                 const double* P = view<double>(positions, "positions", 2, 3, np, k1);
-                 const double* N = view<double>(normals, "normals", 2, 3, nn, k2);
-                 const double* A = view<double>(areas, "areas", 1, 0, na, k3);
-                 if (nn != np || na != np)
-                     throw nb::value_error(("positions, normals and areas must have the same "
-                                            "length, got " + std::to_string(np) + ", " +
-                                            std::to_string(nn) + ", " + std::to_string(na)).c_str());
+                 const SurfelViews sv(positions, normals, areas);
+                 const double *P = sv.P, *N = sv.N, *A = sv.A;
+                 const std::size_t np = sv.n;
                  OperatorOptions opt;
                  opt.fmm = method == "fmm";
                  opt.order = order;
@@ -291,15 +302,9 @@ NB_MODULE(_core, m) {
                  } catch (std::invalid_argument& e) {
                      throw nb::value_error(e.what());
                  }
-                 std::size_t np, nn, na;
-                 nb::object k1, k2, k3;
-                 const double* P = view<double>(positions, "positions", 2, 3, np, k1);
-                 const double* N = view<double>(normals, "normals", 2, 3, nn, k2);
-                 const double* A = view<double>(areas, "areas", 1, 0, na, k3);
-                 if (nn != np || na != np)
-                     throw nb::value_error(("positions, normals and areas must have the same "
-                                            "length, got " + std::to_string(np) + ", " +
-                                            std::to_string(nn) + ", " + std::to_string(na)).c_str());
+                 const SurfelViews sv(positions, normals, areas);
+                 const double *P = sv.P, *N = sv.N, *A = sv.A;
+                 const std::size_t np = sv.n;
                  std::unique_ptr<OccluderScene> scene;
                  run_released(threads, progress, [&](Context& ctx) {
                      ctx.set_phase("occluders: build", 0.0, 1.0);

@@ -21,6 +21,7 @@ import numbers
 import numpy as np
 
 from ._progress import ProgressGuard
+from .operator import read_float_array, require_finite
 from .surfels import InputError, Surfels
 
 try:
@@ -40,19 +41,12 @@ DEFAULT_ENDPOINT_OFFSET = 0.05
 
 
 def _points(name: str, value, m: int | None = None) -> np.ndarray:
-    try:
-        array = np.ascontiguousarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"{name}: cannot be read as a float array ({exc})") from None
+    array = read_float_array(value, name)
     if array.ndim != 2 or array.shape[1] != 3:
         raise InputError(f"{name}: expected shape (M, 3), got {array.shape}")
     if m is not None and array.shape[0] != m:
         raise InputError(f"{name}: expected {m} rows (as origins), got {array.shape[0]}")
-    bad = ~np.isfinite(array)
-    if bad.any():
-        k, c = np.unravel_index(int(np.flatnonzero(bad.ravel())[0]), bad.shape)
-        raise InputError(f"{name}[{k}, {c}] = {array[k, c]!r} is not finite")
-    return array
+    return require_finite(array, name)
 
 
 class Occluders:

@@ -108,19 +108,30 @@ def _check_int(name, value, low, high=None):
     return value
 
 
-def check_values(values, n: int, name: str = "values") -> np.ndarray:
-    """Validate an N×3 array of per-surfel values (finite) and return it as float64 C."""
+def read_float_array(value, name: str) -> np.ndarray:
+    """``value`` as a C-contiguous float64 array, or an InputError naming ``name``."""
     try:
-        array = np.ascontiguousarray(values, dtype=np.float64)
+        return np.ascontiguousarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise InputError(f"{name}: cannot be read as a float array ({exc})") from None
-    if array.shape != (n, 3):
-        raise InputError(f"{name}: expected shape (N, 3) = ({n}, 3), got {array.shape}")
+
+
+def require_finite(array: np.ndarray, name: str) -> np.ndarray:
+    """``array`` unchanged, or an InputError naming its first non-finite entry."""
     bad = ~np.isfinite(array)
     if bad.any():
-        k, c = np.unravel_index(int(np.flatnonzero(bad.ravel())[0]), bad.shape)
-        raise InputError(f"{name}[{k}, {c}] = {array[k, c]!r} is not finite")
+        index = np.unravel_index(int(np.flatnonzero(bad.ravel())[0]), bad.shape)
+        where = ", ".join(str(int(i)) for i in index)
+        raise InputError(f"{name}[{where}] = {array[index]!r} is not finite")
     return array
+
+
+def check_values(values, n: int, name: str = "values") -> np.ndarray:
+    """Validate an N×3 array of per-surfel values (finite) and return it as float64 C."""
+    array = read_float_array(values, name)
+    if array.shape != (n, 3):
+        raise InputError(f"{name}: expected shape (N, 3) = ({n}, 3), got {array.shape}")
+    return require_finite(array, name)
 
 
 def validate_keywords(*, method=DEFAULT_METHOD, order=DEFAULT_ORDER, theta=DEFAULT_THETA,
