@@ -114,6 +114,7 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
         rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);
         impl_->cancel = &ctx.cancel;
         rtcSetSceneProgressMonitorFunction(impl_->scene, build_progress, &ctx.cancel);
+        RTCGeometry g = nullptr;  // the occluders: quads as triangle pairs, or oriented discs
         if (n > 0 && shape == VisibilityOptions::Shape::Quad) {
             // Equal-area squares (side coverage * sqrt(A)) in each tangent plane; the frame is a
             // fixed function of the normal (Duff et al. 2017), so the build is deterministic.
@@ -122,7 +123,7 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
             // watertight, and a single quad let rays through its own diagonal (measured: lamp
             // rays through a regular grid of quads leaked at every cell's diagonal).
             constexpr double kOverlap = 0.02;
-            RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+            g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
             float* v = static_cast<float*>(rtcSetNewGeometryBuffer(
                 g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 6 * n));
             unsigned* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
@@ -153,14 +154,8 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
                     for (int k = 0; k < 6; ++k) ib[6 * i + k] = tri[k];
                 }
             });
-            float rmax = 0;
-            for (std::size_t i = 0; i < n; ++i) rmax = std::max(rmax, radius_[i]);
-            back_ = 2.5 * double(rmax);
-            rtcCommitGeometry(g);
-            rtcAttachGeometry(impl_->scene, g);
-            rtcReleaseGeometry(g);
         } else if (n > 0) {
-            RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_ORIENTED_DISC_POINT);
+            g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_ORIENTED_DISC_POINT);
             float* v = static_cast<float*>(rtcSetNewGeometryBuffer(
                 g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, 4 * sizeof(float), n));
             float* nb = static_cast<float*>(rtcSetNewGeometryBuffer(
@@ -181,6 +176,8 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
                     nb[3 * i + 2] = float(s.nz[i]);
                 }
             });
+        }
+        if (g) {
             float rmax = 0;
             for (std::size_t i = 0; i < n; ++i) rmax = std::max(rmax, radius_[i]);
             back_ = 2.5 * double(rmax);

@@ -94,6 +94,16 @@ def select_only(*objects):
         bpy.context.view_layer.objects.active = objects[0]
 
 
+def add_lamp(kind, location=(0, 0, 1), rotation=(0, 0, 0), **props):
+    """A lamp object of ``kind`` (POINT, SPOT, SUN, AREA) with the given light properties."""
+    light = bpy.data.lights.new("L" + kind, kind)
+    for k, v in props.items():
+        setattr(light, k, v)
+    obj = link(bpy.data.objects.new("L" + kind, light))
+    obj.location, obj.rotation_euler = location, rotation
+    return obj
+
+
 def make_plane(name, size=1.0, location=(0.0, 0.0, 0.0), flip=False, material=None):
     """A square quad of side ``size`` centred at ``location``, normal +Z (−Z when ``flip``)."""
     h = size / 2.0

@@ -88,22 +88,28 @@ def bake(objects, samples=256):
     return out
 
 
-def test_cornell_box_matches_cycles_bake():
-    walls, light = cornell_box()
-    pipeline.compute(bpy.context, walls + [light], pipeline.Settings(
-        density=400, method="direct", lamps=False, transfer=True, transfer_domain="POINT", tol=1e-6))
-    ours = {}
+def ours_and_cycles(walls):
+    """Illumap's per-vertex result on the walls (after pipeline.compute with transfer) and the
+    Cycles bake of the same vertices × albedo, both (V, 3) in wall order; and their relative RMS."""
+    got = []
     for o in walls:
         a = np.empty(len(o.data.vertices) * 4, np.float32)
         o.data.color_attributes["illumination"].data.foreach_get("color", a)
-        ours[o.name] = a.reshape(-1, 4)[:, :3].astype(np.float64)
+        got.append(a.reshape(-1, 4)[:, :3].astype(np.float64))
     # The surfel point cloud would render as spheres inside the box: keep it out of the bake.
     bpy.data.objects["Illumap Surfels"].hide_render = True
     incident = bake(walls)
     albedo = {"Left": RED, "Right": GREEN}
     ref = np.concatenate([incident[o.name] * albedo.get(o.name, WHITE) for o in walls])
-    got = np.concatenate([ours[o.name] for o in walls])
-    rms = np.sqrt(np.mean((got - ref) ** 2) / np.mean(ref ** 2))
+    got = np.concatenate(got)
+    return got, ref, float(np.sqrt(np.mean((got - ref) ** 2) / np.mean(ref ** 2)))
+
+
+def test_cornell_box_matches_cycles_bake():
+    walls, light = cornell_box()
+    pipeline.compute(bpy.context, walls + [light], pipeline.Settings(
+        density=400, method="direct", lamps=False, transfer=True, transfer_domain="POINT", tol=1e-6))
+    got, ref, rms = ours_and_cycles(walls)
     print(f"\nCornell box: relative RMS error Illumap vs Cycles bake = {rms:.4f} "
           f"({len(got)} vertices); mean ratio {got.mean() / ref.mean():.4f}")
     assert ref.mean() > 0.05
@@ -125,17 +131,7 @@ def test_cornell_box_lit_by_lamps_matches_cycles_bake():
     link(bpy.data.objects.new("Point", point)).location = (0.5, 0.5, 0.5)
     pipeline.compute(bpy.context, walls, pipeline.Settings(
         density=400, method="direct", lamps=True, transfer=True, transfer_domain="POINT", tol=1e-6))
-    got = []
-    for o in walls:
-        a = np.empty(len(o.data.vertices) * 4, np.float32)
-        o.data.color_attributes["illumination"].data.foreach_get("color", a)
-        got.append(a.reshape(-1, 4)[:, :3].astype(np.float64))
-    bpy.data.objects["Illumap Surfels"].hide_render = True
-    incident = bake(walls)
-    albedo = {"Left": RED, "Right": GREEN}
-    ref = np.concatenate([incident[o.name] * albedo.get(o.name, WHITE) for o in walls])
-    got = np.concatenate(got)
-    rms = np.sqrt(np.mean((got - ref) ** 2) / np.mean(ref ** 2))
+    got, ref, rms = ours_and_cycles(walls)
     print(f"\nCornell box with lamps: relative RMS error Illumap vs Cycles bake = {rms:.4f} "
           f"({len(got)} vertices); mean ratio {got.mean() / ref.mean():.4f}")
     assert ref.mean() > 0.02
@@ -180,17 +176,7 @@ def test_cornell_box_with_a_lamp_shadowed_by_a_block_matches_cycles_bake():
     result = pipeline.compute(bpy.context, walls + [block], pipeline.Settings(
         density=400, method="direct", lamps=True, lamp_shadows=True, visibility="exact",
         transfer=True, transfer_domain="POINT", tol=1e-6))
-    got = []
-    for o in walls:
-        a = np.empty(len(o.data.vertices) * 4, np.float32)
-        o.data.color_attributes["illumination"].data.foreach_get("color", a)
-        got.append(a.reshape(-1, 4)[:, :3].astype(np.float64))
-    bpy.data.objects["Illumap Surfels"].hide_render = True
-    incident = bake(walls)
-    albedo = {"Left": RED, "Right": GREEN}
-    ref = np.concatenate([incident[o.name] * albedo.get(o.name, WHITE) for o in walls])
-    got = np.concatenate(got)
-    rms = np.sqrt(np.mean((got - ref) ** 2) / np.mean(ref ** 2))
+    got, ref, rms = ours_and_cycles(walls)
     floor = bpy.data.objects["Floor"]
     co = np.array([v.co for v in floor.data.vertices])
     under = (np.abs(co[:, 0] - 0.5) < 0.1) & (np.abs(co[:, 1] - 0.5) < 0.1)

@@ -23,7 +23,8 @@ import numpy as np
 import pytest
 
 import illumap
-from illumap_bpy_testing import diffuse_material, disc_segment_query, link, make_plane
+from illumap_bpy_testing import add_lamp as add_lamp_at
+from illumap_bpy_testing import diffuse_material, disc_segment_query, make_plane
 
 from addon import lamps, pipeline
 
@@ -44,13 +45,9 @@ def segment_query(monkeypatch):
     return "core" if REAL_QUERY else "stand-in"
 
 
-def add_lamp(kind, location=(0, 0, 3), rotation=(0, 0, 0), **props):
-    light = bpy.data.lights.new("L" + kind, kind)
-    for k, v in props.items():
-        setattr(light, k, v)
-    obj = link(bpy.data.objects.new("L" + kind, light))
-    obj.location, obj.rotation_euler = location, rotation
-    return obj
+def add_lamp(kind, location=(0, 0, 3), **kwargs):
+    """A lamp 3 m above the floor unless placed elsewhere."""
+    return add_lamp_at(kind, location, **kwargs)
 
 
 def floor_and_plate(density=100.0, **settings):

@@ -9,20 +9,11 @@ import bpy
 import numpy as np
 import pytest
 
-from illumap_bpy_testing import diffuse_material, link, make_plane
+from illumap_bpy_testing import add_lamp, diffuse_material, make_plane
 
 from addon import lamps, pipeline
 
 ALBEDO = 0.5
-
-
-def add_lamp(kind, location=(0, 0, 1), rotation=(0, 0, 0), **props):
-    light = bpy.data.lights.new("L" + kind, kind)
-    for k, v in props.items():
-        setattr(light, k, v)
-    obj = link(bpy.data.objects.new("L" + kind, light))
-    obj.location, obj.rotation_euler = location, rotation
-    return obj
 
 
 def floor_job(size=4.0, density=64.0):

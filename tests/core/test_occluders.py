@@ -7,16 +7,7 @@ import pytest
 import illumap
 import illumap.scenes
 from illumap import InputError, Occluders
-
-
-def panel(origin, u, v, nu, nv, normal):
-    origin, u, v = (np.asarray(a, float) for a in (origin, u, v))
-    s = (np.arange(nu) + 0.5) / nu
-    t = (np.arange(nv) + 0.5) / nv
-    S, T = np.meshgrid(s, t, indexing="ij")
-    P = origin + S.reshape(-1, 1) * u + T.reshape(-1, 1) * v
-    A = np.full(nu * nv, np.linalg.norm(np.cross(u, v)) / (nu * nv))
-    return P, np.tile(np.asarray(normal, float), (nu * nv, 1)), A
+from illumap_core_testing import panel
 
 
 def surfels_of(parts, scale=1.0, shift=0.0):

@@ -11,23 +11,13 @@ import pytest
 
 import illumap
 from illumap.operator import VISIBILITIES
+from illumap_core_testing import panel
 
 METHODS = ("fmm", "direct")
 VIS = ("exact", "seed")
 
 
 # --- scene helpers ------------------------------------------------------------------------------
-
-def panel(origin, u, v, nu, nv, normal):
-    """Midpoint grid on origin + s u + t v (s, t in [0, 1]) with a constant normal."""
-    origin, u, v = (np.asarray(a, float) for a in (origin, u, v))
-    s = (np.arange(nu) + 0.5) / nu
-    t = (np.arange(nv) + 0.5) / nv
-    S, T = np.meshgrid(s, t, indexing="ij")
-    P = origin + S.reshape(-1, 1) * u + T.reshape(-1, 1) * v
-    A = np.full(nu * nv, np.linalg.norm(np.cross(u, v)) / (nu * nv))
-    return P, np.tile(np.asarray(normal, float), (nu * nv, 1)), A
-
 
 def box_faces(lo, hi, n_per_unit, inward):
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
