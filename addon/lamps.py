@@ -45,7 +45,6 @@ import numpy as np
 
 from .errors import IllumapCancelled
 
-Visibility = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 #: A segment query: origins (M, 3), targets (M, 3), skip (M,) surfel index to ignore per ray
 #: (-1: none) → (M,) visibility in [0, 1] (1: the segment is free).
 #: It may take a fourth argument, ``progress`` (fraction of its rays, phase) → False to cancel;
@@ -264,14 +263,6 @@ def _area(lamp: Lamp, p: np.ndarray, n: np.ndarray) -> np.ndarray:
     return out / (np.pi * lamp.area)
 
 
-def _lamp_points(lamp: Lamp) -> np.ndarray:
-    if lamp.kind == "SUN":
-        return (lamp.position - 1e6 * lamp.direction)[None, :]
-    if lamp.kind == "AREA":
-        return lamp.polygon.mean(axis=0)[None, :]
-    return lamp.position[None, :]
-
-
 def _pattern(k: int, rng: np.random.Generator, count: int) -> np.ndarray:
     """``count`` rows of k points in [0,1)²: one rank-1 lattice (well stratified in both
     axes), shifted per row at random (Cranley-Patterson rotation)."""
@@ -370,12 +361,10 @@ def lamp_visibility(lamp: Lamp, p: np.ndarray, n: np.ndarray, rows: np.ndarray,
 
 def incident_radiance(lamps: list[Lamp], positions: np.ndarray, normals: np.ndarray, *,
                       ambient: np.ndarray | None = None,
-                      visibility: Visibility | None = None,
                       shadows: Shadows | None = None) -> np.ndarray:
     """Incident radiance H (N, 3) at surfels from ``lamps`` and uniform ``ambient`` radiance.
 
-    ``shadows`` (optional) shadows each lamp by ray casting; ``visibility`` (optional, older
-    hook) multiplies each lamp's term by a callable's fraction. See the module docstring.
+    ``shadows`` (optional) shadows each lamp by ray casting; see the module docstring.
     """
     p = np.asarray(positions, dtype=np.float64)
     n = np.asarray(normals, dtype=np.float64)
@@ -399,8 +388,6 @@ def incident_radiance(lamps: list[Lamp], positions: np.ndarray, normals: np.ndar
             lit = np.flatnonzero(scalar > 0)
             if lit.size:
                 scalar[lit] *= lamp_visibility(lamp, p, n, lit, shadows)
-        if visibility is not None:
-            scalar = scalar * np.asarray(visibility(p, n, _lamp_points(lamp)), dtype=np.float64)
         h += scalar[:, None] * lamp.color[None, :]
     if shadows is not None:
         shadows.report(shadows.rays)
