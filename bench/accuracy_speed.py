@@ -2,7 +2,7 @@
 """Error against wall time for every method, on the three benchmark scenes (bench/scenes.py).
 
 Reference, per scene: the direct O(N^2) operator with exact visibility (rays against the
-surfels as discs, ``scenes.EXACT_KEYWORDS``) at high density (``--ref-n``), CG to a relative
+surfels as discs, ``scenes.exact_keywords(name)``) at high density (``--ref-n``), CG to a relative
 residual of 1e-9. Its own accuracy is checked with a second reference at half the density
 (another sampling): their difference d, gathered at the half reference's points, bounds what
 the reference resolves (``reference.check``; with error ~ N^-a, the reference's own error is
@@ -47,7 +47,11 @@ import scenes as S  # noqa: E402
 ORDERS = (0, 2, 3, 4, 6, 8)
 VISIBILITY_MODES = ("none", "seed", "exact")
 SOLVE_TOL = 1e-4
-AUTO_TARGETS = (0.1, 0.03, 0.01, 0.003)
+AUTO_TARGETS = (0.1, 0.05, 0.03, 0.01, 0.003)
+#: The automatic mode samples its scenes with another seed than the sweep that calibrates it
+#: (out of sample: another random room, another grid shift of the scan, other triangle
+#: samples; the Cornell grid has only one)
+AUTO_SEED = 1
 
 #: ref_n: requested size of the reference (the bunny scene has ~1.5 n surfels); sizes: the
 #: densities swept (per scene in full mode: the scan's curved surfaces cost more); direct_vis_max: largest N for the direct operator with visibility (N^2 rays)
@@ -56,15 +60,16 @@ AUTO_TARGETS = (0.1, 0.03, 0.01, 0.003)
 QUICK = dict(ref_n=dict(cornell=12000, bunny=8000, interior=12000), sizes=(500, 1000, 2000, 4000),
              direct_max=8000, direct_vis_max=dict(seed=2500, exact=4500), error_points=800,
              high_order_max=10 ** 9, seed_max=10 ** 9)
-FULL = dict(ref_n=dict(cornell=24000, bunny=8000, interior=24000),
+FULL = dict(ref_n=dict(cornell=24000, bunny=S.BUNNY_MAX, interior=24000),
             sizes=dict(cornell=(500, 1000, 2000, 4000, 8000),
-                       interior=(500, 1000, 2000, 4000, 8000),
-                       bunny=(500, 1000, 2000, 4000)), direct_max=8500,
-            direct_vis_max=dict(seed=3000, exact=8500), error_points=1200,
+                       cornell_mesh=(500, 1000, 2000, 4000, 8000),
+                       interior=(500, 1000, 2000, 3000, 4000, 6000, 8000),
+                       bunny=(500, 1000, 2000, 3000, 4000, 6000, 8000)), direct_max=8500,
+            direct_vis_max=dict(seed=3000, exact=12500), error_points=1200,
             high_order_max=2500, seed_max=4500)
-#: The bunny's reference stays at 12k surfels: at 25k it differs from the 12k one by 8.3%, more
-#: than the 12k one from the 6k one (6.1%): with exact visibility, random subsets of the scan
-#: do not converge further at these densities (docs/benchmarks.md).
+#: The bunny's reference is the whole scan (77k surfels with its floor), its check the scan
+#: decimated evenly to half. (Random subsets of the scan did not converge: their gaps leak light
+#: through the ears at every density; docs/benchmarks.md.)
 
 
 def cache_dir():
@@ -84,35 +89,35 @@ def available_visibilities():
     return ok, missing
 
 
-def vis_keywords(vis):
+def vis_keywords(vis, name):
     if vis == "none":
         return {}
     if vis == "exact":
-        return dict(visibility="exact", **S.EXACT_KEYWORDS)
+        return dict(visibility="exact", **S.exact_keywords(name))
     return dict(visibility=vis)
 
 
-def settings(orders, visibilities):
+def settings(orders, visibilities, name):
     """Every hand-picked setting: (family, label, solve keywords)."""
     out = []
     for vis in visibilities:
         out.append((f"direct/{vis}", f"direct vis={vis}",
-                    dict(method="direct", solver="auto", tol=SOLVE_TOL, **vis_keywords(vis))))
+                    dict(method="direct", solver="auto", tol=SOLVE_TOL, **vis_keywords(vis, name))))
         for p in orders:
             out.append((f"fmm/{vis}", f"FMM p={p} vis={vis}",
                         dict(method="fmm", order=p, theta=0.5, solver="auto", tol=SOLVE_TOL,
-                             **vis_keywords(vis))))
+                             **vis_keywords(vis, name))))
     if "exact" in visibilities:
         for theta in (0.3, 0.2):
             for p in (2, 3, 4):
                 out.append((f"fmm/exact/θ{theta}", f"FMM p={p} vis=exact θ={theta}",
                             dict(method="fmm", order=p, theta=theta, solver="auto",
-                                 tol=SOLVE_TOL, **vis_keywords("exact"))))
+                                 tol=SOLVE_TOL, **vis_keywords("exact", name))))
     vis = "exact" if "exact" in visibilities else "none"
     for solver in ("jacobi", "cg", "gmres"):
         out.append(("solver", f"{solver} (FMM p=4, vis={vis}, θ=0.2)",
                     dict(method="fmm", order=4, theta=0.2, solver=solver, tol=SOLVE_TOL,
-                         **vis_keywords(vis))))
+                         **vis_keywords(vis, name))))
     return out
 
 
@@ -137,7 +142,7 @@ def cached_reference(name, n, seed):
     exact-visibility keywords and the source of the scene's code (not by core commit: a core
     that computes the same operator faster reuses it; ``info["core"]`` says which core solved
     it)."""
-    key = hashlib.sha1(json.dumps([name, n, seed, S.EXACT_KEYWORDS, S.source_hash(name)])
+    key = hashlib.sha1(json.dumps([name, n, seed, S.exact_keywords(name), S.source_hash(name)])
                        .encode()).hexdigest()[:12]
     path = os.path.join(cache_dir(), f"ref_{name}_{n}_{key}.npz")
     ref = S.build(name, n, seed=seed)
@@ -147,7 +152,7 @@ def cached_reference(name, n, seed):
             info = json.loads(str(z["info"]))
             return ref, z["B"], dict(info, cached=True)
     t = time.perf_counter()
-    sol = S.reference_solution(ref)
+    sol = S.reference_solution(ref, name)
     info = dict(time=time.perf_counter() - t, iterations=sol.iterations,
                 core=S.provenance(), date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()))
     np.savez(path, B=sol.radiosity, info=json.dumps(info))
@@ -155,12 +160,16 @@ def cached_reference(name, n, seed):
 
 
 def reference(name, cfg, log):
+    """The reference of scene ``name`` (that of ``S.reference_scene(name)``) and its check
+    against the half-density one."""
+    name = S.reference_scene(name)
     n = cfg["ref_n"][name]
     ref, B, info = cached_reference(name, n, 12345)
     half, Bh, hinfo = cached_reference(name, n // 2, 54321)
     idx = S.error_subset(half, cfg["error_points"])
-    d = S.relative_rms(Bh[idx], S.reference_at(ref, B, S.subset(half, idx)))
-    out = dict(n=ref.n, visibility="exact", keywords=S.EXACT_KEYWORDS, time=info["time"],
+    d = S.relative_rms(Bh[idx], S.reference_at(ref, B, S.subset(half, idx), name))
+    out = dict(scene=name, n=ref.n, visibility="exact", keywords=S.exact_keywords(name),
+               time=info["time"],
                iterations=info["iterations"], cached=info["cached"], core=info["core"],
                date=info["date"], half_n=half.n, half_time=hinfo["time"], check=d,
                floor=d / (2 ** 0.5 - 1))
@@ -177,8 +186,8 @@ def run_scene(name, cfg, visibilities, auto_targets, log, sweep=True, hand=None)
     for n in (sizes if sweep else ()):
         q = S.build(name, n)
         idx = S.error_subset(q, cfg["error_points"])
-        B_ref = S.reference_at(ref, ref_B, S.subset(q, idx))
-        for family, label, kw in settings(ORDERS, visibilities):
+        B_ref = S.reference_at(ref, ref_B, S.subset(q, idx), ref_info["scene"])
+        for family, label, kw in settings(ORDERS, visibilities, name):
             if kw["method"] == "direct" and q.n > (
                     cfg["direct_max"] if "visibility" not in kw
                     else cfg["direct_vis_max"][kw["visibility"]]):
@@ -195,19 +204,25 @@ def run_scene(name, cfg, visibilities, auto_targets, log, sweep=True, hand=None)
             log(f"  {name} N={q.n:6d} {label:36s} {dt:8.3f}s err={err:.4f} "
                 f"it={sol.iterations}")
     for target in auto_targets:
-        points.append(run_auto(name, target, ref, ref_B, ref_info, cfg, log,
-                               points if hand is None else hand))
+        for adaptive in ((True, False) if name in S.TRIANGLE_SCENES else (True,)):
+            points.append(run_auto(name, target, ref, ref_B, ref_info, cfg, log,
+                                   points if hand is None else hand, adaptive=adaptive))
     return dict(reference=ref_info, points=points)
 
 
-def run_auto(name, target, ref, ref_B, ref_info, cfg, log, hand=()):
+def run_auto(name, target, ref, ref_B, ref_info, cfg, log, hand=(), adaptive=True):
     """The automatic mode at ``target``: choose the density for the scene, sample it, then
-    ``illumap.accuracy.solve`` (settings, visibility probe and solve, all timed). The best
-    hand-picked setting for that error (the fastest sweep point within the target) is timed
-    again right after it, in the same process, for the time ratio."""
+    ``illumap.accuracy.solve`` (settings, visibility probe and solve, all timed); on a mesh
+    scene (``cornell_mesh``) ``illumap.accuracy.solve_triangles`` (sampling, and with
+    ``adaptive`` both passes, all timed). The best hand-picked setting for that error (the
+    fastest sweep point within the target) is timed again right after it, in the same
+    process, for the time ratio."""
     from illumap import accuracy
     kind = S.KIND[name]
-    base = dict(scene=name, family="auto", label=f"auto {target:g}", target=target)
+    mesh = name in S.TRIANGLE_SCENES
+    label = f"auto {target:g}" + ("" if adaptive or not mesh else " uniform")
+    base = dict(scene=name, family="auto", label=label, target=target,
+                adaptive=bool(mesh and adaptive))
     if target < 1.5 * ref_info["check"]:
         log(f"  {name} auto target={target:g}: below 1.5 x the reference check "
             f"({ref_info['check']:.4f}); not run")
@@ -222,29 +237,51 @@ def run_auto(name, target, ref, ref_B, ref_info, cfg, log, hand=()):
             f"reference (N={ref.n}) resolves; not run")
         return dict(base, n=chosen["n"], time=None, error=None, chosen=chosen,
                     skipped=f"needs N={chosen['n']}, beyond the reference (N={ref.n})")
-    q = S.build_at_least(name, chosen["n"])
+    if mesh:
+        (sol, q), dt = best_of_three(lambda: timed_auto_mesh(name, target, kind, adaptive))
+    else:
+        q = S.build_at_least(name, chosen["n"], seed=AUTO_SEED)
+        sol, dt = best_of_three(lambda: timed_auto(q, target, kind))
     idx = S.error_subset(q, cfg["error_points"])
-    B_ref = S.reference_at(ref, ref_B, S.subset(q, idx))
-    sol, dt = best_of_three(lambda: timed_auto(q, target, kind))
+    B_ref = S.reference_at(ref, ref_B, S.subset(q, idx), ref_info["scene"])
     err = S.relative_rms(sol.radiosity[idx], B_ref)
     info = sol.stats["accuracy"]
-    est = accuracy.estimate_error(sol, q, settings=info["settings"])
-    log(f"  {name} N={q.n:6d} auto target={target:<6g} {dt:8.3f}s err={err:.4f} "
-        f"estimate={est['total']:.4f} {info['solve_keywords']}")
+    est = accuracy.estimate_error(sol, q, settings=info["settings"], kind=kind)
+    log(f"  {name} N={q.n:6d} {label:18s} {dt:8.3f}s err={err:.4f} "
+        f"estimate={est['total']:.4f} {info['solve_keywords']}"
+        + (f" passes={info['passes']}" if mesh else ""))
     out = dict(base, n=q.n, time=dt, error=err, iterations=sol.iterations,
                converged=sol.converged, settings=info["solve_keywords"],
-               chosen=info["settings"], estimate=est)
+               chosen=info["settings"], estimate=est, passes=info.get("passes"))
     ok = [p for p in hand if p.get("family") not in ("auto", None) and p.get("time")
           and p["error"] <= target and "size" in p]
-    if ok:
-        best = min(ok, key=lambda p: p["time"])
+    # the cheapest sweep point within the target; and the cheapest whose setting stays within
+    # it at every larger density swept (on a noisy curve the first can be a lucky sampling)
+    steady = [p for p in ok if all(o["error"] <= target for o in hand
+                                   if o.get("label") == p["label"] and o.get("time")
+                                   and o["n"] >= p["n"])]
+    for key, pool in (("best_hand", ok), ("best_steady", steady)):
+        if not pool:
+            continue
+        best = min(pool, key=lambda p: p["time"])
         qh = S.build(name, best["size"])
         _, th = best_of_three(lambda: timed_solve(qh, best["settings"]))
-        out["best_hand"] = dict(label=best["label"], n=qh.n, error=best["error"],
-                                sweep_time=best["time"], time=th, ratio=dt / th)
-        log(f"  {name} best hand-picked at {target:g}: {best['label']} N={qh.n} {th:.3f}s "
+        out[key] = dict(label=best["label"], n=qh.n, error=best["error"],
+                        sweep_time=best["time"], time=th, ratio=dt / th)
+        log(f"  {name} {key} at {target:g}: {best['label']} N={qh.n} {th:.3f}s "
             f"(sweep {best['time']:.3f}s) -> auto/best = {dt / th:.2f}")
     return out
+
+
+def timed_auto_mesh(name, target, kind, adaptive):
+    """accuracy.solve_triangles on scene ``name``'s triangles: ((solution, surfels), s)."""
+    from illumap import accuracy
+    corners, albedo, emission, keep = S.TRIANGLE_SCENES[name]()
+    t = time.perf_counter()
+    sol, q = accuracy.solve_triangles(corners, albedo, emission, target, kind=kind,
+                                      adaptive=adaptive, keep=keep, estimate=False,
+                                      seed=AUTO_SEED)
+    return (sol, q), time.perf_counter() - t
 
 
 def timed_auto(q, target, kind):
@@ -274,7 +311,7 @@ def main(argv=None):
         print(f"visibility={m!r}: skipped, {why}", flush=True)
     results = dict(mode="full" if args.full else "quick", config=cfg, solve_tol=SOLVE_TOL,
                    visibilities=visibilities, unavailable=unavailable,
-                   exact_keywords=S.EXACT_KEYWORDS,
+                   exact_keywords={n: S.exact_keywords(n) for n in S.SCENES},
                    machine=dict(platform=platform.platform(), cpus=os.cpu_count(),
                                 threads=illumap._core.hardware_threads()),
                    core=S.provenance(),

@@ -8,8 +8,8 @@ setting, fits
 * error(N): the measured errors as a non-increasing upper envelope (interpolated log-log by
   illumap.accuracy), with a fitted slope a (error ~ N^-a) for extrapolation beyond the largest N;
   errors below the reference's half-density check are raised to it (not resolved);
-* time(N): the measured wall times (interpolated log-log), with the slope of the last two
-  sizes for extrapolation.
+* time(N): the measured wall times as a non-decreasing lower envelope (interpolated log-log),
+  with the slope of the last two sizes for extrapolation.
 
 and writes them between the calibration markers of core/python/illumap/accuracy.py
 (``CALIBRATION``), with the run's date and core commit.
@@ -65,15 +65,18 @@ def fit_error(points, floor):
 
 
 def fit_time(points):
-    """Measured times against N (the least per N), and the log-log slope of the last two for
-    extrapolation (clamped to [1, 2.5])."""
+    """Measured times against N (the least per N) as a non-decreasing lower envelope (each
+    value the least time measured at that N or above: on a shared machine noise only ever
+    adds time, so a small size timed slower than a larger one was disturbed), and the log-log
+    slope of the last two for extrapolation (clamped to [1, 2.5])."""
     by_n = {}
     for p in points:
         by_n[p["n"]] = min(by_n.get(p["n"], math.inf), p["time"])
     ns = sorted(by_n)
-    pts = [[int(n), _sig(by_n[n])] for n in ns]
-    if len(ns) >= 2:
-        beta = math.log(by_n[ns[-1]] / by_n[ns[-2]]) / math.log(ns[-1] / ns[-2])
+    fitted = np.minimum.accumulate([by_n[n] for n in reversed(ns)])[::-1]
+    pts = [[int(n), _sig(t)] for n, t in zip(ns, fitted)]
+    if len(ns) >= 2 and fitted[-1] > fitted[-2]:
+        beta = math.log(fitted[-1] / fitted[-2]) / math.log(ns[-1] / ns[-2])
     else:
         beta = 1.0
     return dict(points=pts, slope=_sig(min(max(beta, 1.0), 2.5)))

@@ -2,8 +2,8 @@
 """Cycles "Bake to Color Attribute" against Illumap on the same vertices (the Cornell box).
 
 For each grid n, the Cornell box of bench/scenes.py (with its two blocks) is built as Blender
-meshes whose interior vertices are exactly Illumap's surfels (``scenes.cornell_mesh``). Cycles
-bakes ``bpy.ops.object.bake(type='DIFFUSE', pass_filter={'DIRECT','INDIRECT'},
+meshes whose interior vertices are exactly Illumap's surfels
+(``scenes.cornell_grid_meshes``). Cycles bakes ``bpy.ops.object.bake(type='DIFFUSE', pass_filter={'DIRECT','INDIRECT'},
 target='VERTEX_COLORS')`` into a POINT FLOAT_COLOR attribute at 4 ... 4096 samples (CPU, 64
 diffuse bounces, no clamping, no world); that is incident radiance, and the outgoing radiance is
 ``albedo x baked + emission`` (DESIGN.md section 4). The bake call alone is timed (scene set-up
@@ -37,7 +37,7 @@ SAMPLES = (4, 16, 64, 256, 1024, 4096)
 #: grids stop at fewer samples
 QUICK = dict(grids=((8, SAMPLES[:4]), (14, SAMPLES[:3])))
 FULL = dict(grids=((8, SAMPLES), (14, SAMPLES[:5]), (20, SAMPLES[:4]), (26, SAMPLES[:3])))
-EXACT = dict(visibility="exact", **S.EXACT_KEYWORDS)
+EXACT = dict(visibility="exact", **S.exact_keywords("cornell"))
 ILLUMAP_SETTINGS = [
     ("FMM p=3 vis=none", dict(method="fmm", order=3, theta=0.5, tol=1e-4)),
     ("FMM p=2 vis=exact θ=0.3", dict(method="fmm", order=2, theta=0.3, tol=1e-4, **EXACT)),
@@ -69,7 +69,7 @@ def _material(bpy, name, albedo=None, emission=None):
 def build_blender_scene(bpy, n):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     walls = []
-    for w in S.cornell_mesh(n):
+    for w in S.cornell_grid_meshes(n):
         mesh = bpy.data.meshes.new(w["name"])
         mesh.from_pydata([tuple(p) for p in w["verts"]], [], [tuple(f) for f in w["faces"]])
         mesh.validate()
@@ -146,7 +146,7 @@ def main(argv=None):
     for n, sample_counts in cfg["grids"]:
         surf = S.cornell(n)
         idx = S.error_subset(surf, acfg["error_points"])
-        B_ref = S.reference_at(ref, ref_B, S.subset(surf, idx))
+        B_ref = S.reference_at(ref, ref_B, S.subset(surf, idx), "cornell")
         runs = [(label, lambda kw=kw: AS.timed_solve(surf, kw), kw)
                 for label, kw in ILLUMAP_SETTINGS]
         runs += [(f"auto {t:g}", lambda t=t: AS.timed_auto(surf, t, "grid"), None)

@@ -58,7 +58,7 @@ n, scene, method, order, theta, tol, vis = (int(sys.argv[1]), sys.argv[2], sys.a
                                             float(sys.argv[6]), sys.argv[8])
 s = S.build(scene, n, seed=1)
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-kw = {} if vis == "none" else dict(visibility=vis, **S.EXACT_KEYWORDS)
+kw = {} if vis == "none" else dict(visibility=vis, **S.exact_keywords(scene))
 t = time.perf_counter()
 op = illumap.TransportOperator(s, method=method, order=order, theta=theta, **kw)
 t_build = time.perf_counter() - t

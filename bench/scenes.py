@@ -7,10 +7,10 @@ Three scenes, each built at a requested density so that error can be charted aga
   (Cornell's published footprints and heights): occluders, so visibility matters. Every wall is
   an n x n grid of cells, each block face and the light a grid of cells of about the same size,
   with a surfel at each midpoint; Cycles bakes at exactly the same points (bench/cycles_bake.py
-  builds meshes from ``cornell_mesh`` whose interior vertices are those midpoints).
+  builds meshes from ``cornell_grid_meshes`` whose interior vertices are those midpoints).
   ``cornell_geometry`` gives the same box as planar quads (for other samplings).
 * ``bunny(n)`` -- the Stanford bunny scan (Turk and Levoy, Stanford 3D Scanning Repository,
-  1994) as a raw point cloud: vertices only, normals estimated by PCA over 12 nearest
+  1994) as a raw point cloud, decimated evenly to the requested density: vertices only, normals estimated by PCA over 12 nearest
   neighbours and oriented away from the centroid, areas from the local point spacing; on a
   grey floor under an emissive square. The data stay outside the extension
   (/work/shared/data/stanford-bunny or $ILLUMAP_BUNNY).
@@ -29,6 +29,7 @@ import os
 import numpy as np
 
 import illumap
+from illumap import accuracy, sampling
 from illumap import scenes as core_scenes
 
 BOX = 0.556
@@ -41,16 +42,20 @@ BUNNY_PLY = os.environ.get("ILLUMAP_BUNNY",
 BUNNY_CREDIT = ("Stanford Bunny: Stanford 3D Scanning Repository, Stanford University Computer "
                 "Graphics Laboratory (Greg Turk and Marc Levoy, 1994)")
 
-SCENES = ("cornell", "bunny", "interior")
+SCENES = ("cornell", "cornell_mesh", "bunny", "interior")
 
-#: Keywords of ``visibility="exact"`` used by the references and the benchmarks: occluders within
-#: one disc radius of either end of a ray are ignored. With the operator's default (0.05 radius)
-#: the neighbours' discs on a curved or scanned surface shadow a surfel's own grazing rays: on the
-#: bunny scan the median radiosity of the bunny comes out 3x lower (0.03 against 0.07-0.08),
-#: and it changes with density; from 0.5 radius on it is stable (docs/benchmarks.md).
-EXACT_KEYWORDS = dict(endpoint_offset=1.0)
-#: Surfels of bunny(n) with every scan point (35,947 of them are 70%)
-BUNNY_MAX = 51000
+#: Keywords of ``visibility="exact"`` used by the references and the benchmarks, per scene: those
+#: of the automatic mode for the scene's kind (``illumap.accuracy.EXACT_KEYWORDS``: one-radius
+#: endpoint trim; discs 1.3 spacings wide on the grid, 1.7 on random samples and the scan). With
+#: the operator's default trim (0.05 radius) the neighbours' discs on a curved or scanned
+#: surface shadow a surfel's own grazing rays (docs/benchmarks.md).
+def exact_keywords(name):
+    """The exact-visibility keywords of scene ``name``."""
+    return accuracy.visibility_keywords("exact", KIND[name])
+
+
+#: Surfels of bunny(n) with every scan point (35,947 of them, 70% of n)
+BUNNY_MAX = 52000
 
 
 # ------------------------------------------------------------------------------------------------
@@ -144,7 +149,7 @@ def _grid_mesh(origin, u, v, nu, nv):
     return verts, faces, interior.reshape(-1)
 
 
-def cornell_mesh(n, blocks=True):
+def cornell_grid_meshes(n, blocks=True):
     """The Cornell box (``cornell_geometry``) as grid meshes whose interior vertices are the
     surfels of ``cornell(n, blocks)``.
 
@@ -181,10 +186,10 @@ def cornell_mesh(n, blocks=True):
 
 
 def cornell(n, blocks=True):
-    """Surfels at the cell midpoints of ``cornell_mesh(n, blocks)``: about 6 n^2 on the walls
-    and the blocks' faces, then the light's emitter surfels last."""
+    """Surfels at the cell midpoints of ``cornell_grid_meshes(n, blocks)``: about 6 n^2 on
+    the walls and the blocks' faces, then the light's emitter surfels last."""
     P, N, A, R, E = [], [], [], [], []
-    for w in cornell_mesh(n, blocks):
+    for w in cornell_grid_meshes(n, blocks):
         pts = w["verts"][w["surfel"]]
         k = len(pts)
         P.append(pts)
@@ -193,6 +198,38 @@ def cornell(n, blocks=True):
         R.append(np.tile(w["albedo"], (k, 1)))
         E.append(np.tile(w["emission"], (k, 1)))
     return illumap.Surfels(*(np.concatenate(x) for x in (P, N, A, R, E)))
+
+
+def cornell_triangles(blocks=True):
+    """The Cornell box (``cornell_geometry``) as a triangle soup for mesh sampling:
+    corners (T, 3, 3), albedo (T, 3), emission (T, 3), and ``keep(positions) -> bool``, false
+    for points of the floor under a block or of the ceiling behind the light (no surfel of
+    ``cornell(n)`` lies there either)."""
+    corners, albedo, emission = [], [], []
+    for q in cornell_geometry(blocks):
+        o, u, v = q["origin"], q["u"], q["v"]
+        for tri in ((o, o + u, o + u + v), (o, o + u + v, o + v)):
+            corners.append(tri)
+            albedo.append(q["albedo"])
+            emission.append(q["emission"])
+
+    def keep(p):
+        under = (np.abs(p[:, 2]) < 1e-9) & _inside_footprints(p[:, :2]) if blocks else False
+        behind = ((np.abs(p[:, 2] - BOX) < 1e-9) & (np.abs(p[:, 0] - BOX / 2) < LIGHT_HALF[0])
+                  & (np.abs(p[:, 1] - BOX / 2) < LIGHT_HALF[1]))
+        return ~(under | behind)
+    return np.array(corners), np.array(albedo), np.array(emission), keep
+
+
+def cornell_sampled(n, seed=0):
+    """About ``n`` surfels on ``cornell_triangles()``: stratified, uniform density
+    (``illumap.sampling.sample_triangles``, as the add-on samples meshes), without those
+    ``keep`` drops."""
+    corners, albedo, emission, keep = cornell_triangles()
+    s = sampling.sample_triangles(corners, int(n), np.random.default_rng(seed))
+    m = keep(s.positions)
+    tri = s.triangle[m]
+    return illumap.Surfels(s.positions[m], s.normals[m], s.areas[m], albedo[tri], emission[tri])
 
 
 #: Surfels per wall-cell count n^2 of ``cornell(n)`` with blocks (walls 5 n^2, blocks ~1.2 n^2
@@ -248,13 +285,13 @@ def estimate_normals_areas(points, k=12, orient_from=None):
 
 
 def bunny(n, seed=0):
-    """About ``n`` surfels: a random subset of the scan (up to all 35,947 points) plus a floor
-    and an emitter in proportion (the scan keeps ~70% of the surfels)."""
-    rng = np.random.default_rng(seed)
+    """About ``n`` surfels: the scan decimated evenly (``illumap.sampling.thin_points``, the
+    grid shifted by ``seed``; up to all 35,947 points) plus a floor and an emitter in
+    proportion (the scan keeps ~70% of the surfels)."""
     pts = bunny_points()
-    m = min(len(pts), max(200, int(0.7 * n)))
-    pick = np.sort(rng.choice(len(pts), m, replace=False)) if m < len(pts) else np.arange(m)
-    sub = pts[pick]
+    pick = sampling.thin_points(pts, min(len(pts), max(200, int(0.7 * n))),
+                                np.random.default_rng(seed))
+    sub, m = pts[pick], len(pick)
     # normals from the whole scan (as a scanner's software gives them), areas from the subset's
     # own spacing
     if "normals" not in _BUNNY_CACHE:
@@ -299,7 +336,16 @@ def interior(n, seed=0):
 
 
 #: The accuracy mode's scene kind per benchmark scene (how its surfels are sampled)
-KIND = {"cornell": "grid", "bunny": "point_cloud", "interior": "random"}
+KIND = {"cornell": "grid", "cornell_mesh": "mesh", "bunny": "point_cloud", "interior": "random"}
+#: Scenes given as triangles too (the automatic mode samples them itself, adaptively)
+TRIANGLE_SCENES = {"cornell_mesh": lambda: cornell_triangles()}
+#: The scene whose reference a scene is measured against (the same geometry sampled otherwise)
+REFERENCE_SCENE = {"cornell_mesh": "cornell"}
+
+
+def reference_scene(name):
+    """The scene whose converged reference measures scene ``name``."""
+    return REFERENCE_SCENE.get(name, name)
 
 
 def max_surfels(name):
@@ -311,6 +357,8 @@ def build(name, n, seed=0):
     """Scene ``name`` with about ``n`` surfels."""
     if name == "cornell":
         return cornell(cornell_n_for(n))
+    if name == "cornell_mesh":
+        return cornell_sampled(n, seed=seed)
     if name == "bunny":
         return bunny(n, seed=seed)
     if name == "interior":
@@ -319,32 +367,39 @@ def build(name, n, seed=0):
 
 
 def build_at_least(name, count, seed=0):
-    """Scene ``name`` with at least ``count`` surfels (the fewest the scene's sampling gives,
-    up to what a scan holds)."""
-    n = max(int(count), 2)
-    q = build(name, n, seed=seed)
-    for _ in range(6):
-        if q.n >= count:
+    """Scene ``name`` with at least ``count`` surfels, and not many more (within about 3%, or
+    as close as the scene's sampling steps allow; a scan stops at its points). ``build(name,
+    n)`` gives only about n surfels (the bunny about 1.5 n), so the request is rescaled."""
+    count = max(int(count), 2)
+    n = count
+    best = None
+    for _ in range(8):
+        q = build(name, n, seed=seed)
+        if q.n >= count and (best is None or q.n < best.n):
+            best = q
+        if best is not None and best.n <= 1.03 * count:
             break
-        n = int(math.ceil(n * count / q.n * 1.02)) + 1
-        q2 = build(name, n, seed=seed)
-        if q2.n <= q.n:   # a scan cannot grow past its points
-            break
-        q = q2
-    return q
+        if q.n < count and best is None and n >= 4 * count:   # a scan cannot grow past it
+            return q
+        step = count / q.n * (1.01 if q.n < count else 1.0)
+        n_next = max(2, int(math.ceil(n * step)) + (1 if q.n < count else 0))
+        if n_next == n:
+            n_next = n + 1 if q.n < count else n - 1
+        n = n_next
+    return best if best is not None else q
 
 
 # ------------------------------------------------------------------------------------------------
 # reference and error
 
-def reference_solution(surfels, tol=1e-9, visibility="exact"):
-    """The converged reference: direct O(N^2) operator (with ``visibility``, default exact
-    ray casting), CG to ``tol``."""
-    kw = EXACT_KEYWORDS if visibility == "exact" else {}
+def reference_solution(surfels, name, tol=1e-9, visibility="exact"):
+    """The converged reference of scene ``name``: direct O(N^2) operator (with
+    ``visibility``, default exact ray casting), CG to ``tol``."""
+    kw = exact_keywords(name) if visibility == "exact" else {}
     return illumap.solve(surfels, method="direct", tol=tol, visibility=visibility, **kw)
 
 
-def reference_at(ref, ref_B, query, chunk=2048, visibility="exact"):
+def reference_at(ref, ref_B, query, name, chunk=2048, visibility="exact"):
     """Exact gather of the reference radiosity at the points of ``query`` (Surfels):
     ``B_q = E_q + rho_q sum_j F_qj V_qj B_j``, one ray per facing pair with ``visibility``
     (default exact). Each query point takes the area of its nearest reference surfel, so that
@@ -363,7 +418,7 @@ def reference_at(ref, ref_B, query, chunk=2048, visibility="exact"):
     if visibility == "none":
         op = illumap.TransportOperator(union, method="direct")
     else:
-        kw = EXACT_KEYWORDS if visibility == "exact" else {}
+        kw = exact_keywords(name) if visibility == "exact" else {}
         op = illumap.TransportOperator(union, method="fmm", order=0, visibility=visibility,
                                        **kw)
     x = np.concatenate([ref_B, np.zeros((nq, 3))])
@@ -424,10 +479,11 @@ def source_hash(name) -> str:
     """A hash of the code that builds scene ``name`` and its reference (cache key)."""
     import hashlib
     import inspect
+    name = reference_scene(name)
     funcs = {"cornell": (cornell_geometry, block_footprints, _inside_footprints, _grid_mesh,
-                         cornell_mesh, cornell, cornell_n_for),
-             "bunny": (bunny_points, estimate_normals_areas, bunny),
+                         cornell_grid_meshes, cornell, cornell_n_for),
+             "bunny": (bunny_points, estimate_normals_areas, sampling.thin_points, bunny),
              "interior": (interior, core_scenes.box_room)}[name]
-    text = "".join(inspect.getsource(f) for f in funcs + (build, reference_solution))
+    text = "".join(inspect.getsource(f) for f in funcs + (reference_solution,))
     return hashlib.sha1(text.encode()).hexdigest()
 

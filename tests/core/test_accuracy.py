@@ -56,10 +56,10 @@ def test_requested_error_is_met_on_each_benchmark_scene(name, target, ref_n):
     assert settings["visibility"] != "none"   # all three scenes have occluders
     assert sol.converged
     ref = S.build(name, ref_n, seed=12345)
-    ref_sol = S.reference_solution(ref, tol=1e-8)
+    ref_sol = S.reference_solution(ref, name, tol=1e-8)
     idx = S.error_subset(q, 600)
     err = S.relative_rms(sol.radiosity[idx], S.reference_at(ref, ref_sol.radiosity,
-                                                            S.subset(q, idx)))
+                                                            S.subset(q, idx), name))
     assert err <= target, (name, settings, err)
     assert info["estimate"]["total"] > 0
 
@@ -69,7 +69,7 @@ def test_numerical_error_of_the_chosen_settings_stays_within_the_target():
     direct exact-visibility solution of the same surfels."""
     q = S.build("cornell", 1200)
     exact = illumap.solve(q, method="direct", visibility="exact", tol=1e-9,
-                          **accuracy.VISIBILITY_KEYWORDS["exact"])
+                          **accuracy.visibility_keywords("exact", "grid"))
     for target in (0.3, 0.1):
         sol = accuracy.solve(q, target, kind="grid", allow_direct=False)
         assert sol.stats["method"] == "fmm"
@@ -143,7 +143,9 @@ def test_calibration_is_present_for_every_kind():
             assert all(e > 0 for e in errors), (kind, label)
             assert all(a >= b for a, b in zip(errors, errors[1:])), (kind, label)  # envelope
             assert 0 < entry["error"]["slope"] <= 1.2 and 1 <= entry["cost"]["slope"] <= 2.5
-            assert all(t > 0 for _, t in entry["cost"]["points"]), (kind, label)
+            costs = [t for _, t in entry["cost"]["points"]]
+            assert all(t > 0 for t in costs), (kind, label)
+            assert all(a <= b for a, b in zip(costs, costs[1:])), (kind, label)  # envelope
 
 
 def test_solve_with_target_error_chooses_and_reports_settings():
@@ -160,3 +162,55 @@ def test_solve_with_target_error_chooses_and_reports_settings():
     assert jac.stats["accuracy"]["solve_keywords"]["solver"] == "jacobi"
     ref = illumap.solve(q, method="direct", tol=1e-10)
     assert _rel(sol.radiosity, ref.radiosity, q.emission) < 0.1
+
+
+def test_exact_visibility_keywords_follow_the_sampling():
+    """Grids close their holes with 1.3-spacing discs; irregular samples (meshes sampled at
+    random or stratified, scans) need 1.7."""
+    assert accuracy.visibility_keywords("exact", "grid").get("coverage", 1.3) == 1.3
+    for kind in ("mesh", "random", "point_cloud"):
+        assert accuracy.visibility_keywords("exact", kind)["coverage"] == 1.7
+        assert accuracy.visibility_keywords("exact", kind)["endpoint_offset"] == 1.0
+    assert accuracy.visibility_keywords("none", "grid") == {}
+    with pytest.raises(illumap.InputError, match="kind"):
+        accuracy.visibility_keywords("exact", "voxels")
+
+
+def test_mesh_sampled_adaptively_meets_the_target_and_beats_uniform_sampling():
+    """solve_triangles on the Cornell box's triangles: the count comes from the mesh error
+    model (for target / ADAPTIVE_ERROR_RATIO), pass 1 solves half of it, pass 2 resamples
+    denser where pass 1 varies. The error against the direct exact-visibility reference meets
+    the target, and is lower than one uniform pass of the same count."""
+    corners, albedo, emission, keep = S.cornell_triangles()
+    target = 0.15
+    sol, q = accuracy.solve_triangles(corners, albedo, emission, target, keep=keep)
+    info = sol.stats["accuracy"]
+    assert info["adaptive"] and len(info["passes"]) == 2
+    first, second = info["passes"]
+    assert second["surfels"] == q.n and first["surfels"] < 0.6 * q.n
+    assert info["settings"]["n"] <= 4000 / 1.5, info["settings"]  # the reference is denser
+    assert abs(q.n - info["settings"]["n"]) < 0.05 * info["settings"]["n"]   # less `keep`
+    # one uniform pass of the same count
+    uniform, qu = accuracy.solve_triangles(corners, albedo, emission, target, keep=keep,
+                                           adaptive=False, estimate=False,
+                                           count=info["settings"]["n"])
+    assert len(uniform.stats["accuracy"]["passes"]) == 1
+    assert abs(qu.n - q.n) < 0.02 * q.n
+    ref = S.build("cornell", 4000, seed=12345)
+    ref_sol = S.reference_solution(ref, "cornell", tol=1e-8)
+
+    def error(solution, surfels):
+        idx = S.error_subset(surfels, 800)
+        return S.relative_rms(solution.radiosity[idx],
+                              S.reference_at(ref, ref_sol.radiosity, S.subset(surfels, idx),
+                                             "cornell"))
+    e_adaptive, e_uniform = error(sol, q), error(uniform, qu)
+    assert e_adaptive <= target, (info["settings"], e_adaptive)
+    assert e_adaptive < 0.9 * e_uniform, (e_adaptive, e_uniform)
+    assert info["estimate"]["total"] > 0
+
+
+def test_solve_triangles_rejects_mismatched_materials():
+    corners, albedo, emission, _ = S.cornell_triangles()
+    with pytest.raises(illumap.InputError, match="albedo and emission"):
+        accuracy.solve_triangles(corners, albedo[:-1], emission, 0.2)

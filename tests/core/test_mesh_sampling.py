@@ -131,3 +131,46 @@ def test_allocate_and_errors():
         S.sample_triangles(np.zeros((2, 3)), 10, np.random.default_rng(0))
     with pytest.raises(InputError, match="weights: expected 2 positive"):
         S.sample_triangles(SQUARE, 10, np.random.default_rng(0), weights=[1.0, 0.0])
+
+
+def _nearest_gaps(points):
+    from illumap import _core
+    _, dist = _core.knn(np.ascontiguousarray(points), np.ascontiguousarray(points), 2)
+    return np.asarray(dist)[:, 1]
+
+
+def _nearest_gaps_to(points, probes):
+    from illumap import _core
+    _, dist = _core.knn(np.ascontiguousarray(points), np.ascontiguousarray(probes), 1)
+    return np.asarray(dist)[:, 0]
+
+
+def test_thin_points_keeps_the_spacing_even_where_a_random_subset_clumps():
+    rng = np.random.default_rng(4)
+    # a jittered grid on a plane, as a scanner gives it
+    g = np.stack(np.meshgrid(np.arange(120), np.arange(120)), -1).reshape(-1, 2) * 1e-3
+    pts = np.column_stack([g + rng.normal(scale=1e-4, size=g.shape), np.zeros(len(g))])
+    keep = S.thin_points(pts, 2000)
+    assert abs(len(keep) - 2000) <= 20 and np.all(np.diff(keep) > 0)
+    random = rng.choice(len(pts), len(keep), replace=False)
+    even, clumped = _nearest_gaps(pts[keep]), _nearest_gaps(pts[random])
+    # Even: nearest-neighbour gaps vary little, and no hole is much wider than the spacing
+    # (holes are where light leaks between surfel discs); a random subset has both.
+    assert even.std() / even.mean() < 0.65 * (clumped.std() / clumped.mean())
+    probes = np.column_stack([rng.uniform(0.01, 0.11, size=(4000, 2)), np.zeros(4000)])
+    hole_even = np.quantile(_nearest_gaps_to(pts[keep], probes), 0.995)
+    hole_random = np.quantile(_nearest_gaps_to(pts[random], probes), 0.995)
+    assert hole_even < 0.7 * hole_random
+    # Another grid shift is another even subset; no count asks for more than there is.
+    other = S.thin_points(pts, 2000, np.random.default_rng(1))
+    assert abs(len(other) - 2000) <= 20 and not np.array_equal(other, keep)
+    assert np.array_equal(S.thin_points(pts, 10 ** 6), np.arange(len(pts)))
+
+
+def test_thin_points_rejects_bad_input():
+    with pytest.raises(InputError, match="shape"):
+        S.thin_points(np.zeros((5, 2)), 3)
+    with pytest.raises(InputError, match="NaN"):
+        S.thin_points(np.array([[0, 0, np.nan]] * 4), 2)
+    with pytest.raises(InputError, match="count"):
+        S.thin_points(np.zeros((5, 3)), 0)

@@ -10,6 +10,8 @@ API::
     s = sample_triangles(corners, count, rng,                # -> Samples: positions, normals,
                          corner_normals=None, weights=None)  #    areas, triangle, bary
 
+    keep = thin_points(points, count, rng)                    # a scan decimated evenly
+
     # adaptive density: a first solution on surfels sampled from the same triangles
     reg = Regions.build(corners, max_area=6 / first_density)  # triangles split into regions
     r = reg.locate(s.triangle, s.bary)                        # region of each first-pass surfel
@@ -43,6 +45,7 @@ flat, with the total count unchanged.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -50,7 +53,7 @@ import numpy as np
 from .surfels import InputError
 
 __all__ = ["Samples", "Regions", "triangle_areas", "allocate", "sample_triangles",
-           "local_variation", "density_multipliers"]
+           "local_variation", "density_multipliers", "thin_points"]
 
 # R2 sequence constants (1/g, 1/g² with g the plastic number): a well-spread 2-D lattice.
 _R2 = np.array([0.7548776662466927, 0.5698402909980532])
@@ -299,3 +302,60 @@ def density_multipliers(region, variation, n_regions: int, *, max_ratio: float =
         return np.ones(int(n_regions))
     ref = float(np.quantile(positive, quantile))
     return 1.0 + (max_ratio - 1.0) * np.clip(per / ref, 0.0, 1.0)
+
+
+def thin_points(points, count: int, rng: np.random.Generator | None = None, *,
+                tolerance: float = 0.01) -> np.ndarray:
+    """Indices (sorted) of about ``count`` of ``points`` (P, 3), spread evenly: one point per
+    cell of a cubic grid (the one nearest the cell's centre), the cell size bisected until the
+    count is within ``tolerance`` of ``count`` (or as close as the grid allows).
+
+    Decimating a scan this way keeps its spacing even, as scanner software does. A random
+    subset does not: its gaps (and so the light leaking between surfel discs) are those of a
+    Poisson process at every density, so a solution on it does not converge as the density
+    grows. ``rng`` shifts the grid (another even subset of the same size); without it the grid
+    starts at the points' lower corner. All points when ``count`` ≥ P.
+    """
+    pts = np.asarray(points, dtype=np.float64)
+    if pts.ndim != 2 or pts.shape[1] != 3:
+        raise InputError(f"points: expected shape (P, 3), got {pts.shape}")
+    if not np.all(np.isfinite(pts)):
+        raise InputError("points: contains NaN or infinite coordinates")
+    count = int(count)
+    if count < 1:
+        raise InputError(f"count: expected at least 1, got {count}")
+    if count >= len(pts):
+        return np.arange(len(pts))
+    low = pts.min(axis=0)
+    extent = float((pts.max(axis=0) - low).max())
+    if extent <= 0.0:
+        return np.arange(count)
+    shift = rng.random(3) if rng is not None else np.zeros(3)
+
+    def pick(size):
+        cell = np.floor((pts - low) / size + shift)
+        centre = low + (cell + 0.5 - shift) * size
+        cell = (cell - cell.min(axis=0)).astype(np.int64)
+        dims = cell.max(axis=0) + 1
+        key = (cell[:, 0] * dims[1] + cell[:, 1]) * dims[2] + cell[:, 2]
+        off_centre = ((pts - centre) ** 2).sum(axis=1)
+        order = np.lexsort((off_centre, key))
+        first = np.ones(len(order), bool)
+        first[1:] = key[order[1:]] != key[order[:-1]]
+        return np.sort(order[first])
+
+    # cells of `small` give more than count points, of `large` fewer
+    small, large = extent * 1e-6, extent * 2.0
+    best = np.arange(len(pts))
+    for _ in range(60):
+        size = math.sqrt(small * large)
+        keep = pick(size)
+        if abs(len(keep) - count) < abs(len(best) - count):
+            best = keep
+        if abs(len(keep) - count) <= tolerance * count or large / small < 1.0 + 1e-9:
+            break
+        if len(keep) > count:
+            small = size
+        else:
+            large = size
+    return best
