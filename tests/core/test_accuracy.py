@@ -207,6 +207,10 @@ def test_mesh_sampled_adaptively_meets_the_target_and_beats_uniform_sampling():
     e_adaptive, e_uniform = error(sol, q), error(uniform, qu)
     assert e_adaptive <= target, (info["settings"], e_adaptive)
     assert e_adaptive < 0.9 * e_uniform, (e_adaptive, e_uniform)
+    # the estimate's discretization part is the uniform model scaled for the adaptive pass
+    plain = accuracy.estimate_error(sol, q, settings=info["settings"], kind="mesh")
+    assert info["estimate"]["discretization"] == pytest.approx(
+        accuracy.ADAPTIVE_ERROR_RATIO * plain["discretization"])
     assert info["estimate"]["total"] > 0
 
 

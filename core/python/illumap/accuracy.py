@@ -596,7 +596,8 @@ _OPERATOR_STATS = ("method", "order", "theta", "leaf_size", "near_field", "visib
 
 def estimate_error(solution, surfels: Surfels, *, operator: TransportOperator | None = None,
                    probe: int = 256, coarse: bool = False, settings: dict | None = None,
-                   kind: str | None = None, seed: int = 0) -> dict:
+                   kind: str | None = None, seed: int = 0,
+                   discretization_scale: float = 1.0) -> dict:
     """A-posteriori estimate of the relative RMS error (emitters excluded) of ``solution``.
 
     * ``solver``: ‖r‖/((1 − ρ_max)‖B‖) from the final true residual (r = E − (B − ρ K B)).
@@ -607,8 +608,9 @@ def estimate_error(solution, surfels: Surfels, *, operator: TransportOperator | 
     * ``occlusion``: for ``visibility="none"``, the probe's estimate from ``settings`` (the
       :func:`choose_settings` result), else 0.
     * ``discretization``: with ``coarse=True`` measured on a spatially even half of the surfels
-      (e ≈ d/(√2 − 1)); otherwise the calibrated model of the scene kind at this N (None when
-      there is no calibration).
+      (e ≈ d/(√2 − 1)); otherwise the calibrated model of the scene kind at this N, times
+      ``discretization_scale`` (the models are of uniform density: ADAPTIVE_ERROR_RATIO for an
+      adaptive sampling), None when there is no calibration.
     ``total`` = sqrt of the sum of squares (independent sources); ``numerical`` = solver + fmm.
     """
     t0 = time.perf_counter()
@@ -668,6 +670,7 @@ def estimate_error(solution, surfels: Surfels, *, operator: TransportOperator | 
         k = kind or (settings or {}).get("kind") or scene_summary(surfels)["kind"]
         e_disc = _discretization(_kind_table(k), surfels.n)
         if e_disc is not None:
+            e_disc *= float(discretization_scale)
             source = "model"
     total = math.sqrt(e_solver ** 2 + e_fmm ** 2 + e_occ ** 2 + (e_disc or 0.0) ** 2)
     return dict(solver=e_solver, fmm=e_fmm, occlusion=e_occ, discretization=e_disc,
@@ -811,6 +814,8 @@ def solve_triangles(corners, albedo, emission, target_error, *, kind: str = "mes
         passes[-1]["refinement_seconds"] = refine_seconds
     info = dict(settings=chosen, solve_keywords=kw, adaptive=bool(adaptive), passes=passes)
     if estimate:
-        info["estimate"] = estimate_error(sol, surfels, settings=chosen, kind=kind)
+        info["estimate"] = estimate_error(
+            sol, surfels, settings=chosen, kind=kind,
+            discretization_scale=ADAPTIVE_ERROR_RATIO if adaptive else 1.0)
     sol.stats["accuracy"] = info
     return sol, surfels
