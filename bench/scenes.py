@@ -1,6 +1,6 @@
 """Benchmark scenes shared by bench/*.py and tests/core/test_accuracy.py (numpy + illumap only).
 
-Three scenes, each built at a requested density so that error can be charted against cost:
+Four scenes, each built at a requested density so that error can be charted against cost:
 
 * ``cornell(n)`` -- Cornell's box (0.556 m, open front, Cornell RGB reflectances, light
   radiance (17, 12, 4) on a 0.13 x 0.105 m quad just below the ceiling) with its two blocks
@@ -9,13 +9,16 @@ Three scenes, each built at a requested density so that error can be charted aga
   with a surfel at each midpoint; Cycles bakes at exactly the same points (bench/cycles_bake.py
   builds meshes from ``cornell_grid_meshes`` whose interior vertices are those midpoints).
   ``cornell_geometry`` gives the same box as planar quads (for other samplings).
+* ``cornell_sampled(n)`` (scene ``cornell_mesh``) -- the same box as triangles
+  (``cornell_triangles``) with stratified surfels, as the add-on samples meshes; measured
+  against the Cornell box's reference.
 * ``bunny(n)`` -- the Stanford bunny scan (Turk and Levoy, Stanford 3D Scanning Repository,
-  1994) as a raw point cloud, decimated evenly to the requested density: vertices only, normals estimated by PCA over 12 nearest
-  neighbours and oriented away from the centroid, areas from the local point spacing; on a
+  1994) as a raw point cloud, decimated evenly to the requested density: vertices only,
+  normals estimated by PCA over 12 nearest neighbours and oriented away from the centroid, areas from the local point spacing; on a
   grey floor under an emissive square. The data stay outside the extension
   (/work/shared/data/stanford-bunny or $ILLUMAP_BUNNY).
-* ``interior(n)`` -- ``illumap.scenes.box_room`` (light power normalized): a room with a box, a sphere and a two-sided
-  panel (many occluders once visibility exists).
+* ``interior(n)`` -- ``illumap.scenes.box_room`` (light power normalized): a room with a box,
+  a sphere and a two-sided panel (many occluders once visibility exists).
 
 ``reference_at(ref_surfels, ref_B, query_surfels)`` evaluates a converged reference solution at
 other points by one exact gather, ``B_q = E_q + rho_q sum_j F_qj B_j`` (direct O(N_q N_ref)).
@@ -338,7 +341,7 @@ def interior(n, seed=0):
 #: The accuracy mode's scene kind per benchmark scene (how its surfels are sampled)
 KIND = {"cornell": "grid", "cornell_mesh": "mesh", "bunny": "point_cloud", "interior": "random"}
 #: Scenes given as triangles too (the automatic mode samples them itself, adaptively)
-TRIANGLE_SCENES = {"cornell_mesh": lambda: cornell_triangles()}
+TRIANGLE_SCENES = {"cornell_mesh": cornell_triangles}
 #: The scene whose reference a scene is measured against (the same geometry sampled otherwise)
 REFERENCE_SCENE = {"cornell_mesh": "cornell"}
 

@@ -116,19 +116,26 @@ def test_cornell_box_matches_cycles_bake():
     assert rms < RMS_BOUND
 
 
-def test_cornell_box_lit_by_lamps_matches_cycles_bake():
-    """The same box without the emitter mesh, lit by an area lamp under the ceiling and a point
-    lamp in the middle: direct light from lamps (lamps.py) plus interreflection against Cycles.
-    Measured: relative RMS 0.0498, mean ratio 1.013 (725 vertices; 0.048 before the core's
-    octagon near field); bound RMS_BOUND."""
+def lamp_lit_box(point_energy, point_radius, point_at):
+    """The box without its emitter mesh, lit by a 4 W, 0.2 m area lamp under the ceiling and a
+    point lamp (W, radius m, location): the walls."""
     walls, light = cornell_box()
     bpy.data.objects.remove(light)
     area = bpy.data.lights.new("Area", "AREA")
     area.energy, area.size = 4.0, 0.2
     link(bpy.data.objects.new("Area", area)).location = (0.5, 0.5, 0.98)
     point = bpy.data.lights.new("Point", "POINT")
-    point.energy, point.shadow_soft_size = 2.0, 0.0
-    link(bpy.data.objects.new("Point", point)).location = (0.5, 0.5, 0.5)
+    point.energy, point.shadow_soft_size = point_energy, point_radius
+    link(bpy.data.objects.new("Point", point)).location = point_at
+    return walls
+
+
+def test_cornell_box_lit_by_lamps_matches_cycles_bake():
+    """The same box without the emitter mesh, lit by an area lamp under the ceiling and a point
+    lamp in the middle: direct light from lamps (lamps.py) plus interreflection against Cycles.
+    Measured: relative RMS 0.0498, mean ratio 1.013 (725 vertices; 0.048 before the core's
+    octagon near field); bound RMS_BOUND."""
+    walls = lamp_lit_box(point_energy=2.0, point_radius=0.0, point_at=(0.5, 0.5, 0.5))
     pipeline.compute(bpy.context, walls, pipeline.Settings(
         density=400, method="direct", lamps=True, transfer=True, transfer_domain="POINT", tol=1e-6))
     got, ref, rms = ours_and_cycles(walls)
@@ -163,14 +170,7 @@ def test_cornell_box_with_a_lamp_shadowed_by_a_block_matches_cycles_bake():
     widen its shadow; with coverage 1.3, 1.5, 2.0 for both: RMS 0.065, 0.074, 0.103 and floor
     ratios 0.469, 0.450, 0.408, but 1.3 leaks light into shadows and through thin walls, see
     SURFEL_COVERAGE). Bounds: RMS_BOUND, and the shadow ratio within 0.1 of Cycles'."""
-    walls, light = cornell_box()
-    bpy.data.objects.remove(light)
-    area = bpy.data.lights.new("Area", "AREA")
-    area.energy, area.size = 4.0, 0.2
-    link(bpy.data.objects.new("Area", area)).location = (0.5, 0.5, 0.98)
-    point = bpy.data.lights.new("Point", "POINT")
-    point.energy, point.shadow_soft_size = 1.0, 0.05
-    link(bpy.data.objects.new("Point", point)).location = (0.3, 0.7, 0.8)
+    walls = lamp_lit_box(point_energy=1.0, point_radius=0.05, point_at=(0.3, 0.7, 0.8))
     white = bpy.data.materials["White"]
     block = closed_block("Block", (0.35, 0.35, 0.25), (0.65, 0.65, 0.35), white)
     result = pipeline.compute(bpy.context, walls + [block], pipeline.Settings(

@@ -51,7 +51,7 @@ from .surfels import InputError, Surfels
 
 __all__ = ["choose_settings", "solve_keywords", "estimate_error", "solve", "solve_triangles",
            "scene_summary", "occlusion_probe", "visibility_keywords", "CALIBRATION", "FMM_ERROR",
-           "EXACT_KEYWORDS", "VISIBILITY_KEYWORDS", "PRESETS", "KINDS"]
+           "EXACT_KEYWORDS", "PRESETS", "KINDS"]
 
 KINDS = ("grid", "mesh", "random", "point_cloud")
 
@@ -77,13 +77,11 @@ EXACT_KEYWORDS = {"grid": {"endpoint_offset": 1.0},
                   "mesh": {"endpoint_offset": 1.0, "coverage": 1.7},
                   "random": {"endpoint_offset": 1.0, "coverage": 1.7},
                   "point_cloud": {"endpoint_offset": 1.0, "coverage": 1.7}}
-#: The keywords per visibility mode for scenes of kind "random" (the add-on's meshes).
-VISIBILITY_KEYWORDS = {"exact": EXACT_KEYWORDS["random"], "seed": {}, "none": {}}
 
 
 def visibility_keywords(visibility: str, kind: str = "random") -> dict:
     """The operator keywords the automatic mode uses with ``visibility`` on a scene of
-    ``kind`` ("grid", "random" or "point_cloud")."""
+    ``kind`` (one of :data:`KINDS`): :data:`EXACT_KEYWORDS` for "exact", none otherwise."""
     if visibility != "exact":
         return {}
     if kind not in EXACT_KEYWORDS:
@@ -710,8 +708,8 @@ ADAPTIVE_SURFELS_PER_REGION = 6
 ADAPTIVE_NEIGHBOURS = 8
 ADAPTIVE_MAX_RATIO = 4.0
 #: Error of an adaptive run against a uniform one of the same count, as the count is chosen:
-#: measured 0.52-0.72 on the Cornell box's triangles (bench/accuracy_speed.py, cornell_mesh,
-#: 2k-11k surfels, direct and FMM); rounded up.
+#: measured 0.60-0.73 on the Cornell box's triangles (bench/bench_adaptive.py: 2k, 4k and 8k
+#: surfels, direct and FMM p = 3, θ = 0.2, exact visibility); rounded up.
 ADAPTIVE_ERROR_RATIO = 0.75
 
 

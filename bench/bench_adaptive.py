@@ -1,0 +1,71 @@
+#!/usr/bin/env python3
+"""Adaptive against uniform sampling at equal surfel count, on the Cornell box's triangles.
+
+For each count N and setting, ``illumap.accuracy.solve_triangles(..., count=N)`` runs once with
+``adaptive=True`` (half N uniformly, then N resampled denser where that solution varies) and
+once with ``adaptive=False`` (one uniform pass of N); both are measured against the Cornell
+box's reference (bench/accuracy_speed.py, cached) on every non-emitting surfel. The ratio of
+the errors is what ``illumap.accuracy.ADAPTIVE_ERROR_RATIO`` rounds up.
+
+    .venv/bin/python bench/bench_adaptive.py [--counts 2000 4000 8000] [--quick]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+from illumap import accuracy  # noqa: E402
+
+import accuracy_speed as AS  # noqa: E402
+import scenes as S  # noqa: E402
+
+SETTINGS = {"direct": dict(method="direct"),
+            "FMM p=3 θ=0.2": dict(method="fmm", order=3, theta=0.2)}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--counts", nargs="+", type=int, default=[2000, 4000, 8000])
+    ap.add_argument("--quick", action="store_true", help="the quick reference (12k surfels)")
+    ap.add_argument("--out", default=os.path.join(HERE, "results", "adaptive.json"))
+    args = ap.parse_args(argv)
+    cfg = AS.QUICK if args.quick else AS.FULL
+    ref, ref_B, ref_info = AS.reference("cornell_mesh", cfg, lambda s: print(s, flush=True))
+    corners, albedo, emission, keep = S.cornell_triangles()
+    rows = []
+    for n in args.counts:
+        for label, kw in SETTINGS.items():
+            if kw["method"] == "direct" and n > cfg["direct_vis_max"]["exact"]:
+                continue
+            out = {}
+            for adaptive in (True, False):
+                t = time.perf_counter()
+                sol, q = accuracy.solve_triangles(corners, albedo, emission, 0.1, keep=keep,
+                                                  adaptive=adaptive, count=n, estimate=False,
+                                                  **kw)
+                dt = time.perf_counter() - t
+                idx = np.flatnonzero(~(q.emission.max(axis=1) > 0))
+                err = S.relative_rms(sol.radiosity[idx], S.reference_at(
+                    ref, ref_B, S.subset(q, idx), ref_info["scene"]))
+                out["adaptive" if adaptive else "uniform"] = dict(n=q.n, error=err, time=dt)
+            ratio = out["adaptive"]["error"] / out["uniform"]["error"]
+            rows.append(dict(count=n, setting=label, ratio=ratio, **out))
+            print(f"N={n:6d} {label:14s} uniform {out['uniform']['error']:.4f} "
+                  f"({out['uniform']['time']:.2f}s)  adaptive {out['adaptive']['error']:.4f} "
+                  f"({out['adaptive']['time']:.2f}s)  ratio {ratio:.2f}", flush=True)
+    with open(args.out, "w") as f:
+        json.dump(dict(reference=ref_info, core=S.provenance(), rows=rows,
+                       date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())), f, indent=1,
+                  default=float)
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
