@@ -64,7 +64,8 @@ FULL = dict(ref_n=dict(cornell=24000, bunny=S.BUNNY_MAX, interior=24000),
             sizes=dict(cornell=(500, 1000, 2000, 4000, 8000),
                        cornell_mesh=(500, 1000, 2000, 4000, 8000),
                        interior=(500, 1000, 2000, 3000, 4000, 6000, 8000),
-                       bunny=(500, 1000, 2000, 3000, 4000, 6000, 8000)), direct_max=8500,
+                       bunny=(500, 1000, 2000, 3000, 4000, 6000, 8000, 12000)),
+            direct_max=8500,
             direct_vis_max=dict(seed=3000, exact=12500), error_points=1200,
             high_order_max=2500, seed_max=4500)
 #: The bunny's reference is the whole scan (77k surfels with its floor), its check the scan
@@ -113,6 +114,15 @@ def settings(orders, visibilities, name):
                 out.append((f"fmm/exact/θ{theta}", f"FMM p={p} vis=exact θ={theta}",
                             dict(method="fmm", order=p, theta=theta, solver="auto",
                                  tol=SOLVE_TOL, **vis_keywords("exact", name))))
+        # Per-pair V in every partial leaf pair (far ones too) and more samples per node pair
+        # for the classes: the FMM's visibility error drops to that of the direct method.
+        for p, theta, samples in ((2, 0.5, 16), (3, 0.5, 16), (3, 0.5, 32), (3, 0.3, 16),
+                                  (3, 0.3, 32)):
+            out.append(("fmm/exact/all-pairs",
+                        f"FMM p={p} vis=exact all-pairs s={samples} θ={theta}",
+                        dict(method="fmm", order=p, theta=theta, solver="auto", tol=SOLVE_TOL,
+                             visibility_leaf_mode="per_pair_all", visibility_samples=samples,
+                             **vis_keywords("exact", name))))
     vis = "exact" if "exact" in visibilities else "none"
     for solver in ("jacobi", "cg", "gmres"):
         out.append(("solver", f"{solver} (FMM p=4, vis={vis}, θ=0.2)",

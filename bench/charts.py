@@ -75,6 +75,11 @@ def curve_style(label):
         return dict(color="black", marker="o", ls=VIS_STYLE.get(vis, "-"), lw=1.4)
     if label.startswith("FMM"):
         p = int(label.split("p=")[1].split()[0])
+        if "all-pairs" in label:
+            theta = label.split("θ=")[1]
+            return dict(color={"0.5": "tab:green", "0.3": "tab:cyan"}.get(theta, "tab:olive"),
+                        marker="D", ls="-" if " s=32" in label else "--", lw=1.2,
+                        alpha=0.5 + 0.15 * p)
         if "θ=" in label:
             theta = label.split("θ=")[1]
             return dict(color={"0.3": "tab:brown", "0.2": "tab:pink"}[theta], marker="^",
@@ -110,8 +115,9 @@ def accuracy_chart(scene, data, cycles, out_png):
     axes[0].set_title("FMM p ∈ {0,2,3,4,6,8} (colour) × visibility none — / seed -- / "
                       "exact ··· (θ=0.5); direct (black)", fontsize=8.5)
     _plot_curves(axes[1], hand, right)
-    axes[1].set_title("exact visibility at smaller θ; Jacobi vs CG vs GMRES; Cycles; "
-                      "automatic mode", fontsize=8.5)
+    axes[1].set_title("exact visibility at smaller θ, and per-pair in every partial leaf pair "
+                      "(all-pairs, s samples); Jacobi vs CG vs GMRES; Cycles; automatic mode",
+                      fontsize=8)
     best = [lab for lab in left if lab.startswith("direct") and "exact" in lab]
     _plot_curves(axes[1], hand, best)
     if cycles and scene == "cornell":

@@ -246,22 +246,29 @@ struct Walker {
                 const VisibilityModel& m = *opt.model;
                 const bool leaves = t.leaf() && s.leaf();
                 float frac = 1.0f;
-                const VisClass c = (leaves && m.leaf_mode() != LeafMode::Binary)
-                                       ? m.classify_fraction(pr.t, pr.s, &frac)
-                                       : m.classify(pr.t, pr.s);
+                // A fraction is needed only where a PARTIAL leaf pair may keep one.
+                const bool wants_fraction = leaves && m.leaf_mode() != LeafMode::Binary &&
+                                            m.leaf_mode() != LeafMode::PerPairAll;
+                const VisClass c = wants_fraction ? m.classify_fraction(pr.t, pr.s, &frac)
+                                                  : m.classify(pr.t, pr.s);
                 (c == VisClass::Valid ? vv : c == VisClass::Invalid ? vi : vp)[lev] += both;
                 if (c == VisClass::Invalid) {
                     k = PairClass::Drop;
                 } else if (c == VisClass::Partial) {
                     if (leaves) {  // cannot be pushed down: Accept (far) or Near
-                        // Per-pair V only in the true near field; a leaf pair that is Near
-                        // only because its facing is mixed (a sphere's leaf against a distant
-                        // wall) is far apart and gets the fraction, as far leaf pairs in M2L.
-                        if (k == PairClass::Near && m.leaf_mode() == LeafMode::PerPair &&
-                            !mac_holds(t, s, opt.theta))
+                        // PerPair: per-pair V only in the true near field; a leaf pair that
+                        // is Near only because its facing is mixed (a sphere's leaf against a
+                        // distant wall) is far apart and gets the fraction, as far leaf pairs
+                        // in M2L. PerPairAll: per-pair V (P2P) wherever a leaf pair is PARTIAL.
+                        if (m.leaf_mode() == LeafMode::PerPairAll) {
+                            k = PairClass::Near;
                             b = store_block(pr.t, pr.s, mutual);
-                        else
+                        } else if (k == PairClass::Near && m.leaf_mode() == LeafMode::PerPair &&
+                                   !mac_holds(t, s, opt.theta)) {
+                            b = store_block(pr.t, pr.s, mutual);
+                        } else {
                             w = frac;
+                        }
                     } else {
                         k = classify(tree.s, t, s, opt, Visibility::Partial);  // -> Split
                     }

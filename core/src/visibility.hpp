@@ -28,6 +28,7 @@
 //   3. A NEAR pair whose class is PARTIAL gets, per leaf_mode():
 //        PerPair: block(t, s) if the MAC fails (true near field), fraction(t, s) if the MAC
 //                 holds (a far leaf pair the kernel would have accepted);
+//        PerPairAll: block(t, s) always (the far pair moves from M2L to P2P);
 //        Fractional: fraction(t, s);   Binary (the talk): never PARTIAL.
 //      A NEAR pair of two leaves can get class and fraction in one pass: classify_fraction().
 //      P2P then weights pair (i, j) by 1, fraction, or block[i][j].
@@ -63,6 +64,9 @@ enum class LeafMode : std::uint8_t {
     Fractional = 1,  // PARTIAL leaf pairs are scaled by fraction(a, b)
     PerPair = 2,     // PARTIAL near-field leaf pairs get per-pair block(a, b), PARTIAL far
                      // leaf pairs (MAC satisfied, cannot split) fraction(a, b)  (default)
+    PerPairAll = 3,  // every PARTIAL leaf pair gets per-pair block(a, b), far ones too (P2P):
+                     // one fraction per far pair cannot follow a shadow edge across its
+                     // receivers, the dominant FMM error in occluded scenes
 };
 
 enum class VisMethod : std::uint8_t { None = 0, Seed = 1, Exact = 2 };
@@ -419,7 +423,9 @@ inline LeafMode parse_leaf_mode(const std::string& s) {
     if (s == "binary") return LeafMode::Binary;
     if (s == "fractional") return LeafMode::Fractional;
     if (s == "per_pair") return LeafMode::PerPair;
-    throw std::invalid_argument("leaf mode must be 'binary', 'fractional' or 'per_pair', not '" +
+    if (s == "per_pair_all") return LeafMode::PerPairAll;
+    throw std::invalid_argument(
+        "leaf mode must be 'binary', 'fractional', 'per_pair' or 'per_pair_all', not '" +
                                 s + "'");
 }
 

@@ -46,7 +46,7 @@ import time
 
 import numpy as np
 
-from .operator import DEFAULT_LEAF_SIZE, TransportOperator
+from .operator import DEFAULT_LEAF_SIZE, VISIBILITY_DEFAULTS, TransportOperator
 from .surfels import InputError, Surfels
 
 __all__ = ["choose_settings", "solve_keywords", "estimate_error", "solve", "solve_triangles",
@@ -88,6 +88,11 @@ def visibility_keywords(visibility: str, kind: str = "random") -> dict:
         raise InputError(f"kind: expected one of {KINDS}, got {kind!r}")
     return dict(EXACT_KEYWORDS[kind])
 
+
+#: Visibility keywords a calibrated setting may fix itself (bench/calibrate.py keeps them):
+#: "per_pair_all" leaf pairs and more samples per node pair take the FMM's visibility error
+#: down to the direct method's.
+SETTING_VISIBILITY_KEYS = ("visibility_leaf_mode", "visibility_samples")
 
 #: Named presets of the add-on → target error.
 PRESETS = {"draft": 0.10, "preview": 0.10, "medium": 0.03, "high": 0.01, "final": 0.01,
@@ -527,7 +532,8 @@ def choose_settings(scene, target_error, *, kind: str | None = None, allow_direc
         theta=float(kw.get("theta", 0.5)),
         leaf_size=int(kw.get("leaf_size", DEFAULT_LEAF_SIZE)),
         visibility=vis,
-        visibility_keywords=visibility_keywords(vis, s["kind"]),
+        visibility_keywords={**visibility_keywords(vis, s["kind"]),
+                             **{k: kw[k] for k in SETTING_VISIBILITY_KEYS if k in kw}},
         solver="auto",
         tol=tol,
         label=best["label"],
@@ -625,9 +631,12 @@ def estimate_error(solution, surfels: Surfels, *, operator: TransportOperator | 
     res = float(stats.get("final_residual", 0.0) or 0.0)
     e_solver = res * e_norm / math.sqrt(max(non_emit.sum(), 1)) * amplification / b_rms
     vis = stats.get("visibility", "none")
+    # The solve's own visibility keywords (its stats), else the chosen ones, else the kind's.
     vis_kw = visibility_keywords(vis, kind if kind in EXACT_KEYWORDS else "random")
     if settings is not None:
         vis_kw = dict(settings.get("visibility_keywords", vis_kw))
+    if vis != "none":
+        vis_kw.update({k: stats[k] for k in VISIBILITY_DEFAULTS if k in stats})
     method = stats.get("method", "direct")
     e_fmm = 0.0
     rows = np.array([], dtype=np.int64)

@@ -59,7 +59,7 @@ VISIBILITIES = {
     "seed": (True, True),
     "exact": (True, True),
 }
-VISIBILITY_LEAF_MODES = ("per_pair", "fractional", "binary")
+VISIBILITY_LEAF_MODES = ("per_pair", "per_pair_all", "fractional", "binary")
 VISIBILITY_SHAPES = ("disc", "quad")
 
 #: Visibility keywords and their defaults (see TransportOperator for their meaning and units).
@@ -207,9 +207,12 @@ class TransportOperator:
         fraction in M2L, or per-pair V in the near field); this rests on samples and can
         misclassify pairs with a small blocked part. "direct" applies V per pair (O(N²) rays
         once, small N only); ``apply_rows`` always applies V per pair.
-    visibility_leaf_mode : "per_pair" | "fractional" | "binary"
+    visibility_leaf_mode : "per_pair" | "per_pair_all" | "fractional" | "binary"
         What a partial leaf pair gets: per-pair V in the near field and the sampled fraction
-        far away (default); the fraction everywhere; or all-or-nothing (the talk).
+        far away (default); per-pair V everywhere ("per_pair_all": far partial leaf pairs move
+        from M2L to the near field, so shadow edges inside a leaf are kept, at the cost of
+        |t|·|s| rays and 1 byte each per such pair); the fraction everywhere; or all-or-nothing
+        (the talk).
     visibility_samples : int
         Facing point pairs sampled per node pair to classify it (default 8).
     coverage : float
@@ -323,11 +326,14 @@ class TransportOperator:
         ``visibility_m2l_weighted`` (partial far leaf pairs kept in M2L with their sampled
         fraction), ``visibility_p2p_blocks`` / ``visibility_block_bytes`` (near pairs with
         per-pair V, 8 bits per pair), ``visibility_blocked_pairs`` (direct method),
-        ``visibility_bytes``, ``time_build_visibility``."""
+        ``visibility_bytes``, ``time_build_visibility``, and the visibility keywords
+        (``visibility_leaf_mode``, ``visibility_samples``, ``coverage``, …)."""
         stats = dict(self._op.stats)
         stats.update(method=self.method, order=self.order, theta=self.theta,
                      leaf_size=self.leaf_size, near_field=self.near_field,
                      visibility=self.visibility, n=self.n)
+        if self.visibility != "none":
+            stats.update(self.visibility_options)
         return stats
 
     def keywords(self) -> dict:
