@@ -164,6 +164,37 @@ def test_solve_with_target_error_chooses_and_reports_settings():
     assert _rel(sol.radiosity, ref.radiosity, q.emission) < 0.1
 
 
+def test_a_settings_own_visibility_keywords_reach_the_solve_and_the_estimate(monkeypatch):
+    """A calibrated setting may fix the leaf mode and samples of its visibility (the benchmarks'
+    all-pairs family): choose_settings passes them on, the solve uses them, and the estimate
+    re-applies the operator that was solved, not the kind's default one."""
+    table = accuracy._kind_table("random")
+    entry = dict(table["settings"]["direct vis=exact"])
+    entry["keywords"] = dict(method="fmm", order=3, theta=0.5, visibility="exact",
+                             visibility_leaf_mode="per_pair_all", visibility_samples=24)
+    entry["cost"] = dict(entry["cost"], points=[[n, 1e-6 * t] for n, t in
+                                                entry["cost"]["points"]])
+    patched = dict(table, settings={"FMM p=3 vis=exact all-pairs s=24 θ=0.5": entry})
+    cal = dict(accuracy.CALIBRATION, kinds={"random": patched})
+    monkeypatch.setattr(accuracy, "CALIBRATION", cal)
+    q = S.build("interior", 1500)
+    chosen = accuracy.choose_settings(q, 0.3, kind="random", probe=False)
+    assert chosen["visibility_keywords"]["visibility_leaf_mode"] == "per_pair_all"
+    assert chosen["visibility_keywords"]["visibility_samples"] == 24
+    assert chosen["visibility_keywords"]["coverage"] == 1.7        # the kind's keywords stay
+    sol = accuracy.solve(q, 0.3, kind="random", settings=chosen)
+    assert sol.stats["visibility_leaf_mode"] == "per_pair_all"
+    assert sol.stats["visibility_samples"] == 24
+    assert sol.stats["visibility_m2l_weighted"] == 0
+    est = sol.stats["accuracy"]["estimate"]
+    # the FMM part compares the solved operator with exact per-pair sums: small with
+    # per-pair V everywhere (the default per_pair leaf mode measures 3-7% on this room)
+    assert 0 < est["fmm"] < 0.03, est
+    # without settings, the estimate reads the keywords from the solve's stats
+    again = accuracy.estimate_error(sol, q, kind="random")
+    assert again["fmm"] == pytest.approx(est["fmm"], rel=1e-6)
+
+
 def test_exact_visibility_keywords_follow_the_sampling():
     """Grids close their holes with 1.3-spacing discs; irregular samples (meshes sampled at
     random or stratified, scans) need 1.7."""
