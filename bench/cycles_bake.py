@@ -42,6 +42,9 @@ ILLUMAP_SETTINGS = [
     ("FMM p=3 vis=none", dict(method="fmm", order=3, theta=0.5, tol=1e-4)),
     ("FMM p=2 vis=exact θ=0.3", dict(method="fmm", order=2, theta=0.3, tol=1e-4, **EXACT)),
     ("FMM p=3 vis=exact θ=0.2", dict(method="fmm", order=3, theta=0.2, tol=1e-4, **EXACT)),
+    ("FMM p=3 vis=exact all-pairs s=32 θ=0.3",
+     dict(method="fmm", order=3, theta=0.3, tol=1e-4, visibility_leaf_mode="per_pair_all",
+          visibility_samples=32, **EXACT)),
     ("direct vis=exact", dict(method="direct", tol=1e-4, **EXACT)),
 ]
 AUTO_TARGETS = (0.1, 0.03)
