@@ -115,8 +115,8 @@ def accuracy_chart(scene, data, cycles, out_png):
     axes[0].set_title("FMM p ∈ {0,2,3,4,6,8} (colour) × visibility none — / seed -- / "
                       "exact ··· (θ=0.5); direct (black)", fontsize=8.5)
     _plot_curves(axes[1], hand, right)
-    axes[1].set_title("exact visibility at smaller θ, and per-pair in every partial leaf pair "
-                      "(all-pairs, s samples); Jacobi vs CG vs GMRES; Cycles; automatic mode",
+    axes[1].set_title("exact visibility at smaller θ; all-pairs: per-pair V in every partial "
+                      "leaf pair (s samples)\nJacobi vs CG vs GMRES; Cycles; automatic mode",
                       fontsize=8)
     best = [lab for lab in left if lab.startswith("direct") and "exact" in lab]
     _plot_curves(axes[1], hand, best)
