@@ -260,11 +260,10 @@ struct Walker {
                         // is Near only because its facing is mixed (a sphere's leaf against a
                         // distant wall) is far apart and gets the fraction, as far leaf pairs
                         // in M2L. PerPairAll: per-pair V (P2P) wherever a leaf pair is PARTIAL.
-                        if (m.leaf_mode() == LeafMode::PerPairAll) {
+                        if (m.leaf_mode() == LeafMode::PerPairAll ||
+                            (k == PairClass::Near && m.leaf_mode() == LeafMode::PerPair &&
+                             !mac_holds(t, s, opt.theta))) {
                             k = PairClass::Near;
-                            b = store_block(pr.t, pr.s, mutual);
-                        } else if (k == PairClass::Near && m.leaf_mode() == LeafMode::PerPair &&
-                                   !mac_holds(t, s, opt.theta)) {
                             b = store_block(pr.t, pr.s, mutual);
                         } else {
                             w = frac;

@@ -425,8 +425,8 @@ inline LeafMode parse_leaf_mode(const std::string& s) {
     if (s == "per_pair") return LeafMode::PerPair;
     if (s == "per_pair_all") return LeafMode::PerPairAll;
     throw std::invalid_argument(
-        "leaf mode must be 'binary', 'fractional', 'per_pair' or 'per_pair_all', not '" +
-                                s + "'");
+        "leaf mode must be 'binary', 'fractional', 'per_pair' or 'per_pair_all', not '" + s +
+        "'");
 }
 
 }  // namespace illumap
