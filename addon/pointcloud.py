@@ -5,9 +5,10 @@
   spacing is estimated from the k = 8 nearest neighbours: for points spread with density ρ over
   a surface, E[d_j²] = j/(πρ), so 1/ρ ≈ 2π·mean_j(d_j²)/(k+1). A warning says so.
 * Normals: a ``normal`` or ``N`` FLOAT_VECTOR attribute. Without one, PCA over the k nearest
-  neighbours (smallest eigenvector of the local covariance), oriented by a documented heuristic:
-  away from the cloud's centroid, or towards +Z where that is ambiguous (|cos| < 0.3, e.g. flat
-  patches), then made consistent by a few rounds of neighbour majority votes. A warning says so.
+  neighbours (smallest eigenvector of the local covariance), oriented consistently along a
+  minimum spanning tree of the neighbour graph (``illumap.pointcloud``: thin sheets and concave
+  folds keep their sides), each connected part facing away from the cloud's centroid, or
+  towards +Z where that is ambiguous (|cos| < 0.3, e.g. flat patches). A warning says so.
 * Albedo: the active colour attribute (or one named ``Col``/``Cd``/``color``), else the first
   material as for meshes (without UVs). Emission: from that material.
 """
@@ -77,24 +78,8 @@ def estimate_areas(positions: np.ndarray, k: int = K_NEIGHBOURS) -> np.ndarray:
 
 def estimate_normals(positions: np.ndarray, k: int = K_NEIGHBOURS) -> np.ndarray:
     """Unit normals (N, 3) by PCA over k neighbours, oriented consistently (module docstring)."""
-    idx, _ = knn(positions, positions, k + 1)
-    nb = positions[idx]                                   # (N, k+1, 3)
-    centred = nb - nb.mean(axis=1, keepdims=True)
-    cov = np.einsum("nki,nkj->nij", centred, centred)
-    _, vec = np.linalg.eigh(cov)                          # ascending eigenvalues
-    n = vec[:, :, 0]
-    out = positions - positions.mean(axis=0)
-    dist = np.linalg.norm(out, axis=1)
-    cos = np.einsum("ij,ij->i", n, out) / np.maximum(dist, 1e-300)
-    ref = np.where(np.abs(cos) >= 0.3, np.sign(cos), np.sign(n[:, 2]) + (n[:, 2] == 0))
-    n *= np.where(ref == 0, 1.0, ref)[:, None]
-    for _ in range(8):  # neighbour majority votes make the orientation coherent
-        agree = np.einsum("nkc,nc->n", n[idx[:, 1:]], n)
-        flip = agree < 0
-        if not flip.any():
-            break
-        n[flip] *= -1
-    return n
+    from illumap import pointcloud as core_pointcloud  # noqa: PLC0415 - native, loaded on use
+    return core_pointcloud.estimate_normals(positions, k)
 
 
 def read_points(obj, depsgraph, warnings: list[str]) -> PointSamples:
@@ -175,7 +160,8 @@ def _finish(obj, obj_eval, name, pos, extra, active, mats, warnings) -> PointSam
     else:
         normal = estimate_normals(pos, k)
         warnings.append(f"Point cloud '{name}': no 'normal' attribute; normals estimated by PCA "
-                        f"over {k} neighbours and oriented away from the centroid")
+                        f"over {k} neighbours, oriented consistently between neighbours and away "
+                        f"from the centroid")
     colors = extra["colors"]
     key = active if active in colors else next((c for c in _COLOR_NAMES if c in colors), None)
     material = mats[0].material if mats else None

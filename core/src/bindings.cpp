@@ -5,12 +5,14 @@
 // The GIL is released during compute; progress callbacks re-acquire it on the calling thread.
 #include "fmm.hpp"
 #include "knn.hpp"
+#include "normals.hpp"
 #include "raycast.hpp"
 
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/string.h>
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <string>
@@ -420,4 +422,35 @@ NB_MODULE(_core, m) {
           nb::arg("threads") = 0, nb::arg("progress") = nb::none(),
           "k nearest points for each query: (indices int64 (M, k), distances float64 (M, k)), "
           "nearest first.");
+
+    m.def("orient_normals",
+          [](nb::handle points, nb::handle normals, nb::handle neighbours, int threads,
+             nb::handle progress) {
+              std::size_t n, nn, nk;
+              nb::object k1, k2, k3;
+              AnyArray shape_of;
+              if (!nb::try_cast<AnyArray>(neighbours, shape_of, false) || shape_of.ndim() != 2)
+                  throw nb::value_error("neighbours must be a 2-D (N, k) numpy array");
+              const std::int64_t k = std::int64_t(shape_of.shape(1));
+              const double* P = view<double>(points, "points", 2, 3, n, k1);
+              const double* N = view<double>(normals, "normals", 2, 3, nn, k2);
+              const std::int64_t* I = view<std::int64_t>(neighbours, "neighbours", 2, k, nk, k3);
+              if (nn != n || nk != n)
+                  throw nb::value_error("points, normals and neighbours must have the same length");
+              double* out;
+              auto O = new_array(n, 3, &out);
+              std::copy(N, N + 3 * n, out);
+              std::int64_t* part = new std::int64_t[std::max<std::size_t>(1, n)]();
+              nb::capsule own_p(part, [](void* q) noexcept { delete[] static_cast<std::int64_t*>(q); });
+              nb::ndarray<nb::numpy, std::int64_t> L(part, {n}, own_p);
+              run_released(threads, progress, [&](Context& ctx) {
+                  orient_normals(ctx, P, out, n, I, std::size_t(k), part);
+              });
+              return nb::make_tuple(O, L);
+          },
+          nb::arg("points"), nb::arg("normals"), nb::arg("neighbours"), nb::kw_only(),
+          nb::arg("threads") = 0, nb::arg("progress") = nb::none(),
+          "Unit normals (N, 3) flipped to agree along the neighbour graph (N, k): (normals, "
+          "connected part of each point int64 (N,)); each part keeps its first point's sign. "
+          "See normals.hpp.");
 }

@@ -1,0 +1,125 @@
+"""Normals for point clouds without them (scans): PCA, then a consistent orientation.
+
+API::
+
+    normals = estimate_normals(points, k=12)               # (P, 3) unit, oriented
+    normals, parts = orient_normals(points, normals, k=12)  # flips given unoriented normals
+
+A PCA normal (smallest eigenvector of the covariance of the k nearest neighbours) has no sign.
+Orienting each one on its own, say away from the centroid, flips every surface that faces the
+centroid: the inside of a torus, the far side of a bunny's thin ear, a concave fold. Such a
+surfel faces into the object, receives no light, and its value depends on how finely the
+object is sampled (so a solution on it does not converge as the density grows).
+
+``orient_normals`` makes neighbours agree instead (Hoppe et al., "Surface reconstruction from
+unorganized points", 1992): the minimum spanning forest of the k-NN graph weighted by
+1 − |nᵢ·nⱼ| carries the sign from point to point along the smoothest paths, so it crosses
+between two close sheets only where nothing smoother connects them. One sign per connected
+part is left, and a vote decides it: the heuristic direction of every point (away from the
+part's centroid where the normal is clearly radial, |cos| ≥ 0.3; else +Z, for flat patches
+such as floors), weighted by agreement. Surfaces that face their centroid (a scanned room from
+inside) need their normals given. Native (``illumap._core.orient_normals``, O(P k log(P k))).
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from .surfels import InputError
+
+__all__ = ["estimate_normals", "orient_normals", "orientation_hints", "DEFAULT_K"]
+
+#: Neighbours for the PCA and the orientation graph.
+DEFAULT_K = 12
+#: |cos| between a normal and the centroid direction below which the hint is +Z instead.
+RADIAL_COS = 0.3
+
+
+def _checked_points(points: np.ndarray, name: str = "points") -> np.ndarray:
+    pts = np.ascontiguousarray(points, dtype=np.float64)
+    if pts.ndim != 2 or pts.shape[1] != 3:
+        raise InputError(f"{name}: expected shape (P, 3), got {pts.shape}")
+    bad = np.flatnonzero(~np.all(np.isfinite(pts), axis=1))
+    if len(bad):
+        raise InputError(f"{name}: {len(bad)} rows contain NaN or infinite values "
+                         f"(first at index {bad[0]})")
+    return pts
+
+
+def orientation_hints(points: np.ndarray, normals: np.ndarray,
+                      part: np.ndarray | None = None) -> np.ndarray:
+    """Preferred directions (P, 3) for the sign vote: the unit direction away from the
+    centroid of the point's connected ``part`` (default: of all points) where
+    |cos(normal, direction)| ≥ 0.3, else +Z."""
+    if part is None:
+        part = np.zeros(len(points), np.int64)
+    count = np.bincount(part).astype(np.float64)
+    centre = np.stack([np.bincount(part, points[:, c]) for c in range(3)], axis=1)
+    centre /= np.maximum(count, 1.0)[:, None]
+    out = points - centre[part]
+    out /= np.maximum(np.linalg.norm(out, axis=1, keepdims=True), 1e-300)
+    cos = np.einsum("ij,ij->i", normals, out)
+    out[np.abs(cos) < RADIAL_COS] = (0.0, 0.0, 1.0)
+    return out
+
+
+def _oriented(pts: np.ndarray, normals: np.ndarray, neighbours: np.ndarray,
+              hints: np.ndarray | None, threads: int, progress) -> tuple[np.ndarray, int]:
+    from . import _core
+    oriented, part = _core.orient_normals(pts, np.ascontiguousarray(normals),
+                                          np.ascontiguousarray(neighbours, dtype=np.int64),
+                                          threads=threads, progress=progress)
+    oriented, part = np.asarray(oriented), np.asarray(part)
+    if hints is None:
+        hints = orientation_hints(pts, oriented, part)
+    hints = _checked_points(hints, "hints")
+    if hints.shape != pts.shape:
+        raise InputError(f"hints: expected shape {pts.shape}, got {hints.shape}")
+    vote = np.bincount(part, np.einsum("ij,ij->i", oriented, hints))
+    oriented[vote[part] < 0] *= -1.0
+    return oriented, len(vote)
+
+
+def orient_normals(points: np.ndarray, normals: np.ndarray, k: int = DEFAULT_K, *,
+                   hints: np.ndarray | None = None, threads: int = 0,
+                   progress: Callable[[float, str], bool | None] | None = None
+                   ) -> tuple[np.ndarray, int]:
+    """Consistently oriented copy of unit ``normals`` (P, 3) at ``points`` (P, 3, m).
+
+    ``hints`` (P, 3): directions the normals should rather face (default
+    :func:`orientation_hints`, per connected part); each connected part of the k-NN graph
+    takes the sign that agrees with them best. Returns (normals, number of connected parts).
+    """
+    from . import _core
+    pts = _checked_points(points)
+    nrm = _checked_points(normals, "normals")
+    if nrm.shape != pts.shape:
+        raise InputError(f"normals: expected shape {pts.shape}, got {nrm.shape}")
+    if len(pts) < 2:
+        return nrm.copy(), len(pts)
+    k = int(min(max(int(k), 1), len(pts) - 1))
+    idx, _ = _core.knn(pts, pts, k + 1, threads=threads)
+    return _oriented(pts, nrm, idx, hints, threads, progress)
+
+
+def estimate_normals(points: np.ndarray, k: int = DEFAULT_K, *, threads: int = 0,
+                     progress: Callable[[float, str], bool | None] | None = None) -> np.ndarray:
+    """Unit normals (P, 3) of a point cloud (P, 3, m): PCA over the ``k`` nearest neighbours,
+    oriented by :func:`orient_normals`."""
+    from . import _core
+    pts = _checked_points(points)
+    if len(pts) < 3:
+        raise InputError(f"points: PCA normals need at least 3 points, got {len(pts)}")
+    kk = int(min(max(int(k), 2), len(pts) - 1))
+    idx, _ = _core.knn(pts, pts, kk + 1, threads=threads)
+    idx = np.asarray(idx)
+    nb = pts[idx]
+    centred = nb - nb.mean(axis=1, keepdims=True)
+    cov = np.empty((len(pts), 3, 3))
+    for a in range(3):              # six products over (P, k) beat a (P, k, 3, 3) einsum
+        for b in range(a, 3):
+            cov[:, a, b] = cov[:, b, a] = np.einsum("nk,nk->n", centred[:, :, a], centred[:, :, b])
+    _, vecs = np.linalg.eigh(cov)
+    return _oriented(pts, vecs[:, :, 0], idx, None, threads, progress)[0]
