@@ -73,6 +73,17 @@ def test_estimated_normals_on_a_sphere_point_outwards():
     assert abs(areas.sum() / (4 * math.pi) - 1) < 0.15
 
 
+def test_a_torus_without_normals_faces_outwards_everywhere():
+    # The inner side of a torus faces its centroid: a per-point rule would turn it inwards.
+    rng = np.random.default_rng(5)
+    u, v = rng.random(3000) * 2 * math.pi, rng.random(3000) * 2 * math.pi
+    p = np.c_[(1 + 0.3 * np.cos(v)) * np.cos(u), (1 + 0.3 * np.cos(v)) * np.sin(u), 0.3 * np.sin(v)]
+    truth = np.c_[np.cos(v) * np.cos(u), np.cos(v) * np.sin(u), np.sin(v)]
+    job = prepare(vertex_mesh("Torus", p))
+    assert any("oriented consistently" in w for w in job.warnings)
+    assert np.all(np.einsum("ij,ij->i", job.normals, truth) > 0.9)
+
+
 def test_normal_attribute_used():
     pos = grid_positions(4, size=1.0)
     obj = vertex_mesh("V", pos, {"N": ("FLOAT_VECTOR", np.tile([0, 1.0, 0], (16, 1))),
