@@ -36,7 +36,7 @@ SAMPLES = (4, 16, 64, 256, 1024, 4096)
 #: (grid cells per wall side, sample counts): the bake costs samples x vertices, so the finer
 #: grids stop at fewer samples
 QUICK = dict(grids=((8, SAMPLES[:4]), (14, SAMPLES[:3])))
-FULL = dict(grids=((8, SAMPLES), (14, SAMPLES[:5]), (20, SAMPLES[:4]), (26, SAMPLES[:3])))
+FULL = dict(grids=((8, SAMPLES), (14, SAMPLES[:5]), (20, SAMPLES[:4]), (26, SAMPLES[:4])))
 EXACT = dict(visibility="exact", **S.exact_keywords("cornell"))
 ILLUMAP_SETTINGS = [
     ("FMM p=3 vis=none", dict(method="fmm", order=3, theta=0.5, tol=1e-4)),

@@ -148,6 +148,51 @@ def test_calibration_is_present_for_every_kind():
             assert all(a <= b for a, b in zip(costs, costs[1:])), (kind, label)  # envelope
 
 
+def test_grid_errors_are_steps_and_the_chosen_count_is_a_measured_one():
+    # On grids the error is not monotone between measured sizes: the model holds the value of
+    # the size below instead of interpolating, and a grid setting is chosen at a measured size.
+    table = accuracy.CALIBRATION["kinds"]["grid"]
+    summary = dict(n=10 ** 9, total_area=1.0, kind="grid", albedo_max=0.8, albedo_mean=0.5)
+    for target in (0.1, 0.05, 0.03):
+        c = accuracy.choose_settings(summary, target, kind="grid")
+        entry = table["settings"][c["label"]]
+        sizes = [n for n, _ in entry["error"]["points"]]
+        assert c["n"] in sizes or c["n"] > sizes[-1] or c["n"] == table["n_min"], (target, c)
+        errors = dict(entry["error"]["points"])
+        if c["n"] in errors:
+            assert errors[c["n"]] <= accuracy.SAFETY * target
+    entry = table["settings"]["direct vis=exact"]
+    (n0, e0), (n1, e1) = entry["error"]["points"][:2]
+    mid = (n0 * n1) ** 0.5
+    assert accuracy._predicted_error(entry, table, mid, None) == pytest.approx(e0)
+    other = accuracy.CALIBRATION["kinds"]["random"]
+    entry = next(e for e in other["settings"].values() if e["keywords"].get("visibility") != "none")
+    (n0, e0), (n1, e1) = entry["error"]["points"][:2]
+    if e1 < e0:
+        assert e1 < accuracy._predicted_error(entry, other, (n0 * n1) ** 0.5, None) < e0
+
+
+def test_discretization_scale_shrinks_only_the_discretization_part():
+    table = accuracy.CALIBRATION["kinds"]["mesh"]
+    n = 3000
+    e_disc = accuracy._discretization(table, n)
+    for label, entry in table["settings"].items():
+        if entry["keywords"].get("visibility") == "none":
+            continue
+        full = accuracy._predicted_error(entry, table, n, None)
+        scaled = accuracy._predicted_error(entry, table, n, None, 0.75)
+        assert scaled <= full + 1e-12, label
+        assert scaled >= 0.75 * full - 1e-12, label
+        # what the setting adds on top of the direct solver's error is kept whole
+        excess = max(0.0, full ** 2 - e_disc ** 2) ** 0.5
+        assert scaled >= excess - 1e-12, label
+    summary = dict(n=10 ** 9, total_area=1.0, kind="mesh", albedo_max=0.8, albedo_mean=0.5)
+    uniform = accuracy.choose_settings(summary, 0.1, kind="mesh")
+    adaptive = accuracy.choose_settings(summary, 0.1, kind="mesh", discretization_scale=0.75)
+    assert adaptive["predicted_time"] <= uniform["predicted_time"]
+    assert adaptive["predicted"]["total"] <= accuracy.SAFETY * 0.1 + 1e-12
+
+
 def test_solve_with_target_error_chooses_and_reports_settings():
     q = scenes.closed_box(6, albedo=0.7, emission=0.0).replace(
         emission=np.where(np.arange(216)[:, None] < 36, 1.0, 0.0) * np.ones((216, 3)))
