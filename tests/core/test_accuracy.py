@@ -191,6 +191,8 @@ def test_discretization_scale_shrinks_only_the_discretization_part():
     adaptive = accuracy.choose_settings(summary, 0.1, kind="mesh", discretization_scale=0.75)
     assert adaptive["predicted_time"] <= uniform["predicted_time"]
     assert adaptive["predicted"]["total"] <= accuracy.SAFETY * 0.1 + 1e-12
+    floor = accuracy.choose_settings(summary, 0.1, kind="mesh", min_surfels=5000)
+    assert floor["n"] >= 5000
 
 
 def test_solve_with_target_error_chooses_and_reports_settings():
@@ -255,7 +257,8 @@ def test_exact_visibility_keywords_follow_the_sampling():
 
 def test_mesh_sampled_adaptively_meets_the_target_and_beats_uniform_sampling():
     """solve_triangles on the Cornell box's triangles: the count comes from the mesh error
-    model (for target / ADAPTIVE_ERROR_RATIO), pass 1 solves half of it, pass 2 resamples
+    model (its discretization part scaled by ADAPTIVE_ERROR_RATIO from ADAPTIVE_MIN_COUNT
+    surfels, unscaled below), pass 1 solves half of it, pass 2 resamples
     denser where pass 1 varies. The error against the direct exact-visibility reference meets
     the target, and is lower than one uniform pass of the same count."""
     corners, albedo, emission, keep = S.cornell_triangles()
@@ -263,6 +266,9 @@ def test_mesh_sampled_adaptively_meets_the_target_and_beats_uniform_sampling():
     sol, q = accuracy.solve_triangles(corners, albedo, emission, target, keep=keep)
     info = sol.stats["accuracy"]
     assert info["adaptive"] and len(info["passes"]) == 2
+    scale = info["discretization_scale"]
+    assert scale in (1.0, accuracy.ADAPTIVE_ERROR_RATIO)
+    assert scale == 1.0 or info["settings"]["n"] >= accuracy.ADAPTIVE_MIN_COUNT
     first, second = info["passes"]
     assert second["surfels"] == q.n and first["surfels"] < 0.6 * q.n
     assert info["settings"]["n"] <= 4000 / 1.5, info["settings"]  # the reference is denser
@@ -284,10 +290,9 @@ def test_mesh_sampled_adaptively_meets_the_target_and_beats_uniform_sampling():
     e_adaptive, e_uniform = error(sol, q), error(uniform, qu)
     assert e_adaptive <= target, (info["settings"], e_adaptive)
     assert e_adaptive < 0.9 * e_uniform, (e_adaptive, e_uniform)
-    # the estimate's discretization part is the uniform model scaled for the adaptive pass
+    # the estimate's discretization part is the uniform model scaled as the choice was
     plain = accuracy.estimate_error(sol, q, settings=info["settings"], kind="mesh")
-    assert info["estimate"]["discretization"] == pytest.approx(
-        accuracy.ADAPTIVE_ERROR_RATIO * plain["discretization"])
+    assert info["estimate"]["discretization"] == pytest.approx(scale * plain["discretization"])
     assert info["estimate"]["total"] > 0
 
 

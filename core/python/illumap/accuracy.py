@@ -500,8 +500,8 @@ def _candidates(table, s, fixed, target, e_occ, n_min, cap, allow_direct, scale=
 
 
 def choose_settings(scene, target_error, *, kind: str | None = None, allow_direct: bool = True,
-                    max_surfels: int | None = None, probe="auto",
-                    discretization_scale: float = 1.0) -> dict:
+                    max_surfels: int | None = None, min_surfels: int | None = None,
+                    probe="auto", discretization_scale: float = 1.0) -> dict:
     """Settings meeting ``target_error`` (relative RMS per surfel) at the least modelled time.
 
     scene : Surfels (its N is then fixed: the setting is chosen for it, and ``n`` reports the
@@ -511,6 +511,7 @@ def choose_settings(scene, target_error, *, kind: str | None = None, allow_direc
     kind : "grid" | "random" | "point_cloud"; default guessed (equal areas → "grid").
     allow_direct : when False, only FMM settings are considered.
     max_surfels : cap on the recommended surfel count (e.g. the points of a scan).
+    min_surfels : floor on the recommended surfel count (default: the calibration's n_min).
     discretization_scale : the sampling's discretization error against the uniform one the
         models were fitted on (ADAPTIVE_ERROR_RATIO for an adaptive sampling); it scales the
         discretization part of each setting's error, not what its expansion and visibility
@@ -536,7 +537,7 @@ def choose_settings(scene, target_error, *, kind: str | None = None, allow_direc
     cap = s["n"] if (fixed or s["kind"] == "point_cloud") else 10 ** 9
     if max_surfels is not None:
         cap = min(cap, int(max_surfels))
-    n_min = min(int(table.get("n_min", DEFAULT_N_MIN)), cap)
+    n_min = min(max(int(table.get("n_min", DEFAULT_N_MIN)), int(min_surfels or 0)), cap)
     probe_info = probe if isinstance(probe, dict) else None
 
     def rank(e_occ):   # aim a little below the target: the fits are of a few sampled scenes
@@ -772,9 +773,13 @@ ADAPTIVE_SURFELS_PER_REGION = 6
 ADAPTIVE_NEIGHBOURS = 8
 ADAPTIVE_MAX_RATIO = 4.0
 #: Error of an adaptive run against a uniform one of the same count, as the count is chosen:
-#: measured 0.60-0.73 on the Cornell box's triangles (bench/bench_adaptive.py: 2k, 4k and 8k
-#: surfels, direct and FMM p = 3, θ = 0.2, exact visibility); rounded up.
+#: measured 0.63-0.74 on the Cornell box's triangles (bench/bench_adaptive.py: 2k, 4k and 8k
+#: surfels, direct and FMM p = 3, θ = 0.2, exact visibility, against the 48k-surfel
+#: reference); rounded up. It scales the discretization part of a setting's error only.
 ADAPTIVE_ERROR_RATIO = 0.75
+#: Fewest surfels for which that ratio is assumed (measured from 2k up; at 1383 surfels, a first
+#: pass of 690, the automatic mode's adaptive run got 0.83 of the uniform model's error).
+ADAPTIVE_MIN_COUNT = 2000
 
 
 def _mesh_surfels(samples, albedo, emission, keep):
@@ -825,14 +830,25 @@ def solve_triangles(corners, albedo, emission, target_error, *, kind: str = "mes
     target = _check_target(target_error)
     # the error models are of uniform sampling; the second pass lowers their discretization
     # part by a factor
+    summary = dict(n=10 ** 9, total_area=float(areas.sum()), kind=kind,
+                   albedo_max=float(rho.max()),
+                   albedo_mean=float(np.average(rho.mean(axis=1), weights=areas)))
     scale = ADAPTIVE_ERROR_RATIO if adaptive else 1.0
-    chosen = choose_settings(dict(n=10 ** 9, total_area=float(areas.sum()), kind=kind,
-                                  albedo_max=float(rho.max()),
-                                  albedo_mean=float(np.average(rho.mean(axis=1), weights=areas))),
-                             target, kind=kind, discretization_scale=scale)
+    chosen = choose_settings(summary, target, kind=kind, discretization_scale=scale)
+    if adaptive and chosen["n"] < ADAPTIVE_MIN_COUNT:
+        # below it a first pass is too coarse to find where the illumination varies: either the
+        # ratio from ADAPTIVE_MIN_COUNT surfels up, or no gain at all, whichever is cheaper
+        floor = choose_settings(summary, target, kind=kind, discretization_scale=scale,
+                                min_surfels=ADAPTIVE_MIN_COUNT)
+        plain = choose_settings(summary, target, kind=kind)
+        if plain["predicted_time"] < floor["predicted_time"]:
+            scale, chosen = 1.0, plain
+        else:
+            chosen = floor
     if adaptive:
-        chosen["notes"].append(f"adaptive: the models' discretization error scaled by the "
-                               f"adaptive error ratio {ADAPTIVE_ERROR_RATIO}")
+        chosen["notes"].append(f"adaptive: the models' discretization error scaled by "
+                               f"{scale:g} (adaptive error ratio {ADAPTIVE_ERROR_RATIO} from "
+                               f"{ADAPTIVE_MIN_COUNT} surfels)")
     kw = solve_keywords(chosen)
     kw.update(overrides)
     if count is None:
@@ -875,10 +891,10 @@ def solve_triangles(corners, albedo, emission, target_error, *, kind: str = "mes
         refine_seconds = time.perf_counter() - t0
         sol, surfels, _ = run(second)
         passes[-1]["refinement_seconds"] = refine_seconds
-    info = dict(settings=chosen, solve_keywords=kw, adaptive=bool(adaptive), passes=passes)
+    info = dict(settings=chosen, solve_keywords=kw, adaptive=bool(adaptive), passes=passes,
+                discretization_scale=scale)
     if estimate:
-        info["estimate"] = estimate_error(
-            sol, surfels, settings=chosen, kind=kind,
-            discretization_scale=ADAPTIVE_ERROR_RATIO if adaptive else 1.0)
+        info["estimate"] = estimate_error(sol, surfels, settings=chosen, kind=kind,
+                                          discretization_scale=scale)
     sol.stats["accuracy"] = info
     return sol, surfels
