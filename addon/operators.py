@@ -135,6 +135,11 @@ def record_stats(stats, result, seconds):
     stats.first_pass_surfels = int(first.get("surfels", 0))
     stats.first_pass_iterations = int(first.get("iterations", 0))
     stats.shadow_rays = int(extra.get("shadow_rays", 0))
+    accuracy = extra.get("accuracy") or {}
+    chosen = accuracy.get("settings") or {}
+    if chosen.get("label"):
+        stats.chosen_settings = f"{chosen['label']}, tol {chosen['tol']:.0e}"
+    stats.estimated_error = float((accuracy.get("estimate") or {}).get("total") or 0.0)
     stats.valid = True
     stats.summary = (f"{stats.surfels} surfels, {stats.iterations} iterations, "
                      f"residual {stats.residual:.2e}, {stats.total_seconds:.2f} s")

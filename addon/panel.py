@@ -110,6 +110,10 @@ def draw_stats(layout, context):
     if stats.density > 0:
         col.label(text=f"Density for target: {stats.density:,.0f} /m² "
                        f"(predicted {stats.predicted_error:.3f})")
+    if stats.chosen_settings:
+        col.label(text=f"Chosen: {stats.chosen_settings}")
+    if stats.estimated_error > 0:
+        col.label(text=f"Estimated error: {stats.estimated_error:.3f}")
     if stats.first_pass_surfels > 0:
         col.label(text=f"Adaptive pass 1: {stats.first_pass_surfels:,} surfels, "
                        f"{stats.first_pass_iterations} iterations")

@@ -20,6 +20,7 @@ raise ``IllumapError`` (``IllumapCancelled`` when cancelled).
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from dataclasses import dataclass, field, fields, replace
@@ -125,6 +126,9 @@ class Job:
     refine: "_Scene | None" = None
     lamps: list = field(default_factory=list)   # lamps.Lamp records, lit by ``light``
     ambient: np.ndarray | None = None           # uniform world radiance (3,), or None
+    # With a target error: the settings the error model chose for the final count
+    # (``illumap.accuracy.choose_settings``); an adaptive pass 1 solves with them.
+    accuracy: dict | None = None
 
     @property
     def count(self) -> int:
@@ -255,26 +259,43 @@ def make_segment_query(positions, normals, areas, progress=None):
     return visible
 
 
+def adaptive_error_ratio_applies(settings: Settings) -> bool:
+    """Whether this run's adaptive passes are those the core's ADAPTIVE_ERROR_RATIO was
+    measured with (first pass share and density bound): then the error model may count on it."""
+    from illumap import accuracy
+    return (settings.adaptive
+            and math.isclose(settings.adaptive_first_pass, accuracy.ADAPTIVE_FIRST_SHARE)
+            and math.isclose(settings.adaptive_max_ratio, accuracy.ADAPTIVE_MAX_RATIO))
+
+
 def target_density(settings: Settings, mesh_area: float, point_count: int, point_area: float,
-                   stats: dict) -> float | None:
-    """Surfels per m² for meshes that the error model says meet ``settings.target_error``
-    (``illumap.accuracy.choose_settings``); the budget, when set, caps the count. Fills
-    ``stats['density']`` with the choice. None without a target error."""
+                   stats: dict) -> tuple[float, dict] | None:
+    """Surfels per m² for meshes that the error model says meet ``settings.target_error``,
+    and the settings it chose for that count (``illumap.accuracy.choose_mesh_settings``: the
+    "mesh" kind, calibrated on stratified triangle samples as ``sampling`` draws them, with the
+    adaptive error ratio when two passes run; scans alone: ``choose_settings``, kind
+    "point_cloud"). The budget, when set, caps the count. Fills ``stats['density']`` with the
+    choice. None without a target error."""
     if settings.target_error is None:
         return None
     if not 0.0 < settings.target_error < 1.0:
         raise IllumapError(f"Target error must lie in (0, 1), got {settings.target_error}", 2)
     from illumap import accuracy
     total = mesh_area + point_area
-    # Stratified mesh surfels measured against Cycles behave like the model's randomly sampled
-    # meshes (the grid model is far too optimistic there); scans are point clouds.
-    kind = "random" if mesh_area > 0 else "point_cloud"
+    kind = "mesh" if mesh_area > 0 else "point_cloud"
     cap = settings.budget if settings.budget else None
     if kind == "point_cloud":
         cap = point_count
+    summary = dict(n=max(point_count, 1), total_area=total, kind=kind)
     try:
-        chosen = accuracy.choose_settings(dict(n=max(point_count, 1), total_area=total, kind=kind),
-                                          settings.target_error, max_surfels=cap)
+        if kind == "mesh":
+            summary["n"] = 10 ** 9   # meshes are sampled at any count
+            chosen = accuracy.choose_mesh_settings(summary, settings.target_error, kind=kind,
+                                                   adaptive=adaptive_error_ratio_applies(settings),
+                                                   max_surfels=cap)
+        else:
+            chosen = accuracy.choose_settings(summary, settings.target_error, kind=kind,
+                                              max_surfels=cap)
     except (ValueError, KeyError) as exc:  # InputError is a ValueError
         raise IllumapError(f"Cannot choose a surfel density for target error "
                            f"{settings.target_error:g}: {exc}", 3) from None
@@ -286,8 +307,9 @@ def target_density(settings: Settings, mesh_area: float, point_count: int, point
     stats["density"] = dict(target_error=float(settings.target_error), kind=kind,
                             density=float(density), surfels=int(chosen["n"]),
                             predicted_discretization=float(disc),
+                            discretization_scale=float(chosen["discretization_scale"]),
                             notes=list(chosen.get("notes", [])))
-    return density
+    return density, chosen
 
 
 def prepare(depsgraph, objects, settings: Settings) -> Job:
@@ -324,9 +346,10 @@ def prepare(depsgraph, objects, settings: Settings) -> Job:
         point_sources.append((p.name, float(p.areas.sum())))
     stats: dict = {}
     mesh_areas = np.array([tm.total_area for tm in tri_meshes])
-    density = target_density(settings, float(mesh_areas.sum()),
-                             sum(len(pp[2]) for pp in point_parts),
-                             sum(a for _, a in point_sources), stats)
+    target = target_density(settings, float(mesh_areas.sum()),
+                            sum(len(pp[2]) for pp in point_parts),
+                            sum(a for _, a in point_sources), stats)
+    density, chosen = target if target is not None else (None, None)
     counts = np.zeros(0, dtype=np.int64)
     if tri_meshes:
         n_points = sum(len(pp[2]) for pp in point_parts)
@@ -354,6 +377,7 @@ def prepare(depsgraph, objects, settings: Settings) -> Job:
     job = _assemble(settings, samples, point_parts, point_sources, lamp_list, ambient, warnings,
                     stats, t0)
     job.refine = refine
+    job.accuracy = chosen
     return job
 
 
@@ -488,6 +512,7 @@ def next_pass(job: Job, result: "Result") -> Job | None:
     refine_seconds = time.perf_counter() - t0
     new = _assemble(s, samples, scene.points, scene.point_sources, scene.lamps, scene.ambient,
                     list(job.warnings), stats, t0)
+    new.accuracy = job.accuracy
     new.timings = {"pass 1: " + k_: v for k_, v in result.timings.items()} | \
         {"adaptive refinement": refine_seconds} | new.timings
     new.stats["adaptive"] = dict(
@@ -521,10 +546,22 @@ def run(job: Job, progress: Progress | None = None) -> Result:
     if s.target_error is not None:
         if not 0.0 < s.target_error < 1.0:
             raise IllumapError(f"Target error must lie in (0, 1), got {s.target_error}", 2)
+        from illumap import accuracy
+        solve = accuracy.solve
         # Should the error model choose exact visibility, its occluders are the shadows' too.
         kwargs = dict(target_error=s.target_error, progress=progress, near_field=s.near_field,
                       coverage=SURFEL_COVERAGE)
+        chosen = job.accuracy or {}
+        if job.refine is not None and chosen:
+            # An adaptive pass 1 only finds where the light varies: the final count's settings
+            # (chosen for these surfels, the model would buy pass 1 the whole target), and no
+            # error estimate.
+            kwargs.update(settings=chosen, estimate=False)
+        else:
+            kwargs.update(kind=chosen.get("kind"),
+                          discretization_scale=chosen.get("discretization_scale", 1.0))
     else:
+        solve = illumap.solve
         kwargs = dict(method=s.method, solver=s.solver, tol=s.tol,
                       max_iterations=s.max_iterations, progress=progress,
                       near_field=s.near_field)
@@ -536,7 +573,7 @@ def run(job: Job, progress: Progress | None = None) -> Result:
             kwargs["coverage"] = SURFEL_COVERAGE  # the lamp shadows' occluders
     t0 = time.perf_counter()
     try:
-        sol = illumap.solve(surfels, **kwargs)
+        sol = solve(surfels, **kwargs)
     except illumap.Cancelled:
         raise IllumapCancelled("Cancelled") from None
     except illumap.InputError as exc:

@@ -141,6 +141,12 @@ class IllumapStats(bpy.types.PropertyGroup):
                                     description="Surfels of the adaptive first pass (0: one pass)")
     first_pass_iterations: IntProperty(name="Pass 1 Iterations", default=0)
     shadow_rays: IntProperty(name="Shadow Rays", default=0)
+    chosen_settings: StringProperty(
+        name="Chosen Settings", default="",
+        description="Solver settings the error model chose for the target error ('': none)")
+    estimated_error: FloatProperty(
+        name="Estimated Error", default=0.0, precision=4,
+        description="A-posteriori estimate of the relative RMS error (0: none)")
 
     def clear(self):
         self.valid = False
@@ -156,6 +162,8 @@ class IllumapStats(bpy.types.PropertyGroup):
         self.first_pass_surfels = 0
         self.first_pass_iterations = 0
         self.shadow_rays = 0
+        self.chosen_settings = ""
+        self.estimated_error = 0.0
 
 
 class IllumapSettings(bpy.types.PropertyGroup):

@@ -257,9 +257,7 @@ def run_auto(name, target, ref, ref_B, ref_info, cfg, log, hand=(), adaptive=Tru
     B_ref = S.reference_at(ref, ref_B, S.subset(q, idx), ref_info["scene"])
     err = S.relative_rms(sol.radiosity[idx], B_ref)
     info = sol.stats["accuracy"]
-    est = accuracy.estimate_error(
-        sol, q, settings=info["settings"], kind=kind,
-        discretization_scale=info.get("discretization_scale", 1.0))
+    est = accuracy.estimate_error(sol, q, settings=info["settings"], kind=kind)
     log(f"  {name} N={q.n:6d} {label:18s} {dt:8.3f}s err={err:.4f} "
         f"estimate={est['total']:.4f} {info['solve_keywords']}"
         + (f" passes={info['passes']}" if mesh else ""))

@@ -58,9 +58,11 @@ def test_target_error_chooses_the_density():
     objects = spot_scene()
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), objects,
                            pipeline.Settings(target_error=0.1, adaptive=False, lamp_shadows=False))
-    chosen = accuracy.choose_settings(dict(n=1, total_area=8.0, kind="random"), 0.1)
+    # the model of the "mesh" kind: stratified triangle samples, as the add-on draws them
+    chosen = accuracy.choose_mesh_settings(dict(n=10 ** 9, total_area=8.0), 0.1, adaptive=False)
     info = job.stats["density"]
-    assert info["kind"] == "random" and info["surfels"] == chosen["n"]
+    assert info["kind"] == "mesh" and info["surfels"] == chosen["n"]
+    assert info["discretization_scale"] == 1.0 and job.accuracy["label"] == chosen["label"]
     assert info["density"] == pytest.approx(chosen["n"] / 8.0)
     assert abs(job.count - chosen["n"]) <= 2        # rounding per object
     assert 0 < info["predicted_discretization"] <= 0.1
@@ -93,7 +95,7 @@ def test_target_error_outside_range_is_an_error():
 
 def test_adaptive_pass_is_denser_at_the_light_edge_and_keeps_areas():
     objects = spot_scene()
-    job, result = solve(objects, target_error=0.1, budget=2400)
+    job, result = solve(objects, target_error=0.07, budget=2400)   # the budget caps the count
     info = result.stats["adaptive"]
     assert info["pass1"]["surfels"] == 1200 and info["pass2_surfels"] == job.count == 2400
     assert info["max_multiplier"] <= 4.0 + 1e-12 and info["regions"] > 100
@@ -175,3 +177,31 @@ def test_adaptive_pass_is_denser_at_a_shadow_edge(monkeypatch):
     edge, umbra, open_floor = density(0.65, 0.85), density(0.0, 0.45), density(1.3, 1.9)
     print(f"\nfloor surfels/m²: shadow edge {edge:.0f}, umbra {umbra:.0f}, lit floor {open_floor:.0f}")
     assert edge > 1.5 * umbra and edge > 1.5 * open_floor
+
+
+def test_adaptive_pass_one_solves_with_the_final_counts_settings():
+    """Pass 1 holds half the surfels only to find where the light varies: it solves with the
+    settings chosen for the final count (chosen for its own count, the model would pick the
+    costliest setting to meet the whole target there) and skips the error estimate. Pass 2
+    chooses for its surfels with the job's kind ("mesh", not the "grid" that equal areas
+    suggest) and reports the settings and the estimate in the stats and the UI."""
+    objects = spot_scene()
+    job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), objects,
+                           pipeline.Settings(target_error=0.1, lamp_shadows=False))
+    chosen = job.accuracy
+    assert chosen["kind"] == "mesh" and job.count < chosen["n"]
+    first = pipeline.run(job)
+    info = first.stats["accuracy"]
+    assert info["settings"] is chosen and "estimate" not in info
+    second = pipeline.next_pass(job, first)
+    assert second.accuracy is chosen and second.refine is None
+    final = pipeline.run(second)
+    info = final.stats["accuracy"]
+    assert info["settings"]["kind"] == "mesh"
+    assert info["settings"]["discretization_scale"] == chosen["discretization_scale"]
+    assert info["estimate"]["total"] > 0
+    from addon import operators
+    stats = bpy.context.scene.illumap.stats
+    operators.record_stats(stats, final, 1.0)
+    assert stats.chosen_settings.startswith(info["settings"]["label"])
+    assert stats.estimated_error == pytest.approx(info["estimate"]["total"], rel=1e-5)

@@ -195,6 +195,26 @@ def test_discretization_scale_shrinks_only_the_discretization_part():
     assert floor["n"] >= 5000
 
 
+@pytest.mark.parametrize("target", [0.15, 0.12, 0.05])
+def test_mesh_settings_count_on_the_adaptive_ratio_only_where_it_was_measured(target):
+    """choose_mesh_settings (solve_triangles and the add-on): the adaptive error ratio scales
+    the models only at ADAPTIVE_MIN_COUNT surfels or more; below, the count is raised to it or
+    chosen without the ratio, whichever is predicted faster; never slower than one uniform
+    pass's choice. (At these targets both branches occur: 0.15 without the ratio, 0.12 raised
+    to the floor, 0.05 above it.)"""
+    summary = dict(n=10 ** 9, total_area=1.0, kind="mesh", albedo_max=0.8, albedo_mean=0.5)
+    chosen = accuracy.choose_mesh_settings(summary, target)
+    plain = accuracy.choose_settings(summary, target, kind="mesh")
+    scale = chosen["discretization_scale"]
+    assert scale in (1.0, accuracy.ADAPTIVE_ERROR_RATIO)
+    assert scale == 1.0 or chosen["n"] >= accuracy.ADAPTIVE_MIN_COUNT, chosen
+    assert chosen["predicted_time"] <= plain["predicted_time"] + 1e-12
+    assert chosen["predicted"]["total"] <= accuracy.SAFETY * target + 1e-12
+    assert any(note.startswith("adaptive:") for note in chosen["notes"])
+    uniform = accuracy.choose_mesh_settings(summary, target, adaptive=False)
+    assert uniform["discretization_scale"] == 1.0 and uniform["n"] == plain["n"]
+
+
 def test_solve_with_target_error_chooses_and_reports_settings():
     q = scenes.closed_box(6, albedo=0.7, emission=0.0).replace(
         emission=np.where(np.arange(216)[:, None] < 36, 1.0, 0.0) * np.ones((216, 3)))

@@ -49,8 +49,8 @@ import numpy as np
 from .operator import DEFAULT_LEAF_SIZE, VISIBILITY_DEFAULTS, TransportOperator
 from .surfels import InputError, Surfels
 
-__all__ = ["choose_settings", "solve_keywords", "estimate_error", "solve", "solve_triangles",
-           "scene_summary", "occlusion_probe", "visibility_keywords", "CALIBRATION", "FMM_ERROR",
+__all__ = ["choose_settings", "choose_mesh_settings", "solve_keywords", "estimate_error", "solve",
+           "solve_triangles", "scene_summary", "occlusion_probe", "visibility_keywords", "CALIBRATION", "FMM_ERROR",
            "EXACT_KEYWORDS", "PRESETS", "KINDS"]
 
 KINDS = ("grid", "mesh", "random", "point_cloud")
@@ -526,7 +526,8 @@ def choose_settings(scene, target_error, *, kind: str | None = None, allow_direc
     (recommended count), ``method``, ``order``, ``theta``, ``leaf_size``, ``visibility``,
     ``visibility_keywords``, ``solver``, ``tol``, ``label`` (the calibrated setting),
     ``predicted`` (``total`` error and ``discretization``, the setting's error at N),
-    ``predicted_time`` (s, calibration machine), ``probe`` and ``notes``. Pass it to
+    ``predicted_time`` (s, calibration machine), ``discretization_scale`` (as given),
+    ``probe`` and ``notes``. Pass it to
     :func:`solve_keywords` for ``illumap.solve``.
     """
     target = _check_target(target_error)
@@ -596,6 +597,7 @@ def choose_settings(scene, target_error, *, kind: str | None = None, allow_direc
         predicted=dict(total=float(best["error"]), discretization=e_disc,
                        occlusion=e_occ if vis == "none" else None),
         predicted_time=float(best["time"]),
+        discretization_scale=float(discretization_scale),
         probe=probe_info,
         notes=notes,
     )
@@ -657,7 +659,7 @@ _OPERATOR_STATS = ("method", "order", "theta", "leaf_size", "near_field", "visib
 def estimate_error(solution, surfels: Surfels, *, operator: TransportOperator | None = None,
                    probe: int = 256, coarse: bool = False, settings: dict | None = None,
                    kind: str | None = None, seed: int = 0,
-                   discretization_scale: float = 1.0) -> dict:
+                   discretization_scale: float | None = None) -> dict:
     """A-posteriori estimate of the relative RMS error (emitters excluded) of ``solution``.
 
     * ``solver``: ‖r‖/((1 − ρ_max)‖B‖) from the final true residual (r = E − (B − ρ K B)).
@@ -670,10 +672,13 @@ def estimate_error(solution, surfels: Surfels, *, operator: TransportOperator | 
     * ``discretization``: with ``coarse=True`` measured on a spatially even half of the surfels
       (e ≈ d/(√2 − 1)); otherwise the calibrated model of the scene kind at this N, times
       ``discretization_scale`` (the models are of uniform density: ADAPTIVE_ERROR_RATIO for an
-      adaptive sampling), None when there is no calibration.
+      adaptive sampling; default: that of ``settings``, else 1), None when there is no
+      calibration.
     ``total`` = sqrt of the sum of squares (independent sources); ``numerical`` = solver + fmm.
     """
     t0 = time.perf_counter()
+    if discretization_scale is None:
+        discretization_scale = (settings or {}).get("discretization_scale", 1.0)
     rng = np.random.default_rng(seed)
     B = np.asarray(solution.radiosity)
     stats = solution.stats
@@ -745,14 +750,16 @@ def estimate_error(solution, surfels: Surfels, *, operator: TransportOperator | 
 
 def solve(surfels: Surfels, target_error, *, kind: str | None = None, allow_direct: bool = True,
           estimate: bool = True, coarse: bool = False, settings: dict | None = None,
-          progress=None, **overrides):
+          discretization_scale: float = 1.0, progress=None, **overrides):
     """Choose settings for ``target_error`` (or use ``settings``, a :func:`choose_settings`
     result) and solve ``surfels``; ``stats["accuracy"]`` holds the chosen settings, the solve
-    keywords and (``estimate=True``) the a-posteriori estimate. ``overrides`` replace chosen
-    solve keywords (e.g. ``solver="jacobi"``)."""
+    keywords and (``estimate=True``) the a-posteriori estimate. ``discretization_scale``: as
+    in :func:`choose_settings` (ADAPTIVE_ERROR_RATIO for the second pass of an adaptive
+    sampling). ``overrides`` replace chosen solve keywords (e.g. ``solver="jacobi"``)."""
     from .solver import solve as _solve
     chosen = settings if settings is not None else choose_settings(
-        surfels, target_error, kind=kind, allow_direct=allow_direct)
+        surfels, target_error, kind=kind, allow_direct=allow_direct,
+        discretization_scale=discretization_scale)
     kw = solve_keywords(chosen)
     kw.update(overrides)
     sol = _solve(surfels, progress=progress, **kw)
@@ -773,13 +780,41 @@ ADAPTIVE_SURFELS_PER_REGION = 6
 ADAPTIVE_NEIGHBOURS = 8
 ADAPTIVE_MAX_RATIO = 4.0
 #: Error of an adaptive run against a uniform one of the same count, as the count is chosen:
-#: measured 0.63-0.74 on the Cornell box's triangles (bench/bench_adaptive.py: 2k, 4k and 8k
-#: surfels, direct and FMM p = 3, θ = 0.2, exact visibility, against the 48k-surfel
-#: reference); rounded up. It scales the discretization part of a setting's error only.
+#: measured on the Cornell box's triangles against the 48k-surfel reference
+#: (bench/bench_adaptive.py, bench/results/adaptive.json: 1.5k, 3k and 6k surfels, exact
+#: visibility): 0.69-0.73 for the direct method, 0.69-0.81 for FMM settings, whose expansion
+#: and visibility error the second pass does not lower; rounded up for the discretization part.
+#: It scales the discretization part of a setting's error only.
 ADAPTIVE_ERROR_RATIO = 0.75
 #: Fewest surfels for which that ratio is assumed (measured from 2k up; at 1383 surfels, a first
 #: pass of 690, the automatic mode's adaptive run got 0.83 of the uniform model's error).
 ADAPTIVE_MIN_COUNT = 2000
+
+
+def choose_mesh_settings(scene: dict, target_error, *, kind: str = "mesh", adaptive: bool = True,
+                         max_surfels: int | None = None) -> dict:
+    """:func:`choose_settings` for meshes to be sampled (``scene``: a summary dict, ``n``
+    any large number and ``total_area`` in m²), as :func:`solve_triangles` and the add-on
+    sample them. With ``adaptive`` (two passes: ADAPTIVE_FIRST_SHARE of the count uniformly,
+    then the count denser where that solution varies) the models' discretization part is
+    scaled by ADAPTIVE_ERROR_RATIO where the count is at least ADAPTIVE_MIN_COUNT; below it a
+    first pass is too coarse to find where the illumination varies, so the count is either
+    raised to ADAPTIVE_MIN_COUNT or chosen without the ratio, whichever is predicted faster.
+    The result's ``discretization_scale`` says which; ``estimate_error`` and the second
+    pass's :func:`solve` take it from there."""
+    scale = ADAPTIVE_ERROR_RATIO if adaptive else 1.0
+    chosen = choose_settings(scene, target_error, kind=kind, max_surfels=max_surfels,
+                             discretization_scale=scale)
+    if adaptive and chosen["n"] < ADAPTIVE_MIN_COUNT:
+        floor = choose_settings(scene, target_error, kind=kind, max_surfels=max_surfels,
+                                discretization_scale=scale, min_surfels=ADAPTIVE_MIN_COUNT)
+        plain = choose_settings(scene, target_error, kind=kind, max_surfels=max_surfels)
+        chosen = plain if plain["predicted_time"] < floor["predicted_time"] else floor
+    if adaptive:
+        chosen["notes"].append(f"adaptive: the models' discretization error scaled by "
+                               f"{chosen['discretization_scale']:g} (adaptive error ratio "
+                               f"{ADAPTIVE_ERROR_RATIO} from {ADAPTIVE_MIN_COUNT} surfels)")
+    return chosen
 
 
 def _mesh_surfels(samples, albedo, emission, keep):
@@ -802,9 +837,9 @@ def solve_triangles(corners, albedo, emission, target_error, *, kind: str = "mes
     kind : the calibrated scene kind whose error model sets the count ("mesh": stratified
         samples of triangles, uniform density, as in bench/scenes.py ``cornell_mesh``; the
         second pass only lowers the error).
-    adaptive : two passes. The count is chosen with the uniform-density models'
-        discretization part scaled by ADAPTIVE_ERROR_RATIO (``choose_settings``'s
-        ``discretization_scale``); pass 1 solves ADAPTIVE_FIRST_SHARE of it, uniformly; pass 2
+    adaptive : two passes. The count is chosen by :func:`choose_mesh_settings` (the
+        uniform-density models' discretization part scaled by ADAPTIVE_ERROR_RATIO from
+        ADAPTIVE_MIN_COUNT surfels up); pass 1 solves ADAPTIVE_FIRST_SHARE of it, uniformly; pass 2
         resamples the full count with a density multiplier per region that grows with how
         much pass 1's luminance varies there (``illumap.sampling``), and solves again. Without
         it: one uniform pass of the count chosen for the target.
@@ -828,27 +863,11 @@ def solve_triangles(corners, albedo, emission, target_error, *, kind: str = "mes
                          f"{rho.shape} and {emit.shape}")
     areas = sampling.triangle_areas(c)
     target = _check_target(target_error)
-    # the error models are of uniform sampling; the second pass lowers their discretization
-    # part by a factor
-    summary = dict(n=10 ** 9, total_area=float(areas.sum()), kind=kind,
-                   albedo_max=float(rho.max()),
-                   albedo_mean=float(np.average(rho.mean(axis=1), weights=areas)))
-    scale = ADAPTIVE_ERROR_RATIO if adaptive else 1.0
-    chosen = choose_settings(summary, target, kind=kind, discretization_scale=scale)
-    if adaptive and chosen["n"] < ADAPTIVE_MIN_COUNT:
-        # below it a first pass is too coarse to find where the illumination varies: either the
-        # ratio from ADAPTIVE_MIN_COUNT surfels up, or no gain at all, whichever is cheaper
-        floor = choose_settings(summary, target, kind=kind, discretization_scale=scale,
-                                min_surfels=ADAPTIVE_MIN_COUNT)
-        plain = choose_settings(summary, target, kind=kind)
-        if plain["predicted_time"] < floor["predicted_time"]:
-            scale, chosen = 1.0, plain
-        else:
-            chosen = floor
-    if adaptive:
-        chosen["notes"].append(f"adaptive: the models' discretization error scaled by "
-                               f"{scale:g} (adaptive error ratio {ADAPTIVE_ERROR_RATIO} from "
-                               f"{ADAPTIVE_MIN_COUNT} surfels)")
+    chosen = choose_mesh_settings(
+        dict(n=10 ** 9, total_area=float(areas.sum()), kind=kind, albedo_max=float(rho.max()),
+             albedo_mean=float(np.average(rho.mean(axis=1), weights=areas))),
+        target, kind=kind, adaptive=adaptive)
+    scale = chosen["discretization_scale"]
     kw = solve_keywords(chosen)
     kw.update(overrides)
     if count is None:
@@ -894,7 +913,6 @@ def solve_triangles(corners, albedo, emission, target_error, *, kind: str = "mes
     info = dict(settings=chosen, solve_keywords=kw, adaptive=bool(adaptive), passes=passes,
                 discretization_scale=scale)
     if estimate:
-        info["estimate"] = estimate_error(sol, surfels, settings=chosen, kind=kind,
-                                          discretization_scale=scale)
+        info["estimate"] = estimate_error(sol, surfels, settings=chosen, kind=kind)
     sol.stats["accuracy"] = info
     return sol, surfels
