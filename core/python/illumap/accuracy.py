@@ -8,10 +8,10 @@ theta, leaf size, visibility mode (``none``, ``seed`` or ``exact``) and solver t
 The error models are calibrated on the benchmarks (bench/accuracy_speed.py, fitted by
 bench/calibrate.py into :data:`CALIBRATION`): for each scene kind ("grid": meshes sampled on
 grids, the Cornell box; "random": randomly sampled meshes, the room with occluders;
-"point_cloud": scans, the bunny) and each benchmarked setting (method, p, θ, leaf size,
-visibility), the measured error against N, as a non-increasing upper envelope, and the
-measured wall time against N, both interpolated log-log (and extrapolated with fitted slopes
-beyond the measured sizes). An error curve holds everything the setting does: density, expansion, visibility model
+"point_cloud": scans, the bunny) and each benchmarked setting (method, p, θ, visibility), the
+measured error against N, as a non-increasing upper envelope, and the measured wall time
+against N, both interpolated log-log (and extrapolated with fitted slopes beyond the measured
+sizes). An error curve holds everything the setting does: density, expansion, visibility model
 (the FMM classifies node pairs as visible / hidden / partial from sampled rays, which blurs
 shadows at large θ) and the solver at its tolerance. For each candidate setting the model gives
 the N that meets ``SAFETY`` × target and the time it takes there; the cheapest wins.
