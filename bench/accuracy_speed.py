@@ -17,9 +17,7 @@ reference gathered at those surfels with exact visibility (``scenes.reference_at
 time is the wall time of ``illumap.solve`` (operator build + solve; best of 3 under 0.5 s).
 
 Curves: FMM p in {0,2,3,4,6,8} x visibility none / seed / exact (theta 0.5); FMM exact at
-theta 0.3 and 0.2 (the visibility classification of node pairs improves as theta shrinks),
-with per-pair visibility in every partial leaf pair ("all-pairs"), and with leaves of 16
-surfels instead of 32;
+theta 0.3 and 0.2 (the visibility classification of node pairs improves as theta shrinks);
 direct with each visibility (small N); Jacobi / CG / GMRES (FMM p=4, exact, theta 0.2).
 With --auto the automatic mode (``illumap.accuracy``) runs at 10%, 3%, 1% and 0.3% where the
 reference resolves the target.
@@ -126,16 +124,6 @@ def settings(orders, visibilities, name):
                         dict(method="fmm", order=p, theta=theta, solver="auto", tol=SOLVE_TOL,
                              visibility_leaf_mode="per_pair_all", visibility_samples=samples,
                              **vis_keywords("exact", name))))
-        # Smaller leaves: partial leaf pairs hold fewer surfels, so one sampled fraction (or
-        # one block of rays) covers less of a shadow edge.
-        for theta in (0.5, 0.3, 0.2):
-            out.append(("fmm/exact/leaf16", f"FMM p=2 vis=exact leaf=16 θ={theta}",
-                        dict(method="fmm", order=2, theta=theta, leaf_size=16, solver="auto",
-                             tol=SOLVE_TOL, **vis_keywords("exact", name))))
-        out.append(("fmm/exact/all-pairs", "FMM p=2 vis=exact all-pairs s=16 leaf=16 θ=0.5",
-                    dict(method="fmm", order=2, theta=0.5, leaf_size=16, solver="auto",
-                         tol=SOLVE_TOL, visibility_leaf_mode="per_pair_all",
-                         visibility_samples=16, **vis_keywords("exact", name))))
     vis = "exact" if "exact" in visibilities else "none"
     for solver in ("jacobi", "cg", "gmres"):
         out.append(("solver", f"{solver} (FMM p=4, vis={vis}, θ=0.2)",

@@ -80,10 +80,6 @@ def curve_style(label):
             return dict(color={"0.5": "tab:green", "0.3": "tab:cyan"}.get(theta, "tab:olive"),
                         marker="D", ls="-" if " s=32" in label else "--", lw=1.2,
                         alpha=0.5 + 0.15 * p)
-        if "leaf=" in label:
-            theta = label.split("θ=")[1]
-            return dict(color={"0.5": "tab:gray", "0.3": "tab:brown", "0.2": "tab:pink"}[theta],
-                        marker="v", ls=":", lw=1.2)
         if "θ=" in label:
             theta = label.split("θ=")[1]
             return dict(color={"0.3": "tab:brown", "0.2": "tab:pink"}[theta], marker="^",
@@ -277,8 +273,6 @@ def describe_settings(kw, n):
     s += f", vis={kw.get('visibility', 'none')}"
     if kw.get("visibility_leaf_mode") == "per_pair_all":
         s += f" all-pairs s={kw.get('visibility_samples', 8)}"
-    if kw.get("leaf_size", 32) != 32:
-        s += f" leaf={kw['leaf_size']}"
     s += f", tol={kw['tol']:.0e}"
     return s
 
