@@ -127,7 +127,7 @@ class Job:
     lamps: list = field(default_factory=list)   # lamps.Lamp records, lit by ``light``
     ambient: np.ndarray | None = None           # uniform world radiance (3,), or None
     # With a target error: the settings the error model chose for the final count
-    # (``illumap.accuracy.choose_settings``); an adaptive pass 1 solves with them.
+    # (``target_density``); an adaptive pass 1 solves with them.
     accuracy: dict | None = None
 
     @property

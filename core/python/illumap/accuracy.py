@@ -50,8 +50,8 @@ from .operator import DEFAULT_LEAF_SIZE, VISIBILITY_DEFAULTS, TransportOperator
 from .surfels import InputError, Surfels
 
 __all__ = ["choose_settings", "choose_mesh_settings", "solve_keywords", "estimate_error", "solve",
-           "solve_triangles", "scene_summary", "occlusion_probe", "visibility_keywords", "CALIBRATION", "FMM_ERROR",
-           "EXACT_KEYWORDS", "PRESETS", "KINDS"]
+           "solve_triangles", "scene_summary", "occlusion_probe", "visibility_keywords",
+           "CALIBRATION", "FMM_ERROR", "EXACT_KEYWORDS", "PRESETS", "KINDS"]
 
 KINDS = ("grid", "mesh", "random", "point_cloud")
 
