@@ -286,10 +286,11 @@ def target_density(settings: Settings, mesh_area: float, point_count: int, point
     cap = settings.budget if settings.budget else None
     if kind == "point_cloud":
         cap = point_count
-    summary = dict(n=max(point_count, 1), total_area=total, kind=kind)
+    # meshes are sampled at any count, a scan has its points
+    summary = dict(n=10 ** 9 if kind == "mesh" else max(point_count, 1), total_area=total,
+                   kind=kind)
     try:
         if kind == "mesh":
-            summary["n"] = 10 ** 9   # meshes are sampled at any count
             chosen = accuracy.choose_mesh_settings(summary, settings.target_error, kind=kind,
                                                    adaptive=adaptive_error_ratio_applies(settings),
                                                    max_surfels=cap)
