@@ -367,7 +367,10 @@ def prepare(depsgraph, objects, settings: Settings) -> Job:
     ambient = lamps.world_ambient(depsgraph.scene) if settings.world_ambient else None
     refine = None
     first = counts
-    if settings.target_error is not None and settings.adaptive and tri_meshes:
+    two_passes = settings.adaptive
+    if chosen is not None and adaptive_error_ratio_applies(settings):
+        two_passes = bool(chosen.get("adaptive", True))   # the models' choice: the faster
+    if settings.target_error is not None and two_passes and tri_meshes:
         fraction = float(settings.adaptive_first_pass)
         if not 0.0 < fraction <= 1.0:
             raise IllumapError(f"Adaptive first pass must be a fraction in (0, 1], got {fraction}", 2)

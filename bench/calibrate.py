@@ -11,6 +11,11 @@ setting, fits
 * time(N): the measured wall times as a non-decreasing lower envelope (interpolated log-log),
   with the slope of the last two sizes for extrapolation.
 
+and, from bench/results/leaf_size.json (bench/leaf_size.py) where it exists, each setting's
+leaf variants (leaves of 16 and 64 surfels against the 32 of the sweep, on the same surfels):
+an error factor (the largest paired error ratio) and time ratios against N (see
+``fit_leaf_variants``),
+
 and writes them between the calibration markers of core/python/illumap/accuracy.py
 (``CALIBRATION``), with the run's date and core commit.
 
@@ -85,6 +90,51 @@ def fit_time(points):
     return dict(points=pts, slope=_sig(min(max(beta, 1.0), 2.5)))
 
 
+def fit_leaf_variants(rows, floor, base_leaf=32):
+    """Each leaf size's variant of one setting from paired rows (bench/leaf_size.py: the same
+    surfels solved at every leaf size, one after the other): ``error_factor``, the largest
+    ratio error(leaf) / error(base) over sizes and samplings (errors below ``floor``, what the
+    reference resolves, raised to it), with the sizes it was measured at (``n_range``), and
+    ``time_ratio``, the median time ratio per swept size against N."""
+    out = {}
+    leaves = sorted({int(k) for r in rows for k in r["leaves"]} - {base_leaf})
+    for leaf in leaves:
+        pairs = [(r, r["leaves"][str(leaf)], r["leaves"][str(base_leaf)]) for r in rows
+                 if str(leaf) in r["leaves"] and str(base_leaf) in r["leaves"]]
+        if not pairs:
+            continue
+        factor = max(max(v["error"], floor) / max(b["error"], floor) for _, v, b in pairs)
+        by_size = {}
+        for r, v, b in pairs:
+            by_size.setdefault(r["size"], []).append((r["n"], v["time"] / b["time"]))
+        ratios = sorted([float(np.mean([n for n, _ in g])), float(np.median([t for _, t in g]))]
+                        for g in by_size.values())
+        out[str(leaf)] = dict(error_factor=_sig(factor, 3),
+                              n_range=[min(r["n"] for r, _, _ in pairs),
+                                       max(r["n"] for r, _, _ in pairs)],
+                              time_ratio=[[int(n), _sig(t, 3)] for n, t in ratios])
+    return out
+
+
+def add_leaf_variants(calibration, leaf_results, floors):
+    """Attach bench/leaf_size.py's variants to the calibrated settings of each scene kind."""
+    base = int(leaf_results.get("base_leaf", 32))
+    for scene, data in leaf_results["scenes"].items():
+        table = calibration["kinds"].get(S.KIND[scene])
+        if table is None or table["scene"] != scene:
+            continue
+        # FMM-only errors (visibility "none", against the direct solution) are not limited
+        # by the reference
+        for label, entry in table["settings"].items():
+            rows = [r for r in data["rows"] if r["label"] == label]
+            if rows:
+                floor = floors[scene] if rows[0]["error_against"] == "reference" else 1e-6
+                entry["leaf_variants"] = fit_leaf_variants(rows, floor, base)
+    calibration["leaf_source"] = dict(date=leaf_results.get("date"),
+                                      core_commit=leaf_results.get("core", {}).get("commit"))
+    return calibration
+
+
 def calibrate(results):
     kinds = {}
     for scene, data in results["scenes"].items():
@@ -143,16 +193,26 @@ def write(calibration, path=ACCURACY_PY):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--results", default=os.path.join(HERE, "results", "accuracy_speed.json"))
+    ap.add_argument("--leaf-results", default=os.path.join(HERE, "results", "leaf_size.json"),
+                    help="bench/leaf_size.py's pairs (leaf variants; skipped when absent)")
     ap.add_argument("--write", action="store_true", help="rewrite CALIBRATION in accuracy.py")
     args = ap.parse_args(argv)
     with open(args.results) as f:
-        cal = calibrate(json.load(f))
+        results = json.load(f)
+    cal = calibrate(results)
+    if args.leaf_results and os.path.exists(args.leaf_results):
+        with open(args.leaf_results) as f:
+            add_leaf_variants(cal, json.load(f),
+                              {k: v["reference"]["check"] for k, v in results["scenes"].items()})
     for kind, t in cal["kinds"].items():
         print(f"{kind} ({t['scene']}): n_min {t['n_min']}, reference check {t['reference_check']}")
         for label, e in t["settings"].items():
             err = " ".join(f"{n}:{v:.3f}" for n, v in e["error"]["points"])
             tim = " ".join(f"{v:.3f}" for _, v in e["cost"]["points"])
             print(f"  {label:30s} err {err} (a={e['error']['slope']})  time {tim}")
+            for leaf, v in e.get("leaf_variants", {}).items():
+                tr = " ".join(f"{n}:{r:.2f}" for n, r in v["time_ratio"])
+                print(f"    leaf {leaf}: error x{v['error_factor']}  time x {tr}")
     if args.write:
         write(cal)
         print(f"wrote CALIBRATION into {ACCURACY_PY}")

@@ -186,9 +186,11 @@ def test_adaptive_pass_one_solves_with_the_final_counts_settings():
     chooses for its surfels with the job's kind ("mesh", not the "grid" that equal areas
     suggest) and reports the settings and the estimate in the stats and the UI."""
     objects = spot_scene()
+    # a budget below what one uniform pass needs at 10%: two passes lower the error there
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), objects,
-                           pipeline.Settings(target_error=0.1, lamp_shadows=False))
+                           pipeline.Settings(target_error=0.1, budget=3000, lamp_shadows=False))
     chosen = job.accuracy
+    assert chosen["adaptive"] and job.refine is not None
     assert chosen["kind"] == "mesh" and job.count < chosen["n"]
     first = pipeline.run(job)
     info = first.stats["accuracy"]
@@ -205,3 +207,28 @@ def test_adaptive_pass_one_solves_with_the_final_counts_settings():
     operators.record_stats(stats, final, 1.0)
     assert stats.chosen_settings.startswith(info["settings"]["label"])
     assert stats.estimated_error == pytest.approx(info["estimate"]["total"], rel=1e-5)
+
+
+def test_one_uniform_pass_where_the_models_predict_it_faster():
+    """With the adaptive passes the error ratio was measured with, the add-on runs them only
+    where the models predict two passes faster than one uniform pass (or the budget caps the
+    count); otherwise one pass of the uniform choice, and the stats say why."""
+    from illumap import accuracy
+    summary = dict(n=10 ** 9, total_area=8.0)
+    target = next((t for t in (0.2, 0.18, 0.15)
+                   if not accuracy.choose_mesh_settings(summary, t)["adaptive"]), None)
+    assert target is not None, "two passes are predicted faster at every target from 20% to 15%"
+    objects = spot_scene()
+    job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), objects,
+                           pipeline.Settings(target_error=target, lamp_shadows=False))
+    assert job.refine is None and not job.accuracy["adaptive"]
+    assert abs(job.count - job.accuracy["n"]) <= 2
+    assert any("one uniform pass is predicted faster" in n
+               for n in job.stats["density"]["notes"])
+    result = pipeline.run(job)
+    assert pipeline.next_pass(job, result) is None and "adaptive" not in result.stats
+    # settings whose passes differ from the measured ones keep the user's two passes
+    custom = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), objects,
+                              pipeline.Settings(target_error=target, lamp_shadows=False,
+                                                adaptive_first_pass=0.4))
+    assert custom.refine is not None

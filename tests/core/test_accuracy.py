@@ -195,24 +195,46 @@ def test_discretization_scale_shrinks_only_the_discretization_part():
     assert floor["n"] >= 5000
 
 
-@pytest.mark.parametrize("target", [0.15, 0.12, 0.05])
-def test_mesh_settings_count_on_the_adaptive_ratio_only_where_it_was_measured(target):
-    """choose_mesh_settings (solve_triangles and the add-on): the adaptive error ratio scales
-    the models only at ADAPTIVE_MIN_COUNT surfels or more; below, the count is raised to it or
-    chosen without the ratio, whichever is predicted faster; never slower than one uniform
-    pass's choice. (At these targets both branches occur: 0.15 without the ratio, 0.12 raised
-    to the floor, 0.05 above it.)"""
-    summary = dict(n=10 ** 9, total_area=1.0, kind="mesh", albedo_max=0.8, albedo_mean=0.5)
-    chosen = accuracy.choose_mesh_settings(summary, target)
-    plain = accuracy.choose_settings(summary, target, kind="mesh")
-    scale = chosen["discretization_scale"]
-    assert scale in (1.0, accuracy.ADAPTIVE_ERROR_RATIO)
-    assert scale == 1.0 or chosen["n"] >= accuracy.ADAPTIVE_MIN_COUNT, chosen
-    assert chosen["predicted_time"] <= plain["predicted_time"] + 1e-12
-    assert chosen["predicted"]["total"] <= accuracy.SAFETY * target + 1e-12
-    assert any(note.startswith("adaptive:") for note in chosen["notes"])
-    uniform = accuracy.choose_mesh_settings(summary, target, adaptive=False)
-    assert uniform["discretization_scale"] == 1.0 and uniform["n"] == plain["n"]
+MESH_SUMMARY = dict(n=10 ** 9, total_area=1.0, kind="mesh", albedo_max=0.8, albedo_mean=0.5)
+
+
+def test_mesh_settings_choose_two_passes_only_where_they_are_predicted_faster():
+    """choose_mesh_settings (solve_triangles and the add-on): two passes count on the adaptive
+    error ratio only from ADAPTIVE_MIN_COUNT surfels up, their modelled time includes pass 1
+    (its share of the count, same settings), and they are chosen only where that total beats
+    one uniform pass; otherwise the result is the uniform choice. Both occur over these
+    targets with the calibrated models."""
+    outcomes = set()
+    for target in (0.2, 0.15, 0.12, 0.1, 0.07, 0.05, 0.03):
+        chosen = accuracy.choose_mesh_settings(MESH_SUMMARY, target)
+        uniform = accuracy.choose_mesh_settings(MESH_SUMMARY, target, adaptive=False)
+        plain = accuracy.choose_settings(MESH_SUMMARY, target, kind="mesh")
+        assert uniform["adaptive"] is False and uniform["discretization_scale"] == 1.0
+        assert (uniform["n"], uniform["label"]) == (plain["n"], plain["label"])
+        assert chosen["predicted_time"] <= uniform["predicted_time"] + 1e-12, target
+        assert chosen["predicted"]["total"] <= accuracy.SAFETY * target + 1e-12
+        assert any(note.startswith("adaptive:") for note in chosen["notes"])
+        if chosen["adaptive"]:
+            assert chosen["n"] >= accuracy.ADAPTIVE_MIN_COUNT, (target, chosen)
+            assert chosen["discretization_scale"] == accuracy.ADAPTIVE_ERROR_RATIO
+            first, second = chosen["predicted_time_passes"]
+            assert first + second == pytest.approx(chosen["predicted_time"])
+            assert 0 < first < second
+        else:
+            assert (chosen["n"], chosen["label"]) == (uniform["n"], uniform["label"])
+        outcomes.add(chosen["adaptive"])
+    assert outcomes == {True, False}, "every target chose the same number of passes"
+
+
+def test_a_capped_mesh_count_gets_two_passes():
+    """Where the budget caps the count below what one uniform pass needs, the target is out of
+    reach either way: two passes lower the error at that count. The adaptive ratio is counted
+    on only from ADAPTIVE_MIN_COUNT surfels."""
+    low = accuracy.choose_mesh_settings(MESH_SUMMARY, 0.1, max_surfels=1200)
+    assert low["adaptive"] and low["n"] == 1200 and low["discretization_scale"] == 1.0
+    high = accuracy.choose_mesh_settings(MESH_SUMMARY, 0.07, max_surfels=3000)
+    assert high["adaptive"] and high["discretization_scale"] == accuracy.ADAPTIVE_ERROR_RATIO
+    assert accuracy.ADAPTIVE_MIN_COUNT <= high["n"] <= 3000
 
 
 def test_solve_with_target_error_chooses_and_reports_settings():
@@ -275,48 +297,167 @@ def test_exact_visibility_keywords_follow_the_sampling():
         accuracy.visibility_keywords("exact", "voxels")
 
 
-def test_mesh_sampled_adaptively_meets_the_target_and_beats_uniform_sampling():
-    """solve_triangles on the Cornell box's triangles: the count comes from the mesh error
-    model (its discretization part scaled by ADAPTIVE_ERROR_RATIO from ADAPTIVE_MIN_COUNT
-    surfels, unscaled below), pass 1 solves half of it, pass 2 resamples
-    denser where pass 1 varies. The error against the direct exact-visibility reference meets
-    the target, and is lower than one uniform pass of the same count."""
+def test_mesh_sampled_adaptively_meets_the_target():
+    """solve_triangles on the Cornell box's triangles, at a target where two passes are
+    predicted faster: the count comes from the mesh error model (its discretization part
+    scaled by ADAPTIVE_ERROR_RATIO), pass 1 solves half of it, pass 2 resamples denser where
+    pass 1 varies. On two samplings the error against the direct exact-visibility reference
+    meets the target. (Adaptive against uniform sampling at the same count needs a finer
+    reference than this 4000-surfel one, whose own error is 5–7%: asserted in
+    tests/blender/test_adaptive.py, measured in bench/bench_adaptive.py against 48k.)"""
     corners, albedo, emission, keep = S.cornell_triangles()
-    target = 0.15
-    sol, q = accuracy.solve_triangles(corners, albedo, emission, target, keep=keep)
-    info = sol.stats["accuracy"]
-    assert info["adaptive"] and len(info["passes"]) == 2
-    scale = info["discretization_scale"]
-    assert scale in (1.0, accuracy.ADAPTIVE_ERROR_RATIO)
-    assert scale == 1.0 or info["settings"]["n"] >= accuracy.ADAPTIVE_MIN_COUNT
-    first, second = info["passes"]
-    assert second["surfels"] == q.n and first["surfels"] < 0.6 * q.n
-    assert info["settings"]["n"] <= 4000 / 1.5, info["settings"]  # the reference is denser
-    assert abs(q.n - info["settings"]["n"]) < 0.05 * info["settings"]["n"]   # less `keep`
-    # one uniform pass of the same count
-    uniform, qu = accuracy.solve_triangles(corners, albedo, emission, target, keep=keep,
-                                           adaptive=False, estimate=False,
-                                           count=info["settings"]["n"])
-    assert len(uniform.stats["accuracy"]["passes"]) == 1
-    assert abs(qu.n - q.n) < 0.02 * q.n
+    # the loosest target where the models predict two passes faster, within the reference
+    target = next((t for t in (0.15, 0.13, 0.12, 0.11, 0.1)
+                   if (c := accuracy.choose_mesh_settings(MESH_SUMMARY, t))["adaptive"]
+                   and c["n"] <= 4000 / 1.5), None)
+    assert target is not None, "two passes are predicted faster at no target from 15% to 10%"
     ref = S.build("cornell", 4000, seed=12345)
     ref_sol = S.reference_solution(ref, "cornell", tol=1e-8)
+    for seed in (0, 1):
+        sol, q = accuracy.solve_triangles(corners, albedo, emission, target, keep=keep,
+                                          seed=seed)
+        info = sol.stats["accuracy"]
+        assert info["adaptive"] and len(info["passes"]) == 2
+        assert info["discretization_scale"] == accuracy.ADAPTIVE_ERROR_RATIO
+        assert info["settings"]["n"] >= accuracy.ADAPTIVE_MIN_COUNT
+        first, second = info["passes"]
+        assert second["surfels"] == q.n and first["surfels"] < 0.6 * q.n
+        assert abs(q.n - info["settings"]["n"]) < 0.05 * info["settings"]["n"]   # less `keep`
+        idx = S.error_subset(q, 800)
+        error = S.relative_rms(sol.radiosity[idx], S.reference_at(
+            ref, ref_sol.radiosity, S.subset(q, idx), "cornell"))
+        assert error <= target, (seed, info["settings"], error)
+        # the estimate's discretization part is the uniform model scaled as the choice was
+        plain = accuracy.estimate_error(sol, q, settings=info["settings"], kind="mesh",
+                                        discretization_scale=1.0)
+        assert info["estimate"]["discretization"] == pytest.approx(
+            accuracy.ADAPTIVE_ERROR_RATIO * plain["discretization"])
+        assert info["estimate"]["total"] > 0
 
-    def error(solution, surfels):
-        idx = S.error_subset(surfels, 800)
-        return S.relative_rms(solution.radiosity[idx],
-                              S.reference_at(ref, ref_sol.radiosity, S.subset(surfels, idx),
-                                             "cornell"))
-    e_adaptive, e_uniform = error(sol, q), error(uniform, qu)
-    assert e_adaptive <= target, (info["settings"], e_adaptive)
-    assert e_adaptive < 0.9 * e_uniform, (e_adaptive, e_uniform)
-    # the estimate's discretization part is the uniform model scaled as the choice was
-    plain = accuracy.estimate_error(sol, q, settings=info["settings"], kind="mesh")
-    assert info["estimate"]["discretization"] == pytest.approx(scale * plain["discretization"])
-    assert info["estimate"]["total"] > 0
+
+def test_solve_triangles_takes_one_uniform_pass_where_it_is_predicted_faster():
+    corners, albedo, emission, keep = S.cornell_triangles()
+    target = next((t for t in (0.2, 0.18, 0.15) if not accuracy.choose_mesh_settings(
+        MESH_SUMMARY, t)["adaptive"]), None)
+    assert target is not None, "two passes are predicted faster at every target from 20% to 15%"
+    sol, q = accuracy.solve_triangles(corners, albedo, emission, target, keep=keep,
+                                      estimate=False)
+    info = sol.stats["accuracy"]
+    assert not info["adaptive"] and len(info["passes"]) == 1
+    assert info["discretization_scale"] == 1.0
+    assert any("one uniform pass is predicted faster" in n for n in info["settings"]["notes"])
 
 
 def test_solve_triangles_rejects_mismatched_materials():
     corners, albedo, emission, _ = S.cornell_triangles()
     with pytest.raises(illumap.InputError, match="albedo and emission"):
         accuracy.solve_triangles(corners, albedo[:-1], emission, 0.2)
+
+
+def _one_setting_calibration(monkeypatch, variants):
+    """The "random" kind with its direct exact-visibility curve as its only (FMM) setting,
+    given ``leaf_variants``."""
+    table = accuracy._kind_table("random")
+    entry = dict(table["settings"]["direct vis=exact"])
+    entry["keywords"] = dict(method="fmm", order=2, theta=0.5, visibility="exact")
+    entry["leaf_variants"] = variants
+    patched = dict(table, settings={"FMM p=2 vis=exact": entry,
+                                    table["discretization"]: table["settings"][
+                                        table["discretization"]]})
+    monkeypatch.setattr(accuracy, "CALIBRATION",
+                        dict(accuracy.CALIBRATION, kinds={"random": patched}))
+    return patched, entry
+
+
+def test_leaf_variants_are_priced_by_their_paired_ratios(monkeypatch):
+    """A leaf variant's error is its setting's times the paired factor where that was measured
+    (never credited below 1 beyond it), its time the setting's times the paired ratio; the
+    cheapest variant that meets the target is chosen and its leaf size reaches the solve."""
+    table, entry = _one_setting_calibration(monkeypatch, {
+        "16": dict(error_factor=0.5, n_range=[500, 2000], time_ratio=[[500, 0.5], [2000, 0.5]]),
+        "64": dict(error_factor=2.0, n_range=[500, 2000], time_ratio=[[500, 0.4], [2000, 0.6]])})
+    variants = dict(accuracy._settings_with_leaves(table))
+    leaf16, leaf64 = variants["FMM p=2 vis=exact leaf=16"], variants["FMM p=2 vis=exact leaf=64"]
+    assert leaf16["keywords"]["leaf_size"] == 16 and "leaf_size" not in entry["keywords"]
+    base = accuracy._predicted_error(entry, table, 1000, None)
+    assert accuracy._predicted_error(leaf16, table, 1000, None) == pytest.approx(0.5 * base)
+    assert accuracy._predicted_error(leaf64, table, 1000, None) == pytest.approx(2.0 * base)
+    far = 10 ** 6   # beyond the measured sizes a smaller error is not credited
+    assert accuracy._predicted_error(leaf16, table, far, None) == pytest.approx(
+        accuracy._predicted_error(entry, table, far, None))
+    assert accuracy._predicted_error(leaf64, table, far, None) == pytest.approx(
+        2.0 * accuracy._predicted_error(entry, table, far, None))
+    t = accuracy._predicted_time(entry, 1000)
+    assert accuracy._predicted_time(leaf64, 1000) == pytest.approx(0.5 * t)   # log-N midpoint
+    assert accuracy._predicted_time(leaf64, 10 ** 5) == pytest.approx(
+        0.6 * accuracy._predicted_time(entry, 10 ** 5))
+    summary = dict(n=10 ** 9, total_area=1.0, kind="random", albedo_max=0.8, albedo_mean=0.5)
+    target = base / accuracy.SAFETY   # leaf 32 meets it at N = 1000, leaf 16 below
+    chosen = accuracy.choose_settings(summary, target, kind="random", allow_direct=False)
+    assert chosen["leaf_size"] == 16 and chosen["label"].endswith("leaf=16"), chosen
+    assert chosen["n"] < 1000
+    assert accuracy.solve_keywords(chosen)["leaf_size"] == 16
+    q = S.build("interior", 1200)
+    sol = accuracy.solve(q, target, kind="random", allow_direct=False)
+    assert sol.stats["leaf_size"] == 16
+    assert sol.stats["accuracy"]["settings"]["leaf_size"] == 16
+
+
+def test_a_leaf_variant_that_adds_error_is_chosen_only_where_it_is_cheaper(monkeypatch):
+    table, entry = _one_setting_calibration(monkeypatch, {
+        "64": dict(error_factor=1.5, n_range=[500, 20000], time_ratio=[[500, 0.99]])})
+    summary = dict(n=10 ** 9, total_area=1.0, kind="random", albedo_max=0.8, albedo_mean=0.5)
+    target = accuracy._predicted_error(entry, table, 2000, None) / accuracy.SAFETY
+    chosen = accuracy.choose_settings(summary, target, kind="random", allow_direct=False)
+    # 1% faster per surfel does not pay for the surfels a 1.5x error needs
+    assert chosen["leaf_size"] == 32 and chosen["label"] == "FMM p=2 vis=exact", chosen
+
+
+def test_calibrated_leaf_variants_come_from_paired_measurements():
+    found = 0
+    for kind, table in accuracy.CALIBRATION["kinds"].items():
+        for label, entry in table["settings"].items():
+            for leaf, v in entry.get("leaf_variants", {}).items():
+                found += 1
+                assert int(leaf) in (16, 64) and entry["keywords"]["method"] == "fmm", label
+                assert v["error_factor"] > 0 and v["n_range"][0] <= v["n_range"][1]
+                ns = [n for n, _ in v["time_ratio"]]
+                assert ns == sorted(ns) and all(r > 0 for _, r in v["time_ratio"])
+    assert found > 0, "no leaf variants: run bench/leaf_size.py, then bench/calibrate.py"
+
+
+def test_fit_leaf_variants_takes_the_worst_paired_error_ratio_and_median_times():
+    import calibrate   # bench/calibrate.py
+
+    def row(size, n, e16, e32, t16, t32):
+        return dict(size=size, n=n, leaves={"16": dict(error=e16, time=t16),
+                                            "32": dict(error=e32, time=t32)})
+    rows = [row(500, 510, 0.10, 0.20, 1.0, 2.0), row(500, 490, 0.30, 0.20, 3.0, 2.0),
+            row(2000, 2000, 0.001, 0.002, 1.0, 1.0)]
+    fit = calibrate.fit_leaf_variants(rows, floor=0.01)
+    assert set(fit) == {"16"}
+    v = fit["16"]
+    assert v["error_factor"] == pytest.approx(1.5)        # worst pair; 0.001 vs 0.002 floored
+    assert v["n_range"] == [490, 2000]
+    assert v["time_ratio"] == [[500, pytest.approx(1.0)], [2000, pytest.approx(1.0)]]
+
+
+def test_an_unoccluded_scene_gets_a_leaf_variant_and_keeps_its_expansion_error():
+    """In a closed box (no occluders) the probe clears visibility="none", where leaves of 64
+    surfels were measured as fast or faster at the same expansion error (the direct sum takes
+    over more pairs): that variant is chosen, its leaf size reaches the solve, and the FMM
+    solution stays within the expansion error the model gives it against the direct one."""
+    n = 18
+    box = scenes.closed_box(n, albedo=0.7, emission=0.0)
+    e = np.zeros((box.n, 3))
+    e[: n * n] = 1.0
+    box = box.replace(emission=e)
+    chosen = accuracy.choose_settings(box, 0.05, kind="grid", probe=True, allow_direct=False)
+    assert chosen["visibility"] == "none" and chosen["leaf_size"] != 32, chosen
+    assert chosen["label"].endswith(f"leaf={chosen['leaf_size']}")
+    sol = accuracy.solve(box, 0.05, kind="grid", settings=chosen)
+    assert sol.stats["leaf_size"] == chosen["leaf_size"]
+    direct = illumap.solve(box, method="direct", tol=1e-9)
+    entry = dict(accuracy._settings_with_leaves(accuracy._kind_table("grid")))[chosen["label"]]
+    e_fmm = entry["error_factor"] * accuracy.FMM_ERROR[0.5][chosen["order"]]
+    assert _rel(sol.radiosity, direct.radiosity, box.emission) <= e_fmm
