@@ -11,8 +11,9 @@ setting, fits
 * time(N): the measured wall times as a non-decreasing lower envelope (interpolated log-log),
   with the slope of the last two sizes for extrapolation.
 
-and, from bench/results/leaf_size.json (bench/leaf_size.py) where it exists, each setting's
-leaf variants (leaves of 16 and 64 surfels against the 32 of the sweep, on the same surfels):
+and, from bench/results/leaf_size.json (bench/leaf_size.py) where it exists, the error
+curves of the settings it ran also over its other sampling (the worst of both), and each
+setting's leaf variants (leaves of 16 and 64 surfels against the 32 of the sweep, on the same surfels):
 an error factor (the largest paired error ratio) and time ratios against N (see
 ``fit_leaf_variants``),
 
@@ -116,6 +117,16 @@ def fit_leaf_variants(rows, floor, base_leaf=32):
     return out
 
 
+def other_samplings(leaf_results, scene, label, sweep_seed=0):
+    """bench/leaf_size.py's solves of setting ``label`` at its base leaf size on samplings
+    other than the sweep's, as sweep points (n, error, time)."""
+    base = str(leaf_results.get("base_leaf", 32))
+    data = leaf_results["scenes"].get(scene, {})
+    return [dict(n=r["n"], error=r["leaves"][base]["error"], time=r["leaves"][base]["time"])
+            for r in data.get("rows", []) if r["label"] == label and r["seed"] != sweep_seed
+            and r["error_against"] == "reference" and base in r["leaves"]]
+
+
 def add_leaf_variants(calibration, leaf_results, floors):
     """Attach bench/leaf_size.py's variants to the calibrated settings of each scene kind."""
     base = int(leaf_results.get("base_leaf", 32))
@@ -135,7 +146,11 @@ def add_leaf_variants(calibration, leaf_results, floors):
     return calibration
 
 
-def calibrate(results):
+def calibrate(results, leaf_results=None):
+    """The calibration of every scene kind from the sweep; with ``leaf_results``, each
+    setting's error curve also takes in its solves on the leaf benchmark's other samplings
+    (the envelope is then the worst of the samplings: at equal N two samplings differ by
+    10–15%), and its leaf variants."""
     kinds = {}
     for scene, data in results["scenes"].items():
         kind = S.KIND[scene]
@@ -155,10 +170,13 @@ def calibrate(results):
             pts = [p for p in data["points"] if p["label"] == label and p.get("time")]
             kw = {k: pts[0]["settings"][k] for k in MODEL_KEYS if k in pts[0]["settings"]}
             kw.setdefault("visibility", "none")
-            table["settings"][label] = dict(keywords=kw, error=fit_error(pts, floor),
+            more = other_samplings(leaf_results, scene, label) if leaf_results else []
+            table["settings"][label] = dict(keywords=kw, error=fit_error(pts + more, floor),
                                             cost=fit_time(pts),
                                             n_range=[min(p["n"] for p in pts),
                                                      max(p["n"] for p in pts)])
+            if more:
+                table["settings"][label]["samplings"] = 2
         kinds[kind] = table
     core = results.get("core", {})
     return dict(source="bench/results/accuracy_speed.json", date=results.get("date"),
@@ -199,11 +217,14 @@ def main(argv=None):
     args = ap.parse_args(argv)
     with open(args.results) as f:
         results = json.load(f)
-    cal = calibrate(results)
+    leaf = None
     if args.leaf_results and os.path.exists(args.leaf_results):
         with open(args.leaf_results) as f:
-            add_leaf_variants(cal, json.load(f),
-                              {k: v["reference"]["check"] for k, v in results["scenes"].items()})
+            leaf = json.load(f)
+    cal = calibrate(results, leaf)
+    if leaf is not None:
+        add_leaf_variants(cal, leaf,
+                          {k: v["reference"]["check"] for k, v in results["scenes"].items()})
     for kind, t in cal["kinds"].items():
         print(f"{kind} ({t['scene']}): n_min {t['n_min']}, reference check {t['reference_check']}")
         for label, e in t["settings"].items():

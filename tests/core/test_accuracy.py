@@ -297,21 +297,24 @@ def test_exact_visibility_keywords_follow_the_sampling():
         accuracy.visibility_keywords("exact", "voxels")
 
 
+ADAPTIVE_REF_N = 6000   # the reference of the adaptive test: direct, exact visibility
+
+
 def test_mesh_sampled_adaptively_meets_the_target():
     """solve_triangles on the Cornell box's triangles, at a target where two passes are
     predicted faster: the count comes from the mesh error model (its discretization part
     scaled by ADAPTIVE_ERROR_RATIO), pass 1 solves half of it, pass 2 resamples denser where
     pass 1 varies. On two samplings the error against the direct exact-visibility reference
     meets the target. (Adaptive against uniform sampling at the same count needs a finer
-    reference than this 4000-surfel one, whose own error is 5–7%: asserted in
+    reference than this 6000-surfel one, whose own error is about 5%: asserted in
     tests/blender/test_adaptive.py, measured in bench/bench_adaptive.py against 48k.)"""
     corners, albedo, emission, keep = S.cornell_triangles()
     # the loosest target where the models predict two passes faster, within the reference
-    target = next((t for t in (0.15, 0.13, 0.12, 0.11, 0.1)
+    target = next((t for t in (0.15, 0.14, 0.13, 0.12, 0.11, 0.1, 0.09)
                    if (c := accuracy.choose_mesh_settings(MESH_SUMMARY, t))["adaptive"]
-                   and c["n"] <= 4000 / 1.5), None)
-    assert target is not None, "two passes are predicted faster at no target from 15% to 10%"
-    ref = S.build("cornell", 4000, seed=12345)
+                   and c["n"] <= ADAPTIVE_REF_N / 1.5), None)
+    assert target is not None, "two passes are predicted faster at no target from 15% to 9%"
+    ref = S.build("cornell", ADAPTIVE_REF_N, seed=12345)
     ref_sol = S.reference_solution(ref, "cornell", tol=1e-8)
     for seed in (0, 1):
         sol, q = accuracy.solve_triangles(corners, albedo, emission, target, keep=keep,
