@@ -385,7 +385,8 @@ def main(argv=None):
           "with `.venv/bin/python bench/run_all.py --quick|--full`; see bench/README.md). "
           "Times are wall times on this machine (2 cores shared with other jobs, so noisy); "
           "compare ratios measured within one run. Error = relative RMS per surfel over "
-          "non-emitting surfels (a random subset of up to 1200 per point), against a converged "
+          "non-emitting surfels (a random subset of up to 1200 per point; 4000 for the automatic "
+          "mode in full mode), against a converged "
           "reference: the direct O(N²) operator with exact visibility at high density, "
           "gathered at each setting's own surfels with exact visibility.", ""]
     note = os.path.join(args.results, "NOTE.md")
