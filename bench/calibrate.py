@@ -95,8 +95,11 @@ def fit_leaf_variants(rows, floor, base_leaf=32):
     """Each leaf size's variant of one setting from paired rows (bench/leaf_size.py: the same
     surfels solved at every leaf size, one after the other): ``error_factor``, the largest
     ratio error(leaf) / error(base) over sizes and samplings (errors below ``floor``, what the
-    reference resolves, raised to it), with the sizes it was measured at (``n_range``), and
-    ``time_ratio``, the median time ratio per swept size against N."""
+    reference resolves, raised to it; rows without visibility, measured against the direct
+    solution, are not limited by the reference), with the sizes it was measured at
+    (``n_range``), and ``time_ratio``, the median time ratio per swept size against N."""
+    if rows and rows[0].get("error_against", "reference") != "reference":
+        floor = 1e-6
     out = {}
     leaves = sorted({int(k) for r in rows for k in r["leaves"]} - {base_leaf})
     for leaf in leaves:
@@ -134,23 +137,21 @@ def add_leaf_variants(calibration, leaf_results, floors):
         table = calibration["kinds"].get(S.KIND[scene])
         if table is None or table["scene"] != scene:
             continue
-        # FMM-only errors (visibility "none", against the direct solution) are not limited
-        # by the reference
         for label, entry in table["settings"].items():
             rows = [r for r in data["rows"] if r["label"] == label]
             if rows:
-                floor = floors[scene] if rows[0]["error_against"] == "reference" else 1e-6
-                entry["leaf_variants"] = fit_leaf_variants(rows, floor, base)
+                entry["leaf_variants"] = fit_leaf_variants(rows, floors[scene], base)
     calibration["leaf_source"] = dict(date=leaf_results.get("date"),
                                       core_commit=leaf_results.get("core", {}).get("commit"))
     return calibration
 
 
 def calibrate(results, leaf_results=None):
-    """The calibration of every scene kind from the sweep; with ``leaf_results``, each
-    setting's error curve also takes in its solves on the leaf benchmark's other samplings
-    (the envelope is then the worst of the samplings: at equal N two samplings differ by
-    10–15%), and its leaf variants."""
+    """The calibration of every scene kind from the sweep; with ``leaf_results``
+    (bench/leaf_size.py), each setting's error curve also takes in its solves on the leaf
+    benchmark's other samplings (the envelope is then the worst of the samplings: at equal N
+    two samplings differ by a median 8–10%, up to 51%), and each setting gets its leaf
+    variants (``add_leaf_variants``)."""
     kinds = {}
     for scene, data in results["scenes"].items():
         kind = S.KIND[scene]
@@ -179,9 +180,13 @@ def calibrate(results, leaf_results=None):
                 table["settings"][label]["samplings"] = 2
         kinds[kind] = table
     core = results.get("core", {})
-    return dict(source="bench/results/accuracy_speed.json", date=results.get("date"),
-                mode=results.get("mode"), core_commit=core.get("commit"),
-                solve_tol=results.get("solve_tol"), kinds=kinds)
+    calibration = dict(source="bench/results/accuracy_speed.json", date=results.get("date"),
+                       mode=results.get("mode"), core_commit=core.get("commit"),
+                       solve_tol=results.get("solve_tol"), kinds=kinds)
+    if leaf_results:
+        add_leaf_variants(calibration, leaf_results,
+                          {k: v["reference"]["check"] for k, v in results["scenes"].items()})
+    return calibration
 
 
 def write(calibration, path=ACCURACY_PY):
@@ -222,18 +227,15 @@ def main(argv=None):
         with open(args.leaf_results) as f:
             leaf = json.load(f)
     cal = calibrate(results, leaf)
-    if leaf is not None:
-        add_leaf_variants(cal, leaf,
-                          {k: v["reference"]["check"] for k, v in results["scenes"].items()})
     for kind, t in cal["kinds"].items():
         print(f"{kind} ({t['scene']}): n_min {t['n_min']}, reference check {t['reference_check']}")
         for label, e in t["settings"].items():
             err = " ".join(f"{n}:{v:.3f}" for n, v in e["error"]["points"])
             tim = " ".join(f"{v:.3f}" for _, v in e["cost"]["points"])
             print(f"  {label:30s} err {err} (a={e['error']['slope']})  time {tim}")
-            for leaf, v in e.get("leaf_variants", {}).items():
+            for size, v in e.get("leaf_variants", {}).items():
                 tr = " ".join(f"{n}:{r:.2f}" for n, r in v["time_ratio"])
-                print(f"    leaf {leaf}: error x{v['error_factor']}  time x {tr}")
+                print(f"    leaf {size}: error x{v['error_factor']}  time x {tr}")
     if args.write:
         write(cal)
         print(f"wrote CALIBRATION into {ACCURACY_PY}")

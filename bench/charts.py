@@ -19,7 +19,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import calibrate  # noqa: E402  (bench/calibrate.py: the leaf variants' fit)
 
 THRESHOLDS = (0.10, 0.03, 0.01, 0.003)
 SCENE_TITLES = {"cornell": "Cornell box with its two blocks (0.556 m, grid surfels)",
@@ -347,21 +347,14 @@ def leaf_section(leaf):
         for r in data["rows"]:
             if r["label"] not in labels:
                 labels.append(r["label"])
-        floor = data["reference"]["check"]
         for label in labels:
             rows = [r for r in data["rows"] if r["label"] == label]
-            fl = floor if rows[0]["error_against"] == "reference" else 1e-6
+            fit = calibrate.fit_leaf_variants(rows, data["reference"]["check"], int(base))
             cells = []
             for x in others:
-                err = max(max(r["leaves"][x]["error"], fl) / max(r["leaves"][base]["error"], fl)
-                          for r in rows)
-                by_size = {}
-                for r in rows:
-                    by_size.setdefault(r["size"], []).append(
-                        r["leaves"][x]["time"] / r["leaves"][base]["time"])
-                sizes = sorted(by_size)
-                lo, hi = (float(np.median(by_size[k])) for k in (sizes[0], sizes[-1]))
-                cells += [f"{err:.2f}", f"{lo:.2f} → {hi:.2f}"]
+                ratios = fit[x]["time_ratio"]
+                cells += [f"{fit[x]['error_factor']:.2f}",
+                          f"{ratios[0][1]:.2f} → {ratios[-1][1]:.2f}"]
             n_lo, n_hi = min(r["n"] for r in rows), max(r["n"] for r in rows)
             md.append(f"| {scene} | {label} | {n_lo}–{n_hi} | " + " | ".join(cells) + " |")
     return md + [""]

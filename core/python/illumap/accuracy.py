@@ -48,6 +48,7 @@ solution's N (or, with ``coarse=True``, measured on a spatially even half of the
 
 from __future__ import annotations
 
+import copy
 import math
 import time
 
@@ -438,14 +439,7 @@ def _leaf_time_ratio(entry: dict, n: float) -> float:
     pts = entry.get("time_ratio")
     if not pts:
         return 1.0
-    ns = [p[0] for p in pts]
-    if n <= ns[0]:
-        return float(pts[0][1])
-    if n >= ns[-1]:
-        return float(pts[-1][1])
-    i = int(np.searchsorted(ns, n, side="right")) - 1
-    w = math.log(n / ns[i]) / math.log(ns[i + 1] / ns[i])
-    return float((1 - w) * pts[i][1] + w * pts[i + 1][1])
+    return float(np.interp(math.log(n), [math.log(p[0]) for p in pts], [p[1] for p in pts]))
 
 
 def _settings_with_leaves(table: dict):
@@ -870,7 +864,7 @@ def choose_mesh_settings(scene: dict, target_error, *, kind: str = "mesh", adapt
                           discretization_scale=ADAPTIVE_ERROR_RATIO,
                           min_surfels=ADAPTIVE_MIN_COUNT)
     if two["n"] < ADAPTIVE_MIN_COUNT:   # capped below where the ratio was measured
-        two = choose_settings(scene, target_error, kind=kind, max_surfels=max_surfels)
+        two = copy.deepcopy(uniform)
     first = _setting_time(two, ADAPTIVE_FIRST_SHARE * two["n"])   # same settings, its share
     two["predicted_time_passes"] = [first, two["predicted_time"]]
     two["predicted_time"] = first + two["predicted_time"]
