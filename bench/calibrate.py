@@ -17,6 +17,9 @@ setting's leaf variants (leaves of 16 and 64 surfels against the 32 of the sweep
 an error factor (the largest paired error ratio) and time ratios against N (see
 ``fit_leaf_variants``),
 
+and, from bench/results/sampling_spread.json (bench/sampling_spread.py) where it exists, each
+sampled kind's sampling factor against N (``fit_sampling``),
+
 and writes them between the calibration markers of core/python/illumap/accuracy.py
 (``CALIBRATION``), with the run's date and core commit.
 
@@ -146,7 +149,47 @@ def add_leaf_variants(calibration, leaf_results, floors):
     return calibration
 
 
-def calibrate(results, leaf_results=None):
+def fit_sampling(rows, table, z=accuracy.SAMPLING_Z):
+    """A kind's sampling factor from bench/sampling_spread.py's rows (one setting solved on
+    several samplings per size): per size, exp(mean + z·sd) of log(error / model), with the
+    model the freshly fitted curve of that setting (``table``) and sd pooled over the sizes
+    (six samplings give a poor sd each); never below 1 nor below the largest ratio seen."""
+    by_size = {}
+    for r in rows:
+        entry = table["settings"].get(r["label"])
+        if entry is None:
+            continue
+        model = accuracy._predicted_error(entry, table, r["n"], None, sampling=False)
+        by_size.setdefault(r["size"], []).append((r["n"], math.log(r["error"] / model)))
+    groups = [g for g in by_size.values() if len(g) >= 2]
+    if not groups:
+        return None
+    sd = math.sqrt(float(np.mean([np.var([x for _, x in g], ddof=1) for g in groups])))
+    points = []
+    for g in sorted(groups, key=lambda g: np.mean([n for n, _ in g])):
+        logs = [x for _, x in g]
+        f = max(1.0, math.exp(float(np.mean(logs)) + z * sd), math.exp(max(logs)))
+        points.append([int(round(float(np.mean([n for n, _ in g])))), _sig(f, 3)])
+    return dict(points=points, z=z, log_sd=_sig(sd, 3), samplings=len(groups[0]),
+                setting=rows[0]["label"])
+
+
+def add_sampling(calibration, sampling_results):
+    """Attach bench/sampling_spread.py's factors to the kinds whose scene it ran."""
+    for scene, data in sampling_results["scenes"].items():
+        table = calibration["kinds"].get(S.KIND[scene])
+        if table is None or table["scene"] != scene:
+            continue
+        fit = fit_sampling(data["rows"], table)
+        if fit:
+            table["sampling"] = fit
+    calibration["sampling_source"] = dict(
+        date=sampling_results.get("date"),
+        core_commit=sampling_results.get("core", {}).get("commit"))
+    return calibration
+
+
+def calibrate(results, leaf_results=None, sampling_results=None):
     """The calibration of every scene kind from the sweep; with ``leaf_results``
     (bench/leaf_size.py), each setting's error curve also takes in its solves on the leaf
     benchmark's other samplings (the envelope is then the worst of the samplings: at equal N
@@ -186,6 +229,8 @@ def calibrate(results, leaf_results=None):
     if leaf_results:
         add_leaf_variants(calibration, leaf_results,
                           {k: v["reference"]["check"] for k, v in results["scenes"].items()})
+    if sampling_results:
+        add_sampling(calibration, sampling_results)
     return calibration
 
 
@@ -218,17 +263,26 @@ def main(argv=None):
     ap.add_argument("--results", default=os.path.join(HERE, "results", "accuracy_speed.json"))
     ap.add_argument("--leaf-results", default=os.path.join(HERE, "results", "leaf_size.json"),
                     help="bench/leaf_size.py's pairs (leaf variants; skipped when absent)")
+    ap.add_argument("--sampling-results",
+                    default=os.path.join(HERE, "results", "sampling_spread.json"),
+                    help="bench/sampling_spread.py's samplings (sampling factors; skipped "
+                         "when absent)")
     ap.add_argument("--write", action="store_true", help="rewrite CALIBRATION in accuracy.py")
     args = ap.parse_args(argv)
     with open(args.results) as f:
         results = json.load(f)
-    leaf = None
-    if args.leaf_results and os.path.exists(args.leaf_results):
-        with open(args.leaf_results) as f:
-            leaf = json.load(f)
-    cal = calibrate(results, leaf)
+
+    def optional(path):
+        if path and os.path.exists(path):
+            with open(path) as f:
+                return json.load(f)
+        return None
+    cal = calibrate(results, optional(args.leaf_results), optional(args.sampling_results))
     for kind, t in cal["kinds"].items():
         print(f"{kind} ({t['scene']}): n_min {t['n_min']}, reference check {t['reference_check']}")
+        if "sampling" in t:
+            print("  sampling factor " + " ".join(f"{n}:{f}" for n, f in t["sampling"]["points"])
+                  + f" (log sd {t['sampling']['log_sd']})")
         for label, e in t["settings"].items():
             err = " ".join(f"{n}:{v:.3f}" for n, v in e["error"]["points"])
             tim = " ".join(f"{v:.3f}" for _, v in e["cost"]["points"])

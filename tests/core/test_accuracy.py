@@ -8,6 +8,7 @@ stays fast; the heavy measurements (10% … 0.3%, with large references) are in
 bench/accuracy_speed.py --auto and docs/benchmarks.md.
 """
 
+import math
 import os
 import sys
 
@@ -359,7 +360,7 @@ def test_solve_triangles_rejects_mismatched_materials():
 
 def _one_setting_calibration(monkeypatch, variants):
     """The "random" kind with its direct exact-visibility curve as its only (FMM) setting,
-    given ``leaf_variants``."""
+    given ``leaf_variants``, and no sampling factor."""
     table = accuracy._kind_table("random")
     entry = dict(table["settings"]["direct vis=exact"])
     entry["keywords"] = dict(method="fmm", order=2, theta=0.5, visibility="exact")
@@ -367,6 +368,7 @@ def _one_setting_calibration(monkeypatch, variants):
     patched = dict(table, settings={"FMM p=2 vis=exact": entry,
                                     table["discretization"]: table["settings"][
                                         table["discretization"]]})
+    patched.pop("sampling", None)   # tests that want one set it
     monkeypatch.setattr(accuracy, "CALIBRATION",
                         dict(accuracy.CALIBRATION, kinds={"random": patched}))
     return patched, entry
@@ -464,3 +466,84 @@ def test_an_unoccluded_scene_gets_a_leaf_variant_and_keeps_its_expansion_error()
     entry = dict(accuracy._settings_with_leaves(accuracy._kind_table("grid")))[chosen["label"]]
     e_fmm = entry["error_factor"] * accuracy.FMM_ERROR[0.5][chosen["order"]]
     assert _rel(sol.radiosity, direct.radiosity, box.emission) <= e_fmm
+
+
+def test_a_sampling_factor_scales_the_model_and_buys_the_surfels_it_needs(monkeypatch):
+    """A kind's sampling factor (held beyond its sizes, log-N interpolated between them)
+    multiplies the discretization part of every prediction (here the whole error: the setting
+    is the direct curve), so the chosen N grows until the scaled error meets the target;
+    without the factor (``sampling=False``) the prediction is the fitted curve's."""
+    table, entry = _one_setting_calibration(monkeypatch, {})
+    plain = accuracy.choose_settings(dict(n=10 ** 9, total_area=1.0, kind="random",
+                                          albedo_max=0.8, albedo_mean=0.5), 0.1,
+                                     kind="random", allow_direct=False)
+    table["sampling"] = dict(points=[[1000, 1.2], [8000, 1.4]])
+    assert accuracy._sampling_factor(table, 100) == pytest.approx(1.2)
+    assert accuracy._sampling_factor(table, 10 ** 6) == pytest.approx(1.4)
+    assert accuracy._sampling_factor(table, 1000 * 8 ** 0.5) == pytest.approx(1.3)
+    for n in (600, 3000, 20000):
+        raw = accuracy._predicted_error(entry, table, n, None, sampling=False)
+        assert accuracy._predicted_error(entry, table, n, None) == pytest.approx(
+            accuracy._sampling_factor(table, n) * raw)
+        assert accuracy._discretization(table, n) == pytest.approx(
+            accuracy._sampling_factor(table, n) * accuracy._discretization(table, n, False))
+    spread = accuracy.choose_settings(dict(n=10 ** 9, total_area=1.0, kind="random",
+                                           albedo_max=0.8, albedo_mean=0.5), 0.1,
+                                      kind="random", allow_direct=False)
+    assert spread["n"] > plain["n"], (spread["n"], plain["n"])
+    assert spread["predicted"]["total"] <= accuracy.SAFETY * 0.1 + 1e-12
+    assert accuracy._predicted_error(entry, table, spread["n"], None, sampling=False) \
+        < accuracy.SAFETY * 0.1 / 1.19
+
+
+def test_fit_sampling_takes_a_high_quantile_of_the_ratios_never_below_one():
+    import calibrate   # bench/calibrate.py
+    table = accuracy._kind_table("random")
+    label = "direct vis=exact"
+    entry = table["settings"][label]
+    rng = np.random.default_rng(3)
+    rows = []
+    for size, bias in ((1000, 1.1), (4000, 0.7)):
+        model = accuracy._predicted_error(entry, table, size, None, sampling=False)
+        for k, z in enumerate(rng.normal(size=6)):
+            rows.append(dict(label=label, size=size, n=size + k, seed=10 + k,
+                             error=model * bias * math.exp(0.1 * z)))
+    fit = calibrate.fit_sampling(rows, table, z=2.0)
+    assert [n for n, _ in fit["points"]] == [1002, 4002]
+    (_, f_small), (_, f_large) = fit["points"]
+    logs = {s: [math.log(r["error"] / accuracy._predicted_error(entry, table, r["n"], None,
+                                                                  sampling=False))
+                for r in rows if r["size"] == s] for s in (1000, 4000)}
+    sd = math.sqrt(np.mean([np.var(v, ddof=1) for v in logs.values()]))
+    assert fit["log_sd"] == pytest.approx(sd, rel=1e-2)
+    assert f_small == pytest.approx(math.exp(np.mean(logs[1000]) + 2 * sd), rel=1e-2)
+    assert f_small >= math.exp(max(logs[1000])) * 0.999
+    assert f_large == 1.0          # a pessimistic model is not credited below itself
+    assert fit["samplings"] == 6
+
+
+def test_a_sampling_factor_leaves_what_a_setting_adds_alone(monkeypatch):
+    table, entry = _one_setting_calibration(monkeypatch, {})
+    worse = dict(entry, error=dict(entry["error"], points=[[n, 2.0 * e] for n, e in
+                                                           entry["error"]["points"]]))
+    table["sampling"] = dict(points=[[1000, 1.3]])
+    n = 3000
+    d = accuracy._discretization(table, n, sampling=False)
+    e = accuracy._predicted_error(worse, table, n, None, sampling=False)
+    assert e == pytest.approx(2.0 * d)
+    # sqrt((1.3 d)^2 + (e^2 - d^2)): the visibility model's excess is not a sampling's
+    assert accuracy._predicted_error(worse, table, n, None) == pytest.approx(
+        math.sqrt((1.3 * d) ** 2 + e ** 2 - d ** 2))
+    assert accuracy._predicted_error(worse, table, n, None) < 1.3 * e
+
+
+def test_calibrated_sampling_factors_are_measured_where_sampling_varies():
+    kinds = accuracy.CALIBRATION["kinds"]
+    assert "sampling" not in kinds["grid"]      # a grid has one sampling
+    found = [k for k, t in kinds.items() if "sampling" in t]
+    assert found, "no sampling factors: run bench/sampling_spread.py, then bench/calibrate.py"
+    for k in found:
+        pts = kinds[k]["sampling"]["points"]
+        assert [n for n, _ in pts] == sorted(n for n, _ in pts), k
+        assert all(1.0 <= f < 3.0 for _, f in pts), k
+        assert kinds[k]["sampling"]["samplings"] >= 4, k

@@ -23,6 +23,14 @@ paired time ratios against N. A variant is a candidate like any setting: smaller
 node pairs from the near field (per-pair visibility) to the classified far field, larger ones
 the other way, so the leaf size trades error against time differently per scene and size.
 
+Sampling: the curves are of the calibration's samplings; another sampling of the same scene
+at the same N and settings lands elsewhere (up to 1.25× on a mesh, more on random surfels).
+Each kind's ``sampling`` factor (bench/sampling_spread.py: errors of a near-exact setting on six
+further samplings over the model, fitted by bench/calibrate.py to exp(mean + SAMPLING_Z·sd) of
+their log ratios per size, never below 1) scales the discretization part of its predictions
+(what moves between samplings; expansion and visibility-model errors stay), so that a target
+holds for the user's sampling, not just for ours. Grids are deterministic and have none.
+
 Visibility: settings without occlusion (``visibility="none"``) are modelled as
 ``sqrt(e_exact(N)² + e_fmm(p, θ)² + e_occlusion²)``, where ``e_exact`` is the direct exact-
 visibility fit of the scene kind, ``e_fmm`` the expansion error table :data:`FMM_ERROR` and
@@ -110,9 +118,12 @@ PRESETS = {"draft": 0.10, "preview": 0.10, "medium": 0.03, "high": 0.01, "final"
 PROBE_SURFELS = 200
 PROBE_WORTH = 0.25   # s
 PROBE_GAIN = 0.67
-#: The settings are chosen to meet SAFETY × target by the models (sampling noise, scenes that
-#: differ from the calibration ones).
+#: The settings are chosen to meet SAFETY × target by the models (scenes that differ from the
+#: calibration ones; the spread between samplings is the kinds' sampling factors).
 SAFETY = 0.95
+#: The sampling factor's quantile: exp(mean + SAMPLING_Z·sd) of the log error ratios (about
+#: the 98th percentile of a log-normal spread), fitted by bench/calibrate.py.
+SAMPLING_Z = 2.0
 #: Fewest surfels recommended per kind when the calibration has none (small lights and
 #: occluders are not resolved below it).
 DEFAULT_N_MIN = 250
@@ -125,6 +136,7 @@ CALIBRATION = {
     'core_commit': '457db45',
     'solve_tol': 0.0001,
     'leaf_source': {'date': '2026-12-01 21:24 UTC', 'core_commit': '702482c'},
+    'sampling_source': {'date': '2026-12-02 00:05 UTC', 'core_commit': '57f59f0'},
     'kinds': {
         'grid': {
             'scene': 'cornell',
@@ -171,6 +183,7 @@ CALIBRATION = {
             'n_min': 482,
             'reference_check': 0.005023,
             'discretization': 'direct vis=exact',
+            'sampling': {'points': [[2021, 1.25], [8082, 1.23], [16162, 1.34]], 'z': 2.0, 'log_sd': 0.0872, 'samplings': 6, 'setting': 'FMM p=3 vis=exact all-pairs s=32 θ=0.5'},
             'settings': {
                 'direct vis=none': {'keywords': {'method': 'direct', 'visibility': 'none'}, 'error': {'points': [[482, 0.5137], [966, 0.4074], [1926, 0.4074], [3859, 0.4074], [7718, 0.4074]], 'slope': 0.06715}, 'cost': {'points': [[482, 0.008774], [966, 0.01485], [1926, 0.03012], [3859, 0.181], [7718, 0.3831]], 'slope': 1.082}, 'n_range': [482, 7718]},
                 'FMM p=0 vis=none': {'keywords': {'method': 'fmm', 'order': 0, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[482, 0.5156], [966, 0.3893], [1926, 0.3893], [3859, 0.3893], [7718, 0.388], [15432, 0.3517]], 'slope': 0.07437}, 'cost': {'points': [[482, 0.0159], [966, 0.02597], [1926, 0.02597], [3859, 0.06553], [7718, 0.09454], [15432, 0.09659]], 'slope': 1.0}, 'n_range': [482, 15432], 'leaf_variants': {'16': {'error_factor': 26.5, 'n_range': [482, 7718], 'time_ratio': [[483, 1.04], [963, 1.09], [1926, 1.07], [3857, 1.06], [7715, 1.01]]}, '64': {'error_factor': 1.0, 'n_range': [482, 7718], 'time_ratio': [[483, 1.06], [963, 1.18], [1926, 0.992], [3857, 1.18], [7715, 1.16]]}}},
@@ -211,6 +224,7 @@ CALIBRATION = {
             'n_min': 848,
             'reference_check': 0.006732,
             'discretization': 'direct vis=exact',
+            'sampling': {'points': [[2033, 1.2], [6057, 1.28], [14150, 1.08]], 'z': 2.0, 'log_sd': 0.0768, 'samplings': 6, 'setting': 'FMM p=3 vis=exact all-pairs s=32 θ=0.5'},
             'settings': {
                 'direct vis=none': {'keywords': {'method': 'direct', 'visibility': 'none'}, 'error': {'points': [[848, 0.5572], [1583, 0.5572], [3067, 0.5572], [4613, 0.5572], [6132, 0.5572]], 'slope': 0.05}, 'cost': {'points': [[848, 0.008488], [1583, 0.02601], [3067, 0.07414], [4613, 0.157], [6132, 0.2674]], 'slope': 1.87}, 'n_range': [848, 6132]},
                 'FMM p=0 vis=none': {'keywords': {'method': 'fmm', 'order': 0, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[848, 0.6504], [1583, 0.6504], [3067, 0.6504], [4613, 0.6504], [6132, 0.6504], [9070, 0.6504], [12034, 0.6504], [18085, 0.6504]], 'slope': 0.05}, 'cost': {'points': [[848, 0.03264], [1583, 0.05104], [3067, 0.09269], [4613, 0.1341], [6132, 0.1927], [9070, 0.364], [12034, 0.4507], [18085, 0.9051]], 'slope': 1.712}, 'n_range': [848, 18085], 'leaf_variants': {'16': {'error_factor': 1.26, 'n_range': [848, 6132], 'time_ratio': [[850, 1.26], [1580, 1.12], [3109, 1.42], [4615, 1.1], [6123, 1.27]]}, '64': {'error_factor': 1.22, 'n_range': [848, 6132], 'time_ratio': [[850, 0.943], [1580, 0.817], [3109, 0.884], [4615, 0.901], [6123, 0.865]]}}},
@@ -251,6 +265,7 @@ CALIBRATION = {
             'n_min': 508,
             'reference_check': 0.0452,
             'discretization': 'direct vis=exact',
+            'sampling': {'points': [[2000, 1.27], [4045, 1.38], [8000, 1.03]], 'z': 2.0, 'log_sd': 0.117, 'samplings': 6, 'setting': 'FMM p=3 vis=exact all-pairs s=32 θ=0.5'},
             'settings': {
                 'direct vis=none': {'keywords': {'method': 'direct', 'visibility': 'none'}, 'error': {'points': [[508, 0.9053], [1003, 0.8556], [2000, 0.8556], [3000, 0.8556], [3999, 0.8556], [6003, 0.8], [8000, 0.7874]], 'slope': 0.05}, 'cost': {'points': [[508, 0.0107], [1003, 0.01898], [2000, 0.04685], [3000, 0.08177], [3999, 0.1225], [6003, 0.2867], [8000, 0.4132]], 'slope': 1.273}, 'n_range': [508, 8000]},
                 'FMM p=0 vis=none': {'keywords': {'method': 'fmm', 'order': 0, 'theta': 0.5, 'visibility': 'none'}, 'error': {'points': [[508, 0.9658], [1003, 0.888], [2000, 0.888], [3000, 0.888], [3999, 0.888], [6003, 0.8632], [8000, 0.8632]], 'slope': 0.05}, 'cost': {'points': [[508, 0.02793], [1003, 0.02947], [2000, 0.04179], [3000, 0.06428], [3999, 0.06428], [6003, 0.104], [8000, 0.129]], 'slope': 1.0}, 'n_range': [508, 8000], 'leaf_variants': {'16': {'error_factor': 3.95, 'n_range': [508, 8000], 'time_ratio': [[508, 0.858], [1003, 1.08], [2000, 0.951], [3000, 1.13], [3999, 1.0], [6003, 1.06], [8000, 1.07]]}, '64': {'error_factor': 0.933, 'n_range': [508, 8000], 'time_ratio': [[508, 0.947], [1003, 1.07], [2000, 1.08], [3000, 1.28], [3999, 1.33], [6003, 0.981], [8000, 1.11]]}}},
@@ -461,22 +476,26 @@ def _predicted_time(entry: dict, n: float) -> float:
 
 
 def _predicted_error(entry: dict, table: dict, n: float, e_occlusion,
-                     scale: float = 1.0) -> float | None:
+                     scale: float = 1.0, sampling: bool = True) -> float | None:
     """The model's error of one calibrated setting at ``n`` surfels (None: not usable), its
     discretization part (the direct exact-visibility model) times ``scale`` (an adaptive
     sampling's ratio): what the setting adds to it (expansion, visibility model) stays. A leaf
     variant scales what its setting's error is measured against (the whole error with
-    visibility, the expansion error without) by its factor."""
+    visibility, the expansion error without) by its factor. With ``sampling`` the kind's
+    sampling factor scales the discretization part too (what moves from one sampling to
+    the next), not what the setting adds."""
     kw = entry["keywords"]
     vis = kw.get("visibility", "none")
     factor = _leaf_factor(entry, n)
+    spread = _sampling_factor(table, n) if sampling else 1.0
     if vis != "none":
         e = factor * _loglog(entry["error"], n, error=True, steps=_steps(table))
-        e_disc = _discretization(table, n) if scale != 1.0 else None
+        e_disc = (_discretization(table, n, sampling=False)
+                  if scale != 1.0 or spread != 1.0 else None)
         if e_disc is None:
             return e
         e_rest2 = max(0.0, e * e - e_disc * e_disc)
-        return math.sqrt((scale * min(e_disc, e)) ** 2 + e_rest2)
+        return math.sqrt((spread * scale * min(e_disc, e)) ** 2 + e_rest2)
     if e_occlusion is None:
         return None
     base = table["settings"].get(table.get("discretization", ""))
@@ -486,13 +505,27 @@ def _predicted_error(entry: dict, table: dict, n: float, e_occlusion,
     if kw["method"] == "fmm":
         row = min((t for t in FMM_ERROR if t >= kw["theta"]), default=max(FMM_ERROR))
         e_fmm = factor * FMM_ERROR[row].get(kw["order"], FMM_ERROR[row][0])
-    e_disc = scale * _loglog(base["error"], n, error=True, steps=_steps(table))
+    e_disc = spread * scale * _loglog(base["error"], n, error=True, steps=_steps(table))
     return math.sqrt(e_disc ** 2 + e_fmm ** 2 + e_occlusion ** 2)
 
 
-def _discretization(table: dict, n: float) -> float | None:
+def _sampling_factor(table: dict, n: float) -> float:
+    """The kind's sampling factor at ``n`` (1 without one), interpolated in log N and held
+    beyond the measured sizes."""
+    pts = table.get("sampling", {}).get("points")
+    if not pts:
+        return 1.0
+    return float(np.interp(math.log(n), [math.log(p[0]) for p in pts], [p[1] for p in pts]))
+
+
+def _discretization(table: dict, n: float, sampling: bool = True) -> float | None:
+    """The kind's discretization model at ``n`` (the direct exact-visibility curve), with its
+    sampling factor unless ``sampling`` is False."""
     base = table["settings"].get(table.get("discretization", ""))
-    return None if base is None else _loglog(base["error"], n, error=True, steps=_steps(table))
+    if base is None:
+        return None
+    e = _loglog(base["error"], n, error=True, steps=_steps(table))
+    return e * _sampling_factor(table, n) if sampling else e
 
 
 def _needed_n(entry, table, target, e_occlusion, n_min, cap, scale=1.0):
