@@ -403,11 +403,23 @@ def timed_auto(q, target, kind):
     return sol, time.perf_counter() - t
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def mode_parser(doc, quick_help="small sizes (default)", full_help="larger reference and sizes"):
+    """An argument parser described by the first line of ``doc``, with --quick / --full (the
+    QUICK and FULL configurations, ``config(args)``)."""
+    ap = argparse.ArgumentParser(description=doc.split("\n")[0])
     mode = ap.add_mutually_exclusive_group()
-    mode.add_argument("--quick", action="store_true", help="small sizes (default)")
-    mode.add_argument("--full", action="store_true", help="larger reference and sizes")
+    mode.add_argument("--quick", action="store_true", help=quick_help)
+    mode.add_argument("--full", action="store_true", help=full_help)
+    return ap
+
+
+def config(args):
+    """A copy of the FULL or QUICK configuration, as ``args`` asks."""
+    return dict(FULL if args.full else QUICK)
+
+
+def main(argv=None):
+    ap = mode_parser(__doc__)
     ap.add_argument("--scenes", nargs="+", default=list(S.SCENES), choices=S.SCENES)
     ap.add_argument("--auto", action="store_true", help="also run the automatic mode")
     ap.add_argument("--auto-only", action="store_true",
@@ -417,7 +429,7 @@ def main(argv=None):
                     help="targets of the automatic mode (relative RMS)")
     ap.add_argument("--out", default="bench/results/accuracy_speed.json")
     args = ap.parse_args(argv)
-    cfg = dict(FULL if args.full else QUICK)
+    cfg = config(args)
     visibilities, unavailable = available_visibilities()
     for m, why in unavailable.items():
         print(f"visibility={m!r}: skipped, {why}", flush=True)

@@ -149,19 +149,26 @@ def add_leaf_variants(calibration, leaf_results, floors):
     return calibration
 
 
-def fit_sampling(rows, table, z=accuracy.SAMPLING_Z):
-    """A kind's sampling factor from bench/sampling_spread.py's rows (one setting solved on
-    several samplings per size): per size, exp(mean + z·sd) of log(error / model), with the
-    model the freshly fitted curve of that setting (``table``) and sd pooled over the sizes
-    (six samplings give a poor sd each); never below 1 nor below the largest ratio seen."""
+def sampling_ratios(rows, table):
+    """bench/sampling_spread.py's rows grouped by size: {size: [(n, error / model), …]}, the
+    model being the setting's curve in ``table`` without a sampling factor."""
     by_size = {}
     for r in rows:
         entry = table["settings"].get(r["label"])
         if entry is None:
             continue
         model = accuracy._predicted_error(entry, table, r["n"], None, sampling=False)
-        by_size.setdefault(r["size"], []).append((r["n"], math.log(r["error"] / model)))
-    groups = [g for g in by_size.values() if len(g) >= 2]
+        by_size.setdefault(r["size"], []).append((r["n"], r["error"] / model))
+    return by_size
+
+
+def fit_sampling(rows, table, z=accuracy.SAMPLING_Z):
+    """A kind's sampling factor from bench/sampling_spread.py's rows (one setting solved on
+    several samplings per size): per size, exp(mean + z·sd) of log(error / model), with the
+    model the freshly fitted curve of that setting (``table``) and sd pooled over the sizes
+    (six samplings give a poor sd each); never below 1 nor below the largest ratio seen."""
+    groups = [[(n, math.log(r)) for n, r in g] for g in sampling_ratios(rows, table).values()
+              if len(g) >= 2]
     if not groups:
         return None
     sd = math.sqrt(float(np.mean([np.var([x for _, x in g], ddof=1) for g in groups])))

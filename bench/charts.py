@@ -386,15 +386,13 @@ def sampling_section(spread):
         fit = calibrate.fit_sampling(data["rows"], table) if table.get("scene") == scene \
             else None
         factors = dict((n, f) for n, f in (fit or {}).get("points", []))
+        ratios_by_size = calibrate.sampling_ratios(data["rows"], table) if table else {}
         by_size = {}
         for r in data["rows"]:
             by_size.setdefault(r["size"], []).append(r)
         for size, rows in sorted(by_size.items()):
             errs = sorted(r["error"] for r in rows)
-            model = [accuracy._predicted_error(table["settings"][r["label"]], table, r["n"],
-                                               None, sampling=False) for r in rows] \
-                if table else [float("nan")] * len(rows)
-            ratios = [r["error"] / m for r, m in zip(rows, model)]
+            ratios = [x for _, x in ratios_by_size.get(size, [])] or [float("nan")]
             n = int(round(float(np.mean([r["n"] for r in rows]))))
             f = factors.get(n)
             md.append(f"| {scene} | {n} | {fmt_pct(errs[0])} – "

@@ -19,7 +19,6 @@ fitting each leaf size's own error curve did.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -93,15 +92,12 @@ def run_scene(name, cfg, visibilities, samplings, log, labels=None):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    mode = ap.add_mutually_exclusive_group()
-    mode.add_argument("--quick", action="store_true", help="small sizes (default)")
-    mode.add_argument("--full", action="store_true", help="the full sweep's sizes")
+    ap = A.mode_parser(__doc__, full_help="the full sweep's sizes")
     ap.add_argument("--scenes", nargs="+", default=list(S.SCENES), choices=S.SCENES)
     ap.add_argument("--samplings", type=int, default=len(SEEDS), choices=range(1, len(SEEDS) + 1))
     ap.add_argument("--out", default="bench/results/leaf_size.json")
     args = ap.parse_args(argv)
-    cfg = dict(A.FULL if args.full else A.QUICK)
+    cfg = A.config(args)
     visibilities, _ = A.available_visibilities()
     results = dict(mode="full" if args.full else "quick", leaf_sizes=list(LEAF_SIZES),
                    base_leaf=BASE_LEAF, seeds=list(SEEDS[:args.samplings]),

@@ -18,7 +18,6 @@ into each kind's ``sampling`` factor. The grid scene has one sampling and is not
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -72,14 +71,12 @@ def run_scene(name, cfg, sizes, seeds, visibilities, log):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    mode = ap.add_mutually_exclusive_group()
-    mode.add_argument("--quick", action="store_true", help="two sizes, two samplings (default)")
-    mode.add_argument("--full", action="store_true", help="the sizes the automatic mode picks")
+    ap = A.mode_parser(__doc__, "two sizes, two samplings (default)",
+                       "the sizes the automatic mode picks")
     ap.add_argument("--scenes", nargs="+", default=list(SCENES), choices=SCENES)
     ap.add_argument("--out", default="bench/results/sampling_spread.json")
     args = ap.parse_args(argv)
-    cfg = dict(A.FULL if args.full else A.QUICK)
+    cfg = A.config(args)
     sizes = FULL_SIZES if args.full else QUICK_SIZES
     seeds = SEEDS if args.full else SEEDS[:2]
     visibilities, _ = A.available_visibilities()

@@ -448,13 +448,17 @@ def _leaf_factor(entry: dict, n: float) -> float:
     return f if lo / 1.5 <= n <= 1.5 * hi else max(f, 1.0)
 
 
-def _leaf_time_ratio(entry: dict, n: float) -> float:
-    """A leaf variant's time against its setting's leaf-32 time at ``n`` (paired, one run),
-    interpolated in log N and held beyond the measured sizes."""
-    pts = entry.get("time_ratio")
-    if not pts:
+def _interp_log_n(points, n: float) -> float:
+    """``[[n, value], …]`` at ``n``: interpolated in log N, held beyond the ends; 1 if empty."""
+    if not points:
         return 1.0
-    return float(np.interp(math.log(n), [math.log(p[0]) for p in pts], [p[1] for p in pts]))
+    return float(np.interp(math.log(n), [math.log(p[0]) for p in points],
+                           [p[1] for p in points]))
+
+
+def _leaf_time_ratio(entry: dict, n: float) -> float:
+    """A leaf variant's time against its setting's leaf-32 time at ``n`` (paired, one run)."""
+    return _interp_log_n(entry.get("time_ratio"), n)
 
 
 def _settings_with_leaves(table: dict):
@@ -510,12 +514,8 @@ def _predicted_error(entry: dict, table: dict, n: float, e_occlusion,
 
 
 def _sampling_factor(table: dict, n: float) -> float:
-    """The kind's sampling factor at ``n`` (1 without one), interpolated in log N and held
-    beyond the measured sizes."""
-    pts = table.get("sampling", {}).get("points")
-    if not pts:
-        return 1.0
-    return float(np.interp(math.log(n), [math.log(p[0]) for p in pts], [p[1] for p in pts]))
+    """The kind's sampling factor at ``n`` (1 without one)."""
+    return _interp_log_n(table.get("sampling", {}).get("points"), n)
 
 
 def _discretization(table: dict, n: float, sampling: bool = True) -> float | None:
