@@ -80,6 +80,31 @@ def test_numerical_error_of_the_chosen_settings_stays_within_the_target():
         est = sol.stats["accuracy"]["estimate"]
         assert est["fmm"] > 0
         assert est["numerical"] >= 0.3 * err, (est, err)
+        # amplified by the box's bounce gain (1.4), not the bound 1/(1 - rho_max) (3.6), the
+        # FMM part tracks the measured deviation: 0.96-1.35x here, 2.6-3.5x with the bound
+        rho_max = float(q.albedo.max())
+        assert 1.0 < est["gain"] < 0.6 / (1.0 - rho_max), est
+        assert 0.5 * err <= est["fmm"] <= 2.0 * err, (est, err)
+
+
+def test_bounce_gain_is_the_bound_for_light_everywhere_and_less_for_a_local_light():
+    """Closed box, uniform albedo rho: every row of K sums to 1, so light emitted everywhere
+    gains exactly 1/(1 - rho) over its bounces (B = E/(1 - rho)); light from one face loses
+    part of each bounce to the other faces' first pass, and gains less."""
+    rho = 0.7
+    box = scenes.closed_box(8, albedo=rho, emission=1.0)
+    op = illumap.TransportOperator(box, method="direct")
+    sol = illumap.solve(box, method="direct", tol=1e-10)
+    assert accuracy.bounce_gain(sol.radiosity, box, op) == pytest.approx(1 / (1 - rho), rel=0.03)
+    e = np.zeros((box.n, 3))
+    e[: 64] = 1.0
+    lit = box.replace(emission=e)
+    sol = illumap.solve(lit, method="direct", tol=1e-10)
+    gain = accuracy.bounce_gain(sol.radiosity, lit, op)
+    assert 1.0 < gain < 0.9 / (1 - rho), gain
+    # no light: nothing to measure the gain on, the bound stands
+    dark = box.replace(emission=np.zeros((box.n, 3)))
+    assert accuracy.bounce_gain(np.zeros((box.n, 3)), dark, op) == pytest.approx(1 / (1 - rho))
 
 
 def test_visibility_follows_the_scene_occlusion():
@@ -372,6 +397,36 @@ def _one_setting_calibration(monkeypatch, variants):
     monkeypatch.setattr(accuracy, "CALIBRATION",
                         dict(accuracy.CALIBRATION, kinds={"random": patched}))
     return patched, entry
+
+
+def test_beyond_its_measured_sizes_only_a_settings_discretization_part_falls(monkeypatch):
+    """Past the largest size a setting was measured at, the kind's direct curve carries the
+    discretization down while the setting's own excess (visibility model, expansion) is held:
+    the error tends to that excess, not to zero along the setting's slope."""
+    table, entry = _one_setting_calibration(monkeypatch, {})
+    base = table["settings"][table["discretization"]]
+    d_at = lambda n: accuracy._loglog(base["error"], n, error=True)   # noqa: E731
+    n_max = 4000
+    e_max = 1.5 * d_at(n_max)
+    entry["error"] = dict(points=[[1000, 2.0 * d_at(1000)], [n_max, e_max]], slope=0.5)
+    rest = math.sqrt(e_max ** 2 - d_at(n_max) ** 2)
+    for n in (1000, 2500, n_max):   # within: the measured curve
+        assert accuracy._predicted_error(entry, table, n, None) == pytest.approx(
+            accuracy._loglog(entry["error"], n, error=True))
+    for n in (8000, 10 ** 5, 10 ** 7):
+        e = accuracy._predicted_error(entry, table, n, None)
+        assert e == pytest.approx(math.sqrt(d_at(n) ** 2 + rest ** 2))
+        assert e > accuracy._loglog(entry["error"], n, error=True)   # the slope would fall on
+    assert accuracy._predicted_error(entry, table, 10 ** 9, None) == pytest.approx(rest, rel=0.05)
+    # a target below the excess is out of this setting's reach at any N
+    assert accuracy._needed_n(entry, table, 0.9 * rest, None, 500, 10 ** 9) is None
+    # measured below the direct curve there: no excess, the curve goes on at the direct's rate
+    low = 0.8 * d_at(n_max)
+    entry["error"] = dict(points=[[1000, 2.0 * d_at(1000)], [n_max, low]], slope=0.5)
+    assert accuracy._predicted_error(entry, table, n_max * 1.0001, None) == pytest.approx(
+        low, rel=1e-3)   # continuous
+    assert accuracy._predicted_error(entry, table, 10 ** 6, None) == pytest.approx(
+        low * d_at(10 ** 6) / d_at(n_max))
 
 
 def test_leaf_variants_are_priced_by_their_paired_ratios(monkeypatch):
