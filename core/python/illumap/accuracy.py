@@ -10,8 +10,10 @@ bench/calibrate.py into :data:`CALIBRATION`): for each scene kind ("grid": meshe
 grids, the Cornell box; "random": randomly sampled meshes, the room with occluders;
 "point_cloud": scans, the bunny) and each benchmarked setting (method, p, θ, visibility), the
 measured error against N, as a non-increasing upper envelope, and the measured wall time
-against N, both interpolated log-log (and extrapolated with fitted slopes beyond the measured
-sizes). An error curve holds everything the setting does: density, expansion, visibility model
+against N, both interpolated log-log. Beyond the measured sizes time follows its fitted slope;
+an error only in its discretization part, which falls as the kind's direct curve does, while
+what the setting adds there is held (a node-pair visibility model does not converge with N).
+An error curve holds everything the setting does: density, expansion, visibility model
 (the FMM classifies node pairs as visible / hidden / partial from sampled rays, which blurs
 shadows at large θ) and the solver at its tolerance. For each candidate setting the model gives
 the N that meets ``SAFETY`` × target and the time it takes there; the cheapest wins.
