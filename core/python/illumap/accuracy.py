@@ -69,6 +69,7 @@ from .surfels import InputError, Surfels
 
 __all__ = ["choose_settings", "choose_mesh_settings", "solve_keywords", "estimate_error", "solve",
            "solve_triangles", "scene_summary", "occlusion_probe", "visibility_keywords",
+           "adaptive_time_ratio",
            "CALIBRATION", "FMM_ERROR", "EXACT_KEYWORDS", "PRESETS", "KINDS"]
 
 KINDS = ("grid", "mesh", "random", "point_cloud")
@@ -916,6 +917,18 @@ ADAPTIVE_MAX_RATIO = 4.0
 #: automatic mode at 10% chose 3152 surfels and measured 10.2% on the benchmark's sampling
 #: (2026-12-01), so it takes the upper end measured for any setting.
 ADAPTIVE_ERROR_RATIO = 0.8
+#: Solve time of the second pass against a uniform pass of the same count and settings
+#: (paired, bench/bench_adaptive.py, bench/results/adaptive.json, 2026-12-02): the median over
+#: five settings at each count, interpolated in log N and held beyond. A varying density packs
+#: surfels into fewer octree cells, whose near field (per-pair visibility rays) grows:
+#: 0.97-1.41 at 1.5k, 0.84-1.37 at 3k, 0.85-1.15 at 6k, 0.97-1.86 at 12k surfels.
+ADAPTIVE_TIME_RATIO = [[1447, 1.18], [2873, 0.96], [5731, 1.02], [11422, 1.39]]
+#: Two passes run (uncapped) only where predicted at most this share of one uniform pass's
+#: time: the time models' own error, each setting's largest swept size predicted from the
+#: smaller ones, is 0.34 rms in log time (x/÷ 1.4); twice on the triangles at 5%, two passes
+#: predicted at 0.78x one pass's time measured 1.28x and 1.35x, and missed the target on one
+#: sampling (5.11%) where one pass met it.
+ADAPTIVE_TIME_MARGIN = 0.7
 #: Fewest surfels for which that ratio is assumed (measured from 2k up; at 1383 surfels, a first
 #: pass of 690, the automatic mode's adaptive run got 0.83 of the uniform model's error).
 ADAPTIVE_MIN_COUNT = 2000
@@ -932,7 +945,10 @@ def choose_mesh_settings(scene: dict, target_error, *, kind: str = "mesh", adapt
     it), and the two passes' modelled time (pass 1 with the same settings at its share of the
     count) is compared with one uniform pass's: the faster is chosen (two passes also where
     ``max_surfels`` caps the count below what one uniform pass needs: they lower the error
-    at that count). The result's ``adaptive`` says which (False: one uniform pass),
+    at that count). Pass 2's modelled time is scaled by ADAPTIVE_TIME_RATIO (its density
+    varies), and uncapped two passes must be predicted at most ADAPTIVE_TIME_MARGIN times one
+    pass's time (within the time models' error one uniform pass is the simpler and surer
+    choice). The result's ``adaptive`` says which (False: one uniform pass),
     ``discretization_scale`` what the models were scaled by (``estimate_error`` and the
     second pass's :func:`solve` take it from there), ``predicted_time`` the total
     (``predicted_time_passes``: each pass's)."""
@@ -946,22 +962,32 @@ def choose_mesh_settings(scene: dict, target_error, *, kind: str = "mesh", adapt
     if two["n"] < ADAPTIVE_MIN_COUNT:   # capped below where the ratio was measured
         two = copy.deepcopy(uniform)
     first = _setting_time(two, ADAPTIVE_FIRST_SHARE * two["n"])   # same settings, its share
-    two["predicted_time_passes"] = [first, two["predicted_time"]]
-    two["predicted_time"] = first + two["predicted_time"]
+    second = adaptive_time_ratio(two["n"]) * two["predicted_time"]
+    two["predicted_time_passes"] = [first, second]
+    two["predicted_time"] = first + second
     reached = uniform["predicted"]["total"] <= SAFETY * uniform["target_error"] + 1e-12
-    if reached and uniform["predicted_time"] <= two["predicted_time"]:
+    if reached and two["predicted_time"] > ADAPTIVE_TIME_MARGIN * uniform["predicted_time"]:
         uniform["notes"].append(
-            f"adaptive: one uniform pass is predicted faster ({uniform['predicted_time']:.3g} s) "
-            f"than two passes ({two['predicted_time']:.3g} s, the adaptive error ratio "
-            f"{ADAPTIVE_ERROR_RATIO} from {ADAPTIVE_MIN_COUNT} surfels)")
+            f"adaptive: one uniform pass ({uniform['predicted_time']:.3g} s) is chosen: two "
+            f"passes are predicted at {two['predicted_time']:.3g} s, more than "
+            f"{ADAPTIVE_TIME_MARGIN} of it (the adaptive error ratio {ADAPTIVE_ERROR_RATIO} "
+            f"from {ADAPTIVE_MIN_COUNT} surfels, pass 2's time ratio "
+            f"{adaptive_time_ratio(two['n']):.3g})")
         return uniform
     two["adaptive"] = True
-    why = (f"predicted faster than one uniform pass ({uniform['predicted_time']:.3g} s)"
+    why = (f"predicted at most {ADAPTIVE_TIME_MARGIN} of one uniform pass's time "
+           f"({uniform['predicted_time']:.3g} s)"
            if reached else "one uniform pass of the capped count is predicted to miss the target")
     two["notes"].append(f"adaptive: two passes, the models' discretization error scaled by "
                         f"{two['discretization_scale']:g} (adaptive error ratio "
                         f"{ADAPTIVE_ERROR_RATIO} from {ADAPTIVE_MIN_COUNT} surfels), {why}")
     return two
+
+
+def adaptive_time_ratio(n: float) -> float:
+    """Modelled solve time of an adaptive second pass of ``n`` surfels over a uniform pass's
+    (ADAPTIVE_TIME_RATIO at ``n``)."""
+    return _interp_log_n(ADAPTIVE_TIME_RATIO, n)
 
 
 def _setting_time(chosen: dict, n: float) -> float:
