@@ -65,7 +65,7 @@ AUTO_MORE_SEEDS = (3, 5)
 QUICK = dict(ref_n=dict(cornell=12000, bunny=8000, interior=12000), sizes=(500, 1000, 2000, 4000),
              direct_max=8000, direct_vis_max=dict(seed=2500, exact=4500), error_points=800,
              high_order_max=10 ** 9, seed_max=10 ** 9)
-FULL = dict(ref_n=dict(cornell=48000, bunny=S.BUNNY_MAX, interior=24000),
+FULL = dict(ref_n=dict(cornell=48000, bunny=S.BUNNY_MAX, interior=48000),
             sizes=dict(cornell=(500, 1000, 2000, 4000, 8000, 12000),
                        cornell_mesh=(500, 1000, 2000, 4000, 8000, 16000),
                        interior=(500, 1000, 2000, 3000, 4000, 6000, 8000),
