@@ -464,6 +464,9 @@ def main(argv=None):
                 continue
             kept = [p for p in old["scenes"][name]["points"] if p["family"] != "auto"]
             old["scenes"][name]["points"] = kept + new["points"]
+            # the automatic mode's rows may be measured against another reference than the
+            # sweep kept from the earlier run
+            old["scenes"][name]["auto_reference"] = new["reference"]
         old["auto_date"] = results["date"]
         old["auto_core"] = results["core"]
         results = old

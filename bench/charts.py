@@ -464,6 +464,13 @@ def main(argv=None):
                        "comparison the target asks for — same run, same vertices — is the "
                        "Cycles section below.", ""]
             at = auto_table(data["points"])
+            auto_ref = data.get("auto_reference")
+            if at and auto_ref and auto_ref["n"] != ref["n"]:
+                md += [f"The automatic mode's rows below are measured against another "
+                       f"reference than the sweep above: N={auto_ref['n']}, whose check "
+                       f"against N={auto_ref['half_n']} is **{100 * auto_ref['check']:.2f}%** "
+                       f"(the hand-picked points keep the sweep's errors; the best on the "
+                       f"automatic mode's samplings is measured against this one).", ""]
             if at:
                 if scene == "cornell_mesh":
                     md += ["Automatic mode on the triangles (`illumap.accuracy.solve_triangles`, "
