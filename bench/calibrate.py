@@ -20,7 +20,8 @@ an error factor (the largest paired error ratio) and time ratios against N (see
 and, from bench/results/sampling_spread.json (bench/sampling_spread.py) where it exists, each
 sampled kind's sampling factor against N (``fit_sampling``),
 
-and writes them between the calibration markers of core/python/illumap/accuracy.py
+and prints how well the time models extrapolate (``time_holdout``: each setting's largest
+size predicted from the smaller ones), and writes them between the calibration markers of core/python/illumap/accuracy.py
 (``CALIBRATION``), with the run's date and core commit.
 
     .venv/bin/python bench/calibrate.py --results bench/results/accuracy_speed.json --write
@@ -196,6 +197,27 @@ def add_sampling(calibration, sampling_results):
     return calibration
 
 
+def time_holdout(results, min_sizes=5):
+    """How well the time models extrapolate: for every swept setting with at least
+    ``min_sizes`` sizes, ``fit_time`` on all but the largest size predicts the largest
+    (``illumap.accuracy``'s own extrapolation). Returns the log(predicted / measured) of each,
+    which ``ADAPTIVE_TIME_MARGIN`` is set against."""
+    out = []
+    for data in results["scenes"].values():
+        by_label = {}
+        for p in data["points"]:
+            if p["family"] not in ("auto", None) and p.get("time"):
+                by_label.setdefault(p["label"], []).append(p)
+        for pts in by_label.values():
+            sizes = sorted({p["n"] for p in pts})
+            if len(sizes) < min_sizes:
+                continue
+            model = fit_time([p for p in pts if p["n"] < sizes[-1]])
+            measured = min(p["time"] for p in pts if p["n"] == sizes[-1])
+            out.append(math.log(accuracy._loglog(model, sizes[-1], error=False) / measured))
+    return out
+
+
 def calibrate(results, leaf_results=None, sampling_results=None):
     """The calibration of every scene kind from the sweep; with ``leaf_results``
     (bench/leaf_size.py), each setting's error curve also takes in its solves on the leaf
@@ -297,6 +319,11 @@ def main(argv=None):
             for size, v in e.get("leaf_variants", {}).items():
                 tr = " ".join(f"{n}:{r:.2f}" for n, r in v["time_ratio"])
                 print(f"    leaf {size}: error x{v['error_factor']}  time x {tr}")
+    held = np.array(time_holdout(results))
+    if held.size:
+        print(f"time models, largest size predicted from the smaller ones ({held.size} "
+              f"settings): log(predicted/measured) mean {held.mean():.3f}, "
+              f"rms {np.sqrt((held ** 2).mean()):.3f}")
     if args.write:
         write(cal)
         print(f"wrote CALIBRATION into {ACCURACY_PY}")

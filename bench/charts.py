@@ -479,8 +479,8 @@ def main(argv=None):
                            "solution varies and solves again; *uniform* is one pass of the "
                            "chosen count; two passes run only where the models predict them "
                            "at most 0.7 of one pass's time (`ADAPTIVE_TIME_MARGIN`), or where "
-                           "a budget caps the count. The best hand-picked setting is that of this sweep "
-                           "(uniform stratified surfels):", "", at, ""]
+                           "a budget caps the count. The best hand-picked setting is that of "
+                           "this sweep (uniform stratified surfels):", "", at, ""]
                 else:
                     md += ["Automatic mode (`illumap.accuracy`): the density is chosen for the "
                            "target, the scene sampled at it, then `accuracy.solve` (settings, "

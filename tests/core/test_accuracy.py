@@ -624,3 +624,21 @@ def test_calibrated_sampling_factors_are_measured_where_sampling_varies():
         assert [n for n, _ in pts] == sorted(n for n, _ in pts), k
         assert all(1.0 <= f < 3.0 for _, f in pts), k
         assert kinds[k]["sampling"]["samplings"] >= 4, k
+
+
+def test_time_holdout_predicts_each_settings_largest_size_from_the_smaller():
+    """bench/calibrate.py's hold-out of the time models (what ADAPTIVE_TIME_MARGIN is set
+    against): a setting whose time is an exact power of N is predicted exactly; a setting
+    whose largest size took twice the extrapolated time is off by log 2; settings with too few
+    sizes and the automatic mode's points are left out."""
+    import calibrate   # bench/calibrate.py
+    sizes = (500, 1000, 2000, 4000, 8000)
+
+    def points(label, scale_last, family="fmm/exact"):
+        return [dict(label=label, family=family, n=n, time=1e-5 * n ** 1.3
+                     * (scale_last if n == sizes[-1] else 1.0)) for n in sizes]
+    results = dict(scenes=dict(a=dict(points=points("exact", 1.0) + points("slow", 2.0)
+                                      + points("auto", 5.0, family="auto")
+                                      + points("few", 1.0)[:3])))
+    held = sorted(calibrate.time_holdout(results))
+    assert held == pytest.approx([-math.log(2.0), 0.0], abs=1e-3)

@@ -924,8 +924,9 @@ ADAPTIVE_ERROR_RATIO = 0.8
 #: 0.97-1.41 at 1.5k, 0.84-1.37 at 3k, 0.85-1.15 at 6k, 0.97-1.86 at 12k surfels.
 ADAPTIVE_TIME_RATIO = [[1447, 1.18], [2873, 0.96], [5731, 1.02], [11422, 1.39]]
 #: Two passes run (uncapped) only where predicted at most this share of one uniform pass's
-#: time: the time models' own error, each setting's largest swept size predicted from the
-#: smaller ones, is 0.34 rms in log time (x/÷ 1.4); twice on the triangles at 5%, two passes
+#: time, about exp(-0.39): the time models' own error, each setting's largest swept size
+#: predicted from the smaller ones, is 0.39 rms in log time (bench/calibrate.py prints it:
+#: ``time_holdout``); twice on the triangles at 5%, two passes
 #: predicted at 0.78x one pass's time measured 1.28x and 1.35x, and missed the target on one
 #: sampling (5.11%) where one pass met it.
 ADAPTIVE_TIME_MARGIN = 0.7
@@ -942,16 +943,14 @@ def choose_mesh_settings(scene: dict, target_error, *, kind: str = "mesh", adapt
     then the count denser where that solution varies) the models' discretization part is
     scaled by ADAPTIVE_ERROR_RATIO where the count is at least ADAPTIVE_MIN_COUNT (below it a
     first pass is too coarse to find where the illumination varies, so the count is raised to
-    it), and the two passes' modelled time (pass 1 with the same settings at its share of the
-    count) is compared with one uniform pass's: the faster is chosen (two passes also where
-    ``max_surfels`` caps the count below what one uniform pass needs: they lower the error
-    at that count). Pass 2's modelled time is scaled by ADAPTIVE_TIME_RATIO (its density
-    varies), and uncapped two passes must be predicted at most ADAPTIVE_TIME_MARGIN times one
-    pass's time (within the time models' error one uniform pass is the simpler and surer
-    choice). The result's ``adaptive`` says which (False: one uniform pass),
-    ``discretization_scale`` what the models were scaled by (``estimate_error`` and the
-    second pass's :func:`solve` take it from there), ``predicted_time`` the total
-    (``predicted_time_passes``: each pass's)."""
+    it). The two passes' modelled time (pass 1 with the same settings at its share of the
+    count, pass 2 scaled by ADAPTIVE_TIME_RATIO as its density varies) must be at most
+    ADAPTIVE_TIME_MARGIN times one uniform pass's (within the time models' error one pass is
+    the simpler and surer choice); two passes also run where ``max_surfels`` caps the count
+    below what one uniform pass needs (they lower the error at that count). The result's
+    ``adaptive`` says which (False: one uniform pass), ``discretization_scale`` what the
+    models were scaled by (``estimate_error`` and the second pass's :func:`solve` take it
+    from there), ``predicted_time`` the total (``predicted_time_passes``: each pass's)."""
     uniform = choose_settings(scene, target_error, kind=kind, max_surfels=max_surfels)
     uniform["adaptive"] = False
     if not adaptive:
@@ -962,7 +961,8 @@ def choose_mesh_settings(scene: dict, target_error, *, kind: str = "mesh", adapt
     if two["n"] < ADAPTIVE_MIN_COUNT:   # capped below where the ratio was measured
         two = copy.deepcopy(uniform)
     first = _setting_time(two, ADAPTIVE_FIRST_SHARE * two["n"])   # same settings, its share
-    second = adaptive_time_ratio(two["n"]) * two["predicted_time"]
+    time_ratio = adaptive_time_ratio(two["n"])
+    second = time_ratio * two["predicted_time"]
     two["predicted_time_passes"] = [first, second]
     two["predicted_time"] = first + second
     reached = uniform["predicted"]["total"] <= SAFETY * uniform["target_error"] + 1e-12
@@ -971,8 +971,7 @@ def choose_mesh_settings(scene: dict, target_error, *, kind: str = "mesh", adapt
             f"adaptive: one uniform pass ({uniform['predicted_time']:.3g} s) is chosen: two "
             f"passes are predicted at {two['predicted_time']:.3g} s, more than "
             f"{ADAPTIVE_TIME_MARGIN} of it (the adaptive error ratio {ADAPTIVE_ERROR_RATIO} "
-            f"from {ADAPTIVE_MIN_COUNT} surfels, pass 2's time ratio "
-            f"{adaptive_time_ratio(two['n']):.3g})")
+            f"from {ADAPTIVE_MIN_COUNT} surfels, pass 2's time ratio {time_ratio:.3g})")
         return uniform
     two["adaptive"] = True
     why = (f"predicted at most {ADAPTIVE_TIME_MARGIN} of one uniform pass's time "
