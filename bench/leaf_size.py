@@ -96,6 +96,8 @@ def main(argv=None):
     ap.add_argument("--scenes", nargs="+", default=list(S.SCENES), choices=S.SCENES)
     ap.add_argument("--samplings", type=int, default=len(SEEDS), choices=range(1, len(SEEDS) + 1))
     ap.add_argument("--out", default="bench/results/leaf_size.json")
+    ap.add_argument("--merge", action="store_true",
+                    help="replace only the scenes run in an existing --out file, keep the others")
     args = ap.parse_args(argv)
     cfg = A.config(args)
     visibilities, _ = A.available_visibilities()
@@ -110,7 +112,7 @@ def main(argv=None):
                                             lambda s: print(s, flush=True))
         with open(partial, "w") as f:
             json.dump(results, f, indent=1, default=float)
-    A.write_results(results, args.out, t0)
+    A.write_results(results, args.out, t0, merge=args.merge)
 
 
 if __name__ == "__main__":

@@ -34,9 +34,10 @@ SETTING = "FMM p=3 vis=exact all-pairs s=32 θ=0.5"
 #: benchmark samplings (A.AUTO_SEED, A.AUTO_MORE_SEEDS).
 SEEDS = (10, 11, 12, 13, 14, 15)
 SCENES = ("cornell_mesh", "bunny", "interior")
-#: Three sizes each (every error costs 4000 × N_ref exact rays: 20–60 s here)
+#: Three sizes each, four on the room (whose automatic mode picks up to 20k surfels); every
+#: error costs 4000 × N_ref exact rays: 20–60 s here
 FULL_SIZES = dict(cornell_mesh=(2000, 8000, 16000), bunny=(2000, 6000, 14000),
-                  interior=(2000, 4000, 8000))
+                  interior=(2000, 4000, 8000, 16000))
 QUICK_SIZES = dict(cornell_mesh=(1000, 2000), bunny=(1000, 2000), interior=(1000, 2000))
 
 
@@ -75,6 +76,8 @@ def main(argv=None):
                        "the sizes the automatic mode picks")
     ap.add_argument("--scenes", nargs="+", default=list(SCENES), choices=SCENES)
     ap.add_argument("--out", default="bench/results/sampling_spread.json")
+    ap.add_argument("--merge", action="store_true",
+                    help="replace only the scenes run in an existing --out file, keep the others")
     args = ap.parse_args(argv)
     cfg = A.config(args)
     sizes = FULL_SIZES if args.full else QUICK_SIZES
@@ -89,7 +92,7 @@ def main(argv=None):
                                             lambda s: print(s, flush=True))
         with open(args.out + ".partial", "w") as f:
             json.dump(results, f, indent=1, default=float)
-    A.write_results(results, args.out, t0)
+    A.write_results(results, args.out, t0, merge=args.merge)
 
 
 if __name__ == "__main__":
