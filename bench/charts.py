@@ -68,6 +68,19 @@ def core_line(core):
             + f"{mod}; native module built {core.get('core_module_built')}")
 
 
+def runs_line(results):
+    """Where a results file merges runs (``--merge``): which scenes came from a run other
+    than the file's latest, with that run's date and core; "" when it holds one run."""
+    runs = results.get("scene_runs") or {}
+    older = [(scene, run) for scene, run in runs.items() if run.get("date") != results.get("date")]
+    if not older:
+        return ""
+    newer = [scene for scene, run in runs.items() if run.get("date") == results.get("date")]
+    return (f" Merged runs: {', '.join(newer)} from this run; "
+            + "; ".join(f"{scene} from {run.get('date')}, {core_line(run.get('core'))}"
+                        for scene, run in older) + ".")
+
+
 # ------------------------------------------------------------------------------------------------
 
 def _vis(label):
@@ -340,7 +353,7 @@ def leaf_section(leaf):
           f"{core_line(leaf.get('core'))}: each FMM setting the automatic mode can choose, "
           f"solved with leaves of {', '.join(str(x) for x in leaf['leaf_sizes'])} surfels one "
           f"after the other on the same surfels, at the sweep's sizes, on samplings "
-          f"{leaf['seeds']} (the grid has one). Error ratio: the worst over sizes and samplings "
+          f"{leaf['seeds']} (the grid has one).{runs_line(leaf)} Error ratio: the worst over sizes and samplings "
           "of error(leaf) / error(32) (against the reference; without visibility, the FMM's "
           "error against the direct solution), what `bench/calibrate.py` keeps as the "
           "variant's error factor; time ratio: the median at the smallest and the largest "
@@ -374,7 +387,8 @@ def sampling_section(spread):
           f"`bench/sampling_spread.py`, `{spread['mode']}` mode, {spread['date']}, "
           f"{core_line(spread.get('core'))}: `{spread['setting']}` (its error is the "
           f"discretization's) solved on samplings {spread['seeds']}, kept out of the "
-          "calibration and of the automatic mode's benchmark, at three sizes per scene. "
+          f"calibration and of the automatic mode's benchmark, at three or four sizes per "
+          f"scene.{runs_line(spread)} "
           "Ratio: error over the calibrated model at that N. The factor `bench/calibrate.py` "
           f"keeps is exp(mean + {accuracy.SAMPLING_Z:g}·sd) of the log ratios, sd pooled over "
           "the sizes, never below 1 nor below the largest ratio seen; the automatic mode "
@@ -434,6 +448,7 @@ def main(argv=None):
                f"Visibility modes: {', '.join(acc['visibilities'])}"
                + ("; not available: " + ", ".join(acc["unavailable"]) if acc["unavailable"]
                   else "") + f"; exact visibility with `{acc.get('exact_keywords')}`."
+               + runs_line(acc)
                + (f" Automatic mode re-run {acc['auto_date']}, {core_line(acc.get('auto_core'))}."
                   if acc.get("auto_date") else ""), ""]
         for scene, data in acc["scenes"].items():

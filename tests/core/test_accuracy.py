@@ -642,3 +642,30 @@ def test_time_holdout_predicts_each_settings_largest_size_from_the_smaller():
                                       + points("few", 1.0)[:3])))
     held = sorted(calibrate.time_holdout(results))
     assert held == pytest.approx([-math.log(2.0), 0.0], abs=1e-3)
+
+
+def test_merged_benchmark_results_replace_only_the_scenes_run(tmp_path):
+    """bench/accuracy_speed.py --merge (and leaf_size.py, sampling_spread.py): a run over one
+    scene replaces that scene in the results file, keeps the others, records which run each
+    scene came from, and refuses to mix quick and full runs."""
+    import json
+    import accuracy_speed   # bench/accuracy_speed.py
+    out = tmp_path / "results.json"
+    first = dict(mode="full", date="d1", core=dict(commit="c1"), wall_time=10.0,
+                 scenes=dict(a=dict(rows=[1]), b=dict(rows=[2])))
+    out.write_text(json.dumps(first))
+    second = dict(mode="full", date="d2", core=dict(commit="c2"), wall_time=3.0,
+                  scenes=dict(b=dict(rows=[3])))
+    merged = accuracy_speed.merge_scenes(second, str(out))
+    assert merged["scenes"] == dict(a=dict(rows=[1]), b=dict(rows=[3]))
+    assert merged["scene_runs"]["a"]["date"] == "d1"
+    assert merged["scene_runs"]["b"] == dict(mode="full", date="d2", core=dict(commit="c2"),
+                                             wall_time=3.0)
+    assert merged["date"] == "d2"
+    out.write_text(json.dumps(merged))
+    third = dict(second, date="d3", scenes=dict(a=dict(rows=[4])))
+    again = accuracy_speed.merge_scenes(third, str(out))
+    assert again["scene_runs"]["b"]["date"] == "d2" and again["scene_runs"]["a"]["date"] == "d3"
+    with pytest.raises(SystemExit, match="quick"):
+        accuracy_speed.merge_scenes(dict(second, mode="quick"), str(out))
+    assert accuracy_speed.merge_scenes(second, str(tmp_path / "none.json")) is second
