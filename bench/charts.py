@@ -334,8 +334,16 @@ def auto_table(points):
             rb_err = fmt_pct(max(rb["errors_auto_samplings"]))
         elif rb:
             rb_err = fmt_pct(rb["error_second_sampling"])
-        robust_txt = (f"{rb['label']}, N={rb['n']} ({fmt_pct(rb['error'])}, {rb_err}): "
-                      f"{fmt_time(rb['time'])} | {rb['ratio']:.2f}") if rb else "– | –"
+        search = p.get("robust_search")
+        if rb:
+            robust_txt = (f"{rb['label']}, N={rb['n']} ({fmt_pct(rb['error'])}, {rb_err}): "
+                          f"{fmt_time(rb['time'])} | {rb['ratio']:.2f}")
+        elif search:   # none passes up to the horizon: every passing setting is slower
+            robust_txt = (f"none of the {search['tried']} swept points within the target up "
+                          f"to {search['horizon']:g}× this time "
+                          f"({fmt_time(search['horizon_time'])}) | < {1 / search['horizon']:.2f}")
+        else:
+            robust_txt = "– | –"
         rows.append(f"| {100 * p['target']:g}%{variant} | "
                     f"{describe_settings(p['settings'], p['n'])} | "
                     f"{err_txt} | {met} | {fmt_pct(p['estimate']['total'])} | "
