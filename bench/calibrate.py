@@ -9,7 +9,7 @@ setting, fits
   illumap.accuracy), with a fitted slope a (error ~ N^-a) for extrapolation beyond the largest N;
   errors below the reference's half-density check are raised to it (not resolved);
 * time(N): the measured wall times as a non-decreasing lower envelope (interpolated log-log),
-  with the slope of the last two sizes for extrapolation.
+  with the least-squares slope of the last four sizes for extrapolation.
 
 and, from bench/results/leaf_size.json (bench/leaf_size.py) where it exists, the error
 curves of the settings it ran also over its other sampling (the worst of both), and each
@@ -20,8 +20,8 @@ an error factor (the largest paired error ratio) and time ratios against N (see
 and, from bench/results/sampling_spread.json (bench/sampling_spread.py) where it exists, each
 sampled kind's sampling factor against N (``fit_sampling``),
 
-and prints how well the time models extrapolate (``time_holdout``: each setting's largest
-size predicted from the smaller ones), and writes them between the calibration markers of core/python/illumap/accuracy.py
+and how well the time models extrapolate (``time_holdout``: each setting's largest size
+predicted from the smaller ones; its rms sets ``ADAPTIVE_TIME_MARGIN``), and writes them between the calibration markers of core/python/illumap/accuracy.py
 (``CALIBRATION``), with the run's date and core commit.
 
     .venv/bin/python bench/calibrate.py --results bench/results/accuracy_speed.json --write
@@ -77,19 +77,28 @@ def fit_error(points, floor):
     return dict(points=env, slope=_sig(a))
 
 
+#: Sizes at the top of a time curve whose least-squares log-log slope extrapolates it: each
+#: setting's largest swept size predicted from the smaller ones (``time_holdout``, 100
+#: settings) is off by 0.42 rms in log time with the last two sizes' slope, 0.37 with three,
+#: 0.35 with four, 0.33 with five; four keep the slope to the upper half of the sizes swept.
+TIME_SLOPE_SIZES = 4
+
+
 def fit_time(points):
     """Measured times against N (the least per N) as a non-decreasing lower envelope (each
     value the least time measured at that N or above: on a shared machine noise only ever
-    adds time, so a small size timed slower than a larger one was disturbed), and the log-log
-    slope of the last two for extrapolation (clamped to [1, 2.5])."""
+    adds time, so a small size timed slower than a larger one was disturbed), and for
+    extrapolation the least-squares log-log slope of its last TIME_SLOPE_SIZES sizes (clamped
+    to [1, 2.5])."""
     by_n = {}
     for p in points:
         by_n[p["n"]] = min(by_n.get(p["n"], math.inf), p["time"])
     ns = sorted(by_n)
     fitted = np.minimum.accumulate([by_n[n] for n in reversed(ns)])[::-1]
     pts = [[int(n), _sig(t)] for n, t in zip(ns, fitted)]
-    if len(ns) >= 2 and fitted[-1] > fitted[-2]:
-        beta = math.log(fitted[-1] / fitted[-2]) / math.log(ns[-1] / ns[-2])
+    top = slice(-min(TIME_SLOPE_SIZES, len(ns)), None)
+    if len(ns) >= 2 and fitted[-1] > fitted[0]:
+        beta = float(np.polyfit(np.log(ns[top]), np.log(fitted[top]), 1)[0])
     else:
         beta = 1.0
     return dict(points=pts, slope=_sig(min(max(beta, 1.0), 2.5)))
@@ -251,10 +260,20 @@ def calibrate(results, leaf_results=None, sampling_results=None):
             if more:
                 table["settings"][label]["samplings"] = 2
         kinds[kind] = table
+    runs = results.get("scene_runs", {})
+    for kind, table in kinds.items():   # a file merged from runs (--merge): each kind's own
+        run = runs.get(table["scene"])
+        if run:
+            table["sweep"] = dict(date=run.get("date"),
+                                  core_commit=(run.get("core") or {}).get("commit"))
     core = results.get("core", {})
+    held = np.array(time_holdout(results))
     calibration = dict(source="bench/results/accuracy_speed.json", date=results.get("date"),
                        mode=results.get("mode"), core_commit=core.get("commit"),
                        solve_tol=results.get("solve_tol"), kinds=kinds)
+    if held.size:
+        calibration["time_holdout"] = dict(settings=int(held.size), mean=_sig(held.mean(), 3),
+                                           rms=_sig(np.sqrt((held ** 2).mean()), 3))
     if leaf_results:
         add_leaf_variants(calibration, leaf_results,
                           {k: v["reference"]["check"] for k, v in results["scenes"].items()})
@@ -319,11 +338,11 @@ def main(argv=None):
             for size, v in e.get("leaf_variants", {}).items():
                 tr = " ".join(f"{n}:{r:.2f}" for n, r in v["time_ratio"])
                 print(f"    leaf {size}: error x{v['error_factor']}  time x {tr}")
-    held = np.array(time_holdout(results))
-    if held.size:
-        print(f"time models, largest size predicted from the smaller ones ({held.size} "
-              f"settings): log(predicted/measured) mean {held.mean():.3f}, "
-              f"rms {np.sqrt((held ** 2).mean()):.3f}")
+    held = cal.get("time_holdout")
+    if held:
+        print(f"time models, largest size predicted from the smaller ones ({held['settings']} "
+              f"settings): log(predicted/measured) mean {held['mean']:.3f}, "
+              f"rms {held['rms']:.3f}")
     if args.write:
         write(cal)
         print(f"wrote CALIBRATION into {ACCURACY_PY}")

@@ -501,7 +501,8 @@ def main(argv=None):
                            "chosen count, then resamples the full count denser where that "
                            "solution varies and solves again; *uniform* is one pass of the "
                            "chosen count; two passes run only where the models predict them "
-                           "at most 0.7 of one pass's time (`ADAPTIVE_TIME_MARGIN`), or where "
+                           f"at most {accuracy.ADAPTIVE_TIME_MARGIN:g} of one pass's time "
+                           "(`ADAPTIVE_TIME_MARGIN`), or where "
                            "a budget caps the count. The best hand-picked setting is that of "
                            "this sweep (uniform stratified surfels):", "", at, ""]
                 else:

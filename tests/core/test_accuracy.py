@@ -669,3 +669,33 @@ def test_merged_benchmark_results_replace_only_the_scenes_run(tmp_path):
     with pytest.raises(SystemExit, match="quick"):
         accuracy_speed.merge_scenes(dict(second, mode="quick"), str(out))
     assert accuracy_speed.merge_scenes(second, str(tmp_path / "none.json")) is second
+
+
+def test_adaptive_time_margin_follows_the_time_models_holdout():
+    """Two uncapped mesh passes must be predicted within the time models' own error of one
+    pass's time: the margin is exp(-rms) of bench/calibrate.py's hold-out, which the
+    calibration keeps."""
+    held = accuracy.CALIBRATION["time_holdout"]
+    assert held["settings"] >= 20 and held["rms"] >= abs(held["mean"])
+    assert accuracy.ADAPTIVE_TIME_MARGIN == pytest.approx(math.exp(-held["rms"]), abs=0.005)
+    assert 0.3 < accuracy.ADAPTIVE_TIME_MARGIN < 1.0
+
+
+def test_time_models_extrapolate_with_the_slope_of_their_top_sizes():
+    """bench/calibrate.py's fit_time: a lower envelope (a size timed slower than a larger one
+    was disturbed) whose extrapolation slope is the least-squares one of its last
+    TIME_SLOPE_SIZES sizes, whatever the smaller sizes do, clamped to [1, 2.5]."""
+    import calibrate   # bench/calibrate.py
+    sizes = [250, 500, 1000, 2000, 4000, 8000, 16000]
+    top = sizes[-calibrate.TIME_SLOPE_SIZES:]
+    points = [dict(n=n, time=(1e-5 * n ** 1.4 if n in top else 0.5 * 1e-5 * top[0] ** 1.4))
+              for n in sizes]
+    points.append(dict(n=1000, time=10.0))   # disturbed: the envelope keeps the least
+    fit = calibrate.fit_time(points)
+    assert fit["slope"] == pytest.approx(1.4, abs=1e-3)
+    times = [t for _, t in fit["points"]]
+    assert times == sorted(times) and fit["points"][2][1] < 1.0
+    flat = calibrate.fit_time([dict(n=n, time=1.0) for n in sizes])
+    assert flat["slope"] == 1.0
+    steep = calibrate.fit_time([dict(n=n, time=1e-12 * n ** 3) for n in sizes])
+    assert steep["slope"] == 2.5
