@@ -319,13 +319,13 @@ def run_auto(name, target, ref, ref_B, ref_info, cfg, log, hand=(), adaptive=Tru
     steady = [p for p in ok if all(o["error"] <= target for o in hand
                                    if o.get("label") == p["label"] and o.get("time")
                                    and o["n"] >= p["n"])]
-    robust, tried = _robust_best(name, ok, target, ref, ref_B, ref_info, cfg,
-                                 horizon=ROBUST_HORIZON * dt)
+    robust, tried, horizon = _robust_best(name, ok, target, ref, ref_B, ref_info, cfg,
+                                          horizon=ROBUST_HORIZON * dt)
     if robust is None:
-        out["robust_search"] = dict(tried=tried, horizon=ROBUST_HORIZON,
-                                    horizon_time=ROBUST_HORIZON * dt)
+        out["robust_search"] = dict(tried=tried, horizon=horizon / dt, horizon_time=horizon)
         log(f"  {name} best_robust at {target:g}: none among the {tried} sweep points within "
-            f"the target up to {ROBUST_HORIZON:g} x the automatic mode's time")
+            f"the target up to {horizon:.3g} s ({horizon / dt:.2g} x the automatic mode's "
+            f"time)")
     for key, pool in (("best_hand", ok), ("best_steady", steady),
                       ("best_robust", [robust] if robust else [])):
         if not pool:
@@ -371,16 +371,18 @@ def auto_seeds(name):
 
 
 def _robust_best(name, ok, target, ref, ref_B, ref_info, cfg, horizon=math.inf):
-    """(point, tried): the cheapest sweep point within ``target`` that stays within it on
-    every sampling the automatic mode is measured on (``auto_seeds``), at the same size and
-    with as many error points: a setting a user can pick for that error, held to the automatic
-    mode's test, not a lucky sampling (on the grid scene its one sampling, with more error
-    points); None when no point up to ``horizon`` seconds (sweep time) passes. ``tried``: the
-    points solved."""
+    """(point, tried, horizon): the cheapest sweep point within ``target`` that stays within
+    it on every sampling the automatic mode is measured on (``auto_seeds``), at the same size
+    and with as many error points: a setting a user can pick for that error, held to the
+    automatic mode's test, not a lucky sampling (on the grid scene its one sampling, with more
+    error points); None when no point up to ``horizon`` seconds (sweep time) passes.
+    ``tried``: the points solved; ``horizon``: how far the search went (a search cached for
+    the same scene and target is reused unless it found none and this horizon is longer)."""
     points = cfg.get("auto_error_points", cfg["error_points"])
     key = (name, target)
-    if key in _ROBUST:
-        return _ROBUST[key]
+    cached = _ROBUST.get(key)
+    if cached and (cached[0] is not None or horizon <= cached[2]):
+        return cached
     found = None
     tried = 0
     for p in sorted(ok, key=lambda p: p["time"]):
@@ -398,8 +400,8 @@ def _robust_best(name, ok, target, ref, ref_B, ref_info, cfg, horizon=math.inf):
         else:
             found = dict(p, errors_auto_samplings=errors)
             break
-    _ROBUST[key] = found, tried
-    return found, tried
+    _ROBUST[key] = found, tried, horizon
+    return _ROBUST[key]
 
 
 def timed_auto_mesh(name, target, kind, adaptive, seed=AUTO_SEED):

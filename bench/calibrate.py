@@ -21,8 +21,9 @@ and, from bench/results/sampling_spread.json (bench/sampling_spread.py) where it
 sampled kind's sampling factor against N (``fit_sampling``),
 
 and how well the time models extrapolate (``time_holdout``: each setting's largest size
-predicted from the smaller ones; its rms sets ``ADAPTIVE_TIME_MARGIN``), and writes them between the calibration markers of core/python/illumap/accuracy.py
-(``CALIBRATION``), with the run's date and core commit.
+predicted from the smaller ones; its rms sets ``ADAPTIVE_TIME_MARGIN``), and writes them
+between the calibration markers of core/python/illumap/accuracy.py (``CALIBRATION``), with
+the run's date and core commit.
 
     .venv/bin/python bench/calibrate.py --results bench/results/accuracy_speed.json --write
 """

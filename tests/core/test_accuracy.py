@@ -700,3 +700,38 @@ def test_time_models_extrapolate_with_the_slope_of_their_top_sizes():
     assert flat["slope"] == 1.0
     steep = calibrate.fit_time([dict(n=n, time=1e-12 * n ** 3) for n in sizes])
     assert steep["slope"] == 2.5
+
+
+def test_robust_best_searches_cheapest_first_up_to_its_horizon(monkeypatch):
+    """bench/accuracy_speed.py's robust best: the cheapest swept point within the target on
+    every one of the automatic mode's samplings; the search stops at ``horizon`` seconds, and a
+    search that found none is redone when asked with a longer horizon."""
+    import accuracy_speed as AS
+    errors = {("cheap", 1): 0.04, ("cheap", 3): 0.06, ("mid", 1): 0.04, ("mid", 3): 0.045,
+              ("mid", 5): 0.049}
+
+    class Sol:
+        def __init__(self, e):
+            self.radiosity = np.full((1, 3), 1.0 + e)
+
+    solved = []
+
+    def gathered(name, size, seed, *args):   # (surfels, error indices, reference there)
+        return (size, seed), np.array([0]), np.ones((1, 3))
+
+    def timed_solve(q, settings):
+        solved.append((settings["label"], q))
+        return Sol(errors.get((settings["label"], q[1]), 0.2)), 0.0
+    monkeypatch.setattr(AS, "gathered_reference", gathered)
+    monkeypatch.setattr(AS, "timed_solve", timed_solve)
+    monkeypatch.setattr(AS, "_ROBUST", {})
+    ok = [dict(label=label, size=label, time=t, settings=dict(label=label))
+          for label, t in (("mid", 2.0), ("cheap", 1.0), ("slow", 9.0))]
+    cfg = dict(error_points=10)
+    found, tried, horizon = AS._robust_best("bunny", ok, 0.05, None, None, None, cfg, horizon=1.5)
+    assert found is None and tried == 1 and horizon == 1.5
+    assert [s[0] for s in solved] == ["cheap", "cheap"]        # stops at the first miss
+    found, tried, horizon = AS._robust_best("bunny", ok, 0.05, None, None, None, cfg, horizon=3.0)
+    assert found["label"] == "mid" and tried == 2 and horizon == 3.0
+    assert found["errors_auto_samplings"] == pytest.approx([0.04, 0.045, 0.049])
+    assert AS._robust_best("bunny", ok, 0.05, None, None, None, cfg, horizon=1.0)[0] is found
