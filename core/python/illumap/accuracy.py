@@ -58,6 +58,7 @@ solution's N (or, with ``coarse=True``, measured on a spatially even half of the
 
 from __future__ import annotations
 
+import bisect
 import copy
 import math
 import time
@@ -427,24 +428,42 @@ def _steps(table: dict) -> bool:
     return any(table is kinds.get(k) for k in STEP_KINDS)
 
 
+#: Curves as sorted lists with their logarithms, by id (checked against the object itself, so a
+#: curve rebuilt at the same address is read afresh): the choice evaluates a few thousand of
+#: them per call, and rebuilding the lists each time was most of its cost.
+_CURVE_CACHE: dict = {}
+
+
+def _curve(points) -> tuple:
+    """(points, ns, values, log ns, log values) of ``[[n, value], …]``."""
+    hit = _CURVE_CACHE.get(id(points))
+    if hit is None or hit[0] is not points:
+        ns = [float(p[0]) for p in points]
+        vs = [float(p[1]) for p in points]
+        hit = (points, ns, vs, [math.log(n) for n in ns],
+               [math.log(v) if v > 0 else -math.inf for v in vs])
+        if len(_CURVE_CACHE) > 4096:
+            _CURVE_CACHE.clear()
+        _CURVE_CACHE[id(points)] = hit
+    return hit
+
+
 def _loglog(model: dict, n: float, *, error: bool, steps: bool = False) -> float:
     """A calibrated curve at ``n``: log-log interpolation between the measured points (with
     ``steps``, for an error: the value at the largest measured size ≤ n); beyond them the
     model's slope (error ∝ N^-slope, time ∝ N^slope), and below the first point, for time,
     proportional to N."""
-    pts = model["points"]
-    ns = [p[0] for p in pts]
-    vs = [p[1] for p in pts]
+    _, ns, vs, lns, lvs = _curve(model["points"])
     if n <= ns[0]:
         return vs[0] * (ns[0] / n) ** model["slope"] if error else vs[0] * n / ns[0]
     if n >= ns[-1]:
         k = -model["slope"] if error else model["slope"]
         return vs[-1] * (n / ns[-1]) ** k
-    i = int(np.searchsorted(ns, n, side="right")) - 1
+    i = bisect.bisect_right(ns, n) - 1
     if error and steps:
         return vs[i]
-    w = math.log(n / ns[i]) / math.log(ns[i + 1] / ns[i])
-    return math.exp((1 - w) * math.log(vs[i]) + w * math.log(vs[i + 1]))
+    w = (math.log(n) - lns[i]) / (lns[i + 1] - lns[i])
+    return math.exp((1 - w) * lvs[i] + w * lvs[i + 1])
 
 
 def _leaf_factor(entry: dict, n: float) -> float:
@@ -460,8 +479,14 @@ def _interp_log_n(points, n: float) -> float:
     """``[[n, value], …]`` at ``n``: interpolated in log N, held beyond the ends; 1 if empty."""
     if not points:
         return 1.0
-    return float(np.interp(math.log(n), [math.log(p[0]) for p in points],
-                           [p[1] for p in points]))
+    _, ns, vs, lns, _ = _curve(points)
+    if n <= ns[0]:
+        return vs[0]
+    if n >= ns[-1]:
+        return vs[-1]
+    i = bisect.bisect_right(ns, n) - 1
+    w = (math.log(n) - lns[i]) / (lns[i + 1] - lns[i])
+    return (1 - w) * vs[i] + w * vs[i + 1]
 
 
 def _leaf_time_ratio(entry: dict, n: float) -> float:
@@ -592,12 +617,12 @@ def _candidates(table, s, fixed, target, e_occ, n_min, cap, allow_direct, scale=
         kw = entry["keywords"]
         if kw["method"] == "direct" and not allow_direct:
             continue
-        if fixed:
+        if fixed:   # the count the target needs is found for the chosen setting only
             n = s["n"]
             err = _predicted_error(entry, table, n, e_occ, scale)
             if err is None:
                 continue
-            need = _needed_n(entry, table, target, e_occ, n_min, 10 ** 9, scale)
+            need = None
             ok = err <= target
         else:
             need = _needed_n(entry, table, target, e_occ, n_min, cap, scale)
@@ -687,7 +712,12 @@ def choose_settings(scene, target_error, *, kind: str | None = None, allow_direc
                      f"{e_occ:.3g}")
     rho = min(s["albedo_max"], 0.995)
     tol = float(min(1e-4, max(1e-8, 0.01 * target * (1 - rho) / 0.2)))
-    n_out = best["n"] if not fixed else (best["need"] or s["n"])
+    if fixed:
+        need = _needed_n(best["entry"], table, SAFETY * target, e_occ, n_min, 10 ** 9,
+                         float(discretization_scale))
+        n_out = need or s["n"]
+    else:
+        n_out = best["n"]
     e_disc = _discretization(table, n_out)
     if e_disc is not None:
         e_disc *= float(discretization_scale)
