@@ -270,7 +270,9 @@ def _report(frame: int, result: pipeline.Result, out) -> None:
         estimate = accuracy.get("estimate", {}).get("total")
         print(f"  target error {chosen['target_error']:.3g}: method {chosen['method']}, "
               f"order {chosen['order']}, theta {chosen['theta']}, visibility "
-              f"{chosen['visibility']}, tol {chosen['tol']:.2g}; estimated error "
+              f"{chosen['visibility']}, tol {chosen['tol']:.2g}"
+              + (f" or solver error ≤ {chosen['error_tol']:.2g}" if chosen.get("error_tol")
+                 else "") + "; estimated error "
               f"{estimate if estimate is None else format(estimate, '.3g')} (needs about "
               f"{chosen['density']:.0f} surfels/m²)", file=out)
     for w in result.warnings:

@@ -138,7 +138,8 @@ def record_stats(stats, result, seconds):
     accuracy = extra.get("accuracy") or {}
     chosen = accuracy.get("settings") or {}
     if chosen.get("label"):
-        stats.chosen_settings = f"{chosen['label']}, tol {chosen['tol']:.0e}"
+        stats.chosen_settings = f"{chosen['label']}, tol {chosen['tol']:.0e}" + (
+            f" or solver error ≤ {chosen['error_tol']:.1%}" if chosen.get("error_tol") else "")
     stats.estimated_error = float((accuracy.get("estimate") or {}).get("total") or 0.0)
     stats.valid = True
     stats.summary = (f"{stats.surfels} surfels, {stats.iterations} iterations, "

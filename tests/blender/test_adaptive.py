@@ -206,6 +206,8 @@ def test_adaptive_pass_one_solves_with_the_final_counts_settings():
     stats = bpy.context.scene.illumap.stats
     operators.record_stats(stats, final, 1.0)
     assert stats.chosen_settings.startswith(info["settings"]["label"])
+    assert stats.chosen_settings.endswith(
+        f"or solver error ≤ {info['settings']['error_tol']:.1%}")
     assert stats.estimated_error == pytest.approx(info["estimate"]["total"], rel=1e-5)
 
 

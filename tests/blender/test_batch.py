@@ -166,6 +166,7 @@ def test_target_error_option_reports_chosen_settings(tmp_path, capfd):
     assert (tmp_path / "t.blend").exists()
     printed = capfd.readouterr().out
     assert "target error 0.05" in printed and "estimated error" in printed
+    assert "or solver error ≤ 0.01" in printed   # the solve's own share of the target
     # The density the target asks for (capped by the budget) and both adaptive passes.
     assert "surfels/m² (600 surfels, predicted discretization error" in printed
     assert "adaptive: pass 1 300 surfels" in printed and "pass 2 600 surfels" in printed

@@ -287,6 +287,12 @@ def test_solve_with_target_error_chooses_and_reports_settings():
     assert info["settings"]["target_error"] == 0.1
     assert info["solve_keywords"]["tol"] == info["settings"]["tol"]
     assert sol.converged and "estimate" in info
+    # the solve stops once its own error bound is a small share of the target, and the
+    # estimate's solver part is that bound
+    share = accuracy.SOLVER_ERROR_SHARE * 0.1
+    assert info["settings"]["error_tol"] == info["solve_keywords"]["error_tol"] == share
+    assert sol.stats["solver_error_bound"] <= share
+    assert info["estimate"]["solver"] == sol.stats["solver_error_bound"]
     # an explicit keyword overrides the chosen one
     jac = illumap.solve(q, target_error=0.1, solver="jacobi")
     assert jac.stats["solver"] == "jacobi"

@@ -278,3 +278,51 @@ def test_native_apply_rejects_bad_values(box8):
         op.apply(x)
     with pytest.raises(illumap.InputError, match="shape"):
         op.apply(np.ones((s.n, 2)))
+
+
+def _small_light_box():
+    """Closed box lit by a few bright surfels: the residual relative to the emission is small
+    long before the radiosity elsewhere has converged as far."""
+    s = scenes.closed_box(10, albedo=0.7, emission=0.0)
+    emission = np.zeros((s.n, 3))
+    emission[:4] = (40.0, 30.0, 20.0)
+    return s.replace(emission=emission)
+
+
+@pytest.mark.parametrize("solver", ["jacobi", "cg", "gmres"])
+def test_error_tol_stops_once_the_bound_on_the_radiosity_error_is_met(solver):
+    s = _small_light_box()
+    op = ReferenceOperator(s, "disc")
+    exact = dense_solution(s, op.F)
+    strict = illumap.solve(s, operator=op, solver=solver, tol=1e-10)
+    loose = illumap.solve(s, operator=op, solver=solver, tol=1e-10, error_tol=0.02,
+                          restart=4)
+    assert loose.converged and "warning" not in loose.stats, loose.stats
+    assert loose.stats["error_tol"] == 0.02
+    bound = loose.stats["solver_error_bound"]
+    assert 0 < bound <= 0.02
+    assert loose.iterations < strict.iterations
+    assert loose.stats["final_residual"] > 1e-10          # stopped by the bound, not by tol
+    # the bound holds: the error it leaves (RMS over non-emitting surfels) is below it
+    m = ~(s.emission.max(axis=1) > 0)
+    err = np.sqrt(np.mean((loose.radiosity[m] - exact[m]) ** 2)) / np.sqrt(np.mean(exact[m] ** 2))
+    assert 0 < err <= bound
+    # and it is the bound of the residual the solution reports
+    r = s.emission - (loose.radiosity - s.albedo * (op.F @ loose.radiosity))
+    expected = np.sqrt(np.mean(r[m] ** 2)) / np.sqrt(np.mean(loose.radiosity[m] ** 2)) / 0.3
+    assert bound == pytest.approx(expected, rel=1e-6)
+
+
+def test_error_tol_never_stops_later_than_tol(box8):
+    s, op = box8
+    plain = illumap.solve(s, operator=op, solver="cg", tol=1e-4)
+    both = illumap.solve(s, operator=op, solver="cg", tol=1e-4, error_tol=1e-9)
+    assert both.iterations == plain.iterations and both.converged
+    assert both.stats["solver_error_bound"] > 1e-9       # tol was met first
+
+
+@pytest.mark.parametrize("bad", [0, 1, -0.1, 1.5, float("nan"), True, "0.1"])
+def test_error_tol_is_checked(box8, bad):
+    s, op = box8
+    with pytest.raises(illumap.InputError, match="error_tol"):
+        illumap.solve(s, operator=op, error_tol=bad)

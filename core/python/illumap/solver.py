@@ -13,7 +13,10 @@ The relative residual in the ORIGINAL variables,
     rel_c = ‖E_c − (B_c − ρ_c ∘ K B_c)‖₂ / ‖E_c‖₂          (per channel c)
 
 must satisfy ``max_c rel_c ≤ tol``. Channels with ``E_c = 0`` have the exact solution ``B_c = 0``
-and count as converged. Iterations monitor the residual their recurrence gives; at the end the
+and count as converged. With ``error_tol`` the solve also stops, earlier, once what it leaves
+undone is within that share of the result: an iterate's error is ``(I − ρK)⁻¹ r``, which the
+Neumann series bounds by ``‖r‖ / (1 − ρ_max)`` (in the max norm, K's row sums being ≤ 1); the
+solvers take it as RMS over the non-emitting surfels relative to the RMS of B there. Iterations monitor the residual their recurrence gives; at the end the
 true residual is recomputed from one more operator application, reported in
 ``Solution.stats["final_residual"]`` and used for ``Solution.converged``. ``E = 0`` everywhere
 returns zeros at once, without building an operator.
@@ -82,6 +85,8 @@ BUILD_FRACTION = 0.1
 #: its initial value, or grew by DIVERGENCE_FACTOR over the best seen.
 DIVERGENCE_PATIENCE = 30
 DIVERGENCE_FACTOR = 1e3
+#: The error bound's 1/(1 − ρ_max) is taken with ρ_max at most this (albedo 1 has no bound).
+MAX_BOUND_ALBEDO = 0.995
 
 
 @dataclass
@@ -93,11 +98,13 @@ class Solution:
     residuals : max-over-channels relative residual per iteration; ``residuals[0]`` is the
         initial one (at B = E), so ``len(residuals) == iterations + 1`` (recurrence values;
         GMRES restarts and CG refreshes use the true residual).
-    converged : True when the recomputed true relative residual is ≤ tol.
+    converged : True when the recomputed true relative residual is ≤ tol (or, with
+        ``error_tol``, the solver's error bound is within it)
     timings : seconds per phase: "build" (0 with a prebuilt operator), "solve", "total".
     stats : operator stats plus "solver", "tol", "final_residual" (true, max over channels),
-        "final_residuals" (per channel), "operator_applications" and, when something went wrong,
-        "warning".
+        "final_residuals" (per channel), "solver_error_bound" (RMS(r) / ((1 − ρ_max) RMS(B))
+        over the non-emitting surfels: what the solver's stopping point adds to the error, at
+        most), "error_tol", "operator_applications" and, when something went wrong, "warning".
     """
 
     radiosity: np.ndarray
@@ -127,11 +134,15 @@ def _norms(x: np.ndarray) -> np.ndarray:
 class _Monitor:
     """Relative residual bookkeeping, progress and cancellation for one solve."""
 
-    def __init__(self, e_norm, tol, max_iterations, guard, start_fraction):
+    def __init__(self, e_norm, tol, max_iterations, guard, start_fraction, *,
+                 error_tol=None, non_emitting=None, amplification=1.0):
         self.e_norm = e_norm
         self.active = e_norm > 0
         self.safe_norm = np.where(self.active, e_norm, 1.0)
         self.tol = tol
+        self.error_tol = error_tol
+        self.non_emitting = non_emitting
+        self.amplification = amplification
         self.max_iterations = max_iterations
         self.guard = guard
         self.start = start_fraction
@@ -160,8 +171,25 @@ class _Monitor:
         self.fraction = max(self.fraction, self.start + (1.0 - self.start) * f * 0.999)
         self.guard.check(self.fraction, "solve")
 
-    def done(self, value):
-        return value <= self.tol
+    def error_bound(self, B, r) -> float:
+        """The solver's error bound relative to the radiosity: (1/(1 − ρ_max)) · RMS of the
+        residual r over RMS of B, both over the non-emitting surfels (inf for B = 0 there)."""
+        m = self.non_emitting
+        b = math.sqrt(float(np.mean(np.square(B[m])))) if m.any() else 0.0
+        if not b > 0:
+            return math.inf
+        return self.amplification * math.sqrt(float(np.mean(np.square(r[m])))) / b
+
+    def wants_bound(self) -> bool:
+        return self.error_tol is not None
+
+    def done(self, value, B=None, r=None):
+        """Converged: the relative residual ``value`` is within tol, or (with ``error_tol``
+        and the iterate ``B`` with its residual ``r``) the error bound is within error_tol."""
+        if value <= self.tol:
+            return True
+        return (self.error_tol is not None and B is not None
+                and self.error_bound(B, r) <= self.error_tol)
 
     def out_of_iterations(self):
         return self.iterations >= self.max_iterations
@@ -209,7 +237,7 @@ def _jacobi(K, E, rho, mon: _Monitor):
         r = E + rho * KB - B              # true residual of B; also the next Jacobi step
         rel = mon.relative(_norms(r))
         value = mon.record(rel)
-        if mon.done(value):
+        if mon.done(value, *((B, r) if mon.wants_bound() else ())):
             break
         if not np.isfinite(value):
             warning = (f"jacobi diverged: residual became non-finite after {mon.iterations} "
@@ -249,10 +277,15 @@ def _cg(K, E, rho, areas, mon: _Monitor):
     while True:
         if refreshes:
             mon.history.pop()  # replace the recurrence value by the true residual's
+        def converged(value):
+            if not mon.wants_bound():
+                return mon.done(value)
+            return mon.done(value, E + s * inv_w * z, s * inv_w * r)
+
         p = r.copy()
         rr = np.einsum("ij,ij->j", r, r)
         value = mon.record(mon.relative(_norms(s * inv_w * r)))
-        while not mon.done(value) and not mon.out_of_iterations():
+        while not converged(value) and not mon.out_of_iterations():
             Ap = M(p)
             pAp = np.einsum("ij,ij->j", p, Ap)
             live = rr > 0
@@ -277,8 +310,8 @@ def _cg(K, E, rho, areas, mon: _Monitor):
         B = E + s * inv_w * z
         r_true = E + rho * K(B) - B
         true_value = float(np.max(mon.relative(_norms(r_true))))
-        if (warning or mon.done(true_value) or mon.out_of_iterations() or refreshes >= 5
-                or not np.isfinite(true_value)):
+        if (warning or mon.done(true_value, B, r_true) or mon.out_of_iterations()
+                or refreshes >= 5 or not np.isfinite(true_value)):
             return B, r_true, warning
         # recurrence and true residual drifted apart: restart from the true residual
         refreshes += 1
@@ -308,7 +341,8 @@ def _gmres(K, E, rho, mon: _Monitor, restart: int):
     while True:
         beta = _norms(r)
         value = mon.record(mon.relative(beta))
-        if mon.done(value) or mon.out_of_iterations() or not np.isfinite(value):
+        if (mon.done(value, *((x, r) if mon.wants_bound() else ()))
+                or mon.out_of_iterations() or not np.isfinite(value)):
             if not np.isfinite(value):
                 warning = "gmres stopped: the residual became non-finite"
             return x, r, warning
@@ -361,7 +395,8 @@ _UNSET = object()
 
 def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float = DEFAULT_TOL,
           max_iterations=None, progress=None, operator=None, restart: int = DEFAULT_RESTART,
-          target_error: float | None = None, **operator_keywords) -> Solution:
+          target_error: float | None = None, error_tol: float | None = None,
+          **operator_keywords) -> Solution:
     """Solve ``B = E + ρ∘K(B)`` for the radiosity B of every surfel.
 
     Parameters
@@ -377,6 +412,14 @@ def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float =
     tol : float
         Stop when ``max_c ‖E_c − (B_c − ρ_c∘K B_c)‖₂ / ‖E_c‖₂ ≤ tol`` (relative residual in the
         original variables, per channel, max over channels).
+    error_tol : float, optional
+        Also stop, even above ``tol``, once the solver's own error bound relative to the
+        radiosity is at most this: ``RMS(r) / ((1 − ρ_max)·RMS(B))`` over the non-emitting
+        surfels (r the residual of B; dimensionless, e.g. 0.01 for 1%). The residual is
+        relative to the emission, which a small bright light dominates, so a fixed ``tol``
+        over-solves scenes lit that way; this bounds what the result's error needs. CG and
+        Jacobi test it every iteration, GMRES at its restarts. Reported as
+        ``stats["solver_error_bound"]``.
     max_iterations : int, optional
         Defaults per solver: :data:`DEFAULT_MAX_ITERATIONS`.
     progress : callable(fraction, phase) -> bool | None
@@ -427,6 +470,11 @@ def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float =
                                        or max_iterations < 1):
         raise InputError(f"max_iterations: expected an integer >= 1 or None, "
                          f"got {max_iterations!r}")
+    if error_tol is not None:
+        if (isinstance(error_tol, bool) or not isinstance(error_tol, numbers.Real)
+                or not (0 < error_tol < 1)):
+            raise InputError(f"error_tol: expected a number in (0, 1) or None, got {error_tol!r}")
+        error_tol = float(error_tol)
     if isinstance(restart, bool) or not isinstance(restart, numbers.Integral) or restart < 1:
         raise InputError(f"restart: expected an integer >= 1, got {restart!r}")
     if progress is not None and not callable(progress):
@@ -461,7 +509,7 @@ def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float =
         if not np.any(E):
             guard.check(1.0, "solve")
             timings["total"] = time.perf_counter() - t_total
-            stats.update(solver="none (E = 0)", final_residual=0.0,
+            stats.update(solver="none (E = 0)", final_residual=0.0, solver_error_bound=0.0,
                          final_residuals=[0.0, 0.0, 0.0], operator_applications=0)
             return Solution(np.zeros((n, 3)), 0, np.zeros(1), True, timings, stats)
 
@@ -491,7 +539,12 @@ def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float =
 
         monitor_ref = [None]
         K = _make_apply(operator, guard, monitor_ref)
-        mon = _Monitor(_norms(E), tol, limit, guard, start_fraction)
+        non_emitting = ~(E.max(axis=1) > 0)
+        if not non_emitting.any():
+            non_emitting = np.ones(n, bool)
+        amplification = 1.0 / (1.0 - min(float(rho.max()), MAX_BOUND_ALBEDO))
+        mon = _Monitor(_norms(E), tol, limit, guard, start_fraction, error_tol=error_tol,
+                       non_emitting=non_emitting, amplification=amplification)
         monitor_ref[0] = mon
 
         t = time.perf_counter()
@@ -508,10 +561,14 @@ def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float =
         final = mon.relative(_norms(r))
         final_value = float(np.max(final))
         B = np.where(mon.active[None, :], B, 0.0)
-        converged = bool(np.isfinite(final_value) and final_value <= tol and warning is None)
+        bound = mon.error_bound(B, r)
+        reached = final_value <= tol or (error_tol is not None and bound <= error_tol)
+        converged = bool(np.isfinite(final_value) and reached and warning is None)
         if not converged and warning is None:
-            warning = (f"{chosen} did not reach tol={tol:g} in {mon.iterations} iterations "
-                       f"(relative residual {final_value:.3g})")
+            warning = (f"{chosen} did not reach tol={tol:g}"
+                       + ("" if error_tol is None else f" or error_tol={error_tol:g}")
+                       + f" in {mon.iterations} iterations (relative residual "
+                       f"{final_value:.3g})")
         try:
             op_stats = dict(operator.stats)
         except Exception:  # noqa: BLE001 - duck-typed operators may lack stats
@@ -519,7 +576,7 @@ def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float =
         stats = {**op_stats, **stats}
         stats.update(solver=chosen, symmetric=symmetric, final_residual=final_value,
                      final_residuals=final.tolist(), operator_applications=mon.applications,
-                     max_iterations=limit)
+                     max_iterations=limit, solver_error_bound=bound, error_tol=error_tol)
         if chosen == "gmres":
             stats["restart"] = int(restart)
         if warning is not None:
