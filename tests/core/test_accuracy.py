@@ -741,3 +741,29 @@ def test_robust_best_searches_cheapest_first_up_to_its_horizon(monkeypatch):
     assert found["label"] == "mid" and tried == 2 and horizon == 3.0
     assert found["errors_auto_samplings"] == pytest.approx([0.04, 0.045, 0.049])
     assert AS._robust_best("bunny", ok, 0.05, None, None, None, cfg, horizon=1.0)[0] is found
+
+
+def test_paired_times_alternate_and_keep_each_ones_least_time():
+    """bench/accuracy_speed.py times the automatic mode and a hand-picked setting in
+    alternating rounds (both under the same load) and keeps each one's least time; the
+    rounds follow the longer of the two first timings."""
+    import accuracy_speed as AS
+    calls = []
+
+    def timer(name, times):
+        it = iter(times)
+
+        def run():
+            calls.append(name)
+            return None, next(it)
+        return run
+    ta, tb = AS.paired_times(timer("a", [0.3, 0.2, 0.25, 0.1, 0.4]),
+                             timer("b", [0.2, 0.3, 0.05, 0.2, 0.2]))
+    assert (ta, tb) == (0.1, 0.05)
+    assert calls == ["a", "b"] * 5
+    calls.clear()
+    assert AS.paired_times(timer("a", [1.0, 2.0, 0.9]), timer("b", [0.2, 0.1, 0.3])) == (0.9, 0.1)
+    assert calls == ["a", "b"] * 3
+    calls.clear()
+    assert AS.paired_times(timer("a", [5.0]), timer("b", [4.0])) == (5.0, 4.0)
+    assert calls == ["a", "b"]
