@@ -743,7 +743,7 @@ def choose_settings(scene, target_error, *, kind: str | None = None, allow_direc
                              **{k: kw[k] for k in SETTING_VISIBILITY_KEYS if k in kw}},
         solver="auto",
         tol=tol,
-        error_tol=SOLVER_ERROR_SHARE * target,
+        error_tol=float(f"{SOLVER_ERROR_SHARE * target:.6g}"),
         label=best["label"],
         predicted=dict(total=float(best["error"]), discretization=e_disc,
                        occlusion=e_occ if vis == "none" else None),
