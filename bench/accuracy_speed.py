@@ -355,7 +355,7 @@ def run_auto(name, target, ref, ref_B, ref_info, cfg, log, hand=(), adaptive=Tru
         name, [p for p in ok if p["error"] <= aim], aim, ref, ref_B, ref_info, cfg,
         horizon=ROBUST_HORIZON * dt)
     if robust_aim is None:
-        out["robust_aim_search"] = dict(tried=tried_aim, aim=aim)
+        out["robust_aim_search"] = dict(tried=tried_aim, aim=aim, horizon=ROBUST_HORIZON)
     # each best is timed in rounds alternating with the automatic mode (on sampling AUTO_SEED,
     # as above), so that both see the same load
     auto_again = ((lambda: timed_auto_mesh(name, target, kind, adaptive, AUTO_SEED)) if mesh

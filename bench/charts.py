@@ -359,7 +359,8 @@ def auto_table(points):
                        f"{fmt_pct(max(ra['errors_auto_samplings']))}): {paired_time(ra)} | "
                        f"{ra['ratio']:.2f}")
         elif p.get("robust_aim_search"):
-            aim_txt = "none up to 2× this time | –"
+            aim_txt = (f"none up to {p['robust_aim_search'].get('horizon', 2):g}× this time "
+                       "| –")
         else:
             aim_txt = "– | –"
         rows.append(f"| {100 * p['target']:g}%{variant} | "

@@ -66,6 +66,7 @@ import time
 import numpy as np
 
 from .operator import DEFAULT_LEAF_SIZE, VISIBILITY_DEFAULTS, TransportOperator
+from .solver import MAX_BOUND_ALBEDO
 from .surfels import InputError, Surfels
 
 __all__ = ["choose_settings", "choose_mesh_settings", "solve_keywords", "estimate_error", "solve",
@@ -132,7 +133,7 @@ SAMPLING_Z = 2.0
 #: over (1 − ρ_max) times the radiosity, RMS over the non-emitting surfels) is within this
 #: share of the target, or at the calibrated ``tol``, whichever comes first. In quadrature it
 #: adds at most 2% to the error (the calibration's curves were solved to 1e-4); the error it
-#: actually leaves was 0.3-0.4 of the bound on the benchmark scenes, and it spares the
+#: actually left was 0.23-0.37 of the bound (bunny, Cornell box, room), and it spares the
 #: iterations that a residual relative to the emission (a small bright light dominates it)
 #: asks for beyond what the target needs.
 SOLVER_ERROR_SHARE = 0.2
@@ -718,7 +719,7 @@ def choose_settings(scene, target_error, *, kind: str | None = None, allow_direc
     else:
         notes.append(f"visibility: the probe puts the error of visibility='none' at "
                      f"{e_occ:.3g}")
-    rho = min(s["albedo_max"], 0.995)
+    rho = min(s["albedo_max"], MAX_BOUND_ALBEDO)
     tol = float(min(1e-4, max(1e-8, 0.01 * target * (1 - rho) / 0.2)))
     if fixed:
         need = _needed_n(best["entry"], table, SAFETY * target, e_occ, n_min, 10 ** 9,
@@ -810,8 +811,9 @@ _OPERATOR_STATS = ("method", "order", "theta", "leaf_size", "near_field", "visib
 
 
 def _neumann_bound(surfels: Surfels) -> float:
-    """1/(1 − ρ_max): how much any error can grow over the bounces (ρ_max capped at 0.995)."""
-    return 1.0 / (1.0 - min(float(surfels.albedo.max()), 0.995))
+    """1/(1 − ρ_max): how much any error can grow over the bounces (ρ_max at most
+    MAX_BOUND_ALBEDO)."""
+    return 1.0 / (1.0 - min(float(surfels.albedo.max()), MAX_BOUND_ALBEDO))
 
 
 def bounce_gain(radiosity, surfels: Surfels, operator: TransportOperator) -> float:

@@ -16,8 +16,9 @@ must satisfy ``max_c rel_c ≤ tol``. Channels with ``E_c = 0`` have the exact s
 and count as converged. With ``error_tol`` the solve also stops, earlier, once what it leaves
 undone is within that share of the result: an iterate's error is ``(I − ρK)⁻¹ r``, which the
 Neumann series bounds by ``‖r‖ / (1 − ρ_max)`` (in the max norm, K's row sums being ≤ 1); the
-solvers take it as RMS over the non-emitting surfels relative to the RMS of B there. Iterations monitor the residual their recurrence gives; at the end the
-true residual is recomputed from one more operator application, reported in
+solvers take it as RMS over the non-emitting surfels relative to the RMS of B there.
+Iterations monitor the residual their recurrence gives; at the end the true residual is
+recomputed from one more operator application, reported in
 ``Solution.stats["final_residual"]`` and used for ``Solution.converged``. ``E = 0`` everywhere
 returns zeros at once, without building an operator.
 
@@ -180,9 +181,6 @@ class _Monitor:
             return math.inf
         return self.amplification * math.sqrt(float(np.mean(np.square(r[m])))) / b
 
-    def wants_bound(self) -> bool:
-        return self.error_tol is not None
-
     def done(self, value, B=None, r=None):
         """Converged: the relative residual ``value`` is within tol, or (with ``error_tol``
         and the iterate ``B`` with its residual ``r``) the error bound is within error_tol."""
@@ -237,7 +235,7 @@ def _jacobi(K, E, rho, mon: _Monitor):
         r = E + rho * KB - B              # true residual of B; also the next Jacobi step
         rel = mon.relative(_norms(r))
         value = mon.record(rel)
-        if mon.done(value, *((B, r) if mon.wants_bound() else ())):
+        if mon.done(value, B, r):
             break
         if not np.isfinite(value):
             warning = (f"jacobi diverged: residual became non-finite after {mon.iterations} "
@@ -277,8 +275,8 @@ def _cg(K, E, rho, areas, mon: _Monitor):
     while True:
         if refreshes:
             mon.history.pop()  # replace the recurrence value by the true residual's
-        def converged(value):
-            if not mon.wants_bound():
+        def converged(value):   # the iterate is formed only where error_tol needs it
+            if mon.error_tol is None:
                 return mon.done(value)
             return mon.done(value, E + s * inv_w * z, s * inv_w * r)
 
@@ -341,8 +339,7 @@ def _gmres(K, E, rho, mon: _Monitor, restart: int):
     while True:
         beta = _norms(r)
         value = mon.record(mon.relative(beta))
-        if (mon.done(value, *((x, r) if mon.wants_bound() else ()))
-                or mon.out_of_iterations() or not np.isfinite(value)):
+        if mon.done(value, x, r) or mon.out_of_iterations() or not np.isfinite(value):
             if not np.isfinite(value):
                 warning = "gmres stopped: the residual became non-finite"
             return x, r, warning
@@ -510,6 +507,7 @@ def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float =
             guard.check(1.0, "solve")
             timings["total"] = time.perf_counter() - t_total
             stats.update(solver="none (E = 0)", final_residual=0.0, solver_error_bound=0.0,
+                         error_tol=error_tol,
                          final_residuals=[0.0, 0.0, 0.0], operator_applications=0)
             return Solution(np.zeros((n, 3)), 0, np.zeros(1), True, timings, stats)
 
