@@ -6,8 +6,12 @@
 namespace illumap {
 
 namespace {
-__attribute__((target_clones("avx2", "default")))
-void accumulate_impl(const Receiver& rc, const SourceView& v, double acc[3]) {
+// acc += sum_j weight(j) F_ij x_j; inlined into each target clone below so that both loops
+// vectorise (weight is a constant 1 or a visibility byte).
+template <class Weight>
+inline __attribute__((always_inline)) void accumulate_loop(const Receiver& rc,
+                                                           const SourceView& v, Weight weight,
+                                                           double acc[3]) {
     const double px = rc.px, py = rc.py, pz = rc.pz;
     const double nix = rc.nx, niy = rc.ny, niz = rc.nz;
     const double *__restrict qx = v.px, *__restrict qy = v.py, *__restrict qz = v.pz;
@@ -17,8 +21,8 @@ void accumulate_impl(const Receiver& rc, const SourceView& v, double acc[3]) {
     double a0 = 0, a1 = 0, a2 = 0;
     const std::size_t n = v.n;
     for (std::size_t j = 0; j < n; ++j) {
-        const double f = pair_factor(px - qx[j], py - qy[j], pz - qz[j], nix, niy, niz, mx[j],
-                                     my[j], mz[j], A[j]);
+        const double f = weight(j) * pair_factor(px - qx[j], py - qy[j], pz - qz[j], nix, niy,
+                                                 niz, mx[j], my[j], mz[j], A[j]);
         a0 += f * x0[j];
         a1 += f * x1[j];
         a2 += f * x2[j];
@@ -27,10 +31,33 @@ void accumulate_impl(const Receiver& rc, const SourceView& v, double acc[3]) {
     acc[1] += a1;
     acc[2] += a2;
 }
+
+__attribute__((target_clones("avx2", "default")))
+void accumulate_impl(const Receiver& rc, const SourceView& v, double acc[3]) {
+    accumulate_loop(rc, v, [](std::size_t) { return 1.0; }, acc);
+}
+
+// Per-pair visibility blocks (V = w/255), branch-free like the unweighted loop: in occluded
+// scenes they are most of the near field.
+__attribute__((target_clones("avx2", "default")))
+void accumulate_weighted_impl(const Receiver& rc, const SourceView& v,
+                              const std::uint8_t* __restrict w, double acc[3]) {
+    double sum[3] = {0, 0, 0};
+    accumulate_loop(rc, v, [w](std::size_t j) { return double(w[j]); }, sum);
+    constexpr double kInv255 = 1.0 / 255.0;
+    acc[0] += sum[0] * kInv255;
+    acc[1] += sum[1] * kInv255;
+    acc[2] += sum[2] * kInv255;
+}
 }  // namespace
 
 void accumulate_sources(const Receiver& r, const SourceView& v, double acc[3]) {
     accumulate_impl(r, v, acc);
+}
+
+void accumulate_sources_weighted(const Receiver& r, const SourceView& v,
+                                 const std::uint8_t* weights, double acc[3]) {
+    accumulate_weighted_impl(r, v, weights, acc);
 }
 
 void direct_rows(Context& ctx, const SurfelSoA& s, const double* x,

@@ -354,7 +354,7 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
     ctx.set_phase("near", 0.55, 0.45);
     parallel_for(ctx, T.leaves.size(), 4, [&](std::size_t b, std::size_t e) {
         std::vector<double> work(wsz), Lleaf(W);
-        std::vector<double> buf;  // this leaf's near sources, gathered contiguously
+        std::vector<double> buf, bbuf;  // this leaf's near sources (bbuf: with per-pair V)
         for (std::size_t q = b; q < e; ++q) {
             const std::int32_t ln = T.leaves[q];
             const OctreeNode& nd = T.nodes[ln];
@@ -371,44 +371,41 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
                 gather_far(ln, Lleaf.data(), work.data());
             }
             const double* Ll = Lleaf.data();
-            // Visibility: entries with a per-pair block are summed separately (below); whole-entry
-            // weights scale the gathered source values.
+            // Near sources gathered contiguously (SoA), in two sets: entries without per-pair
+            // V (a whole-entry weight scales their values) and entries with it, whose V rows
+            // are laid out over the same concatenation (InteractionLists::blk_row_off).
             const bool vw = !IL.p2p_w.empty();
-            bool any_block = false;
+            const bool any_block = vw && IL.blk_row_off[ln] >= 0;
             std::size_t ns = 0;
-            for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k) {
-                if (vw && IL.p2p_blk[k] >= 0) { any_block = true; continue; }
-                ns += T.nodes[IL.p2p_src[k]].count();
-            }
-            buf.resize(std::max<std::size_t>(1, 10 * ns));
-            const SourceView v{&buf[0], &buf[ns], &buf[2 * ns], &buf[3 * ns], &buf[4 * ns],
-                               &buf[5 * ns], &buf[6 * ns], &buf[7 * ns], &buf[8 * ns],
-                               &buf[9 * ns], ns};
-            std::size_t o = 0;
-            for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k) {
-                if (vw && IL.p2p_blk[k] >= 0) continue;
-                const OctreeNode& sn = T.nodes[IL.p2p_src[k]];
-                const std::size_t c = sn.count(), j0 = sn.begin;
-                std::memcpy(&buf[o], &T.s.px[j0], c * sizeof(double));
-                std::memcpy(&buf[ns + o], &T.s.py[j0], c * sizeof(double));
-                std::memcpy(&buf[2 * ns + o], &T.s.pz[j0], c * sizeof(double));
-                std::memcpy(&buf[3 * ns + o], &T.s.nx[j0], c * sizeof(double));
-                std::memcpy(&buf[4 * ns + o], &T.s.ny[j0], c * sizeof(double));
-                std::memcpy(&buf[5 * ns + o], &T.s.nz[j0], c * sizeof(double));
-                std::memcpy(&buf[6 * ns + o], &T.s.area[j0], c * sizeof(double));
-                std::memcpy(&buf[7 * ns + o], &x0[j0], c * sizeof(double));
-                std::memcpy(&buf[8 * ns + o], &x1[j0], c * sizeof(double));
-                std::memcpy(&buf[9 * ns + o], &x2[j0], c * sizeof(double));
-                if (vw && IL.p2p_w[k] != 1.0f) {
-                    const double w = IL.p2p_w[k];
-                    for (std::size_t q2 = 0; q2 < c; ++q2) {
-                        buf[7 * ns + o + q2] *= w;
-                        buf[8 * ns + o + q2] *= w;
-                        buf[9 * ns + o + q2] *= w;
+            for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k)
+                if (!(vw && IL.p2p_blk[k] >= 0)) ns += T.nodes[IL.p2p_src[k]].count();
+            const std::size_t nb = any_block ? std::size_t(IL.blk_row_len[ln]) : 0;
+            auto gather = [&](std::vector<double>& into, std::size_t total, bool blocked) {
+                into.resize(std::max<std::size_t>(1, 10 * total));
+                double* d = into.data();
+                std::size_t o = 0;
+                for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k) {
+                    if ((vw && IL.p2p_blk[k] >= 0) != blocked) continue;
+                    const OctreeNode& sn = T.nodes[IL.p2p_src[k]];
+                    const std::size_t c = sn.count(), j0 = sn.begin;
+                    const double* from[10] = {&T.s.px[j0], &T.s.py[j0], &T.s.pz[j0],
+                                              &T.s.nx[j0], &T.s.ny[j0], &T.s.nz[j0],
+                                              &T.s.area[j0], &x0[j0], &x1[j0], &x2[j0]};
+                    for (std::size_t a = 0; a < 10; ++a)
+                        std::memcpy(d + a * total + o, from[a], c * sizeof(double));
+                    if (!blocked && vw && IL.p2p_w[k] != 1.0f) {
+                        const double w = IL.p2p_w[k];
+                        for (std::size_t a = 7; a < 10; ++a)
+                            for (std::size_t q2 = 0; q2 < c; ++q2) d[a * total + o + q2] *= w;
                     }
+                    o += c;
                 }
-                o += c;
-            }
+                return SourceView{d, d + total, d + 2 * total, d + 3 * total, d + 4 * total,
+                                  d + 5 * total, d + 6 * total, d + 7 * total, d + 8 * total,
+                                  d + 9 * total, total};
+            };
+            const SourceView v = gather(buf, ns, false);
+            const SourceView vb = any_block ? gather(bbuf, nb, true) : SourceView{};
             for (std::uint32_t i = nd.begin; i < nd.end; ++i) {
                 double acc[3] = {0, 0, 0};
                 if (loc) {
@@ -434,30 +431,13 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
                         acc[ch] -= kInvPi * (T.s.nx[i] * lv[ch] + T.s.ny[i] * lv[3 + ch] +
                                              T.s.nz[i] * lv[6 + ch]);
                 }
-                if (ns) {
-                    const Receiver rc{T.s.px[i], T.s.py[i], T.s.pz[i], T.s.nx[i],
-                                      T.s.ny[i], T.s.nz[i], T.s.area[i]};
-                    accumulate_sources(rc, v, acc);
-                }
+                const Receiver rc{T.s.px[i], T.s.py[i], T.s.pz[i], T.s.nx[i],
+                                  T.s.ny[i], T.s.nz[i], T.s.area[i]};
+                if (ns) accumulate_sources(rc, v, acc);
                 if (any_block) {
-                    for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k) {
-                        if (IL.p2p_blk[k] < 0) continue;
-                        const OctreeNode& sn = T.nodes[IL.p2p_src[k]];
-                        const std::uint8_t* B = &IL.blocks[std::size_t(IL.p2p_blk[k]) +
-                                                    std::size_t(i - nd.begin) * sn.count()];
-                        for (std::uint32_t j = sn.begin; j < sn.end; ++j) {
-                            if (B[j - sn.begin] == 0) continue;
-                            const double vij = B[j - sn.begin] * (1.0 / 255.0);
-                            const double f =
-                                vij * pair_factor(T.s.px[i] - T.s.px[j], T.s.py[i] - T.s.py[j],
-                                                  T.s.pz[i] - T.s.pz[j], T.s.nx[i], T.s.ny[i],
-                                                  T.s.nz[i], T.s.nx[j], T.s.ny[j], T.s.nz[j],
-                                                  T.s.area[j]);
-                            acc[0] += f * x0[j];
-                            acc[1] += f * x1[j];
-                            acc[2] += f * x2[j];
-                        }
-                    }
+                    accumulate_sources_weighted(
+                        rc, vb, &IL.blocks[std::size_t(IL.blk_row_off[ln]) +
+                                           std::size_t(i - nd.begin) * vb.n], acc);
                 }
                 yt[3 * i] = acc[0];
                 yt[3 * i + 1] = acc[1];
