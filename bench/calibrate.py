@@ -14,8 +14,8 @@ setting, fits
 and, from bench/results/leaf_size.json (bench/leaf_size.py) where it exists, the error
 curves of the settings it ran also over its other sampling (the worst of both), and each
 setting's leaf variants (leaves of 16 and 64 surfels against the 32 of the sweep, on the same surfels):
-an error factor (the largest paired error ratio), with visibility the variant's own error
-curve, and time ratios against N (see ``fit_leaf_variants``),
+an error factor (the largest paired error ratio) and time ratios against N (see
+``fit_leaf_variants``),
 
 and, from bench/results/sampling_spread.json (bench/sampling_spread.py) where it exists, each
 sampled kind's sampling factor against N (``fit_sampling``),
@@ -113,14 +113,8 @@ def fit_leaf_variants(rows, floor, base_leaf=32):
     ratio error(leaf) / error(base) over sizes and samplings (errors below ``floor``, what the
     reference resolves, raised to it; rows without visibility, measured against the direct
     solution, are not limited by the reference), with the sizes it was measured at
-    (``n_range``), and ``time_ratio``, the median time ratio per swept size against N. Rows
-    measured against the reference (settings with visibility) also give the variant its own
-    ``error`` curve, fitted as its setting's is (``fit_error``: the worst of the samplings at
-    each size, a non-increasing envelope): the ratio to leaves of 32 moves from 0.36 to 2.0
-    from one size to the next, so its worst over all sizes overstates most of them, while the
-    variant's own errors are measured at the same sizes and samplings as its setting's."""
-    against_reference = not rows or rows[0].get("error_against", "reference") == "reference"
-    if not against_reference:
+    (``n_range``), and ``time_ratio``, the median time ratio per swept size against N."""
+    if rows and rows[0].get("error_against", "reference") != "reference":
         floor = 1e-6
     out = {}
     leaves = sorted({int(k) for r in rows for k in r["leaves"]} - {base_leaf})
@@ -139,9 +133,6 @@ def fit_leaf_variants(rows, floor, base_leaf=32):
                               n_range=[min(r["n"] for r, _, _ in pairs),
                                        max(r["n"] for r, _, _ in pairs)],
                               time_ratio=[[int(n), _sig(t, 3)] for n, t in ratios])
-        if against_reference:
-            out[str(leaf)]["error"] = fit_error(
-                [dict(n=r["n"], error=v["error"]) for r, v, _ in pairs], floor)
     return out
 
 

@@ -181,7 +181,7 @@ def test_grid_errors_are_steps_and_the_chosen_count_is_a_measured_one():
     summary = dict(n=10 ** 9, total_area=1.0, kind="grid", albedo_max=0.8, albedo_mean=0.5)
     for target in (0.1, 0.05, 0.03):
         c = accuracy.choose_settings(summary, target, kind="grid")
-        entry = dict(accuracy._settings_with_leaves(table))[c["label"]]   # or a leaf variant
+        entry = table["settings"][c["label"]]
         sizes = [n for n, _ in entry["error"]["points"]]
         assert c["n"] in sizes or c["n"] > sizes[-1] or c["n"] == table["n_min"], (target, c)
         errors = dict(entry["error"]["points"])
@@ -529,49 +529,6 @@ def test_fit_leaf_variants_takes_the_worst_paired_error_ratio_and_median_times()
     assert v["error_factor"] == pytest.approx(1.5)        # worst pair; 0.001 vs 0.002 floored
     assert v["n_range"] == [490, 2000]
     assert v["time_ratio"] == [[500, pytest.approx(1.0)], [2000, pytest.approx(1.0)]]
-    # against the reference (the default): the variant's own curve, the worst of its two
-    # samplings at each size as a non-increasing envelope, floored at the reference check
-    assert v["error"]["points"] == [[490, 0.3], [510, 0.1], [2000, 0.01]]
-    # against the direct solution (no visibility): the factor alone, nothing to floor
-    direct_rows = [dict(r, error_against="direct vis=none") for r in rows]
-    fit = calibrate.fit_leaf_variants(direct_rows, floor=0.01)
-    assert "error" not in fit["16"] and fit["16"]["error_factor"] == pytest.approx(1.5)
-
-
-def test_a_leaf_variant_with_its_own_curve_is_priced_by_it(monkeypatch):
-    """With visibility a variant carries its own measured error curve: the model reads it
-    (no factor), and the choice follows it where it is below its setting's."""
-    table, entry = _one_setting_calibration(monkeypatch, {})
-    base = accuracy._predicted_error(entry, table, 2000, None)
-    own = dict(points=[[500, 0.6 * accuracy._predicted_error(entry, table, 500, None)],
-                       [4000, 0.6 * accuracy._predicted_error(entry, table, 4000, None)]],
-               slope=0.5)
-    entry["leaf_variants"] = {"64": dict(error_factor=3.0, n_range=[500, 4000], error=own,
-                                         time_ratio=[[500, 1.0], [4000, 1.0]])}
-    leaf64 = dict(accuracy._settings_with_leaves(table))["FMM p=2 vis=exact leaf=64"]
-    assert leaf64["error"] is own and leaf64["error_factor"] == 1.0
-    assert accuracy._predicted_error(leaf64, table, 2000, None) == pytest.approx(
-        accuracy._loglog(own, 2000, error=True))
-    assert accuracy._predicted_error(leaf64, table, 2000, None) < 0.7 * base
-    summary = dict(n=10 ** 9, total_area=1.0, kind="random", albedo_max=0.8, albedo_mean=0.5)
-    chosen = accuracy.choose_settings(summary, base / accuracy.SAFETY, kind="random",
-                                      allow_direct=False)
-    assert chosen["leaf_size"] == 64 and chosen["n"] < 2000, chosen
-
-
-def test_calibrated_leaf_variants_with_visibility_have_their_own_curves():
-    found = 0
-    for kind, table in accuracy.CALIBRATION["kinds"].items():
-        for label, entry in table["settings"].items():
-            for leaf, v in entry.get("leaf_variants", {}).items():
-                if entry["keywords"]["visibility"] == "none":
-                    assert "error" not in v, label
-                    continue
-                found += 1
-                pts = v["error"]["points"]
-                assert all(a[1] >= b[1] for a, b in zip(pts, pts[1:])), label   # envelope
-                assert pts[-1][1] >= table["reference_check"] * 0.999, label
-    assert found > 0
 
 
 def test_an_unoccluded_scene_gets_a_leaf_variant_and_keeps_its_expansion_error():
