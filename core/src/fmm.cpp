@@ -355,6 +355,7 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
     parallel_for(ctx, T.leaves.size(), 4, [&](std::size_t b, std::size_t e) {
         std::vector<double> work(wsz), Lleaf(W);
         std::vector<double> buf, bbuf;  // this leaf's near sources (bbuf: with per-pair V)
+        std::vector<std::uint8_t> vrows;   // their V, receiver-major (row r: receiver r)
         for (std::size_t q = b; q < e; ++q) {
             const std::int32_t ln = T.leaves[q];
             const OctreeNode& nd = T.nodes[ln];
@@ -373,13 +374,26 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
             const double* Ll = Lleaf.data();
             // Near sources gathered contiguously (SoA), in two sets: entries without per-pair
             // V (a whole-entry weight scales their values) and entries with it, whose V rows
-            // are laid out over the same concatenation (InteractionLists::blk_row_off).
+            // (stored per entry, |t| x |s|) are gathered over the same concatenation, so that
+            // each receiver sums all its blocks in one vectorised loop.
             const bool vw = !IL.p2p_w.empty();
-            const bool any_block = vw && IL.blk_row_off[ln] >= 0;
-            std::size_t ns = 0;
+            std::size_t ns = 0, nb = 0;
             for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k)
-                if (!(vw && IL.p2p_blk[k] >= 0)) ns += T.nodes[IL.p2p_src[k]].count();
-            const std::size_t nb = any_block ? std::size_t(IL.blk_row_len[ln]) : 0;
+                (vw && IL.p2p_blk[k] >= 0 ? nb : ns) += T.nodes[IL.p2p_src[k]].count();
+            const bool any_block = nb > 0;
+            if (any_block) {
+                const std::size_t ct = nd.count();
+                vrows.resize(ct * nb);
+                std::size_t col = 0;
+                for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k) {
+                    if (IL.p2p_blk[k] < 0) continue;
+                    const std::size_t c = T.nodes[IL.p2p_src[k]].count();
+                    const std::uint8_t* from = &IL.blocks[std::size_t(IL.p2p_blk[k])];
+                    for (std::size_t r = 0; r < ct; ++r)
+                        std::memcpy(&vrows[r * nb + col], from + r * c, c);
+                    col += c;
+                }
+            }
             auto gather = [&](std::vector<double>& into, std::size_t total, bool blocked) {
                 into.resize(std::max<std::size_t>(1, 10 * total));
                 double* d = into.data();
@@ -435,9 +449,8 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
                                   T.s.ny[i], T.s.nz[i], T.s.area[i]};
                 if (ns) accumulate_sources(rc, v, acc);
                 if (any_block) {
-                    accumulate_sources_weighted(
-                        rc, vb, &IL.blocks[std::size_t(IL.blk_row_off[ln]) +
-                                           std::size_t(i - nd.begin) * vb.n], acc);
+                    accumulate_sources_weighted(rc, vb, &vrows[std::size_t(i - nd.begin) * nb],
+                                                acc);
                 }
                 yt[3 * i] = acc[0];
                 yt[3 * i + 1] = acc[1];

@@ -2,8 +2,6 @@
 // dual-tree walk that fills the per-target M2L and P2P lists.
 #include "traversal.hpp"
 
-#include <cstring>
-
 #include <algorithm>
 #include <cmath>
 
@@ -142,8 +140,7 @@ std::size_t InteractionLists::bytes() const {
            (m2l_src.capacity() + p2p_src.capacity() + m2p_src.capacity() + p2l_src.capacity()) *
                sizeof(std::int32_t) +
            (m2l_w.capacity() + p2p_w.capacity()) * sizeof(float) + blocks.capacity() +
-           (p2p_blk.capacity() + blk_row_off.capacity() + blk_row_len.capacity()) *
-               sizeof(std::int64_t);
+           p2p_blk.capacity() * sizeof(std::int64_t);
 }
 
 namespace {
@@ -360,39 +357,6 @@ void csr_payload(std::size_t nnodes, const std::vector<std::int64_t>& off,
         for (std::size_t k = 0; k < parts[q]->size(); ++k) out[pos[(*parts[q])[k].t]++] = (*pay[q])[k];
 }
 
-// The walkers' blocks (row-major |t| x |s| per entry) re-laid receiver-major per target leaf
-// (InteractionLists::blk_row_off); p2p_blk becomes each entry's column offset.
-void receiver_major_blocks(const Octree& tree, InteractionLists& L) {
-    const std::size_t nn = tree.nodes.size();
-    L.blk_row_off.assign(nn, -1);
-    L.blk_row_len.assign(nn, 0);
-    std::vector<std::uint8_t> out(L.blocks.size());
-    std::size_t o = 0;
-    for (std::size_t t = 0; t < nn; ++t) {
-        std::size_t nb = 0;
-        for (std::int64_t k = L.p2p_off[t]; k < L.p2p_off[t + 1]; ++k)
-            if (L.p2p_blk[k] >= 0) nb += tree.nodes[L.p2p_src[k]].count();
-        if (nb == 0) continue;
-        const std::size_t ct = tree.nodes[t].count();
-        L.blk_row_off[t] = std::int64_t(o);
-        L.blk_row_len[t] = std::int64_t(nb);
-        std::size_t col = 0;
-        for (std::int64_t k = L.p2p_off[t]; k < L.p2p_off[t + 1]; ++k) {
-            if (L.p2p_blk[k] < 0) continue;
-            const std::size_t c = tree.nodes[L.p2p_src[k]].count(),
-                              from = std::size_t(L.p2p_blk[k]);
-            for (std::size_t r = 0; r < ct; ++r)
-                std::memcpy(&out[o + r * nb + col], &L.blocks[from + r * c], c);
-            L.p2p_blk[k] = std::int64_t(col);
-            col += c;
-        }
-        o += ct * nb;
-    }
-    out.resize(o);
-    out.shrink_to_fit();
-    L.blocks.swap(out);
-}
-
 }  // namespace
 
 InteractionLists build_interaction_lists(Context& ctx, const Octree& tree,
@@ -473,7 +437,6 @@ InteractionLists build_interaction_lists(Context& ctx, const Octree& tree,
         csr_payload(nn, L.m2l_off, mparts, mw, L.m2l_w);
         csr_payload(nn, L.p2p_off, pparts, pw, L.p2p_w);
         csr_payload(nn, L.p2p_off, pparts, pb, L.p2p_blk);
-        receiver_major_blocks(tree, L);
     }
     L.m2p_off = to_csr(nn, m2pparts, L.m2p_src);
     L.p2l_off = to_csr(nn, p2lparts, L.p2l_src);

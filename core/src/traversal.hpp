@@ -43,17 +43,12 @@ struct InteractionLists {
     std::int64_t m2l_pairs = 0, p2p_node_pairs = 0, p2p_surfel_pairs = 0;
     // Visibility weights (empty when there is no visibility model), parallel to m2l_src and
     // p2p_src: m2l_w = sampled fraction of a PARTIAL far leaf pair (1 otherwise); p2p_w = the
-    // same for a P2P node pair, and p2p_blk >= 0 where the entry has per-pair V (see
-    // blk_row_off) or -1 (then p2p_w applies to every pair of the entry). Blocks hold
+    // same for a P2P node pair, and p2p_blk = offset into `blocks` of its per-pair V (row-major
+    // |t| x |s|, tree order) or -1 (then p2p_w applies to every pair of the entry). Blocks hold
     // V quantised to 8 bits (round(255 V); exact and binary seed V are 0 or 1, exactly kept).
     std::vector<float> m2l_w, p2p_w;
     std::vector<std::int64_t> p2p_blk;
     std::vector<std::uint8_t> blocks;
-    // After the build, blocks are laid out receiver-major per target leaf t: row r of t (its
-    // r-th surfel) holds V against the concatenation of t's block sources in list order, at
-    // blocks[blk_row_off[t] + r * blk_row_len[t]]; p2p_blk[k] is then entry k's column there.
-    // (One vectorised loop per receiver over all its blocks, not one short loop per block.)
-    std::vector<std::int64_t> blk_row_off, blk_row_len;
     std::int64_t vis_m2l_weighted = 0, vis_p2p_weighted = 0, vis_p2p_blocks = 0;
     // Visibility classes of the node pairs the traversal queried, per level [valid, invalid,
     // partial] (ordered pairs: (t, s) and (s, t) both count).

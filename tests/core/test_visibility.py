@@ -274,8 +274,8 @@ def test_per_pair_blocks_reproduce_the_direct_sum_when_every_pair_is_near():
     """With no far field (θ = 0.05) and enough samples that every leaf pair is classified
     right, the FMM's near field (whole visible entries plus per-pair blocks, summed per
     receiver over all its block sources at once) is the direct exact sum, to rounding
-    (measured 2.8e-16). Any row or column of a block misplaced in the receiver-major layout
-    would show as an error of the size of V."""
+    (measured 2.8e-16). Any row or column of a block misplaced when a leaf's V rows are
+    gathered receiver by receiver would show as an error of the size of V."""
     s, lab = cornell(8)
     x = np.random.default_rng(3).random((s.n, 3))
     exact = illumap.TransportOperator(s, method="direct", visibility="exact").apply(x)
