@@ -374,32 +374,21 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
             const double* Ll = Lleaf.data();
             // Near sources gathered contiguously (SoA), in two sets: entries without per-pair
             // V (a whole-entry weight scales their values) and entries with it, whose V rows
-            // (stored per entry, |t| x |s|) are gathered over the same concatenation, so that
-            // each receiver sums all its blocks in one vectorised loop.
+            // (stored per entry, |t| x |s|) are gathered into vrows over the same
+            // concatenation, so that each receiver sums all its blocks in one vectorised loop.
             const bool vw = !IL.p2p_w.empty();
+            auto has_block = [&](std::int64_t k) { return vw && IL.p2p_blk[k] >= 0; };
             std::size_t ns = 0, nb = 0;
             for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k)
-                (vw && IL.p2p_blk[k] >= 0 ? nb : ns) += T.nodes[IL.p2p_src[k]].count();
-            const bool any_block = nb > 0;
-            if (any_block) {
-                const std::size_t ct = nd.count();
-                vrows.resize(ct * nb);
-                std::size_t col = 0;
-                for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k) {
-                    if (IL.p2p_blk[k] < 0) continue;
-                    const std::size_t c = T.nodes[IL.p2p_src[k]].count();
-                    const std::uint8_t* from = &IL.blocks[std::size_t(IL.p2p_blk[k])];
-                    for (std::size_t r = 0; r < ct; ++r)
-                        std::memcpy(&vrows[r * nb + col], from + r * c, c);
-                    col += c;
-                }
-            }
+                (has_block(k) ? nb : ns) += T.nodes[IL.p2p_src[k]].count();
+            const std::size_t ct = nd.count();
             auto gather = [&](std::vector<double>& into, std::size_t total, bool blocked) {
                 into.resize(std::max<std::size_t>(1, 10 * total));
+                if (blocked) vrows.resize(ct * total);
                 double* d = into.data();
                 std::size_t o = 0;
                 for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k) {
-                    if ((vw && IL.p2p_blk[k] >= 0) != blocked) continue;
+                    if (has_block(k) != blocked) continue;
                     const OctreeNode& sn = T.nodes[IL.p2p_src[k]];
                     const std::size_t c = sn.count(), j0 = sn.begin;
                     const double* from[10] = {&T.s.px[j0], &T.s.py[j0], &T.s.pz[j0],
@@ -407,7 +396,11 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
                                               &T.s.area[j0], &x0[j0], &x1[j0], &x2[j0]};
                     for (std::size_t a = 0; a < 10; ++a)
                         std::memcpy(d + a * total + o, from[a], c * sizeof(double));
-                    if (!blocked && vw && IL.p2p_w[k] != 1.0f) {
+                    if (blocked) {
+                        const std::uint8_t* V = &IL.blocks[std::size_t(IL.p2p_blk[k])];
+                        for (std::size_t r = 0; r < ct; ++r)
+                            std::memcpy(&vrows[r * total + o], V + r * c, c);
+                    } else if (vw && IL.p2p_w[k] != 1.0f) {
                         const double w = IL.p2p_w[k];
                         for (std::size_t a = 7; a < 10; ++a)
                             for (std::size_t q2 = 0; q2 < c; ++q2) d[a * total + o + q2] *= w;
@@ -419,7 +412,7 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
                                   d + 9 * total, total};
             };
             const SourceView v = gather(buf, ns, false);
-            const SourceView vb = any_block ? gather(bbuf, nb, true) : SourceView{};
+            const SourceView vb = nb ? gather(bbuf, nb, true) : SourceView{};
             for (std::uint32_t i = nd.begin; i < nd.end; ++i) {
                 double acc[3] = {0, 0, 0};
                 if (loc) {
@@ -448,10 +441,7 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
                 const Receiver rc{T.s.px[i], T.s.py[i], T.s.pz[i], T.s.nx[i],
                                   T.s.ny[i], T.s.nz[i], T.s.area[i]};
                 if (ns) accumulate_sources(rc, v, acc);
-                if (any_block) {
-                    accumulate_sources_weighted(rc, vb, &vrows[std::size_t(i - nd.begin) * nb],
-                                                acc);
-                }
+                if (nb) accumulate_sources_weighted(rc, vb, &vrows[(i - nd.begin) * nb], acc);
                 yt[3 * i] = acc[0];
                 yt[3 * i + 1] = acc[1];
                 yt[3 * i + 2] = acc[2];

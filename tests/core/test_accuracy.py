@@ -746,8 +746,8 @@ def test_robust_best_searches_cheapest_first_up_to_its_horizon(monkeypatch):
 
 def test_paired_times_alternate_and_keep_each_ones_least_time(monkeypatch):
     """bench/accuracy_speed.py times the automatic mode and a hand-picked setting in
-    alternating rounds (both under the same load) and keeps each one's least time; the
-    rounds follow the longer of the two first timings."""
+    alternating rounds (both under the same load) and keeps each one's least time; as many
+    rounds as fit in PAIRED_SECONDS, within PAIRED_ROUNDS."""
     import accuracy_speed as AS
     calls = []
 
