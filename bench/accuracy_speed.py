@@ -79,6 +79,10 @@ FULL = dict(ref_n=dict(cornell=48000, bunny=S.BUNNY_MAX, interior=48000),
 #: the automatic mode is compared with.
 LEAF_RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results",
                             "leaf_size.json")
+#: bench/grid_steps.py's results: its solves of the grid at cell counts between the sweep's
+#: sizes join them too (the automatic mode's models are calibrated on them).
+GRID_STEPS_RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results",
+                                  "grid_steps.json")
 #: The bunny's reference is the whole scan (77k surfels with its floor), its check the scan
 #: decimated evenly to half. (Random subsets of the scan did not converge: their gaps leak light
 #: through the ears at every density; measured before the scan's normals were oriented along a
@@ -247,7 +251,8 @@ def run_scene(name, cfg, visibilities, auto_targets, log, sweep=True, hand=None)
                                settings=dict(kw)))
             log(f"  {name} N={q.n:6d} {label:36s} {dt:8.3f}s err={err:.4f} "
                 f"it={sol.iterations}")
-    pool = (points if hand is None else list(hand)) + leaf_points(LEAF_RESULTS, name)
+    pool = ((points if hand is None else list(hand)) + leaf_points(LEAF_RESULTS, name)
+            + grid_step_points(GRID_STEPS_RESULTS, name))
     for target in auto_targets:
         for adaptive in ((True, False) if name in S.TRIANGLE_SCENES else (True,)):
             points.append(run_auto(name, target, ref, ref_B, ref_info, cfg, log, pool,
@@ -272,6 +277,21 @@ def leaf_points(path, name):
                                 n=r["n"], size=r["size"], time=v["time"], error=v["error"],
                                 settings=dict(r["settings"], leaf_size=int(leaf))))
     return out
+
+
+def grid_step_points(path, name):
+    """bench/grid_steps.py's solves of the grid scene at every cell count it ran (the sweep's
+    settings between the sweep's sizes, which the automatic mode's step model can choose), as
+    hand-picked sweep points."""
+    if not os.path.exists(path):
+        return []
+    with open(path) as f:
+        data = json.load(f)
+    if data.get("reference", {}).get("scene") != name:
+        return []
+    return [dict(scene=name, family="grid_steps", label=r["label"], n=r["n"], size=r["n"],
+                 time=r["time"], error=r["error"], settings=dict(r["settings"]))
+            for r in data["rows"] if "settings" in r]
 
 
 def run_auto(name, target, ref, ref_B, ref_info, cfg, log, hand=(), adaptive=True):

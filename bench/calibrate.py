@@ -20,6 +20,10 @@ an error factor (the largest paired error ratio) and time ratios against N (see
 and, from bench/results/sampling_spread.json (bench/sampling_spread.py) where it exists, each
 sampled kind's sampling factor against N (``fit_sampling``),
 
+and, from bench/results/grid_steps.json (bench/grid_steps.py) where it exists, the grid
+scene's solves at every cell count between the sweep's sizes, as more points of the same
+curves (the grid's error is a step curve: its model can only choose a measured size),
+
 and how well the time models extrapolate (``time_holdout``: each setting's largest size
 predicted from the smaller ones; its rms sets ``ADAPTIVE_TIME_MARGIN``), and writes them
 between the calibration markers of core/python/illumap/accuracy.py (``CALIBRATION``), with
@@ -230,12 +234,23 @@ def time_holdout(results, min_sizes=5):
     return out
 
 
-def calibrate(results, leaf_results=None, sampling_results=None):
+def grid_step_points(grid_results, scene, label):
+    """bench/grid_steps.py's solves of setting ``label`` on ``scene`` (its reference's scene),
+    as sweep points (n, error, time): the grid at cell counts between the sweep's sizes."""
+    if grid_results is None or grid_results.get("reference", {}).get("scene") != scene:
+        return []
+    return [dict(n=r["n"], error=r["error"], time=r["time"]) for r in grid_results["rows"]
+            if r["label"] == label]
+
+
+def calibrate(results, leaf_results=None, sampling_results=None, grid_results=None):
     """The calibration of every scene kind from the sweep; with ``leaf_results``
     (bench/leaf_size.py), each setting's error curve also takes in its solves on the leaf
     benchmark's other samplings (the envelope is then the worst of the samplings: at equal N
     two samplings differ by a median 8–10%, up to 51%), and each setting gets its leaf
-    variants (``add_leaf_variants``)."""
+    variants (``add_leaf_variants``); with ``grid_results`` (bench/grid_steps.py), the grid
+    scene's settings also take in its solves at the cell counts between the sweep's sizes,
+    errors and times alike (``grid_step_points``)."""
     kinds = {}
     for scene, data in results["scenes"].items():
         kind = S.KIND[scene]
@@ -256,10 +271,12 @@ def calibrate(results, leaf_results=None, sampling_results=None):
             kw = {k: pts[0]["settings"][k] for k in MODEL_KEYS if k in pts[0]["settings"]}
             kw.setdefault("visibility", "none")
             more = other_samplings(leaf_results, scene, label) if leaf_results else []
-            table["settings"][label] = dict(keywords=kw, error=fit_error(pts + more, floor),
-                                            cost=fit_time(pts),
-                                            n_range=[min(p["n"] for p in pts),
-                                                     max(p["n"] for p in pts)])
+            steps = grid_step_points(grid_results, scene, label)
+            table["settings"][label] = dict(keywords=kw,
+                                            error=fit_error(pts + more + steps, floor),
+                                            cost=fit_time(pts + steps),
+                                            n_range=[min(p["n"] for p in pts + steps),
+                                                     max(p["n"] for p in pts + steps)])
             if more:
                 table["settings"][label]["samplings"] = 2
         kinds[kind] = table
@@ -282,6 +299,10 @@ def calibrate(results, leaf_results=None, sampling_results=None):
                           {k: v["reference"]["check"] for k, v in results["scenes"].items()})
     if sampling_results:
         add_sampling(calibration, sampling_results)
+    if grid_results:
+        calibration["grid_steps_source"] = dict(
+            date=grid_results.get("date"), core_commit=grid_results.get("core", {}).get("commit"),
+            cells=grid_results.get("cells"))
     return calibration
 
 
@@ -318,6 +339,10 @@ def main(argv=None):
                     default=os.path.join(HERE, "results", "sampling_spread.json"),
                     help="bench/sampling_spread.py's samplings (sampling factors; skipped "
                          "when absent)")
+    ap.add_argument("--grid-steps-results",
+                    default=os.path.join(HERE, "results", "grid_steps.json"),
+                    help="bench/grid_steps.py's grid solves between the sweep's sizes (skipped "
+                         "when absent)")
     ap.add_argument("--write", action="store_true", help="rewrite CALIBRATION in accuracy.py")
     args = ap.parse_args(argv)
     with open(args.results) as f:
@@ -328,7 +353,8 @@ def main(argv=None):
             with open(path) as f:
                 return json.load(f)
         return None
-    cal = calibrate(results, optional(args.leaf_results), optional(args.sampling_results))
+    cal = calibrate(results, optional(args.leaf_results), optional(args.sampling_results),
+                    optional(args.grid_steps_results))
     for kind, t in cal["kinds"].items():
         print(f"{kind} ({t['scene']}): n_min {t['n_min']}, reference check {t['reference_check']}")
         if "sampling" in t:

@@ -2,12 +2,15 @@
 """The Cornell grid at every cell count between two sweep sizes: how erratic its error is.
 
 The sweep (bench/accuracy_speed.py) measures the grid at 506 / 1036 / 1927 / … surfels (wall
-cells n = 9, 13, 18, …); the automatic mode's step model can only choose those. This solves
-the grid at each n in ``--cells`` with the direct method and the FMM settings that win at
-5% (exact visibility), error on up to 4000 surfels against the cached 48k reference (that of
-``accuracy_speed.py --full``), each time the least of three.
+cells n = 9, 13, 18, …). This solves the grid at each n in ``--cells`` with the direct method
+and the FMM settings that win at 5% (exact visibility), or with ``--all-settings`` with every
+setting of the sweep (``--sweep``) up to the largest size the sweep ran it at; error on up to
+4000 surfels against the cached 48k reference (that of ``accuracy_speed.py --full``), each
+time the least of three. bench/calibrate.py adds the rows of calibrated settings to the grid
+kind's curves, so that its step model can choose every cell count measured here.
 
-    .venv/bin/python bench/grid_steps.py --out bench/results/grid_steps.json
+    .venv/bin/python bench/grid_steps.py --all-settings --cells 9 26 \
+        --out bench/results/grid_steps.json
 """
 from __future__ import annotations
 
@@ -32,12 +35,32 @@ SETTINGS = {
 }
 
 
+def swept_settings(path, scene="cornell"):
+    """{label: (solve keywords, largest swept N)} of every hand-picked setting that the sweep
+    in ``path`` ran on ``scene``."""
+    with open(path) as f:
+        points = json.load(f)["scenes"][scene]["points"]
+    out = {}
+    for p in points:
+        if p["family"] in ("auto", "solver") or p.get("time") is None:
+            continue
+        kw, n_max = out.get(p["label"], (p["settings"], 0))
+        out[p["label"]] = (kw, max(n_max, p["n"]))
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--cells", nargs=2, type=int, default=(12, 19),
                     help="first and last cell count per wall side (inclusive)")
     ap.add_argument("--out", default="bench/results/grid_steps.json")
+    ap.add_argument("--all-settings", action="store_true",
+                    help="every setting of the sweep (up to its largest swept size) as well")
+    ap.add_argument("--sweep", default="bench/results/accuracy_speed.json")
     args = ap.parse_args(argv)
+    settings = {label: (dict(kw, tol=AS.SOLVE_TOL), None) for label, kw in SETTINGS.items()}
+    if args.all_settings:
+        settings.update(swept_settings(args.sweep))
     cfg = dict(AS.FULL)
     ref, ref_B, ref_info = AS.reference("cornell", cfg, lambda s: print(s, flush=True))
     rows = []
@@ -45,13 +68,16 @@ def main(argv=None):
         q = S.cornell(cells)
         idx = S.error_subset(q, cfg["auto_error_points"])
         B_ref = S.reference_at(ref, ref_B, S.subset(q, idx), "cornell")
-        for label, kw in SETTINGS.items():
-            sol, dt = AS.best_of_three(lambda: AS.timed_solve(q, dict(kw, tol=AS.SOLVE_TOL)))
+        for label, (kw, n_max) in settings.items():
+            if n_max is not None and q.n > n_max:
+                continue
+            sol, dt = AS.best_of_three(lambda: AS.timed_solve(q, kw))
             err = S.relative_rms(sol.radiosity[idx], B_ref)
-            rows.append(dict(cells=cells, n=q.n, label=label, error=err, time=dt))
+            rows.append(dict(cells=cells, n=q.n, label=label, error=err, time=dt, settings=kw))
             print(f"  n={cells:3d} N={q.n:5d} {label:48s} {100 * err:6.2f}% {1e3 * dt:7.1f} ms",
                   flush=True)
-    out = dict(reference=ref_info, core=S.provenance(), rows=rows,
+    out = dict(reference=ref_info, core=S.provenance(), rows=rows, cells=list(args.cells),
+               all_settings=args.all_settings,
                date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()))
     os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
     with open(args.out, "w") as f:

@@ -651,6 +651,42 @@ def test_time_holdout_predicts_each_settings_largest_size_from_the_smaller():
     assert held == pytest.approx([-math.log(2.0), 0.0], abs=1e-3)
 
 
+def test_grid_steps_add_measured_cell_counts_that_the_step_model_can_choose(monkeypatch):
+    """bench/calibrate.py with bench/grid_steps.py's rows: the grid scene's settings take in
+    its solves between the sweep's sizes (errors and times), another scene's rows are left
+    out, and the step model then chooses the measured count that meets the target instead of
+    the next swept size."""
+    import calibrate   # bench/calibrate.py
+    kw = dict(method="direct", visibility="exact")
+
+    def pt(n, error, time, label="direct vis=exact"):
+        return dict(family="direct/exact", label=label, n=n, error=error, time=time,
+                    settings=kw)
+    results = dict(scenes=dict(cornell=dict(reference=dict(check=0.001), points=[
+        pt(500, 0.10, 0.01), pt(2000, 0.03, 0.16), pt(8000, 0.01, 2.56)])))
+    grid = dict(reference=dict(scene="cornell"), date="d", core=dict(commit="c"), cells=[9, 12],
+                rows=[dict(label="direct vis=exact", n=1000, error=0.045, time=0.04),
+                      dict(label="direct vis=exact", n=1400, error=0.052, time=0.08),
+                      dict(label="another setting", n=1000, error=0.001, time=0.001)])
+    without = calibrate.calibrate(results)["kinds"]["grid"]["settings"]["direct vis=exact"]
+    assert [n for n, _ in without["error"]["points"]] == [500, 2000, 8000]
+    cal = calibrate.calibrate(results, grid_results=grid)
+    entry = cal["kinds"]["grid"]["settings"]["direct vis=exact"]
+    # the envelope: 1000 takes the larger error measured at 1400
+    assert entry["error"]["points"] == [[500, 0.1], [1000, 0.052], [1400, 0.052],
+                                        [2000, 0.03], [8000, 0.01]]
+    assert [n for n, _ in entry["cost"]["points"]] == [500, 1000, 1400, 2000, 8000]
+    assert entry["n_range"] == [500, 8000] and cal["grid_steps_source"]["cells"] == [9, 12]
+    other = calibrate.calibrate(results, grid_results=dict(grid, reference=dict(scene="bunny")))
+    assert other["kinds"]["grid"]["settings"]["direct vis=exact"] == without
+    monkeypatch.setitem(accuracy.CALIBRATION, "kinds", cal["kinds"])
+    summary = dict(n=10 ** 9, total_area=1.0, kind="grid", albedo_max=0.8, albedo_mean=0.5)
+    chosen = accuracy.choose_settings(summary, 0.06, kind="grid")
+    assert chosen["n"] == 1000, chosen        # was 2000: the only swept size within 5.7%
+    monkeypatch.setitem(accuracy.CALIBRATION, "kinds", calibrate.calibrate(results)["kinds"])
+    assert accuracy.choose_settings(summary, 0.06, kind="grid")["n"] == 2000
+
+
 def test_merged_benchmark_results_replace_only_the_scenes_run(tmp_path):
     """bench/accuracy_speed.py --merge (and leaf_size.py, sampling_spread.py): a run over one
     scene replaces that scene in the results file, keeps the others, records which run each
@@ -707,6 +743,25 @@ def test_time_models_extrapolate_with_the_slope_of_their_top_sizes():
     assert flat["slope"] == 1.0
     steep = calibrate.fit_time([dict(n=n, time=1e-12 * n ** 3) for n in sizes])
     assert steep["slope"] == 2.5
+
+
+def test_grid_step_solves_join_the_hand_picked_settings_of_their_scene_only(tmp_path):
+    """The automatic mode on the grid may choose any cell count bench/grid_steps.py measured,
+    so the hand-picked settings it is compared with include those solves (with the keywords
+    to time them again); other scenes get none."""
+    import json
+    import accuracy_speed as AS   # bench/accuracy_speed.py
+    path = tmp_path / "grid_steps.json"
+    kw = dict(method="fmm", order=2, theta=0.5, visibility="exact", tol=1e-4)
+    path.write_text(json.dumps(dict(reference=dict(scene="cornell"), rows=[
+        dict(cells=15, n=1349, label="FMM p=2 vis=exact", error=0.05, time=0.04, settings=kw),
+        dict(cells=16, n=1560, label="old row", error=0.04, time=0.05)])))
+    pts = AS.grid_step_points(str(path), "cornell")
+    assert pts == [dict(scene="cornell", family="grid_steps", label="FMM p=2 vis=exact",
+                        n=1349, size=1349, time=0.04, error=0.05, settings=kw)]
+    assert S.build("cornell", pts[0]["size"]).n == 1349      # the same grid is rebuilt
+    assert AS.grid_step_points(str(path), "bunny") == []
+    assert AS.grid_step_points(str(tmp_path / "missing.json"), "cornell") == []
 
 
 def test_robust_best_searches_cheapest_first_up_to_its_horizon(monkeypatch):
