@@ -546,6 +546,7 @@ def main(argv=None):
             # the automatic mode's rows may be measured against another reference than the
             # sweep kept from the earlier run
             old["scenes"][name]["auto_reference"] = new["reference"]
+            old["scenes"][name]["auto_run"] = dict(date=results["date"], core=results["core"])
         old["auto_date"] = results["date"]
         old["auto_core"] = results["core"]
         results = old

@@ -68,6 +68,16 @@ def core_line(core):
             + f"{mod}; native module built {core.get('core_module_built')}")
 
 
+def auto_runs_line(results):
+    """Scenes whose automatic-mode rows come from an earlier ``--auto-only`` run than the
+    file's last one (each scene's ``auto_run``)."""
+    last = results.get("auto_date")
+    older = [(scene, data["auto_run"]) for scene, data in results["scenes"].items()
+             if data.get("auto_run") and data["auto_run"]["date"] != last]
+    return "".join(f" Automatic mode on {scene}: {run['date']}, {core_line(run.get('core'))}."
+                   for scene, run in older)
+
+
 def runs_line(results):
     """Where a results file merges runs (``--merge``): which scenes came from a run other
     than the file's latest, with that run's date and core; "" when it holds one run."""
@@ -478,7 +488,7 @@ def main(argv=None):
                   else "") + f"; exact visibility with `{acc.get('exact_keywords')}`."
                + runs_line(acc)
                + (f" Automatic mode re-run {acc['auto_date']}, {core_line(acc.get('auto_core'))}."
-                  if acc.get("auto_date") else ""), ""]
+                  if acc.get("auto_date") else "") + auto_runs_line(acc), ""]
         for scene, data in acc["scenes"].items():
             png = f"accuracy_{scene}.png"
             accuracy_chart(scene, data, cyc, os.path.join(args.images, png))

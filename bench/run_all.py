@@ -7,8 +7,10 @@
 
 Runs, in order and each in its own process (with a time limit): bench/accuracy_speed.py (the
 sweep), bench/leaf_size.py (leaves of 16 and 64 against 32, paired),
-bench/sampling_spread.py (one setting on six further samplings), bench/calibrate.py --write
-(the automatic mode's models, fitted on all three),
+bench/sampling_spread.py (one setting on six further samplings), with --full
+bench/grid_steps.py --all-settings (the Cornell grid at every cell count up to 4128 surfels,
+against the full reference), bench/calibrate.py --write (the automatic mode's models, fitted
+on them all),
 scripts/setup_env.sh (reinstalls the package with them), bench/accuracy_speed.py --auto-only
 (the automatic mode), bench/cycles_bake.py, bench/scaling.py (results in bench/results/*.json),
 then bench/charts.py (docs/images/*.png and docs/benchmarks.md). A step that fails is reported
@@ -22,7 +24,7 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-STEPS = ("accuracy", "leaf", "sampling", "calibrate", "install", "auto", "cycles", "scaling")
+STEPS = ("accuracy", "leaf", "sampling", "grid", "calibrate", "install", "auto", "cycles", "scaling")
 
 
 def main(argv=None):
@@ -41,13 +43,18 @@ def main(argv=None):
     acc = os.path.join(results, "accuracy_speed.json")
     leaf = os.path.join(results, "leaf_size.json")
     spread = os.path.join(results, "sampling_spread.json")
+    # the grid steps are solved against the full sweep's reference: a quick run leaves them out
+    grid = os.path.join(results, "grid_steps.json") if args.full else ""
     py = [sys.executable]
     steps = [] if args.charts_only else [
         ("accuracy", py + [os.path.join(HERE, "accuracy_speed.py"), flag, "--out", acc]),
         ("leaf", py + [os.path.join(HERE, "leaf_size.py"), flag, "--out", leaf]),
         ("sampling", py + [os.path.join(HERE, "sampling_spread.py"), flag, "--out", spread]),
+        *([("grid", py + [os.path.join(HERE, "grid_steps.py"), "--all-settings", "--cells",
+                            "9", "26", "--sweep", acc, "--out", grid])] if grid else []),
         ("calibrate", py + [os.path.join(HERE, "calibrate.py"), "--results", acc,
-                            "--leaf-results", leaf, "--sampling-results", spread, "--write"]),
+                            "--leaf-results", leaf, "--sampling-results", spread,
+                            "--grid-steps-results", grid, "--write"]),
         ("install", [os.path.join(ROOT, "scripts", "setup_env.sh")]),
         ("auto", py + [os.path.join(HERE, "accuracy_speed.py"), flag, "--auto-only", "--out",
                        acc]),
