@@ -156,7 +156,7 @@ def main(argv=None) -> int:
                         "~0.4 M long rays per receiver at 1M)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--samples", type=int, default=8, help="visibility_samples")
-    p.add_argument("--shape", default="disc", choices=["disc", "quad"],
+    p.add_argument("--shape", default="disc", choices=["disc", "quad", "octagon"],
                    help="exact: occluder shape")
     p.add_argument("--threads", type=int, default=0)
     p.add_argument("--timeout", type=float, default=1800, help="seconds per configuration")

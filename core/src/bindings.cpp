@@ -291,7 +291,7 @@ NB_MODULE(_core, m) {
         .def("__len__", [](const PyOperator& self) { return self.op->size(); });
 
     nb::class_<PyOccluders>(m, "Occluders",
-        "The surfels as occluders (Embree scene of discs or quads), for segment queries.")
+        "The surfels as occluders (Embree scene of discs, quads or octagons), for segment queries.")
         .def("__init__",
              [](PyOccluders* self, nb::handle positions, nb::handle normals, nb::handle areas,
                 double coverage, const std::string& shape, int threads, nb::handle progress) {

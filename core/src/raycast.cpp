@@ -1,4 +1,5 @@
-// raycast.cpp — Embree 3 oriented-disc scene and occlusion rays (see raycast.hpp).
+// raycast.cpp — Embree 3 occluder scene (discs, quads or octagons) and occlusion rays (see
+// raycast.hpp).
 #include "raycast.hpp"
 
 #include <embree3/rtcore.h>
@@ -71,6 +72,22 @@ private:
     std::uint64_t cast_ = 0;
 };
 
+// The surfel's unit normal (+z where it has none) and a tangent frame t, u that is a fixed,
+// continuous function of it (Duff et al. 2017), so that polygon occluders are deterministic.
+void tangent_frame(const SurfelSoA& s, std::size_t i, double t[3], double u[3]) {
+    double nx = s.nx[i], ny = s.ny[i], nz = s.nz[i];
+    const double nl = std::sqrt(nx * nx + ny * ny + nz * nz);
+    if (nl > 0) { nx /= nl; ny /= nl; nz /= nl; } else { nx = 0; ny = 0; nz = 1; }
+    const double sg = std::copysign(1.0, nz), a = -1.0 / (sg + nz), b = nx * ny * a;
+    t[0] = 1.0 + sg * nx * nx * a; t[1] = sg * b; t[2] = -sg * nx;
+    u[0] = b; u[1] = sg + ny * ny * a; u[2] = -ny;
+}
+
+// The disc radius coverage * sqrt(A/pi) of surfel i (what every shape's area is matched to).
+double disc_radius(const SurfelSoA& s, std::size_t i, double coverage) {
+    return coverage * std::sqrt(std::max(s.area[i], 0.0) * kInvPi);
+}
+
 }  // namespace
 
 OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
@@ -134,14 +151,10 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
             parallel_for(ctx, n, 1 << 15, [&](std::size_t b, std::size_t e) {
                 for (std::size_t i = b; i < e; ++i) {
                     const double A = std::max(s.area[i], 0.0);
-                    radius_[i] = float(cov * std::sqrt(A * kInvPi));  // for the endpoint trims
+                    radius_[i] = float(disc_radius(s, i, cov));  // for the endpoint trims
                     const double half = 0.5 * cov * std::sqrt(A);
-                    double nx = s.nx[i], ny = s.ny[i], nz = s.nz[i];
-                    const double nl = std::sqrt(nx * nx + ny * ny + nz * nz);
-                    if (nl > 0) { nx /= nl; ny /= nl; nz /= nl; } else { nx = 0; ny = 0; nz = 1; }
-                    const double sg = std::copysign(1.0, nz), a = -1.0 / (sg + nz), bb = nx * ny * a;
-                    const double t[3] = {1.0 + sg * nx * nx * a, sg * bb, -sg * nx};
-                    const double u[3] = {bb, sg + ny * ny * a, -ny};
+                    double t[3], u[3];
+                    tangent_frame(s, i, t, u);
                     const double c[3] = {s.px[i] - center_[0], s.py[i] - center_[1], s.pz[i] - center_[2]};
                     // corners 0..3 counter-clockwise, then 1 and 3 moved towards 2
                     const double w = 2.0 * kOverlap - 1.0;
@@ -152,6 +165,52 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
                     const unsigned o = unsigned(6 * i);
                     const unsigned tri[6] = {o, o + 4, o + 5, o + 2, o + 3, o + 1};
                     for (int k = 0; k < 6; ++k) ib[6 * i + k] = tri[k];
+                }
+            });
+        } else if (n > 0 && shape == VisibilityOptions::Shape::Octagon) {
+            // The regular octagon of the disc's area (corner radius kCorner * r), a fan of 8
+            // triangles about the centre. Each triangle's rim edge is lengthened by kWiden of
+            // itself at both ends, so that it covers its two spokes inside (as the quad's two
+            // triangles overlap along the diagonal: Embree's triangle test is not watertight).
+            constexpr double kWiden = 0.02;
+            constexpr int kSides = 8, kVerts = 1 + 2 * kSides;
+            const double kCorner = std::sqrt(kPi / (kSides * 0.5 * std::sin(2 * kPi / kSides)));
+            g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+            float* v = static_cast<float*>(rtcSetNewGeometryBuffer(
+                g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), kVerts * n));
+            unsigned* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+                g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), kSides * n));
+            throw_embree(impl_->device, "buffers");
+            double rim[kSides + 1][2];   // unit-area corners, the first repeated at the end
+            for (int k = 0; k <= kSides; ++k) {
+                rim[k][0] = kCorner * std::cos(2 * kPi * k / kSides);
+                rim[k][1] = kCorner * std::sin(2 * kPi * k / kSides);
+            }
+            const double cov = coverage;
+            ctx.set_phase("visibility: octagons", 0.0, 0.2);
+            parallel_for(ctx, n, 1 << 15, [&](std::size_t b, std::size_t e) {
+                for (std::size_t i = b; i < e; ++i) {
+                    const double r = disc_radius(s, i, cov);
+                    radius_[i] = float(r);
+                    double t[3], u[3];
+                    tangent_frame(s, i, t, u);
+                    const double c[3] = {s.px[i] - center_[0], s.py[i] - center_[1], s.pz[i] - center_[2]};
+                    float* out = v + 3 * kVerts * i;
+                    auto put = [&](int slot, double x, double y) {
+                        for (int d = 0; d < 3; ++d)
+                            out[3 * slot + d] = float(c[d] + r * (x * t[d] + y * u[d]));
+                    };
+                    put(0, 0.0, 0.0);
+                    const unsigned o = unsigned(kVerts * i);
+                    for (int k = 0; k < kSides; ++k) {
+                        const double wx = kWiden * (rim[k + 1][0] - rim[k][0]);
+                        const double wy = kWiden * (rim[k + 1][1] - rim[k][1]);
+                        put(1 + 2 * k, rim[k][0] - wx, rim[k][1] - wy);
+                        put(2 + 2 * k, rim[k + 1][0] + wx, rim[k + 1][1] + wy);
+                        ib[3 * (kSides * i + k) + 0] = o;
+                        ib[3 * (kSides * i + k) + 1] = o + 1 + 2 * k;
+                        ib[3 * (kSides * i + k) + 2] = o + 2 + 2 * k;
+                    }
                 }
             });
         } else if (n > 0) {
@@ -165,7 +224,7 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
             ctx.set_phase("visibility: discs", 0.0, 0.2);
             parallel_for(ctx, n, 1 << 15, [&](std::size_t b, std::size_t e) {
                 for (std::size_t i = b; i < e; ++i) {
-                    const double r = cov * std::sqrt(std::max(s.area[i], 0.0) * kInvPi);
+                    const double r = disc_radius(s, i, cov);
                     radius_[i] = float(r);
                     v[4 * i + 0] = float(s.px[i] - center_[0]);
                     v[4 * i + 1] = float(s.py[i] - center_[1]);
@@ -213,9 +272,13 @@ OccluderScene::~OccluderScene() { delete impl_; }
 void* OccluderScene::rtc_scene() const { return impl_->scene; }
 
 std::size_t OccluderScene::bytes() const {
-    // Buffers (discs 16 + 12 bytes, quads as two triangles 72 + 24), our radii, and Embree's
-    // BVH (estimated as 64 bytes per primitive).
-    return size() * (shape_ == VisibilityOptions::Shape::Quad ? 72 + 24 + 4 + 128 : 16 + 12 + 4 + 64);
+    // Buffers (discs 16 + 12 bytes, quads as two triangles 72 + 24, octagons as eight 204 +
+    // 96), our radii, and Embree's BVH (estimated as 64 bytes per primitive).
+    switch (shape_) {
+        case VisibilityOptions::Shape::Quad: return size() * (72 + 24 + 4 + 2 * 64);
+        case VisibilityOptions::Shape::Octagon: return size() * (204 + 96 + 4 + 8 * 64);
+        default: return size() * (16 + 12 + 4 + 64);
+    }
 }
 
 // Segment p -> q with its first t0 and last t1 ignored, clipped to the occluders' box in

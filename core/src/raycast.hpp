@@ -30,7 +30,11 @@
 // Measured here: ~3x more occlusion rays per CPU-second than oriented discs (Embree's quad
 // kernels are its most optimised), no leak through the test occluders at coverage 1.3 where
 // discs leak 0.46% (jittered sampling), slightly more over-occlusion at edges (corners reach
-// 1.25x the disc radius). Discs stay the default (the definition of the disc model).
+// 1.25x the disc radius). shape = Octagon: a regular octagon of the same area (a fan of eight
+// triangles, each overlapping its neighbours along their shared spoke): corners at 1.054x and
+// edges at 0.974x the disc radius, so it closes nearly what discs close, at ~1.3x discs' speed
+// in whole solves (bench/results/NOTE.md). Discs stay the default (the definition of
+// the disc model).
 //
 // Node classes rest on `samples` sampled rays per pair and can be wrong (see visibility.hpp).
 #pragma once
@@ -39,7 +43,7 @@
 
 namespace illumap {
 
-// The Embree scene of a set of surfels as occluders (discs or quads, per VisibilityOptions'
+// The Embree scene of a set of surfels as occluders (discs, quads or octagons, per VisibilityOptions'
 // coverage and shape), in float coordinates relative to the surfels' box centre. Shared by
 // RaycastVisibility (pairs of surfels) and the arbitrary-segment query behind
 // illumap.Occluders (lamp shadows), so both see exactly the same occluders.

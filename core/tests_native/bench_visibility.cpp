@@ -74,7 +74,9 @@ int main(int argc, char** argv) {
     o.samples = samples;
     if (std::getenv("PACKETS")) o.packets = true;
     apply_env(o);
-    std::printf("shape: %s\n", o.shape == VisibilityOptions::Shape::Quad ? "quad" : "disc");
+    std::printf("shape: %s\n", o.shape == VisibilityOptions::Shape::Quad      ? "quad"
+                              : o.shape == VisibilityOptions::Shape::Octagon ? "octagon"
+                                                                             : "disc");
     const bool skip_rays = std::getenv("NORAYBENCH") != nullptr;
     const double t_all = now();
     t = now();

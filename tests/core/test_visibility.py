@@ -414,7 +414,8 @@ def test_quad_shape_and_leaf_modes_block_the_full_occluder(method):
     s0, lab0 = squares(10)
     open_T = transfer(illumap.TransportOperator(s0, method=method), s0, lab0 == 0, lab0 == 1)
     s, lab = squares(10, occluder=(-1.0, 1.0, -1.0, 1.0))
-    for kw in (dict(visibility_shape="quad"), dict(visibility_leaf_mode="fractional"),
+    for kw in (dict(visibility_shape="quad"), dict(visibility_shape="octagon"),
+               dict(visibility_leaf_mode="fractional"),
                dict(visibility_leaf_mode="binary"), dict(coverage=1.5, visibility_samples=16),
                dict(visibility="seed", seed_delta=2.5, seed_k=4)):
         kw = dict(dict(visibility="exact"), **kw)

@@ -34,7 +34,7 @@ else:
 
 __all__ = ["Occluders", "OCCLUDER_SHAPES", "DEFAULT_ENDPOINT_OFFSET"]
 
-OCCLUDER_SHAPES = ("disc", "quad")
+OCCLUDER_SHAPES = ("disc", "quad", "octagon")
 #: Share of the skipped surfel's disc radius trimmed off the start of a segment; the same
 #: default as the operator's ``endpoint_offset``.
 DEFAULT_ENDPOINT_OFFSET = 0.05
@@ -59,8 +59,9 @@ class Occluders:
     coverage : float
         Occluder radius = coverage·sqrt(A/π) (a quad: side coverage·sqrt(A)). Use the value
         given to the operator (default 1.3, as ``TransportOperator``).
-    shape : "disc" | "quad"
-        Oriented discs (default, as the operator) or equal-area squares (faster rays).
+    shape : "disc" | "quad" | "octagon"
+        Oriented discs (default, as the operator), or equal-area squares or regular octagons
+        (faster rays; the octagon is within 0.974-1.054 × the disc's radius).
     threads : int
         Worker threads for the build and the queries, 0 = all hardware threads.
     progress : callable(fraction, phase) -> bool | None, optional
