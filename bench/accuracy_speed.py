@@ -532,8 +532,7 @@ def main(argv=None):
                                             sweep=not args.auto_only,
                                             hand=old_points.get(name) if args.auto_only
                                             else None)
-        with open(partial, "w") as f:   # what is done so far, should a later scene fail
-            json.dump(results, f, indent=1, default=float)
+        S.write_json(partial, results, quiet=True)   # what is done, should a later scene fail
     if args.auto_only and os.path.exists(args.out):
         with open(args.out) as f:
             old = json.load(f)
@@ -586,9 +585,7 @@ def write_results(results, out, t0, merge=False):
     results["wall_time"] = wall = time.perf_counter() - t0
     if merge:
         results = merge_scenes(results, out)
-    os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
-    with open(out, "w") as f:
-        json.dump(results, f, indent=1, default=float)
+    S.write_json(out, results, quiet=True)
     if os.path.exists(out + ".partial"):
         os.remove(out + ".partial")
     print(f"wrote {out} ({wall:.0f}s)")

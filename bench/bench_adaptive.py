@@ -18,7 +18,6 @@ always taken), so both runs get the same solver tolerance.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -106,12 +105,8 @@ def main(argv=None):
                   f"({out['uniform']['time']:.2f}s)  adaptive {out['adaptive']['error']:.4f} "
                   f"({out['adaptive']['time']:.2f}s)  ratio {ratio:.2f}  pass-2 time ratio "
                   f"{time_ratio:.2f}  {shown}", flush=True)
-    with open(args.out, "w") as f:
-        json.dump(dict(reference=ref_info, core=S.provenance(), target=TARGET,
-                       error_points=ERROR_POINTS, rows=rows,
-                       date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())), f, indent=1,
-                  default=float)
-    print(f"wrote {args.out}")
+    S.write_json(args.out, dict(reference=ref_info, core=S.provenance(), target=TARGET,
+                                error_points=ERROR_POINTS, rows=rows, date=S.utc_now()))
 
 
 if __name__ == "__main__":

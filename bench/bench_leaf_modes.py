@@ -14,7 +14,6 @@ for sizes the direct operator cannot reach.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -80,9 +79,7 @@ def main(argv=None) -> int:
             print(f"{name} N={r['n']} {label:18s} error {error} "
                   f"build+apply {r['seconds']:.2f}s{extra}", flush=True)
     if a.out:
-        with open(a.out, "w") as f:
-            json.dump(dict(rows=rows, core=S.provenance(),
-                           date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())), f, indent=1)
+        S.write_json(a.out, dict(rows=rows, core=S.provenance(), date=S.utc_now()))
     return 0
 
 

@@ -18,7 +18,6 @@ import argparse
 import json
 import os
 import sys
-import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import accuracy_speed as AS  # noqa: E402
@@ -78,11 +77,8 @@ def main(argv=None):
                   flush=True)
     out = dict(reference=ref_info, core=S.provenance(), rows=rows, cells=list(args.cells),
                all_settings=args.all_settings,
-               date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()))
-    os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
-    with open(args.out, "w") as f:
-        json.dump(out, f, indent=1, default=float)
-    print(f"wrote {args.out}")
+               date=S.utc_now())
+    S.write_json(args.out, out)
 
 
 if __name__ == "__main__":

@@ -19,7 +19,6 @@ fitting each leaf size's own error curve did.
 """
 from __future__ import annotations
 
-import json
 import os
 import sys
 import time
@@ -110,8 +109,7 @@ def main(argv=None):
     for name in args.scenes:
         results["scenes"][name] = run_scene(name, cfg, visibilities, args.samplings,
                                             lambda s: print(s, flush=True))
-        with open(partial, "w") as f:
-            json.dump(results, f, indent=1, default=float)
+        S.write_json(partial, results, quiet=True)
     A.write_results(results, args.out, t0, merge=args.merge)
 
 

@@ -17,7 +17,6 @@ import argparse
 import json
 import os
 import sys
-import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import accuracy_speed as AS  # noqa: E402
@@ -59,12 +58,8 @@ def main(argv=None):
                 print(f"  {name} {p['target']:g} sampling {seed} N={q.n}: " + "  ".join(
                     f"{k} {100 * v['error']:.2f}% {1e3 * v['time']:.1f} ms"
                     for k, v in row["shapes"].items()), flush=True)
-    out = dict(results=args.results, core=S.provenance(), rows=rows,
-               date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()))
-    os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
-    with open(args.out, "w") as f:
-        json.dump(out, f, indent=1, default=float)
-    print(f"wrote {args.out}")
+    S.write_json(args.out, dict(results=args.results, core=S.provenance(), rows=rows,
+                                date=S.utc_now()))
 
 
 if __name__ == "__main__":

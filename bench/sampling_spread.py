@@ -18,7 +18,6 @@ into each kind's ``sampling`` factor. The grid scene has one sampling and is not
 """
 from __future__ import annotations
 
-import json
 import os
 import sys
 import time
@@ -90,8 +89,7 @@ def main(argv=None):
     for name in args.scenes:
         results["scenes"][name] = run_scene(name, cfg, sizes[name], seeds, visibilities,
                                             lambda s: print(s, flush=True))
-        with open(args.out + ".partial", "w") as f:
-            json.dump(results, f, indent=1, default=float)
+        S.write_json(args.out + ".partial", results, quiet=True)
     A.write_results(results, args.out, t0, merge=args.merge)
 
 

@@ -468,6 +468,23 @@ def provenance() -> dict:
                 core_module_built=built)
 
 
+def utc_now() -> str:
+    """The current time as the results files record it ("YYYY-MM-DD HH:MM UTC")."""
+    import time as _time
+    return _time.strftime("%Y-%m-%d %H:%M UTC", _time.gmtime())
+
+
+def write_json(path: str, doc: dict, quiet: bool = False) -> None:
+    """Write a results document to ``path`` (its folder made if needed; numpy scalars as
+    floats) and, unless ``quiet``, say so."""
+    import json
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    with open(path, "w") as f:
+        json.dump(doc, f, indent=1, default=float)
+    if not quiet:
+        print(f"wrote {path}")
+
+
 def source_hash(name) -> str:
     """A hash of the code that builds scene ``name`` and its reference (cache key)."""
     import hashlib

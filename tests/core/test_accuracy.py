@@ -687,6 +687,19 @@ def test_grid_steps_add_measured_cell_counts_that_the_step_model_can_choose(monk
     assert accuracy.choose_settings(summary, 0.06, kind="grid")["n"] == 2000
 
 
+def test_benchmark_results_are_written_with_their_folder_and_numpy_values(tmp_path, capsys):
+    """bench/scenes.py write_json, which every benchmark's results go through: the folder is
+    made, numpy scalars come back as numbers, and the file is named unless quiet."""
+    import json
+    path = tmp_path / "new" / "results.json"
+    S.write_json(str(path), dict(error=np.float32(0.25), n=np.int64(3), rows=[np.float64(1.5)]))
+    assert json.loads(path.read_text()) == dict(error=0.25, n=3.0, rows=[1.5])
+    assert f"wrote {path}" in capsys.readouterr().out
+    S.write_json(str(path), dict(a=1), quiet=True)
+    assert capsys.readouterr().out == "" and json.loads(path.read_text()) == dict(a=1)
+    assert S.utc_now().endswith(" UTC") and len(S.utc_now()) == len("2026-12-03 06:00 UTC")
+
+
 def test_merged_benchmark_results_replace_only_the_scenes_run(tmp_path):
     """bench/accuracy_speed.py --merge (and leaf_size.py, sampling_spread.py): a run over one
     scene replaces that scene in the results file, keeps the others, records which run each
