@@ -83,6 +83,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-lamps", action="store_true")
     p.add_argument("--no-lamp-shadows", action="store_true")
     p.add_argument("--shadow-samples", type=int, default=16)
+    p.add_argument("--occluder-shape", choices=list(pipeline.OCCLUDER_SHAPES), type=str.lower,
+                   help="the surfels as occluders for exact visibility and lamp shadows "
+                        "(default disc; ignored with --target-error, calibrated on discs)")
     p.add_argument("--world", action="store_true")
     p.add_argument("--frames", help="e.g. 1-3 or 1,5,7-9")
     p.add_argument("--output", help="output .blend (#### = frame)")
@@ -169,7 +172,8 @@ def select_objects(scene, view_layer, names: str | None, collection: str | None)
 def make_settings(args) -> pipeline.Settings:
     """Settings from the preset and the overriding options."""
     overrides = dict(density=args.density, budget=args.budget, method=args.method, tol=args.tol,
-                     seed=args.seed, target_error=args.target_error)
+                     seed=args.seed, target_error=args.target_error,
+                     occluder_shape=args.occluder_shape)
     settings = pipeline.settings_from_preset(args.quality, **overrides)
     if args.density is not None and args.density <= 0:
         raise UsageError("--density must be positive")
@@ -263,7 +267,8 @@ def _report(frame: int, result: pipeline.Result, out) -> None:
               f"{adaptive['max_multiplier']:.2f} at most, over {adaptive['regions']} regions",
               file=out)
     if result.stats.get("shadow_rays"):
-        print(f"  shadow rays      {result.stats['shadow_rays']}", file=out)
+        print(f"  shadow rays      {result.stats['shadow_rays']} "
+              f"({result.stats.get('occluder_shape', 'disc')}s)", file=out)
     accuracy = result.stats.get("accuracy")
     if accuracy:
         chosen = accuracy["settings"]

@@ -64,6 +64,10 @@ def draw_advanced(layout, context):
     sub.prop(props, "theta")
     sub.prop(props, "leaf_size")
     col.prop(props, "visibility")
+    sub = col.column()
+    sub.active = (not props.use_target_error
+                  and (props.visibility == "EXACT" or (props.lamps and props.lamp_shadows)))
+    sub.prop(props, "occluder_shape")
     col.prop(props, "tol")
     col.prop(props, "max_iterations")
     col.prop(props, "solver")
@@ -118,7 +122,8 @@ def draw_stats(layout, context):
         col.label(text=f"Adaptive pass 1: {stats.first_pass_surfels:,} surfels, "
                        f"{stats.first_pass_iterations} iterations")
     if stats.shadow_rays > 0:
-        col.label(text=f"Shadow rays: {stats.shadow_rays:,}")
+        col.label(text=f"Shadow rays: {stats.shadow_rays:,}"
+                       + (f" ({stats.occluder_shape}s)" if stats.occluder_shape else ""))
     col.label(text=f"Total: {stats.total_seconds:.3f} s")
     if len(stats.phases):
         col = layout.column(align=True)

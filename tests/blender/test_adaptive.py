@@ -154,7 +154,7 @@ def test_adaptive_pass_is_denser_at_a_shadow_edge(monkeypatch):
     from illumap_bpy_testing import disc_segment_query
     if not hasattr(illumap, "Occluders"):
         monkeypatch.setattr(pipeline, "make_segment_query",
-                            lambda p, n, a, progress=None:
+                            lambda p, n, a, progress=None, shape="disc":
                             disc_segment_query(p, n, a, pipeline.SURFEL_COVERAGE))
     mat = diffuse_material("D", (0.5,) * 3)
     floor = make_plane("Floor", size=4.0, material=mat)

@@ -7,6 +7,7 @@ import subprocess
 
 import bpy
 import numpy as np
+import pytest
 
 from illumap_bpy_testing import (diffuse_material, emission_material, make_plane,
                                  requires_core, top_camera)
@@ -185,3 +186,22 @@ def test_lamp_shadow_options():
     settings = batch.make_settings(batch.build_parser().parse_args([]))
     assert settings.lamp_shadows is True and settings.shadow_samples == 16 and settings.adaptive
     assert batch.main(["--shadow-samples", "0"]) == 2
+
+
+def test_occluder_shape_option(capsys):
+    """--occluder-shape reaches the settings (default disc), an unknown shape is a usage error,
+    and a run with lamp shadows names the shape it cast them against."""
+    parse = batch.build_parser().parse_args
+    assert batch.make_settings(parse([])).occluder_shape == "disc"
+    assert batch.make_settings(parse(["--occluder-shape", "Octagon"])).occluder_shape == "octagon"
+    with pytest.raises(batch.UsageError, match="hexagon"):
+        parse(["--occluder-shape", "hexagon"])
+    assert batch.main(["--occluder-shape", "hexagon"]) == 2
+    capsys.readouterr()
+    make_plane("Floor", size=2.0)
+    make_plane("Plate", size=0.5, location=(0, 0, 0.5))
+    bpy.ops.object.light_add(type="POINT", location=(0, 0, 2))
+    bpy.context.object.data.energy = 100.0
+    assert batch.main(["--quality", "draft", "--occluder-shape", "octagon"]) == 0
+    out = capsys.readouterr().out
+    assert "shadow rays" in out and "(octagons)" in out, out

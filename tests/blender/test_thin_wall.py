@@ -23,6 +23,7 @@ import sys
 
 import bpy
 import numpy as np
+import pytest
 
 if __name__ == "__main__":  # run as a script: the helpers come from conftest.py
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -138,6 +139,35 @@ def test_thin_wall_leaks_below_the_bound_on_the_addon_path():
           f"{pipeline.SURFEL_COVERAGE}, {default:.5f} at 1.3")
     assert result.converged
     assert -1e-4 <= leak <= LEAK_BOUND < default  # the FMM may land a hair below 0
+
+
+def test_octagon_occluders_keep_the_wall_closed_on_the_addon_path():
+    """Occluder shape "octagon" on the same wall: it reaches the operator (the core's stats
+    name it), the statistics name it, and the dark room still stays below LEAK_BOUND (the
+    octagon's edges lie at 0.974 of the disc radius, its corners at 1.054). An unknown shape
+    is refused before any work, naming the shapes there are."""
+    from addon import pipeline
+    job = _prepare(two_rooms(two_sided=False), 400.0)
+    job.settings.occluder_shape = "octagon"
+    result = pipeline.run(job)
+    leak = leak_fraction(job, result.radiosity)
+    print(f"\none-sided thin wall, octagons, {job.count} surfels: leak {leak:.5f}")
+    assert result.converged and -1e-4 <= leak <= LEAK_BOUND
+    assert result.stats["visibility_shape"] == result.stats["occluder_shape"] == "octagon"
+    job.settings.occluder_shape = "hexagon"
+    with pytest.raises(pipeline.IllumapError, match="hexagon.*disc, octagon, quad") as error:
+        pipeline.run(job)
+    assert error.value.exit_code == 2
+
+
+def test_a_target_error_keeps_disc_occluders():
+    """With a target error the occluders stay discs, what the error models are calibrated on,
+    whatever shape the settings ask for."""
+    from addon import pipeline
+    settings = pipeline.Settings(occluder_shape="quad", target_error=0.2)
+    assert pipeline.occluder_shape(settings) == "disc"
+    settings.target_error = None
+    assert pipeline.occluder_shape(settings) == "quad"
 
 
 def measure(coverages=(1.3, 1.5, 1.7, 2.0), densities=(400.0, 1600.0), seeds=(0, 1)):

@@ -249,6 +249,20 @@ def test_settings_reach_the_pipeline_settings(registered_addon):
     assert settings.budget == 1234
 
 
+def test_occluder_shape_reaches_the_pipeline_settings(registered_addon):
+    """Occluder Shape: discs by default, the core's spelling in the pipeline's settings; like
+    the solver it is no preset's value, so changing it keeps the preset."""
+    from addon import pipeline, properties
+    props = bpy.context.scene.illumap
+    props.preset = "HIGH"
+    assert properties.make_settings(props, pipeline.Settings).occluder_shape == "disc"
+    props.occluder_shape = "OCTAGON"
+    assert properties.make_settings(props, pipeline.Settings).occluder_shape == "octagon"
+    assert props.preset == "HIGH"
+    assert {item[0].lower() for item in properties.OCCLUDER_SHAPE_ITEMS} \
+        == set(pipeline.OCCLUDER_SHAPES)
+
+
 def test_reset_settings_operator(registered_addon):
     props = bpy.context.scene.illumap
     props.preset = "HIGH"
@@ -619,8 +633,8 @@ def test_real_pipeline_modal_cancel_during_lamp_shadows(registered_addon, monkey
     real = pipeline.make_segment_query
     calls = {"started": 0, "finished": 0}
 
-    def counting(positions, normals, areas, progress=None):
-        query = real(positions, normals, areas, progress)
+    def counting(positions, normals, areas, progress=None, shape="disc"):
+        query = real(positions, normals, areas, progress, shape=shape)
 
         def visible(origins, targets, skip, progress=None):
             calls["started"] += 1
@@ -734,7 +748,7 @@ def test_panel_draws_settings_and_stats(fake_pipeline, two_planes):
     layout = LayoutRecorder()
     panel.draw_advanced(layout, bpy.context)
     props = set(layout.texts("prop"))
-    assert {"density", "order", "visibility", "tol", "solver"} <= props
+    assert {"density", "order", "visibility", "occluder_shape", "tol", "solver"} <= props
     layout = LayoutRecorder()
     panel.draw_stats(layout, bpy.context)
     assert layout.texts("label") == ["No result yet"]
