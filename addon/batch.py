@@ -266,9 +266,12 @@ def _report(frame: int, result: pipeline.Result, out) -> None:
               f"multiplier {adaptive['mean_multiplier']:.2f} on average, "
               f"{adaptive['max_multiplier']:.2f} at most, over {adaptive['regions']} regions",
               file=out)
+    shape = result.stats.get("occluder_shape", "disc")
+    if result.stats.get("visibility") == "exact":
+        print(f"  visibility       exact, {result.stats.get('visibility_shape', shape)}s",
+              file=out)
     if result.stats.get("shadow_rays"):
-        print(f"  shadow rays      {result.stats['shadow_rays']} "
-              f"({result.stats.get('occluder_shape', 'disc')}s)", file=out)
+        print(f"  shadow rays      {result.stats['shadow_rays']} ({shape}s)", file=out)
     accuracy = result.stats.get("accuracy")
     if accuracy:
         chosen = accuracy["settings"]
