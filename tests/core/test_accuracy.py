@@ -700,6 +700,32 @@ def test_benchmark_results_are_written_with_their_folder_and_numpy_values(tmp_pa
     assert S.utc_now().endswith(" UTC") and len(S.utc_now()) == len("2026-12-03 06:00 UTC")
 
 
+def test_retime_replaces_only_the_sweep_times(monkeypatch):
+    """bench/retime.py: each swept point is solved again on the sweep's surfels and gets the
+    new time (its old one kept as time_before); errors, automatic-mode points and other
+    scenes are left alone, and surfels that no longer match the sweep's count are refused."""
+    import accuracy_speed   # bench/accuracy_speed.py
+    import retime           # bench/retime.py
+    n = S.build("cornell", 500).n
+    kw = dict(method="fmm", order=2, theta=0.5, visibility="none")
+    calls = []
+    monkeypatch.setattr(accuracy_speed, "timed_solve",
+                        lambda q, k: (calls.append((q.n, dict(k))), (None, 0.125))[1])
+    sweep = dict(family="fmm/none", label="FMM p=2 vis=none", n=n, size=500, time=9.0,
+                 error=0.3, settings=kw)
+    auto = dict(family="auto", label="auto 0.1", n=n, size=500, time=7.0, error=0.05,
+                settings=kw)
+    results = dict(scenes=dict(cornell=dict(points=[sweep, auto]),
+                               bunny=dict(points=[dict(sweep, n=1)])))
+    assert retime.retime(results, ["cornell"], log=lambda _: None) == 1
+    assert sweep["time"] == 0.125 and sweep["time_before"] == 9.0 and sweep["error"] == 0.3
+    assert auto["time"] == 7.0 and results["scenes"]["bunny"]["points"][0]["time"] == 9.0
+    assert calls and all(c == (n, kw) for c in calls)
+    sweep["n"] = n + 1
+    with pytest.raises(RuntimeError, match="scene code changed"):
+        retime.retime(results, ["cornell"], log=lambda _: None)
+
+
 def test_merged_benchmark_results_replace_only_the_scenes_run(tmp_path):
     """bench/accuracy_speed.py --merge (and leaf_size.py, sampling_spread.py): a run over one
     scene replaces that scene in the results file, keeps the others, records which run each
