@@ -487,6 +487,9 @@ def main(argv=None):
                + ("; not available: " + ", ".join(acc["unavailable"]) if acc["unavailable"]
                   else "") + f"; exact visibility with `{acc.get('exact_keywords')}`."
                + runs_line(acc)
+               + (f" Sweep times re-timed {acc['retimed']['date']} by bench/retime.py "
+                  f"({acc['retimed']['points']} points, {core_line(acc['retimed'].get('core'))};"
+                  f" errors from the sweep)." if acc.get("retimed") else "")
                + (f" Automatic mode re-run {acc['auto_date']}, {core_line(acc.get('auto_core'))}."
                   if acc.get("auto_date") else "") + auto_runs_line(acc), ""]
         for scene, data in acc["scenes"].items():
