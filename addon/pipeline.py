@@ -242,8 +242,9 @@ ADAPTIVE_NEIGHBOURS = 8
 #: per cent less light in enclosed scenes, shrinking with density.
 SURFEL_COVERAGE = 1.7
 #: Occluder shapes a run may ask for (``Settings.occluder_shape``), each of the disc's area:
-#: discs (what the automatic mode is calibrated on), regular octagons (nearly the disc, rays
-#: ~1.3–1.8× as fast on scans) and squares (fastest, corners reach 1.25× the disc radius).
+#: discs (what the automatic mode is calibrated on), regular octagons (nearly the disc; solves
+#: with exact visibility on the bunny scan took 0.55–0.74× the discs' time) and squares (about
+#: as fast; corners reach 1.25× the disc radius).
 OCCLUDER_SHAPES = ("disc", "octagon", "quad")
 
 
