@@ -150,6 +150,16 @@ def other_samplings(leaf_results, scene, label, sweep_seed=0):
             and r["error_against"] == "reference" and base in r["leaves"]]
 
 
+def _retimed(results) -> dict:
+    """Where bench/retime.py re-timed a results file: its last run's date and core commit."""
+    runs = results.get("retimed")
+    if not runs:
+        return {}
+    last = runs[-1] if isinstance(runs, list) else runs
+    return dict(retimed=last.get("date"),
+                retimed_core_commit=(last.get("core") or {}).get("core_src_commit"))
+
+
 def add_leaf_variants(calibration, leaf_results, floors):
     """Attach bench/leaf_size.py's variants to the calibrated settings of each scene kind."""
     base = int(leaf_results.get("base_leaf", 32))
@@ -162,7 +172,8 @@ def add_leaf_variants(calibration, leaf_results, floors):
             if rows:
                 entry["leaf_variants"] = fit_leaf_variants(rows, floors[scene], base)
     calibration["leaf_source"] = dict(date=leaf_results.get("date"),
-                                      core_commit=leaf_results.get("core", {}).get("commit"))
+                                      core_commit=leaf_results.get("core", {}).get("commit"),
+                                      **_retimed(leaf_results))
     return calibration
 
 
@@ -290,6 +301,7 @@ def calibrate(results, leaf_results=None, sampling_results=None, grid_results=No
     held = np.array(time_holdout(results))
     calibration = dict(source="bench/results/accuracy_speed.json", date=results.get("date"),
                        mode=results.get("mode"), core_commit=core.get("commit"),
+                       **_retimed(results),
                        solve_tol=results.get("solve_tol"), kinds=kinds)
     if held.size:
         calibration["time_holdout"] = dict(settings=int(held.size), mean=_sig(held.mean(), 3),

@@ -726,6 +726,50 @@ def test_retime_replaces_only_the_sweep_times(monkeypatch):
         retime.retime(results, ["cornell"], log=lambda _: None)
 
 
+def test_retime_leaves_keeps_errors_and_pairs_the_leaf_sizes(monkeypatch, tmp_path):
+    """bench/retime.py on bench/leaf_size.py's rows: each row's leaf sizes are solved again on
+    that row's sampling, one right after the other, with the row's settings and each leaf size;
+    errors stay, the first recorded times stay as time_before, each run is appended to the
+    file's ``retimed`` list, and bench/calibrate.py records the last one."""
+    import json
+    import accuracy_speed   # bench/accuracy_speed.py
+    import calibrate        # bench/calibrate.py
+    import retime           # bench/retime.py
+    n2 = S.build("cornell", 500, seed=2).n
+    kw = dict(method="fmm", order=2, theta=0.5, visibility="exact")
+    calls = []
+
+    def fake(q, k):
+        calls.append((q.n, k["leaf_size"]))
+        return None, 0.001 * k["leaf_size"]
+    monkeypatch.setattr(accuracy_speed, "timed_solve", fake)
+    row = dict(label="FMM p=2 vis=exact", n=n2, size=500, seed=2, settings=kw,
+               leaves={"16": dict(time=1.0, error=0.2), "32": dict(time=2.0, error=0.1),
+                       "64": dict(time=3.0, error=0.3)})
+    path = tmp_path / "leaf_size.json"
+    path.write_text(json.dumps(dict(date="d0", core=dict(commit="c0"),
+                                    scenes=dict(cornell=dict(rows=[row])))))
+    for _ in range(2):
+        retime._retime_file(str(path), retime.retime_leaves, ["cornell"])
+    out = json.loads(path.read_text())
+    leaves = out["scenes"]["cornell"]["rows"][0]["leaves"]
+    assert {k: (v["time"], v["time_before"], v["error"]) for k, v in leaves.items()} == {
+        "16": (0.016, 1.0, 0.2), "32": (0.032, 2.0, 0.1), "64": (0.064, 3.0, 0.3)}
+    # best of three per leaf size, leaf after leaf, on the row's own sampling
+    assert calls == [(n2, 16)] * 3 + [(n2, 32)] * 3 + [(n2, 64)] * 3 + \
+        [(n2, 16)] * 3 + [(n2, 32)] * 3 + [(n2, 64)] * 3
+    assert [r["points"] for r in out["retimed"]] == [1, 1]
+    last = out["retimed"][-1]
+    assert calibrate._retimed(out) == dict(retimed=last["date"],
+                                           retimed_core_commit=last["core"]["core_src_commit"])
+    assert calibrate._retimed(dict(retimed=dict(date="x", core=None))) == dict(
+        retimed="x", retimed_core_commit=None)
+    assert calibrate._retimed({}) == {}
+    out["scenes"]["cornell"]["rows"][0]["n"] = n2 + 1
+    with pytest.raises(RuntimeError, match="scene code changed"):
+        retime.retime_leaves(out, ["cornell"], log=lambda _: None)
+
+
 def test_merged_benchmark_results_replace_only_the_scenes_run(tmp_path):
     """bench/accuracy_speed.py --merge (and leaf_size.py, sampling_spread.py): a run over one
     scene replaces that scene in the results file, keeps the others, records which run each
