@@ -187,9 +187,10 @@ public:
             // Stops at the first disagreement (then PARTIAL is certain): a PARTIAL pair costs a
             // few queries, VALID / INVALID cost `samples`. Binary leaf pairs need the full count.
             const bool binary_leaves = A.leaf() && B.leaf() && opt_.leaf_mode == LeafMode::Binary;
+            DrawMemo draw(*this);
             sample_pairs(lo, hi, opt_.samples, [&](std::uint32_t i, std::uint32_t j) {
                 n++;
-                if (pair(i, j) >= 0.5f) vis++;
+                if (draw(i, j) >= 0.5f) vis++;
                 return binary_leaves || vis == n || vis == 0;
             });
         }
@@ -229,8 +230,9 @@ public:
             pairs_batch(I, J, n, v);
             for (int k = 0; k < n; ++k) { sum += v[k]; vis += v[k] >= 0.5f; }
         } else {
+            DrawMemo draw(*this);
             sample_pairs(lo, hi, opt_.samples, [&](std::uint32_t i, std::uint32_t j) {
-                const float v = pair(i, j);
+                const float v = draw(i, j);
                 n++;
                 sum += v;
                 vis += v >= 0.5f;
@@ -254,9 +256,10 @@ public:
         const std::int32_t lo = a < b ? a : b, hi = a < b ? b : a;
         double sum = 0;
         int n = 0;
+        DrawMemo draw(*this);
         sample_pairs(lo, hi, opt_.samples, [&](std::uint32_t i, std::uint32_t j) {
             n++;
-            sum += pair(i, j);
+            sum += draw(i, j);
             return true;
         });
         return n ? float(sum / n) : 1.0f;
@@ -316,6 +319,26 @@ public:
     }
 
 protected:
+    // Draws are with replacement, so on two small nodes a quarter of them can repeat: a pair
+    // drawn again reuses its first answer (V is deterministic) and still counts as a sample.
+    class DrawMemo {
+    public:
+        explicit DrawMemo(const VisibilityModel& m) : m_(m) {}
+        float operator()(std::uint32_t i, std::uint32_t j) {
+            for (int k = 0; k < n_; ++k)
+                if (i_[k] == i && j_[k] == j) return v_[k];
+            const float v = m_.pair(i, j);
+            if (n_ < kMax) { i_[n_] = i; j_[n_] = j; v_[n_++] = v; }
+            return v;
+        }
+    private:
+        static constexpr int kMax = 64;
+        const VisibilityModel& m_;
+        std::uint32_t i_[kMax], j_[kMax];
+        float v_[kMax];
+        int n_ = 0;
+    };
+
     // Calls fn(i, j) (i in node lo, j in node hi, i != j, facing) for up to m sampled facing
     // pairs, until fn returns false. Exhaustive (no sampling error) when |lo|*|hi| <= m.
     // Deterministic per (lo, hi).

@@ -393,6 +393,26 @@ def test_stats_report_classes_per_level():
     assert d["visibility_blocked_pairs"] > 0
 
 
+@pytest.mark.parametrize("mode", ["binary", "per_pair", "per_pair_all"])
+def test_a_pair_drawn_twice_is_queried_once(mode):
+    """Two leaves of 5 facing surfels: 16 draws with replacement from 25 pairs repeat, and a
+    repeated pair reuses its first answer (queries < draws) without changing the class."""
+    x = np.linspace(0.0, 0.4, 5)
+    z = np.zeros(5)
+    P = np.r_[np.c_[x, z, z], np.c_[x, z, z + 10.0]]
+    N = np.r_[np.tile([0.0, 0.0, 1.0], (5, 1)), np.tile([0.0, 0.0, -1.0], (5, 1))]
+    s = illumap.Surfels(P, N, np.full(10, 0.01), np.full((10, 3), 0.5), np.zeros((10, 3)))
+    op = illumap.TransportOperator(s, method="fmm", visibility="exact", leaf_size=5,
+                                   visibility_leaf_mode=mode, visibility_samples=16)
+    st = op.stats
+    assert st["m2l_pairs"] == 2                      # the two leaves, each way, one class
+    assert sum(st["visibility_valid_per_level"]) == 1
+    assert 0 < st["visibility_queries"] < 16
+    direct = illumap.TransportOperator(s, method="direct", visibility="exact")
+    np.testing.assert_allclose(op.apply(np.ones((10, 3))), direct.apply(np.ones((10, 3))),
+                               rtol=0.05)
+
+
 def test_scale_free_defaults():
     """Same answer in millimetres and in kilometres (lengths are in units of local spacing)."""
     s, lab = cornell(6)
