@@ -155,9 +155,10 @@ def timed_solve(surfels, kw):
 
 #: Paired timing: rounds to spend about this many seconds on (at least PAIRED_ROUNDS[0], at
 #: most PAIRED_ROUNDS[1]). Runs of 40-90 ms on this shared machine moved the same pair's
-#: ratio from 1.63 to 2.02 between three sets of 5 rounds.
-PAIRED_SECONDS = 3.0
-PAIRED_ROUNDS = (3, 15)
+#: ratio from 1.63 to 2.02 between three sets of 5 rounds; at 2-3 s per run, three sets of
+#: 3 rounds of one pair (the bunny at 3%, 2026-12-02 18:54) gave 1.34, 1.39 and 1.54.
+PAIRED_SECONDS = 6.0
+PAIRED_ROUNDS = (5, 15)
 
 
 def paired_times(fa, fb):

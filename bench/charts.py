@@ -554,7 +554,7 @@ def main(argv=None):
                            "measured on as many points (the sweep's error, then the worst of "
                            "those, shown): the same test the automatic mode is held to. Each "
                            "is re-timed in the same process in rounds alternating with the "
-                           "automatic mode (the least of as many rounds as fit in about 3 s, 3 to 15; "
+                           "automatic mode (the least of as many rounds as fit in about 6 s, 5 to 15; "
                            "the automatic mode's time from those rounds in brackets), and "
                            "the ratio is of those two times. *Within its aim*: the same "
                            "test at the error the automatic mode aims for "
