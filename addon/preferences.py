@@ -11,7 +11,7 @@ callers fall back to the built-in defaults.
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty
 
-from . import properties
+from . import preview, properties
 
 
 def _addon_package(package=None):
@@ -43,7 +43,8 @@ class IllumapPreferences(bpy.types.AddonPreferences):
                                        description="Shadow lamp light in new scenes")
     default_world_ambient: BoolProperty(name="World Ambient", default=False)
     default_build_preview: BoolProperty(name="Build Preview After Compute", default=True)
-    default_disc_scale: FloatProperty(name="Disc Scale", default=1.5, min=0.0, soft_max=4.0)
+    default_disc_scale: FloatProperty(name="Disc Scale", default=preview.DEFAULT_DISC_SCALE,
+                                       min=0.0, soft_max=4.0)
 
     def draw(self, context):
         from . import core_error  # set by the package before this module is imported

@@ -13,6 +13,8 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
                        IntProperty, PointerProperty, StringProperty)
 
+from .preview import DEFAULT_DISC_SCALE
+
 # The one table of quality presets is the pipeline's ``PRESETS`` (the batch script uses it too):
 # preset name -> Settings values (density in surfels/m², FMM order, opening angle, visibility,
 # tolerance). Visibility "exact" is meant for High once the core offers it; until then every
@@ -258,7 +260,7 @@ class IllumapSettings(bpy.types.PropertyGroup):
                               description="Disc radius relative to the surfel's own radius "
                                           "(1: each disc has exactly its surfel's area; larger "
                                           "values close the gaps between discs)",
-                              default=1.5, min=0.0, soft_max=4.0, update=_touch)
+                              default=DEFAULT_DISC_SCALE, min=0.0, soft_max=4.0, update=_touch)
 
     stats: PointerProperty(type=IllumapStats)
 
