@@ -447,13 +447,16 @@ void RaycastVisibility::pairs_batch(const std::uint32_t* I, const std::uint32_t*
     count_queries(cast);
 }
 
-void RaycastVisibility::block(std::int32_t a, std::int32_t b, float* out) const {
+void RaycastVisibility::block(std::int32_t a, std::int32_t b, float* out,
+                              const DrawMemo* drawn) const {
     const OctreeNode &A = tree_.nodes[a], &B = tree_.nodes[b];
     const std::uint32_t nb = B.count();
+    const bool any_known = fill_drawn(a, b, drawn, out);
     RayBatch batch(static_cast<RTCScene>(scene_->rtc_scene()), out);
     for (std::uint32_t i = A.begin; i < A.end; ++i)
         for (std::uint32_t j = B.begin; j < B.end; ++j) {
             const std::size_t o = std::size_t(i - A.begin) * nb + (j - B.begin);
+            if (any_known && out[o] != kUnknown) continue;
             out[o] = 1.0f;
             if (i == j || !vis_facing(tree_.s, i, j)) continue;
             const std::uint32_t lo = i < j ? i : j, hi = i < j ? j : i;

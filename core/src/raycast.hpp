@@ -104,7 +104,8 @@ public:
 
     const char* name() const override { return "exact"; }
     float pair(std::uint32_t i, std::uint32_t j) const override;
-    void block(std::int32_t a, std::int32_t b, float* out) const override;
+    void block(std::int32_t a, std::int32_t b, float* out,
+               const DrawMemo* drawn = nullptr) const override;
     // Packets of 8 coherent rays (rtcOccluded8): the samples of one node pair.
     void pairs_batch(const std::uint32_t* I, const std::uint32_t* J, int n,
                      float* out) const override;

@@ -171,14 +171,14 @@ bool SeedVisibility::leaf_leaf(std::int32_t L, std::int32_t C) const {
     return considered == 0 || vis > opt_.t3 * considered;
 }
 
-VisClass SeedVisibility::classify(std::int32_t a, std::int32_t b) const {
+VisClass SeedVisibility::classify(std::int32_t a, std::int32_t b, DrawMemo* draws) const {
     const OctreeNode &A = tree_.nodes[a], &B = tree_.nodes[b];
     if (A.leaf() && B.leaf() && opt_.leaf_mode == LeafMode::Binary) {
         const VisClass c = leaf_leaf(a, b) ? VisClass::Valid : VisClass::Invalid;
         record(std::max(A.level, B.level), c);
         return c;
     }
-    return VisibilityModel::classify(a, b);
+    return VisibilityModel::classify(a, b, draws);
 }
 
 std::unique_ptr<VisibilityModel> make_seed_visibility(Context& ctx, const Octree& tree,

@@ -45,7 +45,7 @@ public:
 
     const char* name() const override { return "seed"; }
     float pair(std::uint32_t i, std::uint32_t j) const override;
-    VisClass classify(std::int32_t a, std::int32_t b) const override;
+    VisClass classify(std::int32_t a, std::int32_t b, DrawMemo* draws = nullptr) const override;
 
     // The product of transmissions of the <= k closest occluders of segment (i, j), canonical
     // order; `early` stops at the first product <= t1 (then the value is an upper bound).

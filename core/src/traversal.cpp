@@ -187,11 +187,13 @@ struct Walker {
     }
     // Per-pair V of two leaves, stored for (a, b) (row-major |a| x |b|) and, when `mirror`,
     // transposed for (b, a) right after it; -1 when every pair is visible (nothing stored).
-    std::int64_t store_block(std::int32_t a, std::int32_t b, bool mirror = false) {
+    // `drawn`: the pairs the classification of (a, b) queried, not queried again.
+    std::int64_t store_block(std::int32_t a, std::int32_t b, bool mirror = false,
+                             const VisibilityModel::DrawMemo* drawn = nullptr) {
         const std::size_t na = tree.nodes[a].count(), nb = tree.nodes[b].count();
         const std::size_t m = na * nb;
         tmp.resize(m);
-        opt.model->block(a, b, tmp.data());
+        opt.model->block(a, b, tmp.data(), drawn);
         bool all = true;
         for (float v : tmp) all = all && v == 1.0f;
         if (all) return -1;
@@ -249,8 +251,9 @@ struct Walker {
                 // A fraction is needed only where a PARTIAL leaf pair may keep one.
                 const bool wants_fraction = leaves && m.leaf_mode() != LeafMode::Binary &&
                                             m.leaf_mode() != LeafMode::PerPairAll;
-                const VisClass c = wants_fraction ? m.classify_fraction(pr.t, pr.s, &frac)
-                                                  : m.classify(pr.t, pr.s);
+                VisibilityModel::DrawMemo draws(m);   // for a block of this pair
+                const VisClass c = wants_fraction ? m.classify_fraction(pr.t, pr.s, &frac, &draws)
+                                                  : m.classify(pr.t, pr.s, &draws);
                 (c == VisClass::Valid ? vv : c == VisClass::Invalid ? vi : vp)[lev] += both;
                 if (c == VisClass::Invalid) {
                     k = PairClass::Drop;
@@ -264,7 +267,7 @@ struct Walker {
                             (k == PairClass::Near && m.leaf_mode() == LeafMode::PerPair &&
                              !mac_holds(t, s, opt.theta))) {
                             k = PairClass::Near;
-                            b = store_block(pr.t, pr.s, mutual);
+                            b = store_block(pr.t, pr.s, mutual, &draws);
                         } else {
                             w = frac;
                         }

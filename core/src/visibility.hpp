@@ -17,6 +17,8 @@
 //                     tests_native/test_visibility.cpp measures that error.
 //   fraction(a, b)    sampled fraction of visible facing pairs (the "fractional leaf–leaf" option).
 //   block(a, b, out)  per-pair V for all i in a, j in b (row-major, |a| x |b|): the near field.
+//                     classify / classify_fraction can keep their draws (DrawMemo) for a block
+//                     of the same pair that follows, which then casts none of them again.
 //
 // How the traversal folds it in (the talk's Octree_Visibility; traversal.cpp's Walker::step):
 //   1. k = classify(surf, t, s, opt, Visibility::Valid)   -- the kernel alone, no query.
@@ -168,8 +170,38 @@ public:
     virtual bool batched() const { return false; }
     static constexpr int kMaxBatch = 64;
 
-    // Sampled classification, symmetric, thread-safe; records stats.
-    virtual VisClass classify(std::int32_t a, std::int32_t b) const {
+    // The pairs a sampling pass has queried, with their answers. Draws are with replacement,
+    // so on two small nodes a quarter of them can repeat: a pair drawn again reuses its first
+    // answer (V is deterministic) and still counts as a sample. A caller that passes one to
+    // classify() and then to block() of the same node pair pays no query twice (a PARTIAL
+    // leaf pair's sampled rays are part of its block).
+    class DrawMemo {
+    public:
+        explicit DrawMemo(const VisibilityModel& m) : m_(m) {}
+        float operator()(std::uint32_t i, std::uint32_t j) {
+            for (int k = 0; k < n_; ++k)
+                if (i_[k] == i && j_[k] == j) return v_[k];
+            const float v = m_.pair(i, j);
+            if (n_ < kMax) { i_[n_] = i; j_[n_] = j; v_[n_++] = v; }
+            return v;
+        }
+        void clear() { n_ = 0; }
+        // fn(i, j, V(i, j)) for each kept draw.
+        template <class Fn>
+        void for_each(Fn&& fn) const {
+            for (int k = 0; k < n_; ++k) fn(i_[k], j_[k], v_[k]);
+        }
+    private:
+        static constexpr int kMax = 64;
+        const VisibilityModel& m_;
+        std::uint32_t i_[kMax], j_[kMax];
+        float v_[kMax];
+        int n_ = 0;
+    };
+
+    // Sampled classification, symmetric, thread-safe; records stats. With `draws`, the pairs
+    // it queries (one by one; not in packets) are kept there for block().
+    virtual VisClass classify(std::int32_t a, std::int32_t b, DrawMemo* draws = nullptr) const {
         const std::int32_t lo = a < b ? a : b, hi = a < b ? b : a;
         const OctreeNode &A = tree_.nodes[lo], &B = tree_.nodes[hi];
         int vis = 0, n = 0;
@@ -187,7 +219,8 @@ public:
             // Stops at the first disagreement (then PARTIAL is certain): a PARTIAL pair costs a
             // few queries, VALID / INVALID cost `samples`. Binary leaf pairs need the full count.
             const bool binary_leaves = A.leaf() && B.leaf() && opt_.leaf_mode == LeafMode::Binary;
-            DrawMemo draw(*this);
+            DrawMemo local(*this);
+            DrawMemo& draw = draws ? *draws : local;
             sample_pairs(lo, hi, opt_.samples, [&](std::uint32_t i, std::uint32_t j) {
                 n++;
                 if (draw(i, j) >= 0.5f) vis++;
@@ -209,12 +242,14 @@ public:
 
     // One pass for a pair of LEAVES that cannot be split: the class and the sampled fraction
     // together (`samples` queries, no early exit), so a PARTIAL far leaf pair costs no second
-    // round of queries. In LeafMode::Binary it is classify() (fraction 1 or 0).
-    virtual VisClass classify_fraction(std::int32_t a, std::int32_t b, float* frac) const {
+    // round of queries. In LeafMode::Binary it is classify() (fraction 1 or 0). `draws`: as
+    // in classify().
+    virtual VisClass classify_fraction(std::int32_t a, std::int32_t b, float* frac,
+                                       DrawMemo* draws = nullptr) const {
         const std::int32_t lo = a < b ? a : b, hi = a < b ? b : a;
         const OctreeNode &A = tree_.nodes[lo], &B = tree_.nodes[hi];
         if (opt_.leaf_mode == LeafMode::Binary) {
-            const VisClass c = classify(a, b);
+            const VisClass c = classify(a, b, draws);
             *frac = c == VisClass::Invalid ? 0.0f : 1.0f;
             return c;
         }
@@ -230,7 +265,8 @@ public:
             pairs_batch(I, J, n, v);
             for (int k = 0; k < n; ++k) { sum += v[k]; vis += v[k] >= 0.5f; }
         } else {
-            DrawMemo draw(*this);
+            DrawMemo local(*this);
+            DrawMemo& draw = draws ? *draws : local;
             sample_pairs(lo, hi, opt_.samples, [&](std::uint32_t i, std::uint32_t j) {
                 const float v = draw(i, j);
                 n++;
@@ -266,19 +302,18 @@ public:
     }
 
     // out[(i - a.begin) * |b| + (j - b.begin)] = V(i, j); pairs that do not face get 1 (the
-    // kernel is zero there) without a query. Thread-safe.
-    virtual void block(std::int32_t a, std::int32_t b, float* out) const {
+    // kernel is zero there) without a query; pairs in `drawn` (a classify() of a and b) get
+    // their kept answer without one. Thread-safe.
+    virtual void block(std::int32_t a, std::int32_t b, float* out,
+                       const DrawMemo* drawn = nullptr) const {
         const OctreeNode &A = tree_.nodes[a], &B = tree_.nodes[b];
         const std::uint32_t nb = B.count();
-        std::uint64_t q = 0;
+        const bool any_known = fill_drawn(a, b, drawn, out);
         for (std::uint32_t i = A.begin; i < A.end; ++i)
             for (std::uint32_t j = B.begin; j < B.end; ++j) {
-                float v = 1.0f;
-                if (i != j && vis_facing(tree_.s, i, j)) {
-                    v = pair(i, j);
-                    q++;
-                }
-                out[std::size_t(i - A.begin) * nb + (j - B.begin)] = v;
+                float& v = out[std::size_t(i - A.begin) * nb + (j - B.begin)];
+                if (any_known && v != kUnknown) continue;
+                v = i != j && vis_facing(tree_.s, i, j) ? pair(i, j) : 1.0f;
             }
         blocks_.fetch_add(1, std::memory_order_relaxed);
         block_pairs_.fetch_add(std::uint64_t(A.count()) * nb, std::memory_order_relaxed);
@@ -319,25 +354,24 @@ public:
     }
 
 protected:
-    // Draws are with replacement, so on two small nodes a quarter of them can repeat: a pair
-    // drawn again reuses its first answer (V is deterministic) and still counts as a sample.
-    class DrawMemo {
-    public:
-        explicit DrawMemo(const VisibilityModel& m) : m_(m) {}
-        float operator()(std::uint32_t i, std::uint32_t j) {
-            for (int k = 0; k < n_; ++k)
-                if (i_[k] == i && j_[k] == j) return v_[k];
-            const float v = m_.pair(i, j);
-            if (n_ < kMax) { i_[n_] = i; j_[n_] = j; v_[n_++] = v; }
-            return v;
-        }
-    private:
-        static constexpr int kMax = 64;
-        const VisibilityModel& m_;
-        std::uint32_t i_[kMax], j_[kMax];
-        float v_[kMax];
-        int n_ = 0;
-    };
+    // block() helpers: with draws kept for the pair (a, b), every entry of out (|a| x |b|) is
+    // set to kUnknown but the drawn ones, which get their answer; returns false (out
+    // untouched) when there are none.
+    static constexpr float kUnknown = -1.0f;
+    bool fill_drawn(std::int32_t a, std::int32_t b, const DrawMemo* drawn, float* out) const {
+        bool any = false;
+        if (drawn) drawn->for_each([&](std::uint32_t, std::uint32_t, float) { any = true; });
+        if (!any) return false;
+        const OctreeNode &A = tree_.nodes[a], &B = tree_.nodes[b];
+        const std::uint32_t nb = B.count();
+        std::fill(out, out + std::size_t(A.count()) * nb, kUnknown);
+        auto inside = [](const OctreeNode& N, std::uint32_t i) { return i >= N.begin && i < N.end; };
+        drawn->for_each([&](std::uint32_t i, std::uint32_t j, float v) {
+            if (inside(A, i) && inside(B, j)) out[std::size_t(i - A.begin) * nb + (j - B.begin)] = v;
+            if (inside(A, j) && inside(B, i)) out[std::size_t(j - A.begin) * nb + (i - B.begin)] = v;
+        });
+        return true;
+    }
 
     // Calls fn(i, j) (i in node lo, j in node hi, i != j, facing) for up to m sampled facing
     // pairs, until fn returns false. Exhaustive (no sampling error) when |lo|*|hi| <= m.

@@ -18,7 +18,9 @@ static std::vector<VisMethod> methods() {
 
 static const char* mname(VisMethod m) { return m == VisMethod::Exact ? "exact" : "seed"; }
 static const char* lname(LeafMode l) {
-    return l == LeafMode::Binary ? "binary" : (l == LeafMode::Fractional ? "fractional" : "per_pair");
+    return l == LeafMode::Binary ? "binary"
+           : l == LeafMode::Fractional ? "fractional"
+           : l == LeafMode::PerPairAll ? "per_pair_all" : "per_pair";
 }
 
 // Two parallel unit squares (z = 0 up, z = 1 down), occluder at z = 0.5 over [x0,x1] x [-0.5,1.5].
@@ -427,6 +429,54 @@ static void test_reciprocity() {
         }
 }
 
+// A PARTIAL leaf pair's block after its classification: the classification's draws (kept in a
+// DrawMemo) are not queried again, and the block is the one computed without them.
+static void test_block_after_classify() {
+    std::printf("\n== block after classify: no query twice, same block ==\n");
+    Scene sc = squares(12, -0.5, 0.5, true);
+    Built b;
+    build(b, sc, 16);
+    for (VisMethod m : methods())
+        for (LeafMode lm : {LeafMode::PerPair, LeafMode::PerPairAll}) {
+            auto vis = make(b, m, lm);
+            Traversal tr(b.tree);
+            VisLists L = octree_visibility(b.ctx, *vis, tr);
+            std::size_t pairs = 0, saved = 0, differ = 0, extra = 0;
+            std::vector<float> plain, kept;
+            PairOut partial = L.leaf_partial;   // near and far PARTIAL leaf pairs
+            partial.a.insert(partial.a.end(), L.far_partial.a.begin(), L.far_partial.a.end());
+            partial.b.insert(partial.b.end(), L.far_partial.b.begin(), L.far_partial.b.end());
+            for (std::size_t k = 0; k < partial.a.size(); ++k) {
+                const std::int32_t a = partial.a[k], c = partial.b[k];
+                const std::size_t m2 = std::size_t(b.tree.nodes[a].count()) * b.tree.nodes[c].count();
+                plain.assign(m2, 0.0f);
+                kept.assign(m2, 0.0f);
+                vis->reset_stats();
+                vis->block(a, c, plain.data());
+                const std::uint64_t q_plain = vis->stats().queries;
+                vis->reset_stats();
+                VisibilityModel::DrawMemo draws(*vis);
+                float frac;
+                if (lm == LeafMode::PerPairAll) vis->classify(a, c, &draws);
+                else vis->classify_fraction(a, c, &frac, &draws);
+                const std::uint64_t q_class = vis->stats().queries;
+                vis->block(a, c, kept.data(), &draws);
+                const std::uint64_t q_both = vis->stats().queries;
+                pairs++;
+                saved += q_class;
+                if (plain != kept) differ++;
+                // the two passes together query each facing pair of the block once
+                if (q_both != q_plain) extra++;
+            }
+            std::printf("  %-5s %-12s  partial leaf pairs %zu, classification queries reused %zu, "
+                        "blocks differing %zu, pairs queried twice %zu\n",
+                        mname(m), lname(lm), pairs, saved, differ, extra);
+            CHECK(pairs > 0 && saved > 0, "%s %s: nothing to test", mname(m), lname(lm));
+            CHECK(differ == 0, "%s %s: %zu blocks differ", mname(m), lname(lm), differ);
+            CHECK(extra == 0, "%s %s: %zu blocks re-queried", mname(m), lname(lm), extra);
+        }
+}
+
 struct CancelNow : Monitor {
     int calls = 0;
     bool poll(double, const char*) override { calls++; return false; }
@@ -468,6 +518,7 @@ int main(int argc, char** argv) {
     if (want("scale")) test_scale();
     if (want("sampling")) test_sampling_error();
     if (want("reciprocity")) test_reciprocity();
+    if (want("block_after")) test_block_after_classify();
     if (want("furnace")) test_furnace();
     if (want("coverage")) test_coverage_sweep();
     if (want("cancel")) test_cancel();
