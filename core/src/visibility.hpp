@@ -185,7 +185,7 @@ public:
             if (n_ < kMax) { i_[n_] = i; j_[n_] = j; v_[n_++] = v; }
             return v;
         }
-        void clear() { n_ = 0; }
+        bool empty() const { return n_ == 0; }
         // fn(i, j, V(i, j)) for each kept draw.
         template <class Fn>
         void for_each(Fn&& fn) const {
@@ -359,9 +359,7 @@ protected:
     // untouched) when there are none.
     static constexpr float kUnknown = -1.0f;
     bool fill_drawn(std::int32_t a, std::int32_t b, const DrawMemo* drawn, float* out) const {
-        bool any = false;
-        if (drawn) drawn->for_each([&](std::uint32_t, std::uint32_t, float) { any = true; });
-        if (!any) return false;
+        if (!drawn || drawn->empty()) return false;
         const OctreeNode &A = tree_.nodes[a], &B = tree_.nodes[b];
         const std::uint32_t nb = B.count();
         std::fill(out, out + std::size_t(A.count()) * nb, kUnknown);
