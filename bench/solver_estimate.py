@@ -4,9 +4,11 @@
 ``illumap.solve(error_tol=…)`` stops once the bounce gain times the residual relative to the
 radiosity (``stats["solver_error_estimate"]``) is within ``error_tol``. This solves each case
 with the automatic mode's settings for its target, stops CG after 1, 2, … iterations on one
-operator, and compares the distance to the same operator's converged solution (tol 1e-10,
-relative RMS over the non-emitting surfels) with the estimate and with the Neumann bound
-(``stats["solver_error_bound"]``, 1/(1 − ρ_max) in place of the gain). Cases: the benchmark
+operator, and compares the distance of the result (the last iterate after the solve's closing
+Jacobi step) to the same operator's converged solution (tol 1e-10, relative RMS over the
+non-emitting surfels) with the estimate and with the Neumann bound
+(``stats["solver_error_bound"]``, 1/(1 − ρ_max) in place of the gain), both of the last
+iterate. Cases: the benchmark
 scenes at the automatic mode's targets, and the Cornell box with its albedo raised to 0.95
 (a closed scene where the bounces amplify most).
 

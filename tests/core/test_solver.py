@@ -41,11 +41,12 @@ def test_solvers_match_dense_solve(box8, solver):
     assert sol.converged, sol.stats
     assert sol.stats["solver"] == ("cg" if solver == "auto" else solver)
     np.testing.assert_allclose(sol.radiosity, exact, rtol=1e-6, atol=1e-7 * exact.max())
-    # the reported residual is the true one, recomputed independently here
+    # the reported residual is the last iterate's; the closing step leaves the result's own,
+    # recomputed independently here, below it in every channel
     r = s.emission - (sol.radiosity - s.albedo * (op.F @ sol.radiosity))
     rel = np.linalg.norm(r, axis=0) / np.linalg.norm(s.emission, axis=0)
     assert rel.max() <= TOL
-    np.testing.assert_allclose(sol.stats["final_residuals"], rel, rtol=1e-3, atol=1e-14)
+    assert np.all(rel <= np.asarray(sol.stats["final_residuals"]) + 1e-14)
 
 
 def test_solution_fields(box8):
@@ -304,23 +305,45 @@ def test_error_tol_stops_once_the_error_estimate_is_met(solver):
     assert 0 < estimate <= 0.02 and estimate <= bound
     assert loose.iterations < strict.iterations
     assert loose.stats["final_residual"] > 1e-10          # stopped by the estimate, not by tol
-    # the error it leaves (RMS over non-emitting surfels) is within the margin the automatic
-    # mode allows for, and below the bound
+    # the error the result keeps (RMS over non-emitting surfels) is within the estimate
     m = ~(s.emission.max(axis=1) > 0)
     rms = lambda x: np.sqrt(np.mean(x[m] ** 2))  # noqa: E731
     err = rms(loose.radiosity - exact) / rms(exact)
-    assert 0 < err <= accuracy.SOLVER_ESTIMATE_MARGIN * estimate
-    assert err <= bound
-    # both come from the residual the solution reports, which is its true residual (CG maps
-    # its recurrence's back): the bound with 1/(1 - 0.7), the estimate with the bounce gain
-    # (Jacobi's residual is the next bounce, amplified as the least damped mode: the bound)
-    r = s.emission - (loose.radiosity - s.albedo * (op.F @ loose.radiosity))
-    relative = rms(r) / rms(loose.radiosity)
-    assert bound == pytest.approx(relative / 0.3, rel=1e-6)
-    gain = rms(loose.radiosity - s.emission) / rms(s.albedo * (op.F @ s.emission))
-    assert 1 < gain < 1 / 0.3
-    expected = 1 / 0.3 if solver == "jacobi" else gain
-    assert estimate == pytest.approx(expected * relative, rel=1e-6)
+    assert 0 < err <= estimate
+    if solver == "jacobi":
+        # the iterates are known: B_k+1 = E + ρF B_k from E; the result is the iterate after the
+        # last one tested plus the closing step, and the estimate is the bound of that iterate
+        B = [s.emission]
+        for _ in range(loose.iterations + 1):
+            B.append(s.emission + s.albedo * (op.F @ B[-1]))
+        np.testing.assert_allclose(loose.radiosity, B[-1], rtol=1e-12, atol=1e-12)
+        relative = rms(B[-1] - B[-2]) / rms(B[-2])
+        assert bound == pytest.approx(relative / 0.3, rel=1e-9)
+        assert estimate == bound
+    else:
+        # the bounce gain the estimate uses lies between 1 and 1/(1 - ρ_max)
+        assert 1 < bound / estimate < 1 / 0.3
+
+
+@pytest.mark.parametrize("solver", ["cg", "gmres"])
+def test_the_error_estimate_holds_with_its_margin_and_below_3_percent_without(solver):
+    s = _small_light_box()
+    op = ReferenceOperator(s, "disc")
+    exact = dense_solution(s, op.F)
+    m = ~(s.emission.max(axis=1) > 0)
+    rms = lambda x: np.sqrt(np.mean(x[m] ** 2))  # noqa: E731
+    # A closed box lit by four surfels is the hard case: its first iterates' bounce gain is
+    # still growing (there the error was up to 1.54 times the estimate); the automatic mode
+    # stops at 0.2 x its target, at most 2%, where the estimate held everywhere measured.
+    for iterations in range(1, 7):
+        sol = illumap.solve(s, operator=op, solver=solver, tol=1e-14, max_iterations=iterations,
+                            restart=iterations)
+        err = rms(sol.radiosity - exact) / rms(exact)
+        estimate = sol.stats["solver_error_estimate"]
+        assert 0 < err <= accuracy.SOLVER_ESTIMATE_MARGIN * estimate
+        assert estimate <= sol.stats["solver_error_bound"]
+        if estimate <= 0.03:
+            assert err <= estimate
 
 
 def test_cg_recomputes_the_true_residual_only_near_rounding(box8):
@@ -331,9 +354,12 @@ def test_cg_recomputes_the_true_residual_only_near_rounding(box8):
     assert loose.stats["operator_applications"] == loose.iterations + 1
     assert tight.stats["operator_applications"] == tight.iterations + 2
     for sol in (loose, tight):
+        # the reported residual is that of the last iterate B, which the closing step turns
+        # into the result E + ρ∘K(B), whose own residual is ρ∘K(r): smaller
         r = s.emission - (sol.radiosity - s.albedo * op.apply(sol.radiosity))
         true = np.max(np.linalg.norm(r, axis=0) / np.linalg.norm(s.emission, axis=0))
-        assert sol.stats["final_residual"] == pytest.approx(true, rel=1e-6, abs=1e-14)
+        assert 0 < true < sol.stats["final_residual"]
+    assert loose.stats["final_residual"] <= 1e-4 and tight.stats["final_residual"] <= 1e-10
 
 
 def test_error_tol_never_stops_later_than_tol(box8):
