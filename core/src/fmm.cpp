@@ -195,6 +195,13 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
     // Storage slots: multipoles for internal nodes and for leaves that some list reads
     // (others are formed on the fly by their parent); locals for internal nodes only (a
     // leaf's local is assembled on the fly where it is evaluated). Saves most expansion memory.
+    // Nodes with a non-zero value (the near field skips the others), from a running count.
+    std::vector<std::uint32_t> nonzero(n_ + 1, 0);
+    for (std::size_t i = 0; i < n_; ++i)
+        nonzero[i + 1] = nonzero[i] + (x0[i] != 0.0 || x1[i] != 0.0 || x2[i] != 0.0);
+    std::vector<std::uint8_t> live(nn);
+    for (std::size_t k = 0; k < nn; ++k)
+        live[k] = nonzero[T.nodes[k].end] > nonzero[T.nodes[k].begin];
     const std::size_t nms = std::size_t(mslots_), nls = std::size_t(lslots_);
     multipoles_.assign(nms * W, 0.0);
     locals_.assign(nls * W, 0.0);
@@ -376,11 +383,14 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
             // V (a whole-entry weight scales their values) and entries with it, whose V rows
             // (stored per entry, |t| x |s|) are gathered into vrows over the same
             // concatenation, so that each receiver sums all its blocks in one vectorised loop.
+            // Source leaves whose values are all zero add nothing and are left out (the first
+            // application, K(E), has values at the emitters only).
             const bool vw = !IL.p2p_w.empty();
             auto has_block = [&](std::int64_t k) { return vw && IL.p2p_blk[k] >= 0; };
             std::size_t ns = 0, nb = 0;
             for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k)
-                (has_block(k) ? nb : ns) += T.nodes[IL.p2p_src[k]].count();
+                if (live[IL.p2p_src[k]])
+                    (has_block(k) ? nb : ns) += T.nodes[IL.p2p_src[k]].count();
             const std::size_t ct = nd.count();
             auto gather = [&](std::vector<double>& into, std::size_t total, bool blocked) {
                 into.resize(std::max<std::size_t>(1, 10 * total));
@@ -388,7 +398,7 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
                 double* d = into.data();
                 std::size_t o = 0;
                 for (std::int64_t k = IL.p2p_off[ln]; k < IL.p2p_off[ln + 1]; ++k) {
-                    if (has_block(k) != blocked) continue;
+                    if (has_block(k) != blocked || !live[IL.p2p_src[k]]) continue;
                     const OctreeNode& sn = T.nodes[IL.p2p_src[k]];
                     const std::size_t c = sn.count(), j0 = sn.begin;
                     const double* from[10] = {&T.s.px[j0], &T.s.py[j0], &T.s.pz[j0],

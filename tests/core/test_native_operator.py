@@ -195,3 +195,24 @@ def test_stats_report_the_tree_and_lists():
     assert st["order"] == 3 and st["leaf_size"] == 24
     d = _core.Operator(P, N, A, method="direct").stats
     assert d["method"] == "direct" and d["p2p_pairs"] == 5000 ** 2
+
+
+@pytest.mark.parametrize("vis", [{}, dict(visibility="exact", visibility_leaf_mode="per_pair_all",
+                                          visibility_samples=16)])
+def test_sources_that_are_zero_are_skipped_without_changing_the_sum(vis):
+    # The near field leaves out source leaves whose values are all zero (the first
+    # application, K(E), has values at the emitters only). Linearity catches a leaf left out
+    # that should not be: K(x_few) + K(x_rest) = K(x_few + x_rest) to rounding.
+    p, n, a = cube_surface(3000, seed=4)
+    op = _core.Operator(p, n, a, method="fmm", order=3, theta=0.3, leaf_size=16, **vis)
+    rng = np.random.default_rng(5)
+    few = np.zeros((3000, 3))
+    few[rng.choice(3000, 40, replace=False)] = rng.random((40, 3))
+    rest = rng.random((3000, 3)) * (few == 0)
+    y_few, y_rest, y_all = op.apply(few), op.apply(rest), op.apply(few + rest)
+    assert rel(y_few + y_rest, y_all) < 1e-13
+    assert np.count_nonzero(y_few) > 0.5 * y_few.size   # the few still reach most receivers
+    # and the near field of the few is there: against the exact per-pair sums (which differ
+    # from the FMM by its expansion and, with visibility, its sampled classes only)
+    exact = op.apply_rows(few, np.arange(3000, dtype=np.int64))
+    assert rel(y_few, exact) < 0.02
