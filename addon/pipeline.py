@@ -167,8 +167,9 @@ class Result:
 
     @property
     def residual(self) -> float:
-        """Final relative residual: the solver's final true residual when it reports one
-        (``stats['final_residual']``), else the last iteration's (nan if none)."""
+        """Final relative residual: the solver's last iterate's true residual when it reports
+        one (``stats['final_residual']``; the result's own is smaller), else the last
+        iteration's (nan if none)."""
         final = self.stats.get("final_residual") if isinstance(self.stats, dict) else None
         if final is not None:
             return float(final)

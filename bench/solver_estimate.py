@@ -8,16 +8,14 @@ operator, and compares the distance of the result (the last iterate after the so
 Jacobi step) to the same operator's converged solution (tol 1e-10, relative RMS over the
 non-emitting surfels) with the estimate and with the Neumann bound
 (``stats["solver_error_bound"]``, 1/(1 − ρ_max) in place of the gain), both of the last
-iterate. Cases: the benchmark
-scenes at the automatic mode's targets, and the Cornell box with its albedo raised to 0.95
-(a closed scene where the bounces amplify most).
+iterate. Cases: the benchmark scenes at the automatic mode's targets, and the Cornell box with
+its albedo raised to 0.95 (a closed scene where the bounces amplify most).
 
     .venv/bin/python bench/solver_estimate.py --out bench/results/solver_estimate.json
 """
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 import time
@@ -31,7 +29,7 @@ import illumap  # noqa: E402
 from illumap import accuracy  # noqa: E402
 from illumap.operator import TransportOperator  # noqa: E402
 
-#: (scene, surfels, target, albedo scale): the automatic mode's sizes on sampling 1.
+#: (scene, surfels, target, largest albedo or None): the automatic mode's sizes on sampling 1.
 CASES = (("bunny", 3422, 0.10, None), ("bunny", 7489, 0.05, None), ("bunny", 14397, 0.03, None),
          ("cornell", 1036, 0.05, None), ("cornell", 2222, 0.03, None),
          ("interior", 21462, 0.10, None), ("cornell", 1927, 0.03, 0.95))
@@ -101,8 +99,6 @@ def main(argv=None):
           f"(errors of at least {MIN_ERROR:g})")
     doc = dict(date=S.utc_now(), core=S.provenance(), cases=cases, summary=summary,
                wall_time=time.perf_counter() - t0)
-    if not math.isfinite(doc["wall_time"]):
-        doc["wall_time"] = None
     S.write_json(args.out, doc)
 
 

@@ -192,9 +192,6 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
         x1[i] = xt[3 * i + 1] = x[3 * j + 1];
         x2[i] = xt[3 * i + 2] = x[3 * j + 2];
     }
-    // Storage slots: multipoles for internal nodes and for leaves that some list reads
-    // (others are formed on the fly by their parent); locals for internal nodes only (a
-    // leaf's local is assembled on the fly where it is evaluated). Saves most expansion memory.
     // Nodes with a non-zero value (the near field skips the others), from a running count.
     std::vector<std::uint32_t> nonzero(n_ + 1, 0);
     for (std::size_t i = 0; i < n_; ++i)
@@ -202,6 +199,9 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
     std::vector<std::uint8_t> live(nn);
     for (std::size_t k = 0; k < nn; ++k)
         live[k] = nonzero[T.nodes[k].end] > nonzero[T.nodes[k].begin];
+    // Storage slots: multipoles for internal nodes and for leaves that some list reads
+    // (others are formed on the fly by their parent); locals for internal nodes only (a
+    // leaf's local is assembled on the fly where it is evaluated). Saves most expansion memory.
     const std::size_t nms = std::size_t(mslots_), nls = std::size_t(lslots_);
     multipoles_.assign(nms * W, 0.0);
     locals_.assign(nls * W, 0.0);

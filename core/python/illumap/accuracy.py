@@ -702,10 +702,10 @@ def choose_settings(scene, target_error, *, kind: str | None = None, allow_direc
     n_min = min(max(int(table.get("n_min", DEFAULT_N_MIN)), int(min_surfels or 0)), cap)
     probe_info = probe if isinstance(probe, dict) else None
 
-    def rank(e_occ, unoccluded_only=False):   # aim a little below the target: the fits are
-        return _candidates(table, s, fixed, SAFETY * target, e_occ, n_min, cap,  # of a few
-                           allow_direct, float(discretization_scale),            # sampled scenes
-                           unoccluded_only=unoccluded_only)
+    def rank(e_occ, unoccluded_only=False):
+        # aim a little below the target: the fits are of a few sampled scenes
+        return _candidates(table, s, fixed, SAFETY * target, e_occ, n_min, cap, allow_direct,
+                           float(discretization_scale), unoccluded_only=unoccluded_only)
     candidates = rank(None if probe_info is None else float(probe_info["error_none"]))
     if fixed and (probe is True or probe == "auto"):
         # probe when a setting without visibility could win were the scene unoccluded, and

@@ -173,8 +173,7 @@ class _Monitor:
         self.non_emitting = non_emitting
         self.amplification = amplification
         self.emission = emission
-        self._first = None         # ρ∘K(E); its RMS is taken when an estimate needs it
-        self._first_rms = None
+        self.first_bounce = 0.0    # RMS of ρ∘K(E) over the non-emitting surfels, once known
         self.max_iterations = max_iterations
         self.guard = guard
         self.start = start_fraction
@@ -208,17 +207,8 @@ class _Monitor:
         return math.sqrt(float(np.mean(np.square(x[m])))) if m.any() else 0.0
 
     def set_first_bounce(self, rho_KE) -> None:
-        """Record ρ∘K(E), the first bounce, which every solver computes first."""
-        if self._first is None and self._first_rms is None:
-            self._first = rho_KE
-
-    @property
-    def first_bounce(self) -> float:
-        """RMS of ρ∘K(E) over the non-emitting surfels (0 before it is known)."""
-        if self._first_rms is None and self._first is not None:
-            self._first_rms = self._rms(self._first)
-            self._first = None
-        return self._first_rms or 0.0
+        """Record ρ∘K(E), the first bounce, which CG and GMRES compute first."""
+        self.first_bounce = self._rms(rho_KE)
 
     def error_bound(self, B, r) -> float:
         """The solver's error bound relative to the radiosity for the iterate B with residual
