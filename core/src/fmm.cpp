@@ -253,60 +253,56 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
     }
     timings_["upward"] = seconds_since(t);
 
-    // M2L and P2L into one node's local expansion Lt.
-    auto gather_far = [&](std::int32_t tn, double* Lt, double* work) {
+    // M2L and P2L into one node's local expansion Lt. Sources whose values are all zero add
+    // nothing and are left out (K(E) has values at the emitters only). M2L goes four sources
+    // at a time (m2l4, SIMD across sources; a weighted PARTIAL far leaf pair as a scaled copy
+    // of its multipole: M2L is linear in it), lanes summed once per target; a last group of
+    // two or three is padded with zero multipoles, a single source goes alone.
+    // `buf`: far_buffer_size() doubles of the calling worker's own.
+    auto gather_far = [&](std::int32_t tn, double* Lt, double* work, double* buf) {
         const OctreeNode& nt = T.nodes[tn];
-        std::int64_t k = IL.m2l_off[tn];
-        const std::int64_t kend = IL.m2l_off[tn + 1];
-        if (!IL.m2l_w.empty()) {
-            // Visibility: PARTIAL far leaf pairs carry a weight (M2L is linear in the source
-            // multipole: scale a copy); unit weights go four at a time as below.
-            thread_local std::vector<double> wbuf;
-            wbuf.resize(W);
-            double R4[4][3];
-            const double* M4[4];
-            int q = 0;
-            for (; k < kend; ++k) {
-                const std::int32_t sn = IL.m2l_src[k];
-                const OctreeNode& ns = T.nodes[sn];
-                const double R[3] = {nt.center[0] - ns.center[0], nt.center[1] - ns.center[1],
-                                     nt.center[2] - ns.center[2]};
-                const float w = IL.m2l_w[k];
-                if (w == 1.0f) {
-                    for (int d = 0; d < 3; ++d) R4[q][d] = R[d];
-                    M4[q] = Mof(sn);
-                    if (++q == 4) {
-                        m2l4(tb, R4, M4, Lt, work);
-                        q = 0;
-                    }
-                } else {
-                    const double* Ms = Mof(sn);
-                    for (std::size_t c = 0; c < W; ++c) wbuf[c] = double(w) * Ms[c];
-                    m2l(tb, R, wbuf.data(), Lt, work);
-                }
-            }
-            for (int r = 0; r < q; ++r) m2l(tb, R4[r], M4[r], Lt, work);
-        }
-        for (; k + 4 <= kend; k += 4) {  // four sources at a time (SIMD across sources)
-            double R[4][3];
-            const double* Ms[4];
-            for (int q = 0; q < 4; ++q) {
-                const std::int32_t sn = IL.m2l_src[k + q];
-                const OctreeNode& ns = T.nodes[sn];
-                for (int d = 0; d < 3; ++d) R[q][d] = nt.center[d] - ns.center[d];
-                Ms[q] = Mof(sn);
-            }
-            m2l4(tb, R, Ms, Lt, work);
-        }
-        for (; k < kend; ++k) {
+        double* L4 = buf;
+        double* wbuf = buf + 4 * W;   // four scaled copies, one per lane
+        const double* zero = buf + 8 * W;
+        const bool weighted = !IL.m2l_w.empty();
+        double R4[4][3];
+        const double* M4[4];
+        int q = 0;
+        bool lanes = false;
+        for (std::int64_t k = IL.m2l_off[tn]; k < IL.m2l_off[tn + 1]; ++k) {
             const std::int32_t sn = IL.m2l_src[k];
+            if (!live[sn]) continue;
             const OctreeNode& ns = T.nodes[sn];
-            const double R[3] = {nt.center[0] - ns.center[0], nt.center[1] - ns.center[1],
-                                 nt.center[2] - ns.center[2]};
-            m2l(tb, R, Mof(sn), Lt, work);
+            for (int d = 0; d < 3; ++d) R4[q][d] = nt.center[d] - ns.center[d];
+            M4[q] = Mof(sn);
+            if (weighted && IL.m2l_w[k] != 1.0f) {
+                const double w = IL.m2l_w[k];
+                double* Mw = wbuf + std::size_t(q) * W;
+                for (std::size_t c = 0; c < W; ++c) Mw[c] = w * M4[q][c];
+                M4[q] = Mw;
+            }
+            if (++q == 4) {
+                if (!lanes) std::fill(L4, L4 + 4 * W, 0.0);
+                lanes = true;
+                m2l4(tb, R4, M4, L4, work);
+                q = 0;
+            }
         }
+        if (q == 1) {
+            m2l(tb, R4[0], M4[0], Lt, work);
+        } else if (q > 1) {
+            for (int r = q; r < 4; ++r) {
+                for (int d = 0; d < 3; ++d) R4[r][d] = R4[0][d];
+                M4[r] = zero;
+            }
+            if (!lanes) std::fill(L4, L4 + 4 * W, 0.0);
+            lanes = true;
+            m2l4(tb, R4, M4, L4, work);
+        }
+        if (lanes) m2l4_reduce(tb, L4, Lt);
         // P2L: facing points of source leaves straight into this node's local expansion.
         for (std::int64_t k = IL.p2l_off[tn]; k < IL.p2l_off[tn + 1]; ++k) {
+            if (!live[IL.p2l_src[k]]) continue;
             const OctreeNode& ns = T.nodes[IL.p2l_src[k]];
             for (std::uint32_t j = ns.begin; j < ns.end; ++j) {
                 if (point_node_class(T.s, j, nt) != 1) continue;
@@ -321,13 +317,16 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
             }
         }
     };
+    // gather_far's buffer: lane sums, four scaled multipoles, one zero multipole.
+    const std::size_t far_buffer_size = 9 * W;
 
     // M2L for internal nodes (leaves gather theirs in the last phase).
     t = Clock::now();
     ctx.set_phase("m2l", 0.15, 0.35);
     parallel_for(ctx, internal_.size(), 4, [&](std::size_t b, std::size_t e) {
-        std::vector<double> work(wsz);
-        for (std::size_t q = b; q < e; ++q) gather_far(internal_[q], Lof(internal_[q]), work.data());
+        std::vector<double> work(wsz), fbuf(far_buffer_size, 0.0);
+        for (std::size_t q = b; q < e; ++q)
+            gather_far(internal_[q], Lof(internal_[q]), work.data(), fbuf.data());
     });
     timings_["m2l"] = seconds_since(t);
 
@@ -360,7 +359,7 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
     t = Clock::now();
     ctx.set_phase("near", 0.55, 0.45);
     parallel_for(ctx, T.leaves.size(), 4, [&](std::size_t b, std::size_t e) {
-        std::vector<double> work(wsz), Lleaf(W);
+        std::vector<double> work(wsz), Lleaf(W), fbuf(far_buffer_size, 0.0);
         std::vector<double> buf, bbuf;  // this leaf's near sources (bbuf: with per-pair V)
         std::vector<std::uint8_t> vrows;   // their V, receiver-major (row r: receiver r)
         for (std::size_t q = b; q < e; ++q) {
@@ -376,7 +375,7 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
                                              nd.center[2] - pa.center[2]};
                     l2l(tb, delta, Lof(nd.parent), Lleaf.data(), work.data());
                 }
-                gather_far(ln, Lleaf.data(), work.data());
+                gather_far(ln, Lleaf.data(), work.data(), fbuf.data());
             }
             const double* Ll = Lleaf.data();
             // Near sources gathered contiguously (SoA), in two sets: entries without per-pair
@@ -439,7 +438,7 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
                 for (std::int64_t k = IL.m2p_off[ln]; k < IL.m2p_off[ln + 1]; ++k) {
                     const std::int32_t sn = IL.m2p_src[k];
                     const OctreeNode& nsn = T.nodes[sn];
-                    if (point_node_class(T.s, i, nsn) != 1) continue;
+                    if (!live[sn] || point_node_class(T.s, i, nsn) != 1) continue;
                     const double R[3] = {T.s.px[i] - nsn.center[0], T.s.py[i] - nsn.center[1],
                                          T.s.pz[i] - nsn.center[2]};
                     double lv[9];

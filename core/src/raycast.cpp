@@ -23,6 +23,9 @@ struct OccluderScene::Impl {
 
 namespace {
 
+// Occluders from which the BVH build is watched from a second thread (run_watched).
+constexpr std::size_t kWatchedBuild = std::size_t(1) << 14;
+
 bool build_progress(void* ptr, double) {  // called by Embree's build threads
     auto* cancel = static_cast<std::atomic<bool>*>(ptr);
     return !cancel->load(std::memory_order_relaxed);
@@ -251,11 +254,13 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
         const double pad = 0.8 * back_ + 1e-6 * ext + 1e-30;
         for (int d = 0; d < 3; ++d) { lo_[d] -= pad; hi_[d] += pad; }
         // The BVH build runs on Embree's threads, started from one of our workers, while the
-        // calling thread polls the monitor; a cancel makes build_progress stop Embree.
+        // calling thread polls the monitor; a cancel makes build_progress stop Embree. Small
+        // builds (well under the 50 ms between polls) start from the calling thread.
         ctx.set_phase("visibility: BVH", 0.2, 0.8);
-        parallel_for(ctx, 1, 1, [&](std::size_t, std::size_t) {
+        if (n < kWatchedBuild)
             rtcCommitScene(impl_->scene);
-        });
+        else
+            run_watched(ctx, [&] { rtcCommitScene(impl_->scene); });
         if (ctx.cancel.load()) throw Cancelled();
         throw_embree(impl_->device, "BVH build");
     } catch (...) {
@@ -290,7 +295,6 @@ std::size_t OccluderScene::bytes() const {
 // segment: nothing relevant is skipped. Returns false when nothing remains of the segment.
 bool OccluderScene::make_ray(const double* p, const double* q, double t0, double t1,
                              void* rtc_ray) const {
-    RTCRay& r = *static_cast<RTCRay*>(rtc_ray);
     const double dx = q[0] - p[0], dy = q[1] - p[1], dz = q[2] - p[2];
     const double len = std::sqrt(dx * dx + dy * dy + dz * dz);
     if (!(len > t0 + t1) || !(len > 0) || !std::isfinite(len)) return false;
@@ -310,6 +314,15 @@ bool OccluderScene::make_ray(const double* p, const double* q, double t0, double
     }
     const double s0 = std::max(t0, a), s1 = std::min(len - t1, e);
     if (!(s1 > s0)) return false;
+    fill_ray(p, u, a, e, s0, s1, rtc_ray);
+    return true;
+}
+
+// The ray for the part [s0, s1] of the line p + t u, t in [a, e] (the part inside the box),
+// started back_ behind a.
+void OccluderScene::fill_ray(const double* p, const double* u, double a, double e, double s0,
+                             double s1, void* rtc_ray) const {
+    RTCRay& r = *static_cast<RTCRay*>(rtc_ray);
     const double total = (e - a) + back_;
     r.org_x = float(p[0] + (a - back_) * u[0] - center_[0]);
     r.org_y = float(p[1] + (a - back_) * u[1] - center_[1]);
@@ -323,7 +336,6 @@ bool OccluderScene::make_ray(const double* p, const double* q, double t0, double
     r.mask = 0xffffffffu;
     r.id = 0;
     r.flags = 0;
-    return true;
 }
 
 // A neighbour's disc that contains the endpoint (overlapping discs of a random sampling, or the
@@ -385,7 +397,11 @@ bool RaycastVisibility::make_pair_ray(std::uint32_t i, std::uint32_t j, void* r)
     if (!(len > 0)) return false;
     for (double& x : u) x /= len;
     const double off = opt_.endpoint_offset;
-    return scene_->make_ray(p, q, scene_->trim(i, u, off), scene_->trim(j, u, off), r);
+    // Surfel centres lie inside the occluders' box: no clipping (OccluderScene::make_ray).
+    const double s0 = scene_->trim(i, u, off), s1 = len - scene_->trim(j, u, off);
+    if (!(s1 > s0) || !std::isfinite(len)) return false;
+    scene_->fill_ray(p, u, 0.0, len, s0, s1, r);
+    return true;
 }
 
 float RaycastVisibility::pair(std::uint32_t i, std::uint32_t j) const {

@@ -81,6 +81,9 @@ public:
 
     // Internal: the ray for segment p -> q trimmed by t0 / t1 (false: nothing to test).
     bool make_ray(const double* p, const double* q, double t0, double t1, void* rtc_ray) const;
+    // Internal: the ray for [s0, s1] of p + t u (unit u), t in [a, e] inside the box.
+    void fill_ray(const double* p, const double* u, double a, double e, double s0, double s1,
+                  void* rtc_ray) const;
     void* rtc_scene() const;  // RTCScene
 
 private:

@@ -130,6 +130,32 @@ def test_visibility_follows_the_scene_occlusion():
     assert s["visibility"] != "none"
 
 
+def test_probe_stops_early_only_when_occlusion_settles_the_choice():
+    """With ``decisive``, the probe first measures half its surfels and stops there only when
+    visibility="none" is at least that far off: the Cornell box stops at the first stage, with
+    the same choice as the full probe gives; the unoccluded box goes on to the full count."""
+    cornell = S.build("cornell", 1200)
+    full = accuracy.occlusion_probe(cornell)
+    staged = accuracy.occlusion_probe(cornell, decisive=0.2)
+    first = int(accuracy.PROBE_FIRST_SHARE * accuracy.PROBE_SURFELS)
+    assert full["surfels"] > first
+    assert staged["surfels"] <= first + 8 and staged["error_none"] >= 0.2, staged
+    for target in (0.1, 0.03):
+        assert (accuracy.choose_settings(cornell, target, kind="grid", probe=full)["label"]
+                == accuracy.choose_settings(cornell, target, kind="grid", probe=staged)["label"])
+    # a threshold the first stage does not reach: the full probe runs
+    assert accuracy.occlusion_probe(cornell, decisive=50.0)["surfels"] == full["surfels"]
+    box = scenes.closed_box(8, albedo=0.7, emission=0.0)
+    e = np.zeros((box.n, 3))
+    e[: 64] = 1.0
+    box = box.replace(emission=e)
+    probe = accuracy.occlusion_probe(box, decisive=0.2)
+    assert probe["surfels"] > first and probe["error_none"] < 0.02, probe
+    # choose_settings hands it the threshold: an occluded scene stops early
+    c = accuracy.choose_settings(cornell, 0.1, kind="grid", probe=True)
+    assert c["probe"]["surfels"] <= first + 8, c["probe"]
+
+
 def test_settings_tighten_as_the_target_shrinks():
     summary = dict(n=10 ** 9, total_area=1.9, kind="grid")
     chosen = [accuracy.choose_settings(summary, t) for t in (0.3, 0.1, 0.03)]

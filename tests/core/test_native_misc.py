@@ -80,9 +80,12 @@ def test_returning_false_cancels(method):
     assert np.isfinite(op.apply(np.ones((2000, 3)))).all()
 
 
-def test_cancel_in_the_middle_of_a_long_run():
+@pytest.mark.parametrize("threads", [0, 1])
+def test_cancel_in_the_middle_of_a_long_run(threads):
+    """threads=1 runs the chunks on the calling thread, which then polls between them: the
+    run reports progress part way and stops when asked, as with worker threads."""
     P, N, A = surfels(40000, 1)
-    op = _core.Operator(P, N, A, method="direct")
+    op = _core.Operator(P, N, A, method="direct", threads=threads)
     calls = []
 
     def progress(f, ph):
@@ -92,6 +95,7 @@ def test_cancel_in_the_middle_of_a_long_run():
     with pytest.raises(_core.Cancelled):
         op.apply(np.ones((40000, 3)), progress=progress)
     assert len(calls) == 3
+    assert 0.0 < calls[1] < 1.0, calls
 
 
 def test_a_raising_callback_is_re_raised():

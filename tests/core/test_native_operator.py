@@ -200,8 +200,8 @@ def test_stats_report_the_tree_and_lists():
 @pytest.mark.parametrize("vis", [{}, dict(visibility="exact", visibility_leaf_mode="per_pair_all",
                                           visibility_samples=16)])
 def test_sources_that_are_zero_are_skipped_without_changing_the_sum(vis):
-    # The near field leaves out source leaves whose values are all zero (the first
-    # application, K(E), has values at the emitters only). Linearity catches a leaf left out
+    # The near field, M2L, M2P and P2L leave out sources whose values are all zero (the first
+    # application, K(E), has values at the emitters only). Linearity catches a source left out
     # that should not be: K(x_few) + K(x_rest) = K(x_few + x_rest) to rounding.
     p, n, a = cube_surface(3000, seed=4)
     op = _core.Operator(p, n, a, method="fmm", order=3, theta=0.3, leaf_size=16, **vis)
