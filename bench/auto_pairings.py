@@ -7,7 +7,8 @@ bench/results/auto_pairings.json (one entry per scene, target and best).
     .venv/bin/python bench/auto_pairings.py [--scene bunny] [--target 0.1] [--pairings 8]
 
 Point-sampled scenes only (the automatic mode on a scene's own surfels: cornell, bunny,
-interior). Here (2026-12-04, core 7767883) the bunny at 10%: 1.44-1.47 over 8 pairings, 30 s.
+interior). Here (2026-12-04, core 7767883) the bunny at 10%: 1.445-1.476 over 8 pairings,
+25 s; at 3%: 1.435-1.461, 143 s.
 """
 
 from __future__ import annotations
@@ -36,7 +37,8 @@ def best_point(name: str, auto: dict, key: str, points: list) -> dict:
         if (p.get("label") == best["label"] and p.get("time") == best["sweep_time"]
                 and "settings" in p):
             return p
-    raise SystemExit(f"{name}: no sweep point {best['label']} at N={best['n']}")
+    raise SystemExit(f"{name}: no sweep point {best['label']} with sweep time "
+                     f"{best['sweep_time']} s")
 
 
 def main() -> None:

@@ -193,7 +193,7 @@ void m2l(const ExpansionTables& tb, const double R[3], const double* __restrict 
 
 __attribute__((target_clones("avx2", "default")))
 void m2l4(const ExpansionTables& tb, const double R[4][3], const double* const M[4],
-          double* __restrict L4, double* work) {
+          double* __restrict L, double* work) {
     const int nc = tb.ncoef;
     // Lane-interleaved copies: D[(6 n + s) * 4 + q], Mv[(9 m + e) * 4 + q].
     double* __restrict Dv = work;                     // 24 nc
@@ -261,16 +261,9 @@ void m2l4(const ExpansionTables& tb, const double R[4][3], const double* const M
                 }
             }
         }
-        double* l4 = L4 + 36 * k;
-        for (int e = 0; e < 9; ++e)
-            for (int q = 0; q < 4; ++q) l4[4 * e + q] += acc[e][q];
+        double* l = L + 9 * k;
+        for (int e = 0; e < 9; ++e) l[e] += (acc[e][0] + acc[e][1]) + (acc[e][2] + acc[e][3]);
     }
-}
-
-void m2l4_reduce(const ExpansionTables& tb, const double* L4, double* L) {
-    const int w = 9 * tb.ncoef;
-    for (int i = 0; i < w; ++i)
-        L[i] += (L4[4 * i] + L4[4 * i + 1]) + (L4[4 * i + 2] + L4[4 * i + 3]);
 }
 
 void p2l(const ExpansionTables& tb, const double R[3], const double s9[9], double* L,

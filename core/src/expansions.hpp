@@ -60,12 +60,9 @@ void m2m(const ExpansionTables& tb, const double delta[3], const double* Mchild,
 void m2l(const ExpansionTables& tb, const double R[3], const double* M, double* L, double* work);
 void l2l(const ExpansionTables& tb, const double delta[3], const double* Lparent, double* Lchild,
          double* work);
-// M2L from four sources at once (SIMD across sources), kept by lane: L4[4 i + q] += M2L(R[q],
-// M[q])[i] for i < 9 ncoef. One target's list goes through it four sources at a time and is
-// summed over lanes once, by m2l4_reduce (L[i] += sum_q L4[4 i + q]).
-void m2l4(const ExpansionTables& tb, const double R[4][3], const double* const M[4], double* L4,
+// M2L from four sources at once (SIMD across sources): L += sum_q M2L(R[q], M[q]).
+void m2l4(const ExpansionTables& tb, const double R[4][3], const double* const M[4], double* L,
           double* work);
-void m2l4_reduce(const ExpansionTables& tb, const double* L4, double* L);
 // P2L: one source point (s9 = n A x, [b*3 + channel]) at offset R = c_t - r_j from the
 // target centre, added to the target's local expansion.
 void p2l(const ExpansionTables& tb, const double R[3], const double s9[9], double* L,

@@ -256,19 +256,17 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
     // M2L and P2L into one node's local expansion Lt. Sources whose values are all zero add
     // nothing and are left out (K(E) has values at the emitters only). M2L goes four sources
     // at a time (m2l4, SIMD across sources; a weighted PARTIAL far leaf pair as a scaled copy
-    // of its multipole: M2L is linear in it), lanes summed once per target; a last group of
-    // two or three is padded with zero multipoles, a single source goes alone.
-    // `buf`: far_buffer_size() doubles of the calling worker's own.
+    // of its multipole: M2L is linear in it); a last group of two or three is padded with
+    // zero multipoles, a single source goes alone. `buf`: far_buffer_size doubles of the
+    // calling worker's own.
     auto gather_far = [&](std::int32_t tn, double* Lt, double* work, double* buf) {
         const OctreeNode& nt = T.nodes[tn];
-        double* L4 = buf;
-        double* wbuf = buf + 4 * W;   // four scaled copies, one per lane
-        const double* zero = buf + 8 * W;
+        double* wbuf = buf;   // four scaled copies, one per lane
+        const double* zero = buf + 4 * W;
         const bool weighted = !IL.m2l_w.empty();
         double R4[4][3];
         const double* M4[4];
         int q = 0;
-        bool lanes = false;
         for (std::int64_t k = IL.m2l_off[tn]; k < IL.m2l_off[tn + 1]; ++k) {
             const std::int32_t sn = IL.m2l_src[k];
             if (!live[sn]) continue;
@@ -282,9 +280,7 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
                 M4[q] = Mw;
             }
             if (++q == 4) {
-                if (!lanes) std::fill(L4, L4 + 4 * W, 0.0);
-                lanes = true;
-                m2l4(tb, R4, M4, L4, work);
+                m2l4(tb, R4, M4, Lt, work);
                 q = 0;
             }
         }
@@ -295,11 +291,8 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
                 for (int d = 0; d < 3; ++d) R4[r][d] = R4[0][d];
                 M4[r] = zero;
             }
-            if (!lanes) std::fill(L4, L4 + 4 * W, 0.0);
-            lanes = true;
-            m2l4(tb, R4, M4, L4, work);
+            m2l4(tb, R4, M4, Lt, work);
         }
-        if (lanes) m2l4_reduce(tb, L4, Lt);
         // P2L: facing points of source leaves straight into this node's local expansion.
         for (std::int64_t k = IL.p2l_off[tn]; k < IL.p2l_off[tn + 1]; ++k) {
             if (!live[IL.p2l_src[k]]) continue;
@@ -317,8 +310,8 @@ void TransportOperator::apply_fmm(Context& ctx, const double* x, double* y) {
             }
         }
     };
-    // gather_far's buffer: lane sums, four scaled multipoles, one zero multipole.
-    const std::size_t far_buffer_size = 9 * W;
+    // gather_far's buffer: four scaled multipoles and one zero multipole.
+    const std::size_t far_buffer_size = 5 * W;
 
     // M2L for internal nodes (leaves gather theirs in the last phase).
     t = Clock::now();

@@ -64,11 +64,13 @@ void run_inline(Context& ctx, std::size_t n, std::size_t grain, std::size_t nchu
             if (ctx.cancel.load(std::memory_order_relaxed)) break;
             const std::size_t b = c * grain, e = std::min(n, b + grain);
             fn(b, e);
-            if (ctx.monitor && c + 1 < nchunks && Clock::now() - last > std::chrono::milliseconds(50)) {
+            if (ctx.monitor && c + 1 < nchunks &&
+                Clock::now() - last > std::chrono::milliseconds(50)) {
                 last = Clock::now();
                 bool go = true;
                 try {
-                    go = ctx.monitor->poll(ctx.base + ctx.span * double(e) / double(n), ctx.phase);
+                    go = ctx.monitor->poll(ctx.base + ctx.span * double(e) / double(n),
+                                           ctx.phase);
                 } catch (...) {
                     go = false;
                 }

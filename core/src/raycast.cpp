@@ -394,12 +394,12 @@ bool RaycastVisibility::make_pair_ray(std::uint32_t i, std::uint32_t j, void* r)
     const double p[3] = {s.px[i], s.py[i], s.pz[i]}, q[3] = {s.px[j], s.py[j], s.pz[j]};
     double u[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]};
     const double len = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-    if (!(len > 0)) return false;
+    if (!(len > 0) || !std::isfinite(len)) return false;
     for (double& x : u) x /= len;
     const double off = opt_.endpoint_offset;
     // Surfel centres lie inside the occluders' box: no clipping (OccluderScene::make_ray).
     const double s0 = scene_->trim(i, u, off), s1 = len - scene_->trim(j, u, off);
-    if (!(s1 > s0) || !std::isfinite(len)) return false;
+    if (!(s1 > s0)) return false;
     scene_->fill_ray(p, u, 0.0, len, s0, s1, r);
     return true;
 }

@@ -138,6 +138,7 @@ def test_probe_stops_early_only_when_occlusion_settles_the_choice():
     full = accuracy.occlusion_probe(cornell)
     staged = accuracy.occlusion_probe(cornell, decisive=0.2)
     first = int(accuracy.PROBE_FIRST_SHARE * accuracy.PROBE_SURFELS)
+    # (a probe subset keeps at least 8 emitters, so a stage can hold a few more than asked)
     assert full["surfels"] > first
     assert staged["surfels"] <= first + 8 and staged["error_none"] >= 0.2, staged
     for target in (0.1, 0.03):
