@@ -75,6 +75,10 @@ class Lamp:
     shape: str = ""              # area lamp: 'SQUARE' | 'RECTANGLE' | 'DISK' | 'ELLIPSE'
     axes: np.ndarray | None = None  # (2, 3) area lamp half-axes (local x, y), m
     angle: float = 0.0           # sun: angular diameter, rad
+    # 'MESH' (emissive triangles of one object): world corners (T, 3, 3), radiance (T, 3)
+    triangles: np.ndarray | None = None
+    radiance: np.ndarray | None = None
+    two_sided: bool = False      # 'MESH': emits from both faces (Cycles' plain Emission)
 
 
 @dataclass
@@ -263,6 +267,34 @@ def _area(lamp: Lamp, p: np.ndarray, n: np.ndarray) -> np.ndarray:
     return out / (np.pi * lamp.area)
 
 
+def mesh_light(name: str, triangles: np.ndarray, radiance: np.ndarray,
+               two_sided: bool) -> Lamp:
+    """A lamp made of emissive triangles (T, 3, 3) with radiance (T, 3) each, emitting along
+    their winding's normal (``two_sided``: both ways). Its light is exact (Lambert's
+    point-to-polygon form factor per triangle); its shadows are sampled like an area lamp's."""
+    tri = np.ascontiguousarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area = 0.5 * np.linalg.norm(cross, axis=1)
+    centre = (tri.mean(axis=1) * area[:, None]).sum(axis=0) / max(area.sum(), 1e-300)
+    return Lamp(name, "MESH", np.ones(3), centre, np.array([0.0, 0.0, -1.0]),
+                area=float(area.sum()), triangles=tri,
+                radiance=np.asarray(radiance, dtype=np.float64).reshape(-1, 3), two_sided=two_sided)
+
+
+def _mesh(lamp: Lamp, p: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Incident radiance (N, 3) of a 'MESH' lamp, unshadowed: Σ_t L_t F_t."""
+    out = np.zeros((len(p), 3))
+    tri = lamp.triangles
+    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    for t in range(len(tri)):
+        side = (p - tri[t, 0]) @ normals[t]
+        rows = np.flatnonzero(side != 0 if lamp.two_sided else side > 0)
+        for start in range(0, len(rows), _CHUNK):
+            r = rows[start:start + _CHUNK]
+            out[r] += polygon_form_factor(p[r], n[r], tri[t])[:, None] * lamp.radiance[t]
+    return out
+
+
 def _pattern(k: int, rng: np.random.Generator, count: int) -> np.ndarray:
     """``count`` rows of k points in [0,1)²: one rank-1 lattice (well stratified in both
     axes), shifted per row at random (Cranley-Patterson rotation)."""
@@ -301,6 +333,28 @@ def _lamp_samples(lamp: Lamp, p: np.ndarray, n: np.ndarray, k: int, rng: np.rand
         dirs /= np.linalg.norm(dirs, axis=2, keepdims=True)
         weight = np.maximum(np.einsum("mkc,mc->mk", dirs, n), 0.0)
         return p[:, None, :] + far * dirs, weight
+    if lamp.kind == "MESH":
+        tri = lamp.triangles
+        e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+        nrm = np.cross(e1, e2)
+        area = 0.5 * np.linalg.norm(nrm, axis=1)
+        nrm /= np.maximum(2 * area[:, None], 1e-300)
+        cum = np.cumsum(area) / area.sum()
+        # The first coordinate picks a triangle by area (stratified) and, rescaled inside its
+        # interval, places the sample in it with the second (uniform square-root map).
+        t = np.minimum(np.searchsorted(cum, uv[..., 0], side="right"), len(tri) - 1)
+        lo = np.where(t > 0, cum[t - 1], 0.0)
+        u = np.clip((uv[..., 0] - lo) / np.maximum(cum[t] - lo, 1e-300), 0.0, 1.0)
+        s = np.sqrt(u)[..., None]
+        v = uv[..., 1:]
+        pts = tri[t, 0] + s * (1 - v) * e1[t] + s * v * e2[t]
+        d = pts - p[:, None, :]
+        r2 = np.maximum(np.einsum("mkc,mkc->mk", d, d), 1e-300)
+        cos_r = np.maximum(np.einsum("mkc,mc->mk", d, n), 0.0)
+        cos_l = -np.einsum("mkc,mkc->mk", d, nrm[t])
+        cos_l = np.abs(cos_l) if lamp.two_sided else np.maximum(cos_l, 0.0)
+        power = lamp.radiance[t] @ np.array([0.2126, 0.7152, 0.0722]) + 1e-12
+        return pts, power * cos_r * cos_l / (r2 * r2)
     if lamp.kind == "AREA":
         local = _disc(uv) if lamp.shape in ("DISK", "ELLIPSE") else 2 * uv - 1
         pts = lamp.position + local[..., :1] * lamp.axes[0] + local[..., 1:] * lamp.axes[1]
@@ -322,7 +376,7 @@ def _lamp_samples(lamp: Lamp, p: np.ndarray, n: np.ndarray, k: int, rng: np.rand
 
 def rays_per_surfel(lamp: Lamp, shadows: Shadows) -> int:
     """Shadow rays per lit surfel: ``shadows.samples`` for a lamp with a size, else one."""
-    sized = (lamp.kind == "AREA" or (lamp.kind == "SUN" and lamp.angle > 0)
+    sized = (lamp.kind in ("AREA", "MESH") or (lamp.kind == "SUN" and lamp.angle > 0)
              or (lamp.kind in ("POINT", "SPOT") and lamp.radius > 0))
     return max(1, int(shadows.samples)) if sized else 1
 
@@ -359,6 +413,11 @@ def lamp_visibility(lamp: Lamp, p: np.ndarray, n: np.ndarray, rows: np.ndarray,
     return np.clip(out, 0.0, 1.0)
 
 
+def _lit(value: np.ndarray) -> np.ndarray:
+    """Rows with any light: (N,) scalars, or (N, 3) colours of a 'MESH' lamp."""
+    return (value > 0) if value.ndim == 1 else (value > 0).any(axis=1)
+
+
 def incident_radiance(lamps: list[Lamp], positions: np.ndarray, normals: np.ndarray, *,
                       ambient: np.ndarray | None = None,
                       shadows: Shadows | None = None) -> np.ndarray:
@@ -375,20 +434,23 @@ def incident_radiance(lamps: list[Lamp], positions: np.ndarray, normals: np.ndar
             scalars.append(np.maximum(n @ -lamp.direction, 0.0) / np.pi)
         elif lamp.kind == "AREA":
             scalars.append(_area(lamp, p, n))
+        elif lamp.kind == "MESH":
+            scalars.append(_mesh(lamp, p, n))
         else:
             scalars.append(_point_like(lamp, p, n))
         if shadows is not None:
             shadows.report(0)  # area lamps' form factors take seconds at millions of surfels
     if shadows is not None:
         # Every lamp's lit surfels are known before the first ray: progress over all rays.
-        shadows.total = shadows.rays + sum(int((sc > 0).sum()) * rays_per_surfel(lamp, shadows)
+        shadows.total = shadows.rays + sum(int(_lit(sc).sum()) * rays_per_surfel(lamp, shadows)
                                            for lamp, sc in zip(lamps, scalars))
     for lamp, scalar in zip(lamps, scalars):
         if shadows is not None:
-            lit = np.flatnonzero(scalar > 0)
+            lit = np.flatnonzero(_lit(scalar))
             if lit.size:
-                scalar[lit] *= lamp_visibility(lamp, p, n, lit, shadows)
-        h += scalar[:, None] * lamp.color[None, :]
+                vis = lamp_visibility(lamp, p, n, lit, shadows)
+                scalar[lit] *= vis[:, None] if scalar.ndim == 2 else vis
+        h += scalar if scalar.ndim == 2 else scalar[:, None] * lamp.color[None, :]
     if shadows is not None:
         shadows.report(shadows.rays)
     if ambient is not None:

@@ -6,7 +6,10 @@ What is understood, after the active Material Output's Surface input:
 * Principled BSDF: albedo = Base Color × (1 − Metallic) × (1 − Transmission Weight) (the diffuse
   part Cycles bakes); emission = Emission Color × Emission Strength.
 * Emission: emission = Color × Strength, albedo 0.
-* Add Shader (sum) and Mix Shader with an unlinked Fac (blend).
+* Add Shader (sum) and Mix Shader (blend) with a constant Fac, or with Fac from Geometry ▸
+  Backfacing (0 on the front, 1 on the back: the usual one-sided light) or Light Path ▸ Is
+  Camera Ray (0: light never reaches a surface by a camera ray, so such a mix hides an emitter
+  from the camera only). Each side of a surface is evaluated on its own (``side``).
 * A colour input may be a constant, an RGB node, an Image Texture (sampled at the surfel's UV,
   from the node's UV Map / Texture Coordinate input or the active UV map; sRGB byte images are
   linearised; flat projection, single images only), a Color Attribute node, an Attribute node
@@ -99,8 +102,10 @@ def sample_image(pixels: np.ndarray, uv: np.ndarray, *, interpolation: str = "Li
 class _Evaluator:
     """Evaluates one material's tree for a subset of surfels."""
 
-    def __init__(self, samples: MeshSamples, rows: np.ndarray, images: dict | None = None) -> None:
+    def __init__(self, samples: MeshSamples, rows: np.ndarray, images: dict | None = None,
+                 side: str = "front") -> None:
         self.images = {} if images is None else images  # image name → pixels, read once
+        self.side = side
         self.samples = samples
         self.rows = rows
         self.n = len(rows)
@@ -180,10 +185,16 @@ class _Evaluator:
         return np.clip(out, 0.0, 1.0) if clamp else out
 
     def scalar(self, socket) -> float:
-        """A constant float input (linked inputs are not understood)."""
-        if _follow(socket) is not None:
-            raise Unsupported(f"linked input '{socket.name}' on node '{socket.node.name}'")
-        return float(socket.default_value)
+        """A constant float input, or Geometry ▸ Backfacing (per ``side``) or Light Path ▸ Is
+        Camera Ray (0) feeding it; other links are not understood."""
+        out = _follow(socket)
+        if out is None:
+            return float(socket.default_value)
+        if out.node.type == "NEW_GEOMETRY" and out.name == "Backfacing":
+            return 1.0 if self.side == "back" else 0.0
+        if out.node.type == "LIGHT_PATH" and out.name == "Is Camera Ray":
+            return 0.0
+        raise Unsupported(f"linked input '{socket.name}' on node '{socket.node.name}'")
 
     def shader(self, socket) -> tuple[np.ndarray, np.ndarray]:
         """(albedo, emission), each (n, 3), of the shader on a shader socket."""
@@ -216,8 +227,9 @@ class _Evaluator:
 
 
 def material_values(material, samples: MeshSamples, rows: np.ndarray,
-                    warnings: list[str]) -> tuple[np.ndarray, np.ndarray]:
-    """Albedo and emission (n, 3) for the surfels ``rows`` of ``samples`` that use ``material``."""
+                    warnings: list[str], side: str = "front") -> tuple[np.ndarray, np.ndarray]:
+    """Albedo and emission (n, 3) for the surfels ``rows`` of ``samples`` that use ``material``,
+    seen from ``side`` ('front' or 'back') of the surface."""
     n = len(rows)
     default = np.broadcast_to(np.array(DEFAULT_ALBEDO), (n, 3)).copy()
     if material is None:
@@ -230,15 +242,17 @@ def material_values(material, samples: MeshSamples, rows: np.ndarray,
         warnings.append(f"Material '{material.name}': no Material Output node; using grey {DEFAULT_ALBEDO[0]}")
         return default, np.zeros((n, 3))
     try:
-        return _Evaluator(samples, rows).shader(output.inputs["Surface"])
+        return _Evaluator(samples, rows, side=side).shader(output.inputs["Surface"])
     except Unsupported as exc:
         warnings.append(f"Material '{material.name}': unsupported {exc}; using grey {DEFAULT_ALBEDO[0]} "
                         "and no emission")
         return default, np.zeros((n, 3))
 
 
-def surfel_materials(samples: MeshSamples, warnings: list[str]) -> tuple[np.ndarray, np.ndarray]:
-    """Albedo and emission (N, 3) for every surfel of ``samples`` (multi-material aware).
+def surfel_materials(samples: MeshSamples, warnings: list[str],
+                     side: str = "front") -> tuple[np.ndarray, np.ndarray]:
+    """Albedo and emission (N, 3) for every surfel of ``samples`` (multi-material aware), on
+    ``side`` ('front' or 'back') of the surface.
 
     Albedo is clamped to [0, MAX_ALBEDO] and emission to ≥ 0, with a warning when clamping.
     """
@@ -248,7 +262,7 @@ def surfel_materials(samples: MeshSamples, warnings: list[str]) -> tuple[np.ndar
     for index in np.unique(samples.material_index):
         rows = np.flatnonzero(samples.material_index == index)
         material = mats[index] if 0 <= index < len(mats) else None
-        albedo[rows], emission[rows] = material_values(material, samples, rows, warnings)
+        albedo[rows], emission[rows] = material_values(material, samples, rows, warnings, side)
     name = samples.mesh.name
     if (albedo > MAX_ALBEDO).any():
         warnings.append(f"Object '{name}': albedo above {MAX_ALBEDO} clamped (energy would not converge)")

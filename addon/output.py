@@ -215,6 +215,22 @@ def transfer_to_mesh(obj, surfel_positions: np.ndarray, surfel_normals: np.ndarr
     mesh.update()
 
 
+def write_mesh_values(obj, receivers, corner_values: np.ndarray, domain: str = "CORNER") -> None:
+    """Write radiance evaluated at ``obj``'s own corners (``sampling.Receivers``; (L, 3)) as
+    the FLOAT_COLOR attribute ``illumination`` in ``domain`` ('CORNER', or 'POINT': the mean
+    of each vertex's corners)."""
+    mesh = obj.data
+    values = np.asarray(corner_values, dtype=np.float64)
+    if domain == "POINT":
+        values = receivers.per_vertex(values)
+    attr = mesh.attributes.get(ATTRIBUTE)
+    if attr is not None:
+        mesh.attributes.remove(attr)
+    attr = mesh.color_attributes.new(ATTRIBUTE, "FLOAT_COLOR", domain)
+    attr.data.foreach_set("color", _rgba(values))
+    mesh.update()
+
+
 def export_npz(path: str, **arrays: np.ndarray) -> None:
     """Save surfel arrays (positions m, normals, areas m², albedo, emission, illumination)."""
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)

@@ -28,7 +28,7 @@ from typing import Callable
 
 import numpy as np
 
-from . import lamps, materials, pointcloud, sampling
+from . import emitters, lamps, materials, pointcloud, sampling
 from .errors import IllumapCancelled, IllumapError
 
 Progress = Callable[[float, str], "bool | None"]
@@ -43,14 +43,14 @@ _MESH_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
 class Settings:
     """Quality knobs and options of one run (units in the comments)."""
 
-    density: float = 400.0            # surfels per m² (used when budget is None)
+    density: float = 100.0            # surfels per m² (used when budget is None)
     budget: int | None = None         # total surfels over all mesh objects; overrides density
     method: str = "fmm"               # 'fmm' | 'direct' (exact O(N²) reference)
     order: int = 4                    # FMM expansion order
     theta: float = 0.5                # FMM opening angle
     leaf_size: int = 32               # FMM octree leaf size (surfels)
     near_field: str = "disc"          # 'disc' | 'point'
-    visibility: str = "none"          # visibility mode passed to the core
+    visibility: str = "exact"         # visibility mode passed to the core (between surfels)
     occluder_shape: str = "disc"      # 'disc' | 'octagon' | 'quad': the surfels as occluders,
                                       # for exact visibility and lamp shadows alike
     solver: str = "auto"              # 'auto' | 'cg' | 'gmres' | 'jacobi'
@@ -65,7 +65,9 @@ class Settings:
     lamp_shadows: bool = True         # shadow lamp light by ray casting against the surfels
     shadow_samples: int = 16          # rays per surfel for lamps with a size (radius/area/angle)
     world_ambient: bool = False       # add the world colour as uniform ambient light
-    transfer: bool = False            # write 'illumination' onto the source meshes too
+    transfer: bool = True             # evaluate 'illumination' at the source meshes' corners
+    gather_rays: int = 256            # final-gather rays per receiver (indirect light)
+    receiver_shadow_samples: int = 64  # shadow rays per receiver and sized lamp/emitter
     transfer_domain: str = "CORNER"   # 'POINT' | 'CORNER'
     seed: int = 0                     # sampling seed (results are reproducible)
     memory_limit: int | None = None   # bytes; None → half the physical memory
@@ -76,9 +78,12 @@ class Settings:
 
 
 PRESETS: dict[str, dict] = {
-    "DRAFT": dict(density=100.0, order=3, theta=0.6, visibility="none", tol=1e-3),
-    "MEDIUM": dict(density=400.0, order=4, theta=0.5, visibility="none", tol=1e-4),
-    "HIGH": dict(density=1600.0, order=6, theta=0.4, visibility="exact", tol=1e-5),
+    "DRAFT": dict(density=25.0, order=3, theta=0.6, visibility="exact", tol=1e-3,
+                  gather_rays=64, receiver_shadow_samples=16),
+    "MEDIUM": dict(density=100.0, order=4, theta=0.5, visibility="exact", tol=1e-4,
+                   gather_rays=256, receiver_shadow_samples=64),
+    "HIGH": dict(density=400.0, order=6, theta=0.4, visibility="exact", tol=1e-5,
+                 gather_rays=1024, receiver_shadow_samples=256),
 }
 
 
@@ -131,6 +136,12 @@ class Job:
     # With a target error: the settings the error model chose for the final count
     # (``target_density``); an adaptive pass 1 solves with them.
     accuracy: dict | None = None
+    emitters: list = field(default_factory=list)   # lamps.Lamp 'MESH' records (emitters.py)
+    solve_emission: np.ndarray | None = None       # emission left to surfels (not in a lamp)
+    triangles: np.ndarray | None = None            # (T, 3, 3) every sampled mesh triangle, m
+    has_points: bool = False                       # point clouds among the sources
+    receivers: list = field(default_factory=list)  # sampling.Receivers, evaluated by ``receive``
+    occluders: object = None                       # illumap.receivers.MeshOccluders, built once
 
     @property
     def count(self) -> int:
@@ -164,6 +175,7 @@ class Result:
     count: int
     warnings: list[str] = field(default_factory=list)
     object_name: str = ""
+    receiver_values: dict = field(default_factory=dict)  # object name → (corners, 3) radiance
 
     @property
     def residual(self) -> float:
@@ -396,12 +408,20 @@ def prepare(depsgraph, objects, settings: Settings) -> Job:
             raise IllumapError(f"Adaptive first pass must be a fraction in (0, 1], got {fraction}", 2)
         refine = _Scene(tri_meshes, counts, point_parts, point_sources, lamp_list, ambient)
         first = np.maximum(np.rint(counts * fraction).astype(np.int64), 1)
+    lights = emitters.mesh_lights(tri_meshes, warnings)
     rng = np.random.default_rng(settings.seed)
     samples = [sampling.sample_mesh(tm, int(n), rng) for tm, n in zip(tri_meshes, first)]
     job = _assemble(settings, samples, point_parts, point_sources, lamp_list, ambient, warnings,
                     stats, t0)
     job.refine = refine
     job.accuracy = chosen
+    job.emitters = lights
+    job.triangles = np.concatenate([tm.corners for tm in tri_meshes]) if tri_meshes else None
+    job.has_points = bool(point_parts)
+    if settings.transfer:
+        scratch: list[str] = []   # material warnings were given for the surfels already
+        job.receivers = [r for r in (sampling.read_receivers(obj, scratch)
+                                     for obj in meshes if obj.type == "MESH") if r is not None]
     return job
 
 
@@ -424,42 +444,69 @@ def _assemble(settings: Settings, samples: list, point_parts: list, point_source
     check_memory(start, settings)
     pos, nrm, area, albedo, emission, uv, tri, bary, mat_idx = (
         np.concatenate([p[i] for p in parts]) for i in range(9))
+    # Emission that a lamp of emitters.py carries leaves the solve (the surfels still reflect).
+    in_lamp = np.concatenate(
+        [s.mesh.light_mask[s.triangle] if s.mesh.light_mask is not None
+         else np.zeros(len(s.areas), dtype=bool) for s in samples]
+        + [np.zeros(len(p[2]), dtype=bool) for p in point_parts])
     timings = {"sampling": time.perf_counter() - t0}
-    unlit = not lamp_list and ambient is None
     return Job(settings=settings, positions=np.ascontiguousarray(pos), normals=np.ascontiguousarray(nrm),
                areas=np.ascontiguousarray(area), albedo=np.ascontiguousarray(albedo),
                emission=np.ascontiguousarray(emission),
-               direct=np.zeros_like(pos) if unlit else None, uv=uv,
+               direct=None, uv=uv,
+               solve_emission=np.ascontiguousarray(np.where(in_lamp[:, None], 0.0, emission)),
                triangle=tri.astype(np.int64), bary=bary, material_index=mat_idx.astype(np.int64),
                sources=sources, warnings=warnings, timings=timings, stats=stats,
                lamps=list(lamp_list), ambient=ambient)
 
 
+def mesh_occluders(job: Job, progress: Progress | None = None):
+    """The sampled triangles as a ray-casting scene (``illumap.receivers.MeshOccluders``),
+    built once per job; None without mesh triangles. No bpy."""
+    if job.occluders is None and job.triangles is not None and len(job.triangles):
+        from illumap.receivers import MeshOccluders
+        build = None if progress is None else (lambda f, _phase="": progress(0.0, lamps.PHASE))
+        job.occluders = MeshOccluders(job.triangles, progress=build)
+    return job.occluders
+
+
+def _shadows(job: Job, normals: np.ndarray, samples: int, progress: Progress | None):
+    """The ``lamps.Shadows`` for points with ``normals`` (surfels or receivers): rays against
+    the true triangles when every source is a mesh, else against the surfels as occluders."""
+    s = job.settings
+    if job.triangles is not None and not job.has_points:
+        query = mesh_occluders(job, progress).segment_query(normals)
+    else:
+        query = make_segment_query(job.positions, job.normals, job.areas, progress,
+                                   shape=occluder_shape(s))
+        if query is None:
+            job.warnings.append("Lamp shadows need the core's occluder query, which this "
+                                "build lacks: lamp light is unshadowed")
+            return None
+    extent = float(np.ptp(job.positions, axis=0).max()) if len(job.positions) else 1.0
+    return lamps.Shadows(query, samples=samples, seed=s.seed, extent=extent, progress=progress)
+
+
 def light(job: Job, progress: Progress | None = None) -> Job:
-    """Direct light of ``job.lamps`` (and world ambient) into ``job.direct``, lamp shadows cast
-    against the surfels; no bpy, runs on the worker (``run`` calls it first). Adds the
-    "direct light" and "shadow rays" timings and ``stats["shadow_rays"]``. Does nothing when
-    ``job.direct`` is already set. Raises IllumapCancelled when ``progress`` returns False."""
+    """Direct light of ``job.lamps``, the emissive meshes' lamps (``job.emitters``) and world
+    ambient into ``job.direct``, shadows cast against the scene; no bpy, runs on the worker
+    (``run`` calls it first). Adds the "direct light" and "shadow rays" timings and
+    ``stats["shadow_rays"]``. Does nothing when ``job.direct`` is already set. Raises
+    IllumapCancelled when ``progress`` returns False."""
     if job.direct is not None:
         return job
     t0 = time.perf_counter()
     s = job.settings
     pos, nrm = job.positions, job.normals
+    all_lamps = list(job.lamps) + list(job.emitters)
     shadows = None
     try:
-        if progress is not None and progress(0.0, lamps.PHASE if job.lamps and s.lamp_shadows
+        if progress is not None and progress(0.0, lamps.PHASE if all_lamps and s.lamp_shadows
                                              else "direct light") is False:
             raise IllumapCancelled("Cancelled")
-        if job.lamps and s.lamp_shadows:
-            query = make_segment_query(pos, nrm, job.areas, progress, shape=occluder_shape(s))
-            if query is None:
-                job.warnings.append("Lamp shadows need the core's occluder query, which this "
-                                    "build lacks: lamp light is unshadowed")
-            else:
-                extent = float(np.ptp(pos, axis=0).max()) if len(pos) else 1.0
-                shadows = lamps.Shadows(query, samples=s.shadow_samples, seed=s.seed,
-                                        extent=extent, progress=progress)
-        incident = lamps.incident_radiance(job.lamps, pos, nrm, ambient=job.ambient,
+        if all_lamps and s.lamp_shadows:
+            shadows = _shadows(job, nrm, s.shadow_samples, progress)
+        incident = lamps.incident_radiance(all_lamps, pos, nrm, ambient=job.ambient,
                                            shadows=shadows)
     except IllumapError:
         raise
@@ -473,6 +520,52 @@ def light(job: Job, progress: Progress | None = None) -> Job:
     job.direct = np.ascontiguousarray(job.albedo * incident)
     job.timings["direct light"] = time.perf_counter() - t0
     return job
+
+
+def receive(job: Job, result: "Result", progress: Progress | None = None) -> None:
+    """Evaluate the light at every receiver of ``job.receivers`` (DESIGN.md §6) into
+    ``result.receiver_values``: direct light from lamps and emitters with shadow rays from the
+    receiver, plus the final gather of the surfels' solved light (``illumap.receivers``).
+    No bpy; runs on the worker after the solve. Raises IllumapCancelled when cancelled."""
+    if not job.receivers:
+        return
+    from illumap import receivers as rc
+    t0 = time.perf_counter()
+    s = job.settings
+    occ = mesh_occluders(job, progress)
+    if occ is None:
+        return
+    # What the surfels send on: their solved radiance (with the emission left to them).
+    field_ = rc.SurfelField(job.positions, job.normals, result.radiosity - job.emission
+                            + job.solve_emission)
+    all_lamps = list(job.lamps) + list(job.emitters)
+    rays = 0
+    try:
+        for rec in job.receivers:
+            shadows = None
+            if all_lamps and s.lamp_shadows:
+                shadows = lamps.Shadows(occ.segment_query(rec.normals),
+                                        samples=s.receiver_shadow_samples, seed=s.seed,
+                                        extent=occ.extent)
+            direct = lamps.incident_radiance(all_lamps, rec.points, rec.normals, shadows=shadows)
+            gathered = rc.gather(occ, field_, rec.points, rec.normals, rays=s.gather_rays,
+                                 seed=s.seed, background=job.ambient,
+                                 progress=None if progress is None else
+                                 (lambda f, _p="": progress(f, "gather")))
+            incident = direct + gathered.radiance
+            result.receiver_values[rec.name] = rec.emission + rec.albedo * incident[rec.corner_point]
+            rays += gathered.rays + (shadows.rays if shadows is not None else 0)
+    except IllumapError:
+        raise
+    except Exception as exc:  # noqa: BLE001
+        if _is_cancelled(exc):
+            raise IllumapCancelled("Cancelled") from None
+        raise IllumapError(f"Evaluating the light at the meshes failed: "
+                           f"{type(exc).__name__}: {exc}", 4) from exc
+    result.timings["receivers"] = time.perf_counter() - t0
+    result.stats["receivers"] = dict(points=int(sum(len(r.points) for r in job.receivers)),
+                                     corners=int(sum(len(r.corner_point) for r in job.receivers)),
+                                     rays=int(rays), gather_rays=int(s.gather_rays))
 
 
 def _is_cancelled(exc: BaseException) -> bool:
@@ -537,6 +630,8 @@ def next_pass(job: Job, result: "Result") -> Job | None:
     new = _assemble(s, samples, scene.points, scene.point_sources, scene.lamps, scene.ambient,
                     list(job.warnings), stats, t0)
     new.accuracy = job.accuracy
+    new.emitters, new.triangles, new.has_points = job.emitters, job.triangles, job.has_points
+    new.receivers, new.occluders = job.receivers, job.occluders
     new.timings = {"pass 1: " + k_: v for k_, v in result.timings.items()} | \
         {"adaptive refinement": refine_seconds} | new.timings
     new.stats["adaptive"] = dict(
@@ -565,7 +660,7 @@ def run(job: Job, progress: Progress | None = None) -> Result:
     light(job, progress)
     try:
         surfels = illumap.Surfels(job.positions, job.normals, job.areas, job.albedo,
-                                  job.emission + job.direct)
+                                  job.solve_emission + job.direct)
     except illumap.InputError as exc:
         raise IllumapError(f"Invalid surfels: {exc}", 3) from None
     if s.target_error is not None:
@@ -614,15 +709,19 @@ def run(job: Job, progress: Progress | None = None) -> Result:
     if not sol.converged:
         warnings.append(f"Solver did not converge in {sol.iterations} iterations "
                         f"(residual {float(sol.residuals[-1]) if len(sol.residuals) else float('nan'):.3g})")
-    radiosity = np.asarray(sol.radiosity, dtype=np.float64)
+    # The emission that lamps carried is still what those surfels send to the eye.
+    radiosity = np.asarray(sol.radiosity, dtype=np.float64) + (job.emission - job.solve_emission)
     if not np.all(np.isfinite(radiosity)):
         raise IllumapError("Solver returned non-finite values", 4)
     stats = dict(getattr(sol, "stats", {}) or {})
     stats.update(job.stats)
     stats["occluder_shape"] = shape
-    return Result(radiosity=radiosity, iterations=int(sol.iterations), residuals=list(sol.residuals),
-                  converged=bool(sol.converged), timings=timings, stats=stats,
-                  count=job.count, warnings=warnings)
+    result = Result(radiosity=radiosity, iterations=int(sol.iterations),
+                    residuals=list(sol.residuals), converged=bool(sol.converged),
+                    timings=timings, stats=stats, count=job.count, warnings=warnings)
+    if job.refine is None:   # the last pass: evaluate the light where the user sees it
+        receive(job, result, progress)
+    return result
 
 
 def write(context, job: Job, result: Result):
@@ -633,12 +732,11 @@ def write(context, job: Job, result: Result):
     obj = output.write_surfels(context, job.positions, job.normals, job.areas, result.radiosity,
                                job.albedo, job.emission)
     if job.settings.transfer:
-        for src in job.sources:
-            target = context.blend_data.objects.get(src.name)
-            if src.kind == "MESH" and target is not None and target.type == "MESH":
-                sl = slice(src.start, src.stop)
-                output.transfer_to_mesh(target, job.positions[sl], job.normals[sl],
-                                        result.radiosity[sl], job.settings.transfer_domain)
+        for rec in job.receivers:
+            target = context.blend_data.objects.get(rec.name)
+            values = result.receiver_values.get(rec.name)
+            if target is not None and target.type == "MESH" and values is not None:
+                output.write_mesh_values(target, rec, values, job.settings.transfer_domain)
     if job.settings.export_npz:
         output.export_npz(job.settings.export_npz, positions=job.positions, normals=job.normals,
                           areas=job.areas, albedo=job.albedo, emission=job.emission,

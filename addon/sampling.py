@@ -46,6 +46,9 @@ class TriangleMesh:
     materials: list = field(default_factory=list)  # bpy.types.Material | None per slot
     skipped_triangles: int = 0
     instancer: str = ""            # name of the instancing object, for instances
+    loops: np.ndarray | None = None     # (T, 3) int64 corner (loop) index of each triangle corner
+    vertices: np.ndarray | None = None  # (T, 3) int64 vertex index of each triangle corner
+    light_mask: np.ndarray | None = None  # (T,) bool: emission carried by a lamp (emitters)
 
     @property
     def total_area(self) -> float:
@@ -193,8 +196,86 @@ def _read_mesh_data(name: str, obj_eval, mesh, matrix_world, material_slots) -> 
         name=name, corners=corners[keep], area=area[keep], normal=normal,
         corner_normals=cn[tri_l[keep]], material_index=mat_idx[keep], uv=uv, colors=colors,
         active_uv=active_uv, active_color=active_color, materials=materials,
-        skipped_triangles=skipped,
+        skipped_triangles=skipped, loops=tri_l[keep].astype(np.int64),
+        vertices=tri_v[keep].astype(np.int64),
     )
+
+
+#: How far into its triangle a corner is evaluated, as a share of the way to the centroid.
+RECEIVER_INSET = 1e-3
+
+
+@dataclass
+class Receivers:
+    """The corners of one object's own mesh, where its ``illumination`` is evaluated.
+
+    Light depends on position and normal only, so corners that share both are evaluated once
+    (``points``/``normals``, indexed by ``corner_point``); albedo and emission are per corner.
+    """
+
+    name: str
+    corner_vertex: np.ndarray      # (L,) int64 vertex of each corner
+    corner_point: np.ndarray       # (L,) int64 row of ``points`` lighting each corner
+    points: np.ndarray             # (R, 3) m, world space
+    normals: np.ndarray            # (R, 3) unit, world space
+    albedo: np.ndarray             # (L, 3) front-face albedo per corner
+    emission: np.ndarray           # (L, 3) front-face emission per corner (radiance)
+    vertex_count: int
+
+    def per_vertex(self, corner_values: np.ndarray) -> np.ndarray:
+        """Mean of the corner values (L, C) of each vertex (V, C); 0 for unused vertices."""
+        count = np.bincount(self.corner_vertex, minlength=self.vertex_count).astype(np.float64)
+        out = np.zeros((self.vertex_count, corner_values.shape[1]))
+        np.add.at(out, self.corner_vertex, corner_values)
+        return out / np.maximum(count, 1.0)[:, None]
+
+
+def read_receivers(obj, warnings: list[str]) -> Receivers | None:
+    """The receivers of ``obj``'s own (unevaluated) mesh in world space, with materials
+    evaluated at every corner (``materials.surfel_materials``); None without faces."""
+    from .materials import surfel_materials
+    mesh = obj.data
+    if mesh is None or len(mesh.polygons) == 0:
+        return None
+    tm = _read_mesh_data(obj.name, obj, mesh, obj.matrix_world, obj.material_slots)
+    nl, nv = len(mesh.loops), len(mesh.vertices)
+    corner_vertex = _get(mesh.loops, "vertex_index", nl, 1, np.int32).astype(np.int64)
+    flat = tm.loops.ravel()
+    loops, first = np.unique(flat, return_index=True)
+    # Corners of zero-area faces only: evaluated at a neighbouring triangle corner of the
+    # same vertex where there is one (the light at a point does not depend on the face).
+    owner = np.full(nl, -1, dtype=np.int64)
+    owner[loops] = first
+    orphan = np.flatnonzero(owner < 0)
+    if orphan.size:
+        by_vertex = np.full(nv, -1, dtype=np.int64)
+        by_vertex[tm.vertices.ravel()[::-1]] = np.arange(flat.size)[::-1]
+        owner[orphan] = by_vertex[corner_vertex[orphan]]
+        missing = owner < 0
+        if missing.any():
+            warnings.append(f"Object '{obj.name}': {int(missing.sum())} corner(s) of degenerate "
+                            "faces get no illumination")
+            owner[missing] = 0
+    tri, slot = owner // 3, owner % 3
+    bary = np.zeros((nl, 3))
+    bary[np.arange(nl), slot] = 1.0
+    # Each corner is evaluated a hair inside its triangle (RECEIVER_INSET of the way to the
+    # centroid), as a bake does: at a box's edge the point then lies on the inner side of the
+    # adjacent wall, whose light its rays must meet rather than pass behind.
+    corner = tm.corners[tri, slot]
+    positions = corner + RECEIVER_INSET * (tm.corners[tri].mean(axis=1) - corner)
+    normals = tm.corner_normals[tri, slot]
+    samples = MeshSamples(mesh=tm, positions=positions, normals=normals, areas=np.ones(nl),
+                          triangle=tri, bary=bary, material_index=tm.material_index[tri])
+    albedo, emission = surfel_materials(samples, warnings)
+    # One receiver per (vertex, normal): coplanar corners of a vertex share their light.
+    key = np.column_stack([corner_vertex, np.round(normals * 1e4).astype(np.int64)])
+    _, point_of, corner_point = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    return Receivers(name=obj.name, corner_vertex=corner_vertex,
+                     corner_point=corner_point.ravel().astype(np.int64),
+                     points=np.ascontiguousarray(positions[point_of]),
+                     normals=np.ascontiguousarray(normals[point_of]), albedo=albedo,
+                     emission=emission, vertex_count=nv)
 
 
 def allocate(areas: np.ndarray, *, density: float | None = None,

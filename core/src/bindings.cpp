@@ -5,6 +5,7 @@
 // The GIL is released during compute; progress callbacks re-acquire it on the calling thread.
 #include "fmm.hpp"
 #include "knn.hpp"
+#include "mesh_scene.hpp"
 #include "normals.hpp"
 #include "raycast.hpp"
 
@@ -135,6 +136,28 @@ struct PyOccluders {
     std::unique_ptr<OccluderScene> scene;
     int threads = 0;
 };
+
+struct PyMeshScene {
+    std::unique_ptr<MeshScene> scene;
+    int threads = 0;
+};
+
+// Two (M, 3) float64 arrays of one length, every value finite.
+std::size_t paired_rays(nb::handle a, const char* an, nb::handle b, const char* bn,
+                        const double*& A, const double*& B, nb::object& ka, nb::object& kb) {
+    std::size_t na, nbn;
+    A = view<double>(a, an, 2, 3, na, ka);
+    B = view<double>(b, bn, 2, 3, nbn, kb);
+    if (na != nbn)
+        throw nb::value_error((std::string(an) + " and " + bn + " must have the same length, got " +
+                               std::to_string(na) + " and " + std::to_string(nbn)).c_str());
+    for (std::size_t k = 0; k < 3 * na; ++k)
+        if (!std::isfinite(A[k]) || !std::isfinite(B[k]))
+            throw nb::value_error((std::string(!std::isfinite(A[k]) ? an : bn) + "[" +
+                                   std::to_string(k / 3) + ", " + std::to_string(k % 3) +
+                                   "] is not finite").c_str());
+    return na;
+}
 
 }  // namespace
 
@@ -371,6 +394,78 @@ NB_MODULE(_core, m) {
         .def_prop_ro("n", [](const PyOccluders& self) { return self.scene->size(); })
         .def_prop_ro("build_seconds", [](const PyOccluders& self) { return self.scene->build_seconds(); })
         .def_prop_ro("bytes", [](const PyOccluders& self) { return self.scene->bytes(); });
+
+    nb::class_<PyMeshScene>(m, "MeshScene",
+        "Triangles as an Embree scene, for direct light and final gather at receivers.")
+        .def("__init__",
+             [](PyMeshScene* self, nb::handle corners, int threads, nb::handle progress) {
+                 if (threads < 0) throw nb::value_error("threads must be >= 0");
+                 std::size_t nt;
+                 nb::object keep;
+                 const double* C = view<double>(corners, "corners", 2, 9, nt, keep);
+                 std::unique_ptr<MeshScene> scene;
+                 run_released(threads, progress, [&](Context& ctx) {
+                     checkpoint(ctx, 0.0);
+                     try {
+                         scene = std::make_unique<MeshScene>(ctx, C, nt);
+                     } catch (std::invalid_argument& e) {
+                         throw std::runtime_error(std::string("corners: ") + e.what());
+                     }
+                 });
+                 new (self) PyMeshScene{std::move(scene), threads};
+             },
+             nb::arg("corners"), nb::kw_only(), nb::arg("threads") = 0,
+             nb::arg("progress") = nb::none())
+        .def("visible",
+             [](PyMeshScene& self, nb::handle origins, nb::handle targets, double end_trim,
+                nb::handle progress) {
+                 const double *O, *T;
+                 nb::object k1, k2;
+                 const std::size_t no = paired_rays(origins, "origins", targets, "targets", O, T, k1, k2);
+                 if (!(end_trim >= 0.0) || !std::isfinite(end_trim))
+                     throw nb::value_error("end_trim must be a finite number >= 0");
+                 float* v = new float[std::max<std::size_t>(1, no)]();
+                 nb::capsule own(v, [](void* q) noexcept { delete[] static_cast<float*>(q); });
+                 nb::ndarray<nb::numpy, float> out(v, {no}, own);
+                 run_released(self.threads, progress, [&](Context& ctx) {
+                     ctx.set_phase("receivers: shadow rays", 0.0, 1.0);
+                     checkpoint(ctx, 0.0);
+                     self.scene->segments(ctx, O, T, no, end_trim, v);
+                 });
+                 return out;
+             },
+             nb::arg("origins"), nb::arg("targets"), nb::kw_only(), nb::arg("end_trim") = 0.0,
+             nb::arg("progress") = nb::none(),
+             "1 where no triangle meets origins[k] -> targets[k] (its last end_trim left out), else 0: float32 (M,).")
+        .def("intersect",
+             [](PyMeshScene& self, nb::handle origins, nb::handle directions, double tmax,
+                nb::handle progress) {
+                 const double *O, *D;
+                 nb::object k1, k2;
+                 const std::size_t no = paired_rays(origins, "origins", directions, "directions", O, D, k1, k2);
+                 if (!(tmax > 0.0)) throw nb::value_error("tmax must be > 0");
+                 auto* prim = new std::int64_t[std::max<std::size_t>(1, no)]();
+                 auto* dist = new double[std::max<std::size_t>(1, no)]();
+                 auto* front = new std::uint8_t[std::max<std::size_t>(1, no)]();
+                 nb::capsule o1(prim, [](void* q) noexcept { delete[] static_cast<std::int64_t*>(q); });
+                 nb::capsule o2(dist, [](void* q) noexcept { delete[] static_cast<double*>(q); });
+                 nb::capsule o3(front, [](void* q) noexcept { delete[] static_cast<std::uint8_t*>(q); });
+                 nb::ndarray<nb::numpy, std::int64_t> a1(prim, {no}, o1);
+                 nb::ndarray<nb::numpy, double> a2(dist, {no}, o2);
+                 nb::ndarray<nb::numpy, std::uint8_t> a3(front, {no}, o3);
+                 run_released(self.threads, progress, [&](Context& ctx) {
+                     ctx.set_phase("receivers: gather rays", 0.0, 1.0);
+                     checkpoint(ctx, 0.0);
+                     self.scene->intersect(ctx, O, D, no, tmax, prim, dist, front);
+                 });
+                 return nb::make_tuple(a1, a2, a3);
+             },
+             nb::arg("origins"), nb::arg("directions"), nb::kw_only(),
+             nb::arg("tmax") = HUGE_VAL, nb::arg("progress") = nb::none(),
+             "Closest triangle hit of unit-direction rays: (triangle int64 (-1: none), distance, front uint8).")
+        .def_prop_ro("n", [](const PyMeshScene& self) { return self.scene->size(); })
+        .def_prop_ro("extent", [](const PyMeshScene& self) { return self.scene->extent(); })
+        .def_prop_ro("build_seconds", [](const PyMeshScene& self) { return self.scene->build_seconds(); });
 
     m.def("_kernel_derivatives",
           [](nb::handle d, int order) {

@@ -1,0 +1,260 @@
+"""Evaluation at receivers: the light a user sees, computed at the point that shows it.
+
+Surfels discretise the *sources*; the values a user looks at live at *receivers* (mesh
+vertices and corners, scan points, preview points). Interpolating surfel values to a receiver
+smears light across contact lines and ignores surfaces nearer than a surfel spacing, so each
+receiver x is evaluated on its own (DESIGN.md §6, the final gather of two-pass radiosity):
+
+    L(x) = E(x) + ρ(x) · [ H_direct(x) + G(x) ]
+
+* ``H_direct`` — incident radiance from lamps and emissive triangles, with shadow rays cast
+  from x against the true triangles (``MeshOccluders.segment_query``);
+* ``G`` — indirect incident radiance: ``gather`` casts cosine-distributed rays from x against
+  the triangles and looks up the solved reflected radiance B' of the surfels at each hit
+  (``SurfelField``); rays that leave the scene see the background radiance.
+
+All radiance is in Blender's units (irradiance / π for incident light), positions in metres.
+Rays start ``offset`` off the surface along the receiver's normal; the default,
+``RAY_OFFSET`` × the scene's extent, lies far below a 1 mm gap in a 10 m scene and far above
+single-precision noise (the triangles are stored relative to their box centre, so only the
+scene's size matters, not where it sits).
+
+Results are deterministic: every receiver draws its rays from its own id and the seed, so
+threads, chunking and the order of receivers do not change them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from . import _core
+from .surfels import InputError
+
+#: Ray origins move off the surface by this fraction of the scene's extent (see above).
+RAY_OFFSET = 1e-5
+#: Rays cast per chunk of receivers (bounds memory: ~100 bytes per ray).
+RAYS_PER_CHUNK = 1 << 20
+#: Surfels looked up around a gather hit; those facing away from the hit surface are ignored.
+LOOKUP_NEIGHBOURS = 8
+#: A surfel counts for a hit when its normal is within acos(this) of the hit triangle's.
+LOOKUP_MIN_COS = 0.5
+
+Progress = Callable[[float, str], "bool | None"]
+
+
+def _corners(corners) -> np.ndarray:
+    c = np.ascontiguousarray(corners, dtype=np.float64)
+    if c.ndim != 3 or c.shape[1:] != (3, 3):
+        raise InputError(f"corners must have shape (T, 3, 3), got {c.shape}")
+    bad = ~np.isfinite(c).all(axis=(1, 2))
+    if bad.any():
+        raise InputError(f"corners of triangle {int(np.flatnonzero(bad)[0])} are not finite")
+    return c
+
+
+def _rows3(name: str, value, m: int | None = None) -> np.ndarray:
+    a = np.ascontiguousarray(value, dtype=np.float64)
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise InputError(f"{name} must have shape (M, 3), got {a.shape}")
+    if m is not None and len(a) != m:
+        raise InputError(f"{name} must have {m} rows, got {len(a)}")
+    bad = ~np.isfinite(a).all(axis=1)
+    if bad.any():
+        raise InputError(f"{name}[{int(np.flatnonzero(bad)[0])}] is not finite")
+    return a
+
+
+class MeshOccluders:
+    """Triangles (T, 3, 3) in metres as a ray-casting scene, for receivers.
+
+    ``threads`` 0 uses every hardware thread; ``progress(fraction, phase)`` returning False
+    cancels (``illumap.Cancelled``). ``offset`` (m) defaults to ``RAY_OFFSET`` × the extent.
+    """
+
+    def __init__(self, corners, *, offset: float | None = None, threads: int = 0,
+                 progress: Progress | None = None) -> None:
+        c = _corners(corners)
+        if len(c) == 0:
+            raise InputError("MeshOccluders needs at least one triangle")
+        self.corners = c
+        self._scene = _core.MeshScene(c.reshape(-1, 9), threads=threads, progress=progress)
+        e1, e2 = c[:, 1] - c[:, 0], c[:, 2] - c[:, 0]
+        cross = np.cross(e1, e2)
+        self.normals = cross / np.maximum(np.linalg.norm(cross, axis=1, keepdims=True), 1e-300)
+        self.extent = float(self._scene.extent)
+        self.offset = float(offset) if offset is not None else RAY_OFFSET * max(self.extent, 1e-30)
+        if not (self.offset > 0 and np.isfinite(self.offset)):
+            raise InputError(f"offset must be a finite number > 0, got {offset}")
+
+    @property
+    def n(self) -> int:
+        """Number of triangles."""
+        return int(self._scene.n)
+
+    def visible(self, origins, targets, *, end_trim: float = 0.0,
+                progress: Progress | None = None) -> np.ndarray:
+        """float32 (M,): 1 where no triangle meets origins[k] → targets[k] (its last
+        ``end_trim`` metres left out), else 0. Origins are used as given."""
+        o = _rows3("origins", origins)
+        t = _rows3("targets", targets, len(o))
+        return self._scene.visible(o, t, end_trim=float(end_trim), progress=progress)
+
+    def intersect(self, origins, directions, *, tmax: float = np.inf,
+                  progress: Progress | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Closest hits of rays with unit ``directions``: (triangle int64 (-1: none),
+        distance in m, front bool: the ray meets the triangle's front face)."""
+        o = _rows3("origins", origins)
+        d = _rows3("directions", directions, len(o))
+        tri, dist, front = self._scene.intersect(o, d, tmax=float(tmax), progress=progress)
+        return tri, dist, front.astype(bool)
+
+    def segment_query(self, normals: np.ndarray):
+        """A lamp-shadow query ``visible(origins, targets, rows, progress=None)`` for receivers
+        with ``normals`` (M, 3): each origin is moved ``offset`` along its receiver's normal
+        (``rows`` name the receiver of each segment) and the last ``offset`` of the segment is
+        left out, so a sample on an emitter's own face does not hide itself."""
+        nrm = _rows3("normals", normals)
+
+        def visible(origins, targets, rows, progress=None):
+            o = np.asarray(origins, dtype=np.float64) + self.offset * nrm[np.asarray(rows)]
+            return self._scene.visible(np.ascontiguousarray(o),
+                                       np.ascontiguousarray(targets, dtype=np.float64),
+                                       end_trim=self.offset, progress=progress)
+        return visible
+
+
+class SurfelField:
+    """The solved reflected radiance of surfels, looked up at points on surfaces.
+
+    ``at(points, surface_normals)`` averages the ``LOOKUP_NEIGHBOURS`` nearest surfels whose
+    normal agrees with the surface's (within acos ``LOOKUP_MIN_COS``), by inverse squared
+    distance, so that a hit on a floor next to a box takes the floor's light, not the box's.
+    Where none agrees, the nearest surfel's value is used.
+    """
+
+    def __init__(self, positions, normals, values) -> None:
+        self.positions = _rows3("positions", positions)
+        self.normals = _rows3("normals", normals, len(self.positions))
+        self.values = _rows3("values", values, len(self.positions))
+        if len(self.positions) == 0:
+            raise InputError("SurfelField needs at least one surfel")
+
+    def at(self, points: np.ndarray, surface_normals: np.ndarray) -> np.ndarray:
+        """Values (M, 3) at ``points`` (M, 3) on surfaces with unit normals (M, 3)."""
+        k = min(LOOKUP_NEIGHBOURS, len(self.positions))
+        idx, dist = _core.knn(self.positions, np.ascontiguousarray(points, dtype=np.float64), k)
+        agree = np.einsum("mkc,mc->mk", self.normals[idx], surface_normals) >= LOOKUP_MIN_COS
+        eps2 = (0.05 * np.median(dist[:, -1])) ** 2 + 1e-30
+        w = agree / (dist * dist + eps2)
+        none = ~agree.any(axis=1)
+        w[none, 0] = 1.0
+        w /= w.sum(axis=1, keepdims=True)
+        return np.einsum("mk,mkc->mc", w, self.values[idx])
+
+
+def _hash_uniform(ids: np.ndarray, seed: int, stream: int) -> np.ndarray:
+    """Uniform [0, 1) per id from a 64-bit mix of (seed, stream, id): independent of order."""
+    with np.errstate(over="ignore"):
+        x = ids.astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
+        x ^= np.uint64((int(seed) * 0x632BE59BD9B4E019 + int(stream) * 0x85EBCA77C2B2AE63)
+                       & 0xFFFFFFFFFFFFFFFF)
+        x ^= x >> np.uint64(30)
+        x *= np.uint64(0xBF58476D1CE4E5B9)
+        x ^= x >> np.uint64(27)
+        x *= np.uint64(0x94D049BB133111EB)
+        x ^= x >> np.uint64(31)
+    return (x >> np.uint64(11)).astype(np.float64) / float(1 << 53)
+
+
+def _lattice(count: int) -> np.ndarray:
+    """``count`` points (count, 2) of a rank-1 (Fibonacci) lattice in [0, 1)²."""
+    k = np.arange(count)
+    return np.column_stack([(k + 0.5) / count, np.mod(k * 0.6180339887498949, 1.0)])
+
+
+def cosine_directions(normals: np.ndarray, count: int, ids: np.ndarray,
+                      seed: int = 0) -> np.ndarray:
+    """Unit directions (M, count, 3), cosine-distributed about unit ``normals`` (M, 3).
+
+    One rank-1 lattice, shifted per receiver by a hash of (seed, id) (Cranley–Patterson),
+    mapped to the disc by Shirley's concentric map and lifted to the hemisphere (Malley).
+    """
+    n = np.asarray(normals, dtype=np.float64)
+    ids = np.asarray(ids, dtype=np.int64)
+    shift = np.column_stack([_hash_uniform(ids, seed, 1), _hash_uniform(ids, seed, 2)])
+    uv = np.mod(_lattice(count)[None] + shift[:, None, :], 1.0)
+    a, b = 2 * uv[..., 0] - 1, 2 * uv[..., 1] - 1
+    first = np.abs(a) > np.abs(b)
+    r = np.where(first, a, b)
+    phi = np.where(first, (np.pi / 4) * b / np.where(a == 0, 1, a),
+                   np.pi / 2 - (np.pi / 4) * a / np.where(b == 0, 1, b))
+    x, y = r * np.cos(phi), r * np.sin(phi)
+    z = np.sqrt(np.maximum(0.0, 1.0 - x * x - y * y))
+    helper = np.where((np.abs(n[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    t = np.cross(n, helper)
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    s = np.cross(n, t)
+    return x[..., None] * t[:, None] + y[..., None] * s[:, None] + z[..., None] * n[:, None]
+
+
+@dataclass
+class GatherResult:
+    """Indirect incident radiance at receivers and what it cost."""
+
+    radiance: np.ndarray      # (M, 3) mean radiance seen by the rays (incident, irradiance/π)
+    stderr: np.ndarray        # (M,) standard error of the luminance of that mean
+    rays: int                 # rays cast
+
+
+def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, rays: int,
+           ids: np.ndarray | None = None, seed: int = 0, background=None,
+           back_field: SurfelField | None = None,
+           progress: Progress | None = None) -> GatherResult:
+    """Indirect incident radiance at receivers (``positions``, unit ``normals``, (M, 3)).
+
+    ``rays`` cosine-distributed rays per receiver hit the triangles; a front hit takes
+    ``field.at`` there, a back hit ``back_field.at`` (None: black, one-sided surfaces), and a
+    miss the ``background`` radiance (3,) (None: black). ``ids`` (M,) name the receivers for
+    their random streams (default: their rows). ``progress`` hears the share of rays cast;
+    returning False cancels (``illumap.Cancelled``).
+    """
+    p = _rows3("positions", positions)
+    n = _rows3("normals", normals, len(p))
+    m = len(p)
+    if int(rays) < 1:
+        raise InputError(f"rays must be >= 1, got {rays}")
+    k = int(rays)
+    ids = np.arange(m, dtype=np.int64) if ids is None else np.asarray(ids, dtype=np.int64)
+    bg = np.zeros(3) if background is None else np.asarray(background, dtype=np.float64).reshape(3)
+    out = np.zeros((m, 3))
+    err = np.zeros(m)
+    lum = np.array([0.2126, 0.7152, 0.0722])
+    per = max(1, RAYS_PER_CHUNK // k)
+    for start in range(0, m, per):
+        stop = min(m, start + per)
+        if progress is not None and progress(start / max(m, 1), "gather") is False:
+            raise _core.Cancelled()
+        dirs = cosine_directions(n[start:stop], k, ids[start:stop], seed).reshape(-1, 3)
+        origins = np.repeat(p[start:stop] + occluders.offset * n[start:stop], k, axis=0)
+        tri, dist, front = occluders.intersect(origins, dirs)
+        value = np.broadcast_to(bg, dirs.shape).copy()
+        hit = tri >= 0
+        points = origins[hit] + dist[hit, None] * dirs[hit]
+        tri_n = occluders.normals[tri[hit]]
+        vals = np.zeros((int(hit.sum()), 3))
+        f = front[hit]
+        if f.any():
+            vals[f] = field.at(points[f], tri_n[f])
+        if back_field is not None and (~f).any():
+            vals[~f] = back_field.at(points[~f], -tri_n[~f])
+        value[hit] = vals
+        value = value.reshape(stop - start, k, 3)
+        out[start:stop] = value.mean(axis=1)
+        y = value @ lum
+        err[start:stop] = y.std(axis=1) / np.sqrt(k)
+    if progress is not None and progress(1.0, "gather") is False:
+        raise _core.Cancelled()
+    return GatherResult(radiance=out, stderr=err, rays=m * k)

@@ -1,0 +1,239 @@
+// mesh_scene.cpp — Embree 3 triangle scene for receivers (see mesh_scene.hpp).
+#include "mesh_scene.hpp"
+
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace illumap {
+
+struct MeshScene::Impl {
+    RTCDevice device = nullptr;
+    RTCScene scene = nullptr;
+    ~Impl() {
+        if (scene) rtcReleaseScene(scene);
+        if (device) rtcReleaseDevice(device);
+    }
+};
+
+namespace {
+
+constexpr std::size_t kBatch = 64;  // rays per rtcOccluded1M / rtcIntersect1M call
+
+void check_embree(RTCDevice dev, const char* what) {
+    const RTCError e = rtcGetDeviceError(dev);
+    if (e == RTC_ERROR_NONE) return;
+    if (e == RTC_ERROR_CANCELLED) throw Cancelled();
+    throw std::runtime_error(std::string("embree: ") + what + " failed (error " +
+                             std::to_string(int(e)) + ")");
+}
+
+bool build_progress(void* ptr, double) {
+    return !static_cast<std::atomic<bool>*>(ptr)->load(std::memory_order_relaxed);
+}
+
+}  // namespace
+
+MeshScene::MeshScene(Context& ctx, const double* corners, std::size_t n_tri) : n_tri_(n_tri) {
+    const auto t_start = std::chrono::steady_clock::now();
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    for (std::size_t k = 0; k < 9 * n_tri; ++k) {
+        const double x = corners[k];
+        if (!std::isfinite(x))
+            throw std::invalid_argument("triangle " + std::to_string(k / 9) + " has a corner that is not finite");
+        lo[k % 3] = std::min(lo[k % 3], x);
+        hi[k % 3] = std::max(hi[k % 3], x);
+    }
+    for (int d = 0; d < 3; ++d) {
+        center_[d] = n_tri ? 0.5 * (lo[d] + hi[d]) : 0.0;
+        lo_[d] = n_tri ? lo[d] : 0.0;
+        hi_[d] = n_tri ? hi[d] : 0.0;
+        extent_ = std::max(extent_, hi_[d] - lo_[d]);
+    }
+    // Pad the box so that rays leaving a surface on its boundary are not clipped away.
+    const double pad = 1e-4 * extent_ + 1e-30;
+    for (int d = 0; d < 3; ++d) { lo_[d] -= pad; hi_[d] += pad; }
+
+    normal_.resize(3 * n_tri);
+    impl_ = new Impl;
+    const std::string cfg = "threads=" + std::to_string(ctx.nthreads());
+    impl_->device = rtcNewDevice(cfg.c_str());
+    if (!impl_->device) {
+        delete impl_;
+        impl_ = nullptr;
+        throw std::runtime_error("embree: rtcNewDevice failed");
+    }
+    try {
+        impl_->scene = rtcNewScene(impl_->device);
+        rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);
+        rtcSetSceneProgressMonitorFunction(impl_->scene, build_progress, &ctx.cancel);
+        if (n_tri > 0) {
+            RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+            float* v = static_cast<float*>(rtcSetNewGeometryBuffer(
+                g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 3 * n_tri));
+            unsigned* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+                g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), n_tri));
+            check_embree(impl_->device, "buffers");
+            ctx.set_phase("receivers: triangles", 0.0, 0.3);
+            parallel_for(ctx, n_tri, 1 << 15, [&](std::size_t b, std::size_t e) {
+                for (std::size_t t = b; t < e; ++t) {
+                    const double* c = corners + 9 * t;
+                    for (int k = 0; k < 9; ++k) v[9 * t + k] = float(c[k] - center_[k % 3]);
+                    for (int k = 0; k < 3; ++k) ib[3 * t + k] = unsigned(3 * t + k);
+                    const double e1[3] = {c[3] - c[0], c[4] - c[1], c[5] - c[2]};
+                    const double e2[3] = {c[6] - c[0], c[7] - c[1], c[8] - c[2]};
+                    double nx = e1[1] * e2[2] - e1[2] * e2[1], ny = e1[2] * e2[0] - e1[0] * e2[2],
+                           nz = e1[0] * e2[1] - e1[1] * e2[0];
+                    const double l = std::sqrt(nx * nx + ny * ny + nz * nz);
+                    if (l > 0) { nx /= l; ny /= l; nz /= l; }
+                    normal_[3 * t] = float(nx); normal_[3 * t + 1] = float(ny); normal_[3 * t + 2] = float(nz);
+                }
+            });
+            rtcCommitGeometry(g);
+            rtcAttachGeometry(impl_->scene, g);
+            rtcReleaseGeometry(g);
+        }
+        ctx.set_phase("receivers: BVH", 0.3, 0.7);
+        if (n_tri < (std::size_t(1) << 16))
+            rtcCommitScene(impl_->scene);
+        else
+            run_watched(ctx, [&] { rtcCommitScene(impl_->scene); });
+        if (ctx.cancel.load()) throw Cancelled();
+        check_embree(impl_->device, "BVH build");
+    } catch (...) {
+        delete impl_;
+        impl_ = nullptr;
+        throw;
+    }
+    build_seconds_ =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+}
+
+MeshScene::~MeshScene() { delete impl_; }
+
+bool MeshScene::clip(const double* p, const double* u, double len, double& s0, double& s1) const {
+    double a = 0, e = len;
+    for (int d = 0; d < 3; ++d) {
+        if (u[d] != 0.0) {
+            double ta = (lo_[d] - p[d]) / u[d], tb = (hi_[d] - p[d]) / u[d];
+            if (ta > tb) std::swap(ta, tb);
+            a = std::max(a, ta);
+            e = std::min(e, tb);
+        } else if (p[d] < lo_[d] || p[d] > hi_[d]) {
+            return false;
+        }
+    }
+    s0 = a;
+    s1 = e;
+    return s1 > s0;
+}
+
+namespace {
+
+// The Embree ray for [s0, s1] of p + t u, its origin at p + s0 u relative to the box centre.
+void fill(RTCRay& r, const double* p, const double* u, double s0, double s1, const double* c) {
+    r.org_x = float(p[0] + s0 * u[0] - c[0]);
+    r.org_y = float(p[1] + s0 * u[1] - c[1]);
+    r.org_z = float(p[2] + s0 * u[2] - c[2]);
+    r.dir_x = float(u[0]);
+    r.dir_y = float(u[1]);
+    r.dir_z = float(u[2]);
+    r.tnear = 0.0f;
+    r.tfar = float(s1 - s0);
+    r.time = 0.0f;
+    r.mask = 0xffffffffu;
+    r.id = 0;
+    r.flags = 0;
+}
+
+}  // namespace
+
+void MeshScene::segments(Context& ctx, const double* a, const double* b, std::size_t n,
+                         double end_trim, float* out) const {
+    if (n_tri_ == 0) {
+        std::fill(out, out + n, 1.0f);
+        return;
+    }
+    const auto scene = impl_->scene;
+    parallel_for(ctx, n, 1024, [&](std::size_t lo, std::size_t hi) {
+        RTCIntersectContext ic;
+        rtcInitIntersectContext(&ic);
+        ic.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+        RTCRay rays[kBatch];
+        std::size_t slot[kBatch], m = 0;
+        auto flush = [&] {
+            if (!m) return;
+            rtcOccluded1M(scene, &ic, rays, unsigned(m), sizeof(RTCRay));
+            for (std::size_t q = 0; q < m; ++q) out[slot[q]] = rays[q].tfar < 0.0f ? 0.0f : 1.0f;
+            m = 0;
+        };
+        for (std::size_t k = lo; k < hi; ++k) {
+            out[k] = 1.0f;
+            const double* p = a + 3 * k;
+            const double* q = b + 3 * k;
+            double u[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]};
+            const double len = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+            if (!(len > end_trim) || !std::isfinite(len)) continue;
+            for (double& x : u) x /= len;
+            double s0, s1;
+            if (!clip(p, u, len - end_trim, s0, s1)) continue;
+            fill(rays[m], p, u, s0, s1, center_);
+            slot[m++] = k;
+            if (m == kBatch) flush();
+        }
+        flush();
+    });
+}
+
+void MeshScene::intersect(Context& ctx, const double* o, const double* d, std::size_t n,
+                          double tmax, std::int64_t* prim, double* t, std::uint8_t* front) const {
+    std::fill(prim, prim + n, std::int64_t(-1));
+    std::fill(t, t + n, HUGE_VAL);
+    std::fill(front, front + n, std::uint8_t(0));
+    if (n_tri_ == 0) return;
+    const auto scene = impl_->scene;
+    parallel_for(ctx, n, 1024, [&](std::size_t lo, std::size_t hi) {
+        RTCIntersectContext ic;
+        rtcInitIntersectContext(&ic);
+        ic.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+        RTCRayHit rays[kBatch];
+        std::size_t slot[kBatch], m = 0;
+        double start[kBatch];
+        auto flush = [&] {
+            if (!m) return;
+            rtcIntersect1M(scene, &ic, rays, unsigned(m), sizeof(RTCRayHit));
+            for (std::size_t q = 0; q < m; ++q) {
+                const RTCRayHit& rh = rays[q];
+                if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
+                const std::size_t k = slot[q];
+                const std::uint32_t pr = rh.hit.primID;
+                prim[k] = pr;
+                t[k] = start[q] + double(rh.ray.tfar);
+                const float* nt = &normal_[3 * std::size_t(pr)];
+                const double c = d[3 * k] * nt[0] + d[3 * k + 1] * nt[1] + d[3 * k + 2] * nt[2];
+                front[k] = c < 0.0 ? 1 : 0;
+            }
+            m = 0;
+        };
+        for (std::size_t k = lo; k < hi; ++k) {
+            const double* p = o + 3 * k;
+            const double* u = d + 3 * k;
+            if (!std::isfinite(p[0] + p[1] + p[2] + u[0] + u[1] + u[2])) continue;
+            double s0, s1;
+            if (!clip(p, u, tmax, s0, s1)) continue;
+            fill(rays[m].ray, p, u, s0, s1, center_);
+            rays[m].hit.geomID = RTC_INVALID_GEOMETRY_ID;
+            rays[m].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+            start[m] = s0;
+            slot[m++] = k;
+            if (m == kBatch) flush();
+        }
+        flush();
+    });
+}
+
+}  // namespace illumap

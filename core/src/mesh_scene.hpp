@@ -1,0 +1,60 @@
+// mesh_scene.hpp — the user's triangles as an Embree scene, for evaluation at receivers.
+//
+// Receivers (mesh vertices and corners, display points) take their direct light and final
+// gather from the true geometry rather than from surfel discs: triangles neither overhang
+// outlines nor pass above a curved surface, so a lamp-lit sphere gets all of its light and a
+// surface 1 mm behind an emitter is hidden by it. Coordinates are stored in float relative to
+// the triangles' box centre, so precision is relative to the scene's size, not its placement.
+//
+// Rays are given in world coordinates (double); callers move their origins off the surface
+// (the receiver's normal times an offset) before asking.
+#pragma once
+
+#include "parallel.hpp"
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace illumap {
+
+class MeshScene {
+public:
+    // corners: n_tri x 3 x 3 doubles (world coordinates). Throws Cancelled, std::invalid_argument
+    // (non-finite corners) or std::runtime_error (Embree).
+    MeshScene(Context& ctx, const double* corners, std::size_t n_tri);
+    ~MeshScene();
+    MeshScene(const MeshScene&) = delete;
+    MeshScene& operator=(const MeshScene&) = delete;
+
+    std::size_t size() const { return n_tri_; }
+    double extent() const { return extent_; }  // largest side of the triangles' box
+    double build_seconds() const { return build_seconds_; }
+
+    // out[k] = 1 when no triangle meets segment a[k] -> b[k] with its last `end_trim` (world
+    // units) left out, else 0. Segments are clipped to the scene's box in double precision, so
+    // b may lie arbitrarily far (a sun).
+    void segments(Context& ctx, const double* a, const double* b, std::size_t n, double end_trim,
+                  float* out) const;
+
+    // Closest hits of rays o[k] + t d[k] (d unit), t in (0, tmax]: prim[k] is the triangle
+    // (-1: none), t[k] its distance, front[k] 1 when the ray meets the triangle's front
+    // (d . normal < 0, normal by the corners' winding).
+    void intersect(Context& ctx, const double* o, const double* d, std::size_t n, double tmax,
+                   std::int64_t* prim, double* t, std::uint8_t* front) const;
+
+private:
+    struct Impl;
+    Impl* impl_ = nullptr;
+    std::size_t n_tri_ = 0;
+    std::vector<float> normal_;  // unit normal per triangle
+    double center_[3] = {0, 0, 0};
+    double lo_[3] = {0, 0, 0}, hi_[3] = {0, 0, 0};
+    double extent_ = 0;
+    double build_seconds_ = 0;
+
+    // [s0, s1] of p + t u inside the (padded) box, intersected with [0, len]; false if empty.
+    bool clip(const double* p, const double* u, double len, double& s0, double& s1) const;
+};
+
+}  // namespace illumap
