@@ -15,7 +15,10 @@ Options (after ``--``)::
                            (--budget caps the count), FMM order, opening angle and tolerance
     --no-adaptive          with --target-error: one uniform pass (default: pass 1 with half
                            the surfels, then pass 2 denser where its illumination varies)
-    --transfer DOMAIN      also write 'illumination' onto the meshes: point | corner
+    --transfer DOMAIN      domain of 'illumination' on the meshes: point | corner (default
+                           corner; the light is evaluated at the meshes' own corners)
+    --no-transfer          leave the meshes alone: results on the surfel object only
+    --gather-rays N        final-gather rays per mesh corner (default: the preset's)
     --no-lamps             ignore Blender lamps
     --no-lamp-shadows      lamp light unshadowed (default: rays against the surfels)
     --shadow-samples N     rays per surfel for lamps with a size (default 16)
@@ -79,6 +82,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="relative RMS error wanted (e.g. 0.03): Illumap picks the surfel "
                         "density, order, θ and tolerance, and reports an error estimate")
     p.add_argument("--transfer", choices=["point", "corner"], type=str.lower)
+    p.add_argument("--no-transfer", action="store_true")
+    p.add_argument("--gather-rays", type=int)
     p.add_argument("--no-adaptive", action="store_true")
     p.add_argument("--no-lamps", action="store_true")
     p.add_argument("--no-lamp-shadows", action="store_true")
@@ -183,6 +188,10 @@ def make_settings(args) -> pipeline.Settings:
         raise UsageError("--lightmap-size, --resolution and --samples must be positive")
     if args.shadow_samples <= 0:
         raise UsageError("--shadow-samples must be positive")
+    if args.gather_rays is not None and args.gather_rays <= 0:
+        raise UsageError("--gather-rays must be positive")
+    if args.transfer and args.no_transfer:
+        raise UsageError("--transfer and --no-transfer exclude each other")
     if args.target_error is not None and not 0.0 < args.target_error < 1.0:
         raise UsageError("--target-error must lie in (0, 1), e.g. 0.05")
     if args.target_error is not None and args.density is not None:
@@ -195,6 +204,10 @@ def make_settings(args) -> pipeline.Settings:
     settings.world_ambient = args.world
     if args.transfer:
         settings.transfer, settings.transfer_domain = True, args.transfer.upper()
+    if args.no_transfer:
+        settings.transfer = False
+    if args.gather_rays is not None:
+        settings.gather_rays = args.gather_rays
     return settings
 
 
@@ -271,7 +284,13 @@ def _report(frame: int, result: pipeline.Result, out) -> None:
         print(f"  visibility       exact, {result.stats.get('visibility_shape', shape)}s",
               file=out)
     if result.stats.get("shadow_rays"):
-        print(f"  shadow rays      {result.stats['shadow_rays']} ({shape}s)", file=out)
+        against = result.stats.get("shadow_occluders", f"{shape}s")
+        print(f"  shadow rays      {result.stats['shadow_rays']} ({against})", file=out)
+    receivers = result.stats.get("receivers")
+    if receivers:
+        print(f"  receivers        {receivers['corners']} corners at {receivers['points']} "
+              f"points, {receivers['rays']} rays ({receivers['gather_rays']} gather rays each)",
+              file=out)
     accuracy = result.stats.get("accuracy")
     if accuracy:
         chosen = accuracy["settings"]

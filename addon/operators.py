@@ -135,7 +135,7 @@ def record_stats(stats, result, seconds):
     stats.first_pass_surfels = int(first.get("surfels", 0))
     stats.first_pass_iterations = int(first.get("iterations", 0))
     stats.shadow_rays = int(extra.get("shadow_rays", 0))
-    stats.occluder_shape = str(extra.get("occluder_shape", ""))
+    stats.occluder_shape = str(extra.get("shadow_occluders", extra.get("occluder_shape", "")))
     accuracy = extra.get("accuracy") or {}
     chosen = accuracy.get("settings") or {}
     if chosen.get("label"):

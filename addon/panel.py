@@ -86,6 +86,8 @@ def draw_advanced(layout, context):
     sub = col.column()
     sub.active = props.transfer
     sub.prop(props, "transfer_domain")
+    sub.prop(props, "gather_rays")
+    sub.prop(props, "receiver_shadow_samples")
     layout.operator("illumap.reset_settings", icon="LOOP_BACK")
 
 
@@ -123,7 +125,7 @@ def draw_stats(layout, context):
                        f"{stats.first_pass_iterations} iterations")
     if stats.shadow_rays > 0:
         col.label(text=f"Shadow rays: {stats.shadow_rays:,}"
-                       + (f" ({stats.occluder_shape}s)" if stats.occluder_shape else ""))
+                       + (f" ({stats.occluder_shape})" if stats.occluder_shape else ""))
     col.label(text=f"Total: {stats.total_seconds:.3f} s")
     if len(stats.phases):
         col = layout.column(align=True)

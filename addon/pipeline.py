@@ -470,21 +470,28 @@ def mesh_occluders(job: Job, progress: Progress | None = None):
     return job.occluders
 
 
-def _shadows(job: Job, normals: np.ndarray, samples: int, progress: Progress | None):
-    """The ``lamps.Shadows`` for points with ``normals`` (surfels or receivers): rays against
-    the true triangles when every source is a mesh, else against the surfels as occluders."""
-    s = job.settings
+def shadow_query(job: Job, normals: np.ndarray, progress: Progress | None = None):
+    """The segment query lamp shadows are cast with from points with ``normals`` (surfels or
+    receivers), ``visible(origins, targets, rows, progress=None)``: against the meshes' own
+    triangles when every source is a mesh (``MeshOccluders.segment_query``), else against the
+    surfels as occluders (``make_segment_query``). None when the core has neither."""
     if job.triangles is not None and not job.has_points:
-        query = mesh_occluders(job, progress).segment_query(normals)
-    else:
-        query = make_segment_query(job.positions, job.normals, job.areas, progress,
-                                   shape=occluder_shape(s))
-        if query is None:
-            job.warnings.append("Lamp shadows need the core's occluder query, which this "
-                                "build lacks: lamp light is unshadowed")
-            return None
+        return mesh_occluders(job, progress).segment_query(normals)
+    return make_segment_query(job.positions, job.normals, job.areas, progress,
+                              shape=occluder_shape(job.settings))
+
+
+def _shadows(job: Job, normals: np.ndarray, samples: int, progress: Progress | None):
+    """``lamps.Shadows`` for points with ``normals`` (``shadow_query``), or None with a
+    warning when the core has no ray query."""
+    query = shadow_query(job, normals, progress)
+    if query is None:
+        job.warnings.append("Lamp shadows need the core's occluder query, which this "
+                            "build lacks: lamp light is unshadowed")
+        return None
     extent = float(np.ptp(job.positions, axis=0).max()) if len(job.positions) else 1.0
-    return lamps.Shadows(query, samples=samples, seed=s.seed, extent=extent, progress=progress)
+    return lamps.Shadows(query, samples=samples, seed=job.settings.seed, extent=extent,
+                         progress=progress)
 
 
 def light(job: Job, progress: Progress | None = None) -> Job:
@@ -517,6 +524,8 @@ def light(job: Job, progress: Progress | None = None) -> Job:
     if shadows is not None:
         job.timings["shadow rays"] = shadows.seconds
         job.stats["shadow_rays"] = int(shadows.rays)
+        job.stats["shadow_occluders"] = ("triangles" if job.occluders is not None
+                                         else f"{occluder_shape(s)}s")
     job.direct = np.ascontiguousarray(job.albedo * incident)
     job.timings["direct light"] = time.perf_counter() - t0
     return job

@@ -17,8 +17,8 @@ from .preview import DEFAULT_DISC_SCALE
 
 # The one table of quality presets is the pipeline's ``PRESETS`` (the batch script uses it too):
 # preset name -> Settings values (density in surfels/m², FMM order, opening angle, visibility,
-# tolerance). Visibility "exact" is meant for High once the core offers it; until then every
-# preset uses "none". pipeline.py imports the native core only when it runs, so this import
+# tolerance, final-gather and shadow rays per receiver). Every preset casts shadows: speed
+# never comes from leaving out what the scene needs. pipeline.py imports the native core only when it runs, so this import
 # works in the reduced UI too; should it fail, presets do nothing and the fields keep defaults.
 try:
     from .pipeline import PRESETS as _TABLE
@@ -30,7 +30,8 @@ PRESETS = {name: {key: (value.upper() if key in ("visibility", "solver", "near_f
                   for key, value in values.items()}
            for name, values in _TABLE.items()}
 DEFAULT_PRESET = "MEDIUM"
-_DEFAULTS = dict(density=400.0, order=4, theta=0.5, visibility="NONE", tol=1e-4)
+_DEFAULTS = dict(density=100.0, order=4, theta=0.5, visibility="EXACT", tol=1e-4,
+                 gather_rays=256, receiver_shadow_samples=64)
 _DEFAULTS.update(PRESETS.get(DEFAULT_PRESET, {}))
 
 PRESET_ITEMS = [
@@ -244,10 +245,21 @@ class IllumapSettings(bpy.types.PropertyGroup):
     world_ambient: BoolProperty(name="World Ambient",
                                 description="Add the world colour as uniform ambient light",
                                 default=False, update=_field_update)
+    gather_rays: IntProperty(
+        name="Gather Rays", default=_DEFAULTS["gather_rays"], min=1, soft_max=4096,
+        update=_field_update,
+        description="Rays per mesh vertex or corner that gather the light reflected by the "
+                    "scene: more give smoother indirect light; cost grows in proportion")
+    receiver_shadow_samples: IntProperty(
+        name="Receiver Shadow Samples", default=_DEFAULTS["receiver_shadow_samples"], min=1,
+        soft_max=1024, update=_field_update,
+        description="Shadow rays per mesh vertex or corner for each lamp or light-emitting "
+                    "object with a size: more give smoother penumbrae")
     # Output
     transfer: BoolProperty(name="Transfer to Meshes",
-                           description="Also write the illumination onto the source meshes",
-                           default=False, update=_field_update)
+                           description="Evaluate the illumination at the source meshes' own "
+                                       "vertices or corners and write it there",
+                           default=True, update=_field_update)
     transfer_domain: EnumProperty(name="Domain", items=DOMAIN_ITEMS, default="CORNER",
                                   update=_field_update)
     # Preview
@@ -270,7 +282,8 @@ _SETTINGS_FIELDS = ("density", "budget", "seed", "method", "order", "theta", "le
                     "visibility", "occluder_shape", "tol", "max_iterations", "solver",
                     "near_field", "lamps",
                     "lamp_shadows", "shadow_samples", "world_ambient", "transfer",
-                    "transfer_domain", "target_error", "adaptive")
+                    "transfer_domain", "target_error", "adaptive", "gather_rays",
+                    "receiver_shadow_samples")
 _LOWER_ENUMS = ("visibility", "occluder_shape", "solver", "near_field", "method")
 # Alternative field names a Settings dataclass may use for the same knob.
 _ALIASES = {

@@ -176,7 +176,7 @@ def test_segment_query_failure_is_reported(monkeypatch):
         def visible(*_a):
             raise RuntimeError("device lost")
         return visible
-    monkeypatch.setattr(pipeline, "make_segment_query", broken)
+    monkeypatch.setattr(pipeline, "shadow_query", broken)
     add_lamp("POINT", energy=10.0)
     floor = make_plane("Floor", material=diffuse_material("D", (ALBEDO,) * 3))
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), [floor],

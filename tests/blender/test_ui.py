@@ -239,7 +239,8 @@ def test_settings_reach_the_pipeline_settings(registered_addon):
     draft = pipeline.PRESETS["DRAFT"]
     assert settings.density == pytest.approx(draft["density"])
     assert settings.order == draft["order"]
-    assert settings.visibility == draft["visibility"] == "none"
+    assert settings.visibility == draft["visibility"] == "exact"
+    assert settings.gather_rays == draft["gather_rays"]
     assert settings.tol == pytest.approx(draft["tol"], rel=1e-6)
     assert settings.solver == "gmres"
     assert settings.budget is None
@@ -630,11 +631,11 @@ def test_real_pipeline_modal_cancel_during_lamp_shadows(registered_addon, monkey
     _lamp_scene()
     # (16 + 1) m² × 6400 = 108,800 lit surfels × 64 rays: seven batches of 2^20 rays.
     settings = _lamp_settings(density=6400.0, shadow_samples=64)
-    real = pipeline.make_segment_query
+    real = pipeline.shadow_query
     calls = {"started": 0, "finished": 0}
 
-    def counting(positions, normals, areas, progress=None, shape="disc"):
-        query = real(positions, normals, areas, progress, shape=shape)
+    def counting(job, normals, progress=None):
+        query = real(job, normals, progress)
 
         def visible(origins, targets, skip, progress=None):
             calls["started"] += 1
@@ -643,7 +644,7 @@ def test_real_pipeline_modal_cancel_during_lamp_shadows(registered_addon, monkey
             return out
         return visible
 
-    monkeypatch.setattr(pipeline, "make_segment_query", counting)
+    monkeypatch.setattr(pipeline, "shadow_query", counting)
     before = snapshot()
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), bpy.context.selected_objects,
                            settings)

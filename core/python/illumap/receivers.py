@@ -141,14 +141,19 @@ class SurfelField:
         self.values = _rows3("values", values, len(self.positions))
         if len(self.positions) == 0:
             raise InputError("SurfelField needs at least one surfel")
+        # Softening of the inverse-distance weights: a share of the typical neighbour
+        # distance, fixed per field so that a lookup does not depend on what else is looked up.
+        k = min(LOOKUP_NEIGHBOURS, len(self.positions))
+        probe = self.positions[:: max(1, len(self.positions) // 4096)]
+        _, dist = _core.knn(self.positions, np.ascontiguousarray(probe), k)
+        self._eps2 = (0.05 * float(np.median(dist[:, -1]))) ** 2 + 1e-30
 
     def at(self, points: np.ndarray, surface_normals: np.ndarray) -> np.ndarray:
         """Values (M, 3) at ``points`` (M, 3) on surfaces with unit normals (M, 3)."""
         k = min(LOOKUP_NEIGHBOURS, len(self.positions))
         idx, dist = _core.knn(self.positions, np.ascontiguousarray(points, dtype=np.float64), k)
         agree = np.einsum("mkc,mc->mk", self.normals[idx], surface_normals) >= LOOKUP_MIN_COS
-        eps2 = (0.05 * np.median(dist[:, -1])) ** 2 + 1e-30
-        w = agree / (dist * dist + eps2)
+        w = agree / (dist * dist + self._eps2)
         none = ~agree.any(axis=1)
         w[none, 0] = 1.0
         w /= w.sum(axis=1, keepdims=True)

@@ -1,0 +1,178 @@
+"""Evaluation at receivers (illumap.receivers): triangle rays, cosine directions, final gather.
+
+Exact cases: a receiver under a centred parallel unit square at height 1 sees it with form
+factor 0.23945 (DESIGN.md §4), so a gather of a field that is 1 on the square and a black
+background must return that; inside a closed box whose walls all send 1, every ray returns 1.
+"""
+
+import numpy as np
+import pytest
+
+import illumap
+from illumap import receivers as rc
+
+SQUARE_FORM_FACTOR = 0.23945   # point to a centred parallel unit square at height 1
+
+
+def quad(c0, c1, c2, c3):
+    """Two triangles c0 c1 c2, c0 c2 c3 (normal by their winding)."""
+    return np.array([[c0, c1, c2], [c0, c2, c3]], dtype=np.float64)
+
+
+def grid_square(z, n, facing_down=True):
+    """An n×n grid of the unit square [-0.5, 0.5]² at height z as 2n² triangles."""
+    s = np.linspace(-0.5, 0.5, n + 1)
+    tris = []
+    for i in range(n):
+        for j in range(n):
+            a, b = (s[i], s[j], z), (s[i + 1], s[j], z)
+            c, d = (s[i + 1], s[j + 1], z), (s[i], s[j + 1], z)
+            tris.append(quad(a, d, c, b) if facing_down else quad(a, b, c, d))
+    return np.concatenate(tris)
+
+
+def closed_box(lo=-1.0, hi=1.0):
+    """The six faces of a cube as 12 triangles facing inwards."""
+    L, H = lo, hi
+    faces = [
+        quad((L, L, L), (H, L, L), (H, H, L), (L, H, L)),      # floor, +z
+        quad((L, L, H), (L, H, H), (H, H, H), (H, L, H)),      # ceiling, -z
+        quad((L, L, L), (L, H, L), (L, H, H), (L, L, H)),      # x = L, +x
+        quad((H, L, L), (H, L, H), (H, H, H), (H, H, L)),      # x = H, -x
+        quad((L, L, L), (L, L, H), (H, L, H), (H, L, L)),      # y = L, +y
+        quad((L, H, L), (H, H, L), (H, H, H), (L, H, H)),      # y = H, -y
+    ]
+    return np.concatenate(faces)
+
+
+def surfels_on(tris, per_triangle=4, value=1.0):
+    """A field of surfels at points inside each triangle with its normal and ``value``."""
+    w = np.array([[0.6, 0.2, 0.2], [0.2, 0.6, 0.2], [0.2, 0.2, 0.6], [1 / 3, 1 / 3, 1 / 3]])
+    w = w[:per_triangle]
+    pos = np.einsum("kc,tcd->tkd", w, tris).reshape(-1, 3)
+    n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    nrm = np.repeat(n, len(w), axis=0)
+    return rc.SurfelField(pos, nrm, np.full((len(pos), 3), value))
+
+
+def test_segments_blocked_by_a_triangle_and_trimmed_at_the_end():
+    occ = rc.MeshOccluders(quad((0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)))
+    o = np.array([[0.5, 0.5, 0.0], [2.0, 2.0, 0.0], [0.5, 0.5, 0.0]])
+    t = np.array([[0.5, 0.5, 2.0], [2.0, 2.0, 2.0], [0.5, 0.5, 1.0]])
+    np.testing.assert_array_equal(occ.visible(o, t), [0.0, 1.0, 0.0])
+    # A segment that ends on the triangle is free once its last part is left out.
+    np.testing.assert_array_equal(occ.visible(o, t, end_trim=1e-4), [0.0, 1.0, 1.0])
+    # A sun: the target 1e9 scene sizes away, clipped in double precision.
+    far = np.array([[0.5, 0.5, 1e9]])
+    assert occ.visible(o[:1], far)[0] == 0.0
+
+
+def test_intersect_reports_triangle_distance_and_face():
+    occ = rc.MeshOccluders(quad((0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)))   # normal +z
+    o = np.array([[0.25, 0.75, 0.0], [0.25, 0.75, 2.0], [3.0, 3.0, 0.0]])
+    d = np.array([[0, 0, 1.0], [0, 0, -1.0], [0, 0, 1.0]])
+    tri, dist, front = occ.intersect(o, d)
+    assert tri[0] in (0, 1) and tri[1] == tri[0] and tri[2] == -1
+    np.testing.assert_allclose(dist[:2], [1.0, 1.0], rtol=1e-6)
+    assert not front[0] and front[1]          # from below: the back face
+
+
+def test_precision_does_not_depend_on_placement():
+    """The same rays 1e7 m from the origin give the same answers (box-centred floats)."""
+    base = quad((0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1))
+    o = np.array([[0.5, 0.5, 0.999], [0.5, 0.5, 0.99999]])
+    d = np.array([[0, 0, 1.0], [0, 0, 1.0]])
+    for shift in (0.0, 1e7):
+        occ = rc.MeshOccluders(base + shift)
+        tri, dist, _ = occ.intersect(o + shift, d)
+        np.testing.assert_allclose(dist, [1e-3, 1e-5], rtol=2e-3)
+
+
+def test_cosine_directions_are_unit_upper_and_cosine_distributed():
+    normals = np.array([[0, 0, 1.0], [1, 0, 0], [0, -0.6, 0.8]])
+    d = rc.cosine_directions(normals, 1024, np.arange(3))
+    np.testing.assert_allclose(np.linalg.norm(d, axis=2), 1.0, atol=1e-12)
+    cos = np.einsum("mkc,mc->mk", d, normals)
+    assert cos.min() >= 0
+    np.testing.assert_allclose(cos.mean(axis=1), 2 / 3, atol=2e-3)   # E[cos] under cos/π
+
+
+def test_directions_depend_on_the_receiver_id_not_its_row():
+    normals = np.tile([[0, 0, 1.0]], (4, 1))
+    a = rc.cosine_directions(normals, 16, np.array([7, 8, 9, 10]), seed=3)
+    b = rc.cosine_directions(normals[::-1], 16, np.array([10, 9, 8, 7]), seed=3)
+    np.testing.assert_array_equal(a, b[::-1])
+    assert not np.allclose(a[0], a[1])
+    assert not np.allclose(a, rc.cosine_directions(normals, 16, np.array([7, 8, 9, 10]), seed=4))
+
+
+def test_gather_under_a_square_gives_its_form_factor():
+    square = grid_square(1.0, 8)                     # faces down, towards the receiver
+    occ = rc.MeshOccluders(square)
+    field = surfels_on(square)
+    p = np.array([[0.0, 0.0, 0.0]])
+    n = np.array([[0.0, 0.0, 1.0]])
+    g = rc.gather(occ, field, p, n, rays=4096)
+    np.testing.assert_allclose(g.radiance[0], SQUARE_FORM_FACTOR, rtol=0.01)
+    assert g.rays == 4096
+    # Seen from behind (the square faces up), one-sided surfaces send nothing.
+    occ_up = rc.MeshOccluders(grid_square(1.0, 8, facing_down=False))
+    assert rc.gather(occ_up, field, p, n, rays=256).radiance.max() == 0.0
+
+
+def test_gather_background_for_rays_that_leave():
+    occ = rc.MeshOccluders(grid_square(1.0, 2))
+    field = surfels_on(grid_square(1.0, 2))
+    p = np.array([[0.0, 0.0, 0.0]])
+    g = rc.gather(occ, field, p, np.array([[0.0, 0.0, -1.0]]), rays=64, background=[0.5, 0.25, 1.0])
+    np.testing.assert_allclose(g.radiance[0], [0.5, 0.25, 1.0])
+    assert g.stderr[0] == 0.0
+
+
+def test_gather_inside_a_closed_box_is_a_furnace():
+    box = closed_box()
+    occ = rc.MeshOccluders(box)
+    field = surfels_on(box, value=0.7)
+    rng = np.random.default_rng(1)
+    p = rng.uniform(-0.9, 0.9, (50, 3))
+    n = rng.normal(size=(50, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    g = rc.gather(occ, field, p, n, rays=64)
+    np.testing.assert_allclose(g.radiance, 0.7, rtol=1e-12)
+
+
+def test_gather_is_the_same_in_any_chunking_and_order(monkeypatch):
+    box = closed_box()
+    occ = rc.MeshOccluders(box)
+    pos = np.einsum("kc,tcd->tkd", np.array([[0.6, 0.2, 0.2], [0.2, 0.2, 0.6]]), box).reshape(-1, 3)
+    values = np.abs(pos) + 0.1                  # a varying field
+    nrm = np.repeat(np.cross(box[:, 1] - box[:, 0], box[:, 2] - box[:, 0]), 2, axis=0)
+    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+    field = rc.SurfelField(pos, nrm, values)
+    p = pos + 1e-3 * nrm
+    whole = rc.gather(occ, field, p, nrm, rays=32, ids=np.arange(len(p)))
+    monkeypatch.setattr(rc, "RAYS_PER_CHUNK", 32 * 5)
+    order = np.random.default_rng(0).permutation(len(p))
+    parts = rc.gather(occ, field, p[order], nrm[order], rays=32, ids=order)
+    np.testing.assert_array_equal(parts.radiance, whole.radiance[order])
+
+
+def test_gather_can_be_cancelled():
+    occ = rc.MeshOccluders(closed_box())
+    field = surfels_on(closed_box())
+    with pytest.raises(illumap.Cancelled):
+        rc.gather(occ, field, np.zeros((3, 3)), np.tile([[0, 0, 1.0]], (3, 1)), rays=8,
+                  progress=lambda f, phase: False)
+
+
+def test_bad_input_is_refused_with_its_name():
+    with pytest.raises(illumap.InputError, match="corners of triangle 1"):
+        bad = closed_box()[:2].copy()
+        bad[1, 2, 0] = np.nan
+        rc.MeshOccluders(bad)
+    occ = rc.MeshOccluders(closed_box())
+    with pytest.raises(illumap.InputError, match=r"targets\[0\]"):
+        occ.visible(np.zeros((1, 3)), np.full((1, 3), np.inf))
+    with pytest.raises(illumap.InputError, match="rays"):
+        rc.gather(occ, surfels_on(closed_box()), np.zeros((1, 3)), np.array([[0, 0, 1.0]]), rays=0)
