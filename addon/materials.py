@@ -6,7 +6,9 @@ What is understood, after the active Material Output's Surface input:
 * Principled BSDF: albedo = Base Color × (1 − Metallic) × (1 − Transmission Weight) (the diffuse
   part Cycles bakes); emission = Emission Color × Emission Strength.
 * Emission: emission = Color × Strength, albedo 0.
-* Add Shader (sum) and Mix Shader with an unlinked Fac (blend).
+* Add Shader (sum) and Mix Shader with an unlinked Fac (blend). A Mix Shader whose Fac is
+  Geometry ▸ Backfacing (the usual one-sided light: emission on the front, black on the back)
+  takes its first shader, the front face's: surfels face along their normal.
 * A colour input may be a constant, an RGB node, an Image Texture (sampled at the surfel's UV,
   from the node's UV Map / Texture Coordinate input or the active UV map; sRGB byte images are
   linearised; flat projection, single images only), a Color Attribute node, an Attribute node
@@ -185,6 +187,12 @@ class _Evaluator:
             raise Unsupported(f"linked input '{socket.name}' on node '{socket.node.name}'")
         return float(socket.default_value)
 
+    @staticmethod
+    def _is_backfacing(socket) -> bool:
+        """Whether ``socket`` is fed by a Geometry node's Backfacing output."""
+        out = _follow(socket)
+        return out is not None and out.node.type == "NEW_GEOMETRY" and out.name == "Backfacing"
+
     def shader(self, socket) -> tuple[np.ndarray, np.ndarray]:
         """(albedo, emission), each (n, 3), of the shader on a shader socket."""
         zero = np.zeros((self.n, 3))
@@ -208,6 +216,11 @@ class _Evaluator:
             a2, e2 = self.shader(node.inputs[1])
             return a1 + a2, e1 + e2
         if kind == "MIX_SHADER":
+            if self._is_backfacing(node.inputs[0]):
+                # The one-sided light idiom: Geometry ▸ Backfacing is 0 on the front face, so
+                # the first shader is the front's. Surfels emit and reflect along their normal
+                # only, i.e. they are front faces: they take that shader.
+                return self.shader(node.inputs[1])
             fac = min(max(self.scalar(node.inputs[0]), 0.0), 1.0)
             a1, e1 = self.shader(node.inputs[1])
             a2, e2 = self.shader(node.inputs[2])
