@@ -154,6 +154,26 @@ def test_mix_color_multiply_of_rgb_node():
     assert np.allclose(job.albedo, (0.2, 0.4, 0.5), atol=1e-6) and not job.warnings
 
 
+def test_backfacing_mix_is_one_sided_emission_of_the_front_shader():
+    """Geometry ▸ Backfacing into a Mix Shader (emission first, black second): what users build
+    for a one-sided light. Surfels are front faces: the emission, no warning."""
+    mat, nodes, links, out = new_material("OneSided")
+    emission = nodes.new("ShaderNodeEmission")
+    emission.inputs["Color"].default_value = (1.0, 0.5, 0.25, 1)
+    emission.inputs["Strength"].default_value = 8.0
+    black = nodes.new("ShaderNodeBsdfDiffuse")
+    black.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1)
+    geometry = nodes.new("ShaderNodeNewGeometry")
+    mix = nodes.new("ShaderNodeMixShader")
+    links.new(geometry.outputs["Backfacing"], mix.inputs["Fac"])
+    links.new(emission.outputs[0], mix.inputs[1])
+    links.new(black.outputs[0], mix.inputs[2])
+    links.new(mix.outputs[0], out.inputs["Surface"])
+    job = prepare(make_plane("P", material=mat))
+    assert np.allclose(job.emission, (8.0, 4.0, 2.0), atol=1e-6)
+    assert np.all(job.albedo == 0) and not job.warnings
+
+
 def test_same_seed_same_surfels():
     obj = make_plane("P", material=diffuse_material("D", (0.5,) * 3))
     a, b = prepare(obj), prepare(obj)

@@ -1,0 +1,266 @@
+#!/usr/bin/env python3
+"""Illumap against Cycles on meshes as users build them: the front door of bench/reference.
+
+For each scene of ``scenes.SCENES``: build it, load its cached Cycles reference
+(``bench/results/reference/<scene>.npz``; baked and cached when missing, stale or made with
+fewer samples than asked), run Illumap through the add-on (``addon.pipeline.compute`` with
+``transfer=True, transfer_domain="POINT"``) with each of ``ILLUMAP_SETTINGS``, read every scored
+mesh's ``illumination`` POINT attribute, and score it over all scored vertices against the
+reference (relative RMS, ``score.relative_rms``). In the same run Cycles bakes the scene at
+``CYCLES_SAMPLES`` with another seed than the reference's, timed (the bake call alone) and scored
+the same way. Writes ``bench/results/reference.json`` and prints a table.
+
+    .venv/bin/python bench/reference/run.py                     # every scene, 2048-sample references
+    .venv/bin/python bench/reference/run.py --quick --scenes cornell
+    .venv/bin/python -m bench.reference --scenes cornell room --out /tmp/reference.json
+
+Illumap's time is the whole ``compute`` call (sampling, materials, lamps, solve, transfer).
+A scene's objects are rebuilt before each Illumap run, so every run starts from the same file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO_ROOT = os.path.dirname(os.path.dirname(HERE))
+if REPO_ROOT not in sys.path:          # ``import addon``, as tests/blender/conftest.py does
+    sys.path.insert(0, REPO_ROOT)
+
+import bpy  # noqa: E402
+
+if __package__ in (None, ""):          # run as a script: bench/ on the path
+    sys.path.insert(0, os.path.dirname(HERE))
+    from reference import bake, scenes, score  # noqa: E402
+else:
+    from . import bake, scenes, score  # noqa: E402
+
+#: Illumap settings to score: (label, keywords). ``preset`` picks
+#: ``pipeline.settings_from_preset``; other keys are ``pipeline.Settings`` fields.
+ILLUMAP_SETTINGS: list[tuple[str, dict]] = [
+    ("default", {}),
+    ("DRAFT", dict(preset="DRAFT")),
+    ("MEDIUM", dict(preset="MEDIUM")),
+    ("HIGH", dict(preset="HIGH")),
+    ("target 0.1", dict(target_error=0.1)),
+    ("target 0.03", dict(target_error=0.03)),
+]
+CYCLES_SAMPLES = (16, 64, 256, 1024)
+QUICK_CYCLES_SAMPLES = (16, 64, 256)
+REFERENCE_SAMPLES = 2048
+#: Reference bakes when --quick finds no cache (written, and replaced by a full run later).
+QUICK_REFERENCE_SAMPLES = 512
+REFERENCE_SEED = 7919                  # the sweep uses seeds 0, 1, 2, …: uncorrelated
+CACHE_DIR = os.path.join(REPO_ROOT, "bench", "results", "reference")
+DEFAULT_OUT = os.path.join(REPO_ROOT, "bench", "results", "reference.json")
+
+
+def register_addon():
+    """Register the add-on from this checkout once (classes survive factory resets)."""
+    import addon
+    if not hasattr(bpy.types.Scene, "illumap"):
+        addon.register()
+    from addon import pipeline
+    return pipeline
+
+
+def make_settings(pipeline, spec: dict):
+    """``pipeline.Settings`` for a spec of ILLUMAP_SETTINGS, writing POINT-domain results onto
+    the meshes."""
+    spec = dict(spec, transfer=True, transfer_domain="POINT")
+    preset = spec.pop("preset", None)
+    if preset is not None:
+        return pipeline.settings_from_preset(preset, **spec)
+    return pipeline.Settings(**spec)
+
+
+def read_illumination(obj) -> np.ndarray:
+    """The ``illumination`` POINT attribute of a mesh object as (V, 3) float64."""
+    attr = obj.data.color_attributes.get("illumination")
+    if attr is None or attr.domain != "POINT":
+        raise RuntimeError(f"'{obj.name}' has no POINT-domain 'illumination' attribute")
+    rgba = np.empty(len(obj.data.vertices) * 4, dtype=np.float32)
+    attr.data.foreach_get("color", rgba)
+    return rgba.reshape(-1, 4)[:, :3].astype(np.float64)
+
+
+# --- the cached reference -------------------------------------------------------------------
+
+def _cache_path(name: str) -> str:
+    return os.path.join(CACHE_DIR, f"{name}.npz")
+
+
+def load_reference(scene: "scenes.ReferenceScene", min_samples: int) -> dict | None:
+    """The cached reference of ``scene`` if it matches the built vertices and has at least
+    ``min_samples`` samples, else None."""
+    path = _cache_path(scene.name)
+    if not os.path.exists(path):
+        return None
+    data = np.load(path, allow_pickle=False)
+    names = [o.name for o in scene.scored]
+    counts = [len(o.data.vertices) for o in scene.scored]
+    if list(data["names"]) != names or list(data["counts"]) != counts:
+        print(f"  cached reference {path} is for other meshes: re-baking")
+        return None
+    positions = np.concatenate([bake.vertex_positions(o) for o in scene.scored])
+    if np.abs(data["positions"] - positions).max() > 1e-4:
+        print(f"  cached reference {path} has other vertex positions: re-baking")
+        return None
+    if int(data["samples"]) < min_samples:
+        print(f"  cached reference has {int(data['samples'])} samples < {min_samples}: re-baking")
+        return None
+    split = np.cumsum(counts)[:-1]
+    outgoing = dict(zip(names, np.split(data["outgoing"].astype(np.float64), split)))
+    return dict(outgoing=outgoing, samples=int(data["samples"]), seconds=float(data["seconds"]),
+                blender=str(data["blender"]), seed=int(data["seed"]), date=str(data["date"]),
+                cached=True)
+
+
+def make_reference(scene: "scenes.ReferenceScene", samples: int) -> dict:
+    """Bake the reference of ``scene`` with ``samples`` samples and cache it (float32, compressed)."""
+    outgoing, seconds = bake.bake_outgoing(scene, samples, seed=REFERENCE_SEED)
+    names = [o.name for o in scene.scored]
+    os.makedirs(CACHE_DIR, exist_ok=True)
+    date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    np.savez_compressed(
+        _cache_path(scene.name), names=np.array(names),
+        counts=np.array([len(o.data.vertices) for o in scene.scored]),
+        positions=np.concatenate([bake.vertex_positions(o) for o in scene.scored]).astype(np.float32),
+        outgoing=score.stacked(outgoing, names).astype(np.float32), samples=samples,
+        seconds=seconds, seed=REFERENCE_SEED, blender=bpy.app.version_string, date=date)
+    return dict(outgoing=outgoing, samples=samples, seconds=seconds,
+                blender=bpy.app.version_string, seed=REFERENCE_SEED, date=date, cached=False)
+
+
+# --- runs -----------------------------------------------------------------------------------
+
+def _scored_row(scene, label, tool, values, reference, seconds, **extra) -> dict:
+    names = [o.name for o in scene.scored]
+    positions = {o.name: bake.vertex_positions(o) for o in scene.scored}
+    row = dict(scene=scene.name, tool=tool, label=label, seconds=round(seconds, 4),
+               relative_rms=score.relative_rms(score.stacked(values, names),
+                                               score.stacked(reference, names)),
+               **extra)
+    row["groups"] = {g: score.relative_rms(score.stacked(values, members),
+                                           score.stacked(reference, members))
+                     for g, members in scene.groups.items()}
+    row["objects"] = score.per_object(values, reference, positions)
+    return row
+
+
+def run_scene(name: str, pipeline, settings: list[tuple[str, dict]], sample_counts,
+              reference_samples: int) -> tuple[dict, list[dict]]:
+    """Reference, Cycles sweep and Illumap runs on one scene: (reference info, result rows)."""
+    scene = scenes.build(name)
+    print(f"{name}: {scene.vertex_count()} scored vertices in {len(scene.scored)} meshes, "
+          f"{len(scene.emitters)} emitters, {len(scene.lamps)} lamps", flush=True)
+    ref = load_reference(scene, reference_samples)
+    if ref is None:
+        print(f"  baking the reference at {reference_samples} samples …", flush=True)
+        ref = make_reference(scene, reference_samples)
+    print(f"  reference: {ref['samples']} samples, bake {ref['seconds']:.1f} s "
+          f"({'cached' if ref['cached'] else 'new'}, Blender {ref['blender']})", flush=True)
+    rows = []
+    for seed, samples in enumerate(sample_counts):
+        values, seconds = bake.bake_outgoing(scene, samples, seed=seed)
+        rows.append(_scored_row(scene, f"Cycles {samples} spp", "cycles", values,
+                                ref["outgoing"], seconds, samples=samples))
+        print(f"  Cycles {samples:5d} spp {seconds:8.2f} s  rel. RMS {rows[-1]['relative_rms']:.4f}",
+              flush=True)
+    for label, spec in settings:
+        scene = scenes.build(name)        # a fresh file for every run
+        objects = scene.objects
+        settings_obj = make_settings(pipeline, spec)
+        start = time.perf_counter()
+        try:
+            result = pipeline.compute(bpy.context, objects, settings_obj)
+        except Exception as exc:          # noqa: BLE001 - a failing setting is a result too
+            print(f"  Illumap {label}: failed: {type(exc).__name__}: {exc}", flush=True)
+            rows.append(dict(scene=name, tool="illumap", label=label, error=str(exc)))
+            continue
+        seconds = time.perf_counter() - start
+        values = {o.name: read_illumination(o) for o in scene.scored}
+        rows.append(_scored_row(scene, label, "illumap", values, ref["outgoing"], seconds,
+                                surfels=int(result.count), settings=spec,
+                                warnings=list(result.warnings)))
+        print(f"  Illumap {label:12s} {result.count:7d} surfels {seconds:8.2f} s  "
+              f"rel. RMS {rows[-1]['relative_rms']:.4f}", flush=True)
+    info = dict(samples=ref["samples"], seconds=ref["seconds"], seed=ref["seed"],
+                blender=ref["blender"], date=ref["date"], vertices=scene.vertex_count(),
+                notes=scene.notes)
+    return info, rows
+
+
+def print_table(rows: list[dict]) -> None:
+    """The results as a fixed-width table."""
+    print(f"\n{'scene':8s} {'run':16s} {'surfels/spp':>11s} {'seconds':>9s} {'rel. RMS':>9s}")
+    for r in rows:
+        if "error" in r:
+            print(f"{r['scene']:8s} {r['label']:16s} {'failed':>11s}")
+            continue
+        size = r.get("surfels", r.get("samples"))
+        print(f"{r['scene']:8s} {r['label']:16s} {size:11d} {r['seconds']:9.2f} "
+              f"{r['relative_rms']:9.4f}")
+
+
+def _commit() -> str:
+    try:
+        return subprocess.run(["git", "-C", REPO_ROOT, "rev-parse", "--short", "HEAD"],
+                              capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Command line: see the module docstring and ``--help``."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--scenes", nargs="+", choices=sorted(scenes.SCENES),
+                    default=list(scenes.SCENES))
+    ap.add_argument("--quick", action="store_true",
+                    help=f"Cycles sweep {QUICK_CYCLES_SAMPLES}; a missing reference is baked at "
+                         f"{QUICK_REFERENCE_SAMPLES} samples (a cached one of any count is used)")
+    ap.add_argument("--reference-samples", type=int, default=None,
+                    help=f"reference samples (default {REFERENCE_SAMPLES})")
+    ap.add_argument("--settings", nargs="+", default=None, metavar="LABEL",
+                    help="only these labels of ILLUMAP_SETTINGS")
+    ap.add_argument("--out", default=DEFAULT_OUT)
+    args = ap.parse_args(sys.argv[1:] if argv is None else argv)
+    if args.reference_samples is not None:
+        reference_samples = args.reference_samples
+    else:
+        reference_samples = QUICK_REFERENCE_SAMPLES if args.quick else REFERENCE_SAMPLES
+    sample_counts = QUICK_CYCLES_SAMPLES if args.quick else CYCLES_SAMPLES
+    settings = [s for s in ILLUMAP_SETTINGS if args.settings is None or s[0] in args.settings]
+    pipeline = register_addon()
+    start = time.perf_counter()
+    references, rows = {}, []
+    for name in args.scenes:
+        references[name], scene_rows = run_scene(name, pipeline, settings, sample_counts,
+                                                 reference_samples)
+        rows += scene_rows
+    import illumap
+    results = dict(
+        mode="quick" if args.quick else "full", commit=_commit(),
+        blender=bpy.app.version_string, illumap_core=getattr(illumap, "__file__", ""),
+        machine=dict(platform=platform.platform(), cpus=os.cpu_count()),
+        date=datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+        references=references, rows=rows, wall_seconds=time.perf_counter() - start)
+    os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
+    with open(args.out, "w") as f:
+        json.dump(results, f, indent=1)
+    print_table(rows)
+    print(f"wrote {args.out} ({results['wall_seconds']:.0f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
