@@ -13,6 +13,7 @@ include_guard(GLOBAL)
 set(ILLUMAP_VISIBILITY_SOURCES
   ${CMAKE_CURRENT_LIST_DIR}/../src/raycast.cpp
   ${CMAKE_CURRENT_LIST_DIR}/../src/mesh_scene.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/../src/gather.cpp
   ${CMAKE_CURRENT_LIST_DIR}/../src/seed_visibility.cpp)
 
 if(DEFINED ILLUMAP_EMBREE_DIR)

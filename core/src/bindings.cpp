@@ -5,6 +5,7 @@
 // The GIL is released during compute; progress callbacks re-acquire it on the calling thread.
 #include "fmm.hpp"
 #include "knn.hpp"
+#include "gather.hpp"
 #include "mesh_scene.hpp"
 #include "normals.hpp"
 #include "raycast.hpp"
@@ -77,7 +78,7 @@ struct SurfelViews {
 };
 
 nb::ndarray<nb::numpy, double> new_array(std::size_t rows, std::size_t cols, double** data) {
-    double* p = new double[std::max<std::size_t>(1, rows * cols)]();
+    double* p = new double[std::max<std::size_t>(1, rows * std::max<std::size_t>(cols, 1))]();
     nb::capsule owner(p, [](void* q) noexcept { delete[] static_cast<double*>(q); });
     *data = p;
     if (cols == 0) return nb::ndarray<nb::numpy, double>(p, {rows}, owner);
@@ -141,6 +142,14 @@ struct PyMeshScene {
     std::unique_ptr<MeshScene> scene;
     int threads = 0;
 };
+
+struct PySurfelField {
+    std::unique_ptr<SurfelField> field;
+};
+
+nb::ndarray<nb::numpy, double> numpy_rows(std::size_t rows, std::size_t cols, double** data) {
+    return new_array(rows, cols, data);
+}
 
 // Two (M, 3) float64 arrays of one length, every value finite.
 std::size_t paired_rays(nb::handle a, const char* an, nb::handle b, const char* bn,
@@ -466,6 +475,99 @@ NB_MODULE(_core, m) {
         .def_prop_ro("n", [](const PyMeshScene& self) { return self.scene->size(); })
         .def_prop_ro("extent", [](const PyMeshScene& self) { return self.scene->extent(); })
         .def_prop_ro("build_seconds", [](const PyMeshScene& self) { return self.scene->build_seconds(); });
+
+    nb::class_<PySurfelField>(m, "SurfelField",
+        "Surfel values looked up at points on surfaces (k nearest with agreeing normals, IDW).")
+        .def("__init__",
+             [](PySurfelField* self, nb::handle positions, nb::handle normals, nb::handle values,
+                int k, double min_cos) {
+                 std::size_t n, nn, nv;
+                 nb::object k1, k2, k3;
+                 const double* P = view<double>(positions, "positions", 2, 3, n, k1);
+                 const double* N = view<double>(normals, "normals", 2, 3, nn, k2);
+                 const double* V = view<double>(values, "values", 2, 3, nv, k3);
+                 if (nn != n || nv != n)
+                     throw nb::value_error("positions, normals and values must have the same length");
+                 if (n == 0) throw nb::value_error("a surfel field needs at least one surfel");
+                 if (k < 1) throw nb::value_error("k must be >= 1");
+                 std::unique_ptr<SurfelField> f;
+                 {
+                     nb::gil_scoped_release nogil;
+                     f = std::make_unique<SurfelField>(P, N, V, n, k, min_cos);
+                 }
+                 new (self) PySurfelField{std::move(f)};
+             },
+             nb::arg("positions"), nb::arg("normals"), nb::arg("values"), nb::kw_only(),
+             nb::arg("k") = 8, nb::arg("min_cos") = 0.5)
+        .def("at",
+             [](PySurfelField& self, nb::handle points, nb::handle surface_normals) {
+                 const double *Q, *N;
+                 nb::object k1, k2;
+                 const std::size_t m = paired_rays(points, "points", surface_normals, "surface_normals", Q, N, k1, k2);
+                 double* out;
+                 auto arr = numpy_rows(m, 3, &out);
+                 {
+                     nb::gil_scoped_release nogil;
+                     KdTree::Best best(std::size_t(self.field->k()));
+                     for (std::size_t i = 0; i < m; ++i) self.field->at(Q + 3 * i, N + 3 * i, best, out + 3 * i);
+                 }
+                 return arr;
+             },
+             nb::arg("points"), nb::arg("surface_normals"))
+        .def_prop_ro("n", [](const PySurfelField& self) { return self.field->size(); });
+
+    m.def("cosine_directions",
+          [](nb::handle normals, std::size_t count, nb::handle ids, std::uint64_t seed) {
+              std::size_t m, ni;
+              nb::object k1, k2;
+              const double* N = view<double>(normals, "normals", 2, 3, m, k1);
+              const std::int64_t* I = view<std::int64_t>(ids, "ids", 1, 0, ni, k2);
+              if (ni != m) throw nb::value_error("ids must have one entry per normal");
+              if (count < 1) throw nb::value_error("count must be >= 1");
+              double* out = new double[std::max<std::size_t>(1, m * count * 3)]();
+              nb::capsule own(out, [](void* q) noexcept { delete[] static_cast<double*>(q); });
+              for (std::size_t i = 0; i < m; ++i) cosine_directions(N + 3 * i, count, I[i], seed, out + 3 * count * i);
+              return nb::ndarray<nb::numpy, double>(out, {m, count, std::size_t(3)}, own);
+          },
+          nb::arg("normals"), nb::arg("count"), nb::arg("ids"), nb::arg("seed") = 0,
+          "Cosine-distributed unit directions (M, count, 3) about unit normals, per receiver id.");
+
+    m.def("gather",
+          [](PyMeshScene& scene, PySurfelField& front, nb::handle back, nb::handle positions,
+             nb::handle normals, nb::handle ids, int rays, std::uint64_t seed, double offset,
+             nb::handle background, int threads, nb::handle progress) {
+              const double *P, *N;
+              nb::object k1, k2, k3, k4;
+              const std::size_t m = paired_rays(positions, "positions", normals, "normals", P, N, k1, k2);
+              std::size_t ni, nbg;
+              const std::int64_t* I = view<std::int64_t>(ids, "ids", 1, 0, ni, k3);
+              if (ni != m) throw nb::value_error("ids must have one entry per receiver");
+              const double* BG = view<double>(background, "background", 1, 0, nbg, k4);
+              if (nbg != 3) throw nb::value_error("background must have 3 values");
+              if (rays < 1) throw nb::value_error("rays must be >= 1");
+              if (!(offset >= 0) || !std::isfinite(offset)) throw nb::value_error("offset must be finite and >= 0");
+              const SurfelField* back_field = nullptr;
+              if (back.is_valid() && !back.is_none()) back_field = nb::cast<PySurfelField&>(back).field.get();
+              GatherOptions opt;
+              opt.rays = rays;
+              opt.seed = seed;
+              opt.offset = offset;
+              for (int c = 0; c < 3; ++c) opt.background[c] = BG[c];
+              double *out, *err;
+              auto a1 = new_array(m, 3, &out);
+              auto a2 = new_array(m, 0, &err);
+              run_released(threads, progress, [&](Context& ctx) {
+                  ctx.set_phase("gather", 0.0, 1.0);
+                  checkpoint(ctx, 0.0);
+                  gather(ctx, *scene.scene, *front.field, back_field, P, N, I, m, opt, out, err);
+              });
+              return nb::make_tuple(a1, a2);
+          },
+          nb::arg("scene"), nb::arg("front"), nb::arg("back").none(), nb::arg("positions"),
+          nb::arg("normals"), nb::arg("ids"), nb::kw_only(), nb::arg("rays"), nb::arg("seed") = 0,
+          nb::arg("offset"), nb::arg("background"), nb::arg("threads") = 0,
+          nb::arg("progress") = nb::none(),
+          "Final gather: (mean radiance (M, 3), standard error of its luminance (M,)).");
 
     m.def("_kernel_derivatives",
           [](nb::handle d, int order) {

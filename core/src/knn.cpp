@@ -10,95 +10,74 @@
 
 namespace illumap {
 
-namespace {
+KdTree::KdTree(const double* p, std::size_t n) : idx(n), pts(3 * n) {
+    std::iota(idx.begin(), idx.end(), 0);
+    nodes.reserve(2 * (n / kLeaf + 1));
+    build(p, 0, std::uint32_t(n));
+    for (std::size_t i = 0; i < n; ++i)
+        for (int d = 0; d < 3; ++d) pts[3 * i + d] = p[3 * idx[i] + d];
+}
 
-constexpr std::size_t kLeaf = 12;
-
-struct KdTree {
-    struct Node {
-        std::uint32_t begin, end;  // range in idx / pts
-        std::int32_t left = -1, right = -1;
-        int dim = 0;
-        double split = 0;
-    };
-    std::vector<Node> nodes;
-    std::vector<std::int64_t> idx;  // tree order -> original index
-    std::vector<double> pts;        // points in tree order (x, y, z)
-
-    KdTree(const double* p, std::size_t n) : idx(n), pts(3 * n) {
-        std::iota(idx.begin(), idx.end(), 0);
-        nodes.reserve(2 * (n / kLeaf + 1));
-        build(p, 0, std::uint32_t(n));
-        for (std::size_t i = 0; i < n; ++i)
-            for (int d = 0; d < 3; ++d) pts[3 * i + d] = p[3 * idx[i] + d];
-    }
-
-    std::int32_t build(const double* p, std::uint32_t b, std::uint32_t e) {
-        std::int32_t id = std::int32_t(nodes.size());
-        nodes.push_back(Node{b, e});
-        if (e - b <= kLeaf) return id;
-        double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-        for (std::uint32_t i = b; i < e; ++i)
-            for (int d = 0; d < 3; ++d) {
-                double v = p[3 * idx[i] + d];
-                lo[d] = std::min(lo[d], v);
-                hi[d] = std::max(hi[d], v);
-            }
-        int dim = 0;
-        for (int d = 1; d < 3; ++d)
-            if (hi[d] - lo[d] > hi[dim] - lo[dim]) dim = d;
-        if (!(hi[dim] > lo[dim])) return id;  // all coincident: keep as a (large) leaf
-        std::uint32_t mid = b + (e - b) / 2;
-        std::nth_element(idx.begin() + b, idx.begin() + mid, idx.begin() + e,
-                         [&](std::int64_t u, std::int64_t v) { return p[3 * u + dim] < p[3 * v + dim]; });
-        double split = p[3 * idx[mid] + dim];
-        std::int32_t l = build(p, b, mid);
-        std::int32_t r = build(p, mid, e);
-        nodes[id].left = l;
-        nodes[id].right = r;
-        nodes[id].dim = dim;
-        nodes[id].split = split;
-        return id;
-    }
-};
-
-// Bounded max-heap of the k best (distance^2, index) pairs.
-struct Best {
-    std::vector<std::pair<double, std::int64_t>> h;
-    std::size_t k;
-    explicit Best(std::size_t k_) : k(k_) { h.reserve(k_); }
-    double worst() const {
-        return h.size() < k ? std::numeric_limits<double>::infinity() : h.front().first;
-    }
-    void offer(double d2, std::int64_t i) {
-        if (h.size() < k) {
-            h.emplace_back(d2, i);
-            std::push_heap(h.begin(), h.end());
-        } else if (d2 < h.front().first) {
-            std::pop_heap(h.begin(), h.end());
-            h.back() = {d2, i};
-            std::push_heap(h.begin(), h.end());
+std::int32_t KdTree::build(const double* p, std::uint32_t b, std::uint32_t e) {
+    std::int32_t id = std::int32_t(nodes.size());
+    nodes.push_back(Node{b, e});
+    if (e - b <= kLeaf) return id;
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    for (std::uint32_t i = b; i < e; ++i)
+        for (int d = 0; d < 3; ++d) {
+            double v = p[3 * idx[i] + d];
+            lo[d] = std::min(lo[d], v);
+            hi[d] = std::max(hi[d], v);
         }
-    }
-};
+    int dim = 0;
+    for (int d = 1; d < 3; ++d)
+        if (hi[d] - lo[d] > hi[dim] - lo[dim]) dim = d;
+    if (!(hi[dim] > lo[dim])) return id;  // all coincident: keep as a (large) leaf
+    std::uint32_t mid = b + (e - b) / 2;
+    std::nth_element(idx.begin() + b, idx.begin() + mid, idx.begin() + e,
+                     [&](std::int64_t u, std::int64_t v) { return p[3 * u + dim] < p[3 * v + dim]; });
+    double split = p[3 * idx[mid] + dim];
+    std::int32_t l = build(p, b, mid);
+    std::int32_t r = build(p, mid, e);
+    nodes[id].left = l;
+    nodes[id].right = r;
+    nodes[id].dim = dim;
+    nodes[id].split = split;
+    return id;
+}
 
-void search(const KdTree& t, std::int32_t id, const double q[3], Best& best) {
-    const KdTree::Node& nd = t.nodes[id];
+void KdTree::Best::offer(double d2, std::int64_t i) {
+    if (h.size() < k) {
+        h.emplace_back(d2, i);
+        std::push_heap(h.begin(), h.end());
+    } else if (d2 < h.front().first) {
+        std::pop_heap(h.begin(), h.end());
+        h.back() = {d2, i};
+        std::push_heap(h.begin(), h.end());
+    }
+}
+
+void KdTree::search(std::int32_t id, const double q[3], Best& best) const {
+    const Node& nd = nodes[id];
     if (nd.left < 0) {
         for (std::uint32_t i = nd.begin; i < nd.end; ++i) {
-            const double* p = &t.pts[3 * i];
+            const double* p = &pts[3 * i];
             double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
-            best.offer(dx * dx + dy * dy + dz * dz, t.idx[i]);
+            best.offer(dx * dx + dy * dy + dz * dz, idx[i]);
         }
         return;
     }
     double diff = q[nd.dim] - nd.split;
     std::int32_t near = diff < 0 ? nd.left : nd.right, far = diff < 0 ? nd.right : nd.left;
-    search(t, near, q, best);
-    if (diff * diff <= best.worst()) search(t, far, q, best);
+    search(near, q, best);
+    if (diff * diff <= best.worst()) search(far, q, best);
 }
 
-}  // namespace
+void KdTree::nearest(const double q[3], Best& best) const {
+    best.h.clear();
+    if (!nodes.empty()) search(0, q, best);
+    std::sort_heap(best.h.begin(), best.h.end());
+}
 
 void knn(Context& ctx, const double* points, std::size_t n, const double* queries, std::size_t m,
          std::size_t k, std::int64_t* indices, double* distances) {
@@ -132,12 +111,10 @@ void knn(Context& ctx, const double* points, std::size_t n, const double* querie
         std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return key[a] < key[b]; });
     }
     parallel_for(ctx, m, 256, [&](std::size_t b, std::size_t e) {
-        Best best(k);
+        KdTree::Best best(k);
         for (std::size_t oi = b; oi < e; ++oi) {
             const std::size_t qi = order[oi];
-            best.h.clear();
-            search(tree, 0, &queries[3 * qi], best);
-            std::sort_heap(best.h.begin(), best.h.end());
+            tree.nearest(&queries[3 * qi], best);
             for (std::size_t r = 0; r < k; ++r) {
                 indices[qi * k + r] = best.h[r].second;
                 distances[qi * k + r] = std::sqrt(best.h[r].first);

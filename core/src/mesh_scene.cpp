@@ -59,6 +59,7 @@ MeshScene::MeshScene(Context& ctx, const double* corners, std::size_t n_tri) : n
     for (int d = 0; d < 3; ++d) { lo_[d] -= pad; hi_[d] += pad; }
 
     normal_.resize(3 * n_tri);
+    corners_.assign(corners, corners + 9 * n_tri);
     impl_ = new Impl;
     const std::string cfg = "threads=" + std::to_string(ctx.nthreads());
     impl_->device = rtcNewDevice(cfg.c_str());
@@ -191,49 +192,55 @@ void MeshScene::segments(Context& ctx, const double* a, const double* b, std::si
 
 void MeshScene::intersect(Context& ctx, const double* o, const double* d, std::size_t n,
                           double tmax, std::int64_t* prim, double* t, std::uint8_t* front) const {
+    parallel_for(ctx, n, 1024, [&](std::size_t lo, std::size_t hi) {
+        intersect_serial(o + 3 * lo, d + 3 * lo, hi - lo, tmax, prim + lo, t + lo, front + lo);
+    });
+}
+
+void MeshScene::intersect_serial(const double* o, const double* d, std::size_t n, double tmax,
+                                 std::int64_t* prim, double* t, std::uint8_t* front,
+                                 float* uv) const {
     std::fill(prim, prim + n, std::int64_t(-1));
     std::fill(t, t + n, HUGE_VAL);
     std::fill(front, front + n, std::uint8_t(0));
     if (n_tri_ == 0) return;
-    const auto scene = impl_->scene;
-    parallel_for(ctx, n, 1024, [&](std::size_t lo, std::size_t hi) {
-        RTCIntersectContext ic;
-        rtcInitIntersectContext(&ic);
-        ic.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
-        RTCRayHit rays[kBatch];
-        std::size_t slot[kBatch], m = 0;
-        double start[kBatch];
-        auto flush = [&] {
-            if (!m) return;
-            rtcIntersect1M(scene, &ic, rays, unsigned(m), sizeof(RTCRayHit));
-            for (std::size_t q = 0; q < m; ++q) {
-                const RTCRayHit& rh = rays[q];
-                if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
-                const std::size_t k = slot[q];
-                const std::uint32_t pr = rh.hit.primID;
-                prim[k] = pr;
-                t[k] = start[q] + double(rh.ray.tfar);
-                const float* nt = &normal_[3 * std::size_t(pr)];
-                const double c = d[3 * k] * nt[0] + d[3 * k + 1] * nt[1] + d[3 * k + 2] * nt[2];
-                front[k] = c < 0.0 ? 1 : 0;
-            }
-            m = 0;
-        };
-        for (std::size_t k = lo; k < hi; ++k) {
-            const double* p = o + 3 * k;
-            const double* u = d + 3 * k;
-            if (!std::isfinite(p[0] + p[1] + p[2] + u[0] + u[1] + u[2])) continue;
-            double s0, s1;
-            if (!clip(p, u, tmax, s0, s1)) continue;
-            fill(rays[m].ray, p, u, s0, s1, center_);
-            rays[m].hit.geomID = RTC_INVALID_GEOMETRY_ID;
-            rays[m].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-            start[m] = s0;
-            slot[m++] = k;
-            if (m == kBatch) flush();
+    RTCIntersectContext ic;
+    rtcInitIntersectContext(&ic);
+    ic.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+    RTCRayHit rays[kBatch];
+    std::size_t slot[kBatch], m = 0;
+    double start[kBatch];
+    auto flush = [&] {
+        if (!m) return;
+        rtcIntersect1M(impl_->scene, &ic, rays, unsigned(m), sizeof(RTCRayHit));
+        for (std::size_t q = 0; q < m; ++q) {
+            const RTCRayHit& rh = rays[q];
+            if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
+            const std::size_t k = slot[q];
+            const std::uint32_t pr = rh.hit.primID;
+            prim[k] = pr;
+            t[k] = start[q] + double(rh.ray.tfar);
+            const float* nt = &normal_[3 * std::size_t(pr)];
+            const double c = d[3 * k] * nt[0] + d[3 * k + 1] * nt[1] + d[3 * k + 2] * nt[2];
+            front[k] = c < 0.0 ? 1 : 0;
+            if (uv) { uv[2 * k] = rh.hit.u; uv[2 * k + 1] = rh.hit.v; }
         }
-        flush();
-    });
+        m = 0;
+    };
+    for (std::size_t k = 0; k < n; ++k) {
+        const double* p = o + 3 * k;
+        const double* u = d + 3 * k;
+        if (!std::isfinite(p[0] + p[1] + p[2] + u[0] + u[1] + u[2])) continue;
+        double s0, s1;
+        if (!clip(p, u, tmax, s0, s1)) continue;
+        fill(rays[m].ray, p, u, s0, s1, center_);
+        rays[m].hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        rays[m].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+        start[m] = s0;
+        slot[m++] = k;
+        if (m == kBatch) flush();
+    }
+    flush();
 }
 
 }  // namespace illumap

@@ -42,12 +42,20 @@ public:
     // (d . normal < 0, normal by the corners' winding).
     void intersect(Context& ctx, const double* o, const double* d, std::size_t n, double tmax,
                    std::int64_t* prim, double* t, std::uint8_t* front) const;
+    // The same on the calling thread alone (for callers that parallelise over receivers);
+    // uv (2 per ray, may be null) receives the hit's barycentric coordinates of corners 1, 2.
+    void intersect_serial(const double* o, const double* d, std::size_t n, double tmax,
+                          std::int64_t* prim, double* t, std::uint8_t* front,
+                          float* uv = nullptr) const;
+    const float* triangle_normal(std::size_t t) const { return &normal_[3 * t]; }
+    const double* triangle_corners(std::size_t t) const { return &corners_[9 * t]; }
 
 private:
     struct Impl;
     Impl* impl_ = nullptr;
     std::size_t n_tri_ = 0;
     std::vector<float> normal_;  // unit normal per triangle
+    std::vector<double> corners_;  // world corners per triangle (9 doubles)
     double center_[3] = {0, 0, 0};
     double lo_[3] = {0, 0, 0}, hi_[3] = {0, 0, 0};
     double extent_ = 0;

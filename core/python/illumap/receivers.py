@@ -35,8 +35,6 @@ from .surfels import InputError
 
 #: Ray origins move off the surface by this fraction of the scene's extent (see above).
 RAY_OFFSET = 1e-5
-#: Rays cast per chunk of receivers (bounds memory: ~100 bytes per ray).
-RAYS_PER_CHUNK = 1 << 20
 #: Surfels looked up around a gather hit; those facing away from the hit surface are ignored.
 LOOKUP_NEIGHBOURS = 8
 #: A surfel counts for a hit when its normal is within acos(this) of the hit triangle's.
@@ -131,78 +129,44 @@ class SurfelField:
 
     ``at(points, surface_normals)`` averages the ``LOOKUP_NEIGHBOURS`` nearest surfels whose
     normal agrees with the surface's (within acos ``LOOKUP_MIN_COS``), by inverse squared
-    distance, so that a hit on a floor next to a box takes the floor's light, not the box's.
-    Where none agrees, the nearest surfel's value is used.
+    distance softened by 5% of the typical neighbour distance, so that a hit on a floor next
+    to a box takes the floor's light, not the box's. Where none agrees, the nearest surfel's
+    value is used.
     """
 
     def __init__(self, positions, normals, values) -> None:
-        self.positions = _rows3("positions", positions)
-        self.normals = _rows3("normals", normals, len(self.positions))
-        self.values = _rows3("values", values, len(self.positions))
-        if len(self.positions) == 0:
+        p = _rows3("positions", positions)
+        if len(p) == 0:
             raise InputError("SurfelField needs at least one surfel")
-        # Softening of the inverse-distance weights: a share of the typical neighbour
-        # distance, fixed per field so that a lookup does not depend on what else is looked up.
-        k = min(LOOKUP_NEIGHBOURS, len(self.positions))
-        probe = self.positions[:: max(1, len(self.positions) // 4096)]
-        _, dist = _core.knn(self.positions, np.ascontiguousarray(probe), k)
-        self._eps2 = (0.05 * float(np.median(dist[:, -1]))) ** 2 + 1e-30
+        n = _rows3("normals", normals, len(p))
+        v = _rows3("values", values, len(p))
+        self._field = _core.SurfelField(p, n, v, k=LOOKUP_NEIGHBOURS, min_cos=LOOKUP_MIN_COS)
 
-    def at(self, points: np.ndarray, surface_normals: np.ndarray) -> np.ndarray:
+    @property
+    def n(self) -> int:
+        """Number of surfels."""
+        return int(self._field.n)
+
+    def at(self, points, surface_normals) -> np.ndarray:
         """Values (M, 3) at ``points`` (M, 3) on surfaces with unit normals (M, 3)."""
-        k = min(LOOKUP_NEIGHBOURS, len(self.positions))
-        idx, dist = _core.knn(self.positions, np.ascontiguousarray(points, dtype=np.float64), k)
-        agree = np.einsum("mkc,mc->mk", self.normals[idx], surface_normals) >= LOOKUP_MIN_COS
-        w = agree / (dist * dist + self._eps2)
-        none = ~agree.any(axis=1)
-        w[none, 0] = 1.0
-        w /= w.sum(axis=1, keepdims=True)
-        return np.einsum("mk,mkc->mc", w, self.values[idx])
+        p = _rows3("points", points)
+        return self._field.at(p, _rows3("surface_normals", surface_normals, len(p)))
 
 
-def _hash_uniform(ids: np.ndarray, seed: int, stream: int) -> np.ndarray:
-    """Uniform [0, 1) per id from a 64-bit mix of (seed, stream, id): independent of order."""
-    with np.errstate(over="ignore"):
-        x = ids.astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
-        x ^= np.uint64((int(seed) * 0x632BE59BD9B4E019 + int(stream) * 0x85EBCA77C2B2AE63)
-                       & 0xFFFFFFFFFFFFFFFF)
-        x ^= x >> np.uint64(30)
-        x *= np.uint64(0xBF58476D1CE4E5B9)
-        x ^= x >> np.uint64(27)
-        x *= np.uint64(0x94D049BB133111EB)
-        x ^= x >> np.uint64(31)
-    return (x >> np.uint64(11)).astype(np.float64) / float(1 << 53)
-
-
-def _lattice(count: int) -> np.ndarray:
-    """``count`` points (count, 2) of a rank-1 (Fibonacci) lattice in [0, 1)²."""
-    k = np.arange(count)
-    return np.column_stack([(k + 0.5) / count, np.mod(k * 0.6180339887498949, 1.0)])
-
-
-def cosine_directions(normals: np.ndarray, count: int, ids: np.ndarray,
-                      seed: int = 0) -> np.ndarray:
+def cosine_directions(normals, count: int, ids, seed: int = 0) -> np.ndarray:
     """Unit directions (M, count, 3), cosine-distributed about unit ``normals`` (M, 3).
 
-    One rank-1 lattice, shifted per receiver by a hash of (seed, id) (Cranley–Patterson),
-    mapped to the disc by Shirley's concentric map and lifted to the hemisphere (Malley).
+    One rank-1 (Fibonacci) lattice, shifted per receiver by a hash of (seed, id)
+    (Cranley–Patterson), mapped to the disc by Shirley's concentric map and lifted to the
+    hemisphere (Malley). The gather casts exactly these.
     """
-    n = np.asarray(normals, dtype=np.float64)
-    ids = np.asarray(ids, dtype=np.int64)
-    shift = np.column_stack([_hash_uniform(ids, seed, 1), _hash_uniform(ids, seed, 2)])
-    uv = np.mod(_lattice(count)[None] + shift[:, None, :], 1.0)
-    a, b = 2 * uv[..., 0] - 1, 2 * uv[..., 1] - 1
-    first = np.abs(a) > np.abs(b)
-    r = np.where(first, a, b)
-    phi = np.where(first, (np.pi / 4) * b / np.where(a == 0, 1, a),
-                   np.pi / 2 - (np.pi / 4) * a / np.where(b == 0, 1, b))
-    x, y = r * np.cos(phi), r * np.sin(phi)
-    z = np.sqrt(np.maximum(0.0, 1.0 - x * x - y * y))
-    helper = np.where((np.abs(n[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
-    t = np.cross(n, helper)
-    t /= np.linalg.norm(t, axis=1, keepdims=True)
-    s = np.cross(n, t)
-    return x[..., None] * t[:, None] + y[..., None] * s[:, None] + z[..., None] * n[:, None]
+    n = _rows3("normals", normals)
+    ids = np.ascontiguousarray(ids, dtype=np.int64).reshape(-1)
+    if len(ids) != len(n):
+        raise InputError(f"ids must have {len(n)} entries, got {len(ids)}")
+    if int(count) < 1:
+        raise InputError(f"count must be >= 1, got {count}")
+    return _core.cosine_directions(n, int(count), ids, int(seed))
 
 
 @dataclass
@@ -216,50 +180,30 @@ class GatherResult:
 
 def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, rays: int,
            ids: np.ndarray | None = None, seed: int = 0, background=None,
-           back_field: SurfelField | None = None,
+           back_field: SurfelField | None = None, threads: int = 0,
            progress: Progress | None = None) -> GatherResult:
     """Indirect incident radiance at receivers (``positions``, unit ``normals``, (M, 3)).
 
-    ``rays`` cosine-distributed rays per receiver hit the triangles; a front hit takes
+    ``rays`` cosine-distributed rays per receiver (``cosine_directions``) start
+    ``occluders.offset`` off the surface and meet the triangles; a front hit takes
     ``field.at`` there, a back hit ``back_field.at`` (None: black, one-sided surfaces), and a
     miss the ``background`` radiance (3,) (None: black). ``ids`` (M,) name the receivers for
-    their random streams (default: their rows). ``progress`` hears the share of rays cast;
-    returning False cancels (``illumap.Cancelled``).
+    their random streams (default: their rows). Runs natively on ``threads`` (0: all), the GIL
+    released; ``progress`` returning False cancels (``illumap.Cancelled``).
     """
     p = _rows3("positions", positions)
     n = _rows3("normals", normals, len(p))
-    m = len(p)
     if int(rays) < 1:
         raise InputError(f"rays must be >= 1, got {rays}")
-    k = int(rays)
-    ids = np.arange(m, dtype=np.int64) if ids is None else np.asarray(ids, dtype=np.int64)
-    bg = np.zeros(3) if background is None else np.asarray(background, dtype=np.float64).reshape(3)
-    out = np.zeros((m, 3))
-    err = np.zeros(m)
-    lum = np.array([0.2126, 0.7152, 0.0722])
-    per = max(1, RAYS_PER_CHUNK // k)
-    for start in range(0, m, per):
-        stop = min(m, start + per)
-        if progress is not None and progress(start / max(m, 1), "gather") is False:
-            raise _core.Cancelled()
-        dirs = cosine_directions(n[start:stop], k, ids[start:stop], seed).reshape(-1, 3)
-        origins = np.repeat(p[start:stop] + occluders.offset * n[start:stop], k, axis=0)
-        tri, dist, front = occluders.intersect(origins, dirs)
-        value = np.broadcast_to(bg, dirs.shape).copy()
-        hit = tri >= 0
-        points = origins[hit] + dist[hit, None] * dirs[hit]
-        tri_n = occluders.normals[tri[hit]]
-        vals = np.zeros((int(hit.sum()), 3))
-        f = front[hit]
-        if f.any():
-            vals[f] = field.at(points[f], tri_n[f])
-        if back_field is not None and (~f).any():
-            vals[~f] = back_field.at(points[~f], -tri_n[~f])
-        value[hit] = vals
-        value = value.reshape(stop - start, k, 3)
-        out[start:stop] = value.mean(axis=1)
-        y = value @ lum
-        err[start:stop] = y.std(axis=1) / np.sqrt(k)
-    if progress is not None and progress(1.0, "gather") is False:
-        raise _core.Cancelled()
-    return GatherResult(radiance=out, stderr=err, rays=m * k)
+    ids = (np.arange(len(p), dtype=np.int64) if ids is None
+           else np.ascontiguousarray(ids, dtype=np.int64).reshape(-1))
+    if len(ids) != len(p):
+        raise InputError(f"ids must have {len(p)} entries, got {len(ids)}")
+    bg = np.zeros(3) if background is None else np.ascontiguousarray(background, dtype=np.float64).reshape(3)
+    if not np.isfinite(bg).all() or (bg < 0).any():
+        raise InputError(f"background must be 3 finite values >= 0, got {bg}")
+    radiance, stderr = _core.gather(
+        occluders._scene, field._field, None if back_field is None else back_field._field,
+        p, n, ids, rays=int(rays), seed=int(seed), offset=occluders.offset, background=bg,
+        threads=threads, progress=progress)
+    return GatherResult(radiance=radiance, stderr=stderr, rays=len(p) * int(rays))

@@ -1,0 +1,197 @@
+// gather.cpp — final gather at receivers (see gather.hpp).
+#include "gather.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace illumap {
+
+namespace {
+
+constexpr double kLumR = 0.2126, kLumG = 0.7152, kLumB = 0.0722;
+
+// Uniform [0, 1) from a 64-bit mix of (id, seed, stream) (SplitMix64's finaliser).
+double hash_uniform(std::int64_t id, std::uint64_t seed, std::uint64_t stream) {
+    std::uint64_t x = std::uint64_t(id) * 0x9E3779B97F4A7C15ull;
+    x ^= seed * 0x632BE59BD9B4E019ull + stream * 0x85EBCA77C2B2AE63ull;
+    x ^= x >> 30;
+    x *= 0xBF58476D1CE4E5B9ull;
+    x ^= x >> 27;
+    x *= 0x94D049BB133111EBull;
+    x ^= x >> 31;
+    return double(x >> 11) * (1.0 / 9007199254740992.0);
+}
+
+}  // namespace
+
+SurfelField::SurfelField(const double* positions, const double* normals, const double* values,
+                         std::size_t n, int k, double min_cos)
+    : tree_(positions, n), normals_(normals, normals + 3 * n), values_(values, values + 3 * n),
+      k_(std::max(1, std::min<int>(k, int(n)))), min_cos_(min_cos) {
+    if (n == 0) throw std::invalid_argument("a surfel field needs at least one surfel");
+    // Softening of the inverse-distance weights: 5% of the median k-th neighbour distance over
+    // a fixed subset, so that one lookup never depends on another.
+    const std::size_t step = std::max<std::size_t>(1, n / 4096);
+    std::vector<double> dk;
+    KdTree::Best best{std::size_t(k_)};
+    for (std::size_t i = 0; i < n; i += step) {
+        tree_.nearest(positions + 3 * i, best);
+        dk.push_back(std::sqrt(best.h.back().first));
+    }
+    std::nth_element(dk.begin(), dk.begin() + dk.size() / 2, dk.end());
+    const double med = dk[dk.size() / 2];
+    reach_ = med;
+    eps2_ = (0.05 * med) * (0.05 * med) + 1e-30;
+}
+
+void SurfelField::at(const double q[3], const double nrm[3], KdTree::Best& best,
+                     double out[3]) const {
+    best.k = std::size_t(k_);
+    tree_.nearest(q, best);
+    double w_sum = 0, acc[3] = {0, 0, 0};
+    for (const auto& [d2, j] : best.h) {
+        const double* nj = &normals_[3 * std::size_t(j)];
+        if (nj[0] * nrm[0] + nj[1] * nrm[1] + nj[2] * nrm[2] < min_cos_) continue;
+        const double w = 1.0 / (d2 + eps2_);
+        const double* v = &values_[3 * std::size_t(j)];
+        acc[0] += w * v[0]; acc[1] += w * v[1]; acc[2] += w * v[2];
+        w_sum += w;
+    }
+    if (w_sum > 0) {
+        for (int c = 0; c < 3; ++c) out[c] = acc[c] / w_sum;
+    } else {  // no neighbour on this surface: the nearest one
+        const double* v = &values_[3 * std::size_t(best.h.front().second)];
+        for (int c = 0; c < 3; ++c) out[c] = v[c];
+    }
+}
+
+void cosine_directions(const double n[3], std::size_t count, std::int64_t id, std::uint64_t seed,
+                       double* dirs) {
+    const double s1 = hash_uniform(id, seed, 1), s2 = hash_uniform(id, seed, 2);
+    const double helper[3] = {std::fabs(n[0]) < 0.9 ? 1.0 : 0.0, std::fabs(n[0]) < 0.9 ? 0.0 : 1.0, 0.0};
+    double t[3] = {n[1] * helper[2] - n[2] * helper[1], n[2] * helper[0] - n[0] * helper[2],
+                   n[0] * helper[1] - n[1] * helper[0]};
+    const double tl = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+    for (double& x : t) x /= tl;
+    const double s[3] = {n[1] * t[2] - n[2] * t[1], n[2] * t[0] - n[0] * t[2], n[0] * t[1] - n[1] * t[0]};
+    constexpr double kGolden = 0.6180339887498949;
+    constexpr double kQuarterPi = 0.7853981633974483;
+    for (std::size_t k = 0; k < count; ++k) {
+        double u = (double(k) + 0.5) / double(count) + s1, v = double(k) * kGolden + s2;
+        u -= std::floor(u);
+        v -= std::floor(v);
+        // Shirley's concentric map to the disc, then up to the hemisphere (Malley).
+        const double a = 2 * u - 1, b = 2 * v - 1;
+        double r, phi;
+        if (std::fabs(a) > std::fabs(b)) {
+            r = a;
+            phi = kQuarterPi * b / (a == 0 ? 1 : a);
+        } else {
+            r = b;
+            phi = 2 * kQuarterPi - kQuarterPi * a / (b == 0 ? 1 : b);
+        }
+        const double x = r * std::cos(phi), y = r * std::sin(phi);
+        const double z = std::sqrt(std::max(0.0, 1.0 - x * x - y * y));
+        for (int d = 0; d < 3; ++d) dirs[3 * k + d] = x * t[d] + y * s[d] + z * n[d];
+    }
+}
+
+namespace {
+
+// Corner values (9 doubles per triangle, one side) of the triangles no longer than the
+// field's reach; the flag says which triangles have them.
+struct CornerTable {
+    std::vector<double> values;
+    std::vector<std::uint8_t> small;
+};
+
+CornerTable corner_table(Context& ctx, const MeshScene& scene, const SurfelField& field,
+                         double sign) {
+    const std::size_t T = scene.size();
+    CornerTable tab;
+    tab.values.assign(9 * T, 0.0);
+    tab.small.assign(T, 0);
+    const double reach2 = field.reach() * field.reach();
+    parallel_for(ctx, T, 1024, [&](std::size_t lo, std::size_t hi) {
+        KdTree::Best best{std::size_t(field.k())};
+        for (std::size_t t = lo; t < hi; ++t) {
+            const double* c = scene.triangle_corners(t);
+            double longest = 0;
+            for (int e = 0; e < 3; ++e) {
+                const double* a = c + 3 * e;
+                const double* b = c + 3 * ((e + 1) % 3);
+                const double dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
+                longest = std::max(longest, dx * dx + dy * dy + dz * dz);
+            }
+            if (longest > reach2) continue;
+            const float* tn = scene.triangle_normal(t);
+            const double nt[3] = {sign * tn[0], sign * tn[1], sign * tn[2]};
+            for (int k = 0; k < 3; ++k) field.at(c + 3 * k, nt, best, &tab.values[9 * t + 3 * k]);
+            tab.small[t] = 1;
+        }
+    });
+    return tab;
+}
+
+}  // namespace
+
+void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, const SurfelField* back,
+            const double* positions, const double* normals, const std::int64_t* ids, std::size_t m,
+            const GatherOptions& opt, double* out, double* stderr_out) {
+    const std::size_t K = std::size_t(std::max(1, opt.rays));
+    ctx.set_phase("gather: corners", 0.0, 0.05);
+    const CornerTable front_tab = corner_table(ctx, scene, front, 1.0);
+    const CornerTable back_tab = back ? corner_table(ctx, scene, *back, -1.0) : CornerTable{};
+    ctx.set_phase("gather", 0.05, 0.95);
+    parallel_for(ctx, m, std::max<std::size_t>(1, 4096 / K), [&](std::size_t lo, std::size_t hi) {
+        std::vector<double> org(3 * K), dir(3 * K), dist(K);
+        std::vector<std::int64_t> prim(K);
+        std::vector<std::uint8_t> face(K);
+        std::vector<float> uv(2 * K);
+        KdTree::Best best{std::size_t(std::max(front.k(), back ? back->k() : 1))};
+        for (std::size_t i = lo; i < hi; ++i) {
+            const double* p = positions + 3 * i;
+            const double* n = normals + 3 * i;
+            cosine_directions(n, K, ids ? ids[i] : std::int64_t(i), opt.seed, dir.data());
+            for (std::size_t k = 0; k < K; ++k)
+                for (int d = 0; d < 3; ++d) org[3 * k + d] = p[d] + opt.offset * n[d];
+            scene.intersect_serial(org.data(), dir.data(), K, HUGE_VAL, prim.data(), dist.data(),
+                                   face.data(), uv.data());
+            double sum[3] = {0, 0, 0}, lum = 0, lum2 = 0;
+            for (std::size_t k = 0; k < K; ++k) {
+                double v[3] = {opt.background[0], opt.background[1], opt.background[2]};
+                if (prim[k] >= 0) {
+                    const std::size_t t = std::size_t(prim[k]);
+                    const SurfelField* field = face[k] ? &front : back;
+                    const CornerTable& tab = face[k] ? front_tab : back_tab;
+                    if (!field) {
+                        v[0] = v[1] = v[2] = 0.0;
+                    } else if (tab.small[t]) {
+                        const double b1 = uv[2 * k], b2 = uv[2 * k + 1], b0 = 1.0 - b1 - b2;
+                        const double* cv = &tab.values[9 * t];
+                        for (int c = 0; c < 3; ++c) v[c] = b0 * cv[c] + b1 * cv[3 + c] + b2 * cv[6 + c];
+                    } else {
+                        const float* tn = scene.triangle_normal(t);
+                        const double sg = face[k] ? 1.0 : -1.0;
+                        const double nt[3] = {sg * tn[0], sg * tn[1], sg * tn[2]};
+                        const double q[3] = {org[3 * k] + dist[k] * dir[3 * k],
+                                             org[3 * k + 1] + dist[k] * dir[3 * k + 1],
+                                             org[3 * k + 2] + dist[k] * dir[3 * k + 2]};
+                        field->at(q, nt, best, v);
+                    }
+                }
+                for (int c = 0; c < 3; ++c) sum[c] += v[c];
+                const double y = kLumR * v[0] + kLumG * v[1] + kLumB * v[2];
+                lum += y;
+                lum2 += y * y;
+            }
+            for (int c = 0; c < 3; ++c) out[3 * i + c] = sum[c] / double(K);
+            const double mean = lum / double(K);
+            const double var = std::max(0.0, lum2 / double(K) - mean * mean);
+            stderr_out[i] = std::sqrt(var / double(K));
+        }
+    });
+}
+
+}  // namespace illumap

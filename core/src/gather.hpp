@@ -1,0 +1,61 @@
+// gather.hpp — the final gather at receivers: indirect light from the surfels' solution.
+//
+// Each receiver casts `rays` cosine-distributed rays against the scene's triangles
+// (MeshScene); a ray that meets a triangle's front takes the surfels' reflected radiance
+// there (SurfelField: the nearest surfels whose normal agrees with the triangle's, by inverse
+// squared distance), one that meets a back face the back field's (or black: surfaces are
+// one-sided), one that leaves the scene the background radiance. Triangles no longer than the
+// field's reach take that value by barycentric interpolation of their corners' (looked up
+// once per triangle): smooth, and one lookup per triangle instead of one per hit; larger
+// triangles look it up at each hit. The mean is the receiver's
+// indirect incident radiance (irradiance / pi). Directions come from one rank-1 lattice,
+// shifted per receiver by a hash of (seed, receiver id): results do not depend on threads,
+// chunking or the order of receivers. Python: illumap.receivers.
+#pragma once
+
+#include "knn.hpp"
+#include "mesh_scene.hpp"
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace illumap {
+
+class SurfelField {
+public:
+    // positions, normals, values: n x 3. k nearest surfels are looked at; those whose normal is
+    // within acos(min_cos) of the surface's count. Throws std::invalid_argument for n == 0.
+    SurfelField(const double* positions, const double* normals, const double* values,
+                std::size_t n, int k, double min_cos);
+    // Value at point q on a surface with unit normal nrm; best is the caller's scratch heap.
+    void at(const double q[3], const double nrm[3], KdTree::Best& best, double out[3]) const;
+    std::size_t size() const { return values_.size() / 3; }
+    int k() const { return k_; }
+    // Median distance to the k-th nearest surfel (m): about 1.6 surfel spacings at k = 8.
+    double reach() const { return reach_; }
+
+private:
+    KdTree tree_;
+    std::vector<double> normals_, values_;
+    int k_;
+    double min_cos_, eps2_, reach_;
+};
+
+// `count` unit directions (count x 3, row-major) about unit normal n for receiver `id`.
+void cosine_directions(const double n[3], std::size_t count, std::int64_t id, std::uint64_t seed,
+                       double* dirs);
+
+struct GatherOptions {
+    int rays = 256;
+    std::uint64_t seed = 0;
+    double offset = 0;                    // ray origins move this far along the normal (m)
+    double background[3] = {0, 0, 0};     // radiance of rays that leave the scene
+};
+
+// out: m x 3 mean radiance; stderr_out: m, standard error of the mean's luminance.
+void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, const SurfelField* back,
+            const double* positions, const double* normals, const std::int64_t* ids, std::size_t m,
+            const GatherOptions& opt, double* out, double* stderr_out);
+
+}  // namespace illumap
