@@ -698,8 +698,13 @@ def run(job: Job, progress: Progress | None = None) -> Result:
             kwargs.update(order=s.order, theta=s.theta, leaf_size=s.leaf_size)
         if s.visibility != "none":
             kwargs["visibility"] = s.visibility
-        if s.visibility == "exact":  # the lamp shadows' occluders
-            kwargs.update(coverage=SURFEL_COVERAGE, visibility_shape=shape)
+        if s.visibility == "exact":
+            if job.triangles is not None and not job.has_points:
+                # Meshes only: surfels see each other past the true triangles (what lamp
+                # shadows and receivers see too), not past discs that overhang outlines.
+                kwargs["occluder_triangles"] = job.triangles
+            else:  # the lamp shadows' occluders
+                kwargs.update(coverage=SURFEL_COVERAGE, visibility_shape=shape)
     t0 = time.perf_counter()
     try:
         sol = solve(surfels, **kwargs)

@@ -184,7 +184,8 @@ NB_MODULE(_core, m) {
                 const std::string& visibility, const std::string& visibility_leaf_mode,
                 int visibility_samples, double coverage, const std::string& visibility_shape,
                 double endpoint_offset, double seed_delta, int seed_k, double seed_t1,
-                double seed_t2, double seed_t3, int seed_leaf_points, bool seed_binary_pairs) {
+                double seed_t2, double seed_t3, int seed_leaf_points, bool seed_binary_pairs,
+                nb::handle occluder_triangles) {
                  if (method != "fmm" && method != "direct")
                      throw nb::value_error("method must be 'fmm' or 'direct'");
                  if (near_field != "disc" && near_field != "point")
@@ -228,6 +229,12 @@ NB_MODULE(_core, m) {
                  opt.vis.t3 = seed_t3;
                  opt.vis.leaf_points = seed_leaf_points;
                  opt.vis.seed_binary_pairs = seed_binary_pairs;
+                 nb::object keep_tri;
+                 if (occluder_triangles.is_valid() && !occluder_triangles.is_none()) {
+                     std::size_t nt;
+                     opt.vis.triangles = view<double>(occluder_triangles, "occluder_triangles", 2, 9, nt, keep_tri);
+                     opt.vis.n_triangles = nt;
+                 }
                  std::unique_ptr<TransportOperator> op;
                  run_released(threads, progress, [&](Context& ctx) {
                      op = std::make_unique<TransportOperator>(ctx, P, N, A, np, opt);
@@ -243,7 +250,7 @@ NB_MODULE(_core, m) {
              nb::arg("endpoint_offset") = 0.05, nb::arg("seed_delta") = 2.0,
              nb::arg("seed_k") = 8, nb::arg("seed_t1") = 0.5, nb::arg("seed_t2") = 0.5,
              nb::arg("seed_t3") = 0.5, nb::arg("seed_leaf_points") = 8,
-             nb::arg("seed_binary_pairs") = true)
+             nb::arg("seed_binary_pairs") = true, nb::arg("occluder_triangles").none() = nb::none())
         .def("apply",
              [](PyOperator& self, nb::handle values, nb::handle progress) {
                  std::size_t nv;

@@ -94,8 +94,9 @@ double disc_radius(const SurfelSoA& s, std::size_t i, double coverage) {
 }  // namespace
 
 OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
-                             VisibilityOptions::Shape shape)
-    : shape_(shape) {
+                             VisibilityOptions::Shape shape, const double* triangles,
+                             std::size_t n_tri)
+    : shape_(shape), n_tri_(triangles ? n_tri : 0) {
     const auto t_start = std::chrono::steady_clock::now();
     const std::size_t n = s.n;
     if (!(coverage > 0) || !std::isfinite(coverage))
@@ -107,10 +108,18 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
         lo[1] = std::min(lo[1], s.py[i]); hi[1] = std::max(hi[1], s.py[i]);
         lo[2] = std::min(lo[2], s.pz[i]); hi[2] = std::max(hi[2], s.pz[i]);
     }
+    for (std::size_t k = 0; k < 9 * n_tri_; ++k) {
+        if (!std::isfinite(triangles[k]))
+            throw std::invalid_argument("occluder triangle " + std::to_string(k / 9) +
+                                        " has a corner that is not finite");
+        lo[k % 3] = std::min(lo[k % 3], triangles[k]);
+        hi[k % 3] = std::max(hi[k % 3], triangles[k]);
+    }
+    const bool any = n > 0 || n_tri_ > 0;
     for (int d = 0; d < 3; ++d) {
-        center_[d] = n ? 0.5 * (lo[d] + hi[d]) : 0.0;
-        lo_[d] = n ? lo[d] : 0.0;
-        hi_[d] = n ? hi[d] : 0.0;
+        center_[d] = any ? 0.5 * (lo[d] + hi[d]) : 0.0;
+        lo_[d] = any ? lo[d] : 0.0;
+        hi_[d] = any ? hi[d] : 0.0;
     }
 
     radius_.resize(n);
@@ -135,7 +144,24 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
         impl_->cancel = &ctx.cancel;
         rtcSetSceneProgressMonitorFunction(impl_->scene, build_progress, &ctx.cancel);
         RTCGeometry g = nullptr;  // the occluders: quads as triangle pairs, or oriented discs
-        if (n > 0 && shape == VisibilityOptions::Shape::Quad) {
+        if (n_tri_ > 0) {
+            // The scene's own triangles; the surfels' radii (coverage 1) only size the trims.
+            g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+            float* v = static_cast<float*>(rtcSetNewGeometryBuffer(
+                g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 3 * n_tri_));
+            unsigned* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+                g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), n_tri_));
+            throw_embree(impl_->device, "buffers");
+            ctx.set_phase("visibility: triangles", 0.0, 0.2);
+            parallel_for(ctx, n_tri_, 1 << 15, [&](std::size_t b, std::size_t e) {
+                for (std::size_t t = b; t < e; ++t) {
+                    for (int k = 0; k < 9; ++k)
+                        v[9 * t + k] = float(triangles[9 * t + k] - center_[k % 3]);
+                    for (int k = 0; k < 3; ++k) ib[3 * t + k] = unsigned(3 * t + k);
+                }
+            });
+            for (std::size_t i = 0; i < n; ++i) radius_[i] = float(disc_radius(s, i, 1.0));
+        } else if (n > 0 && shape == VisibilityOptions::Shape::Quad) {
             // Equal-area squares (side coverage * sqrt(A)) in each tangent plane; the frame is a
             // fixed function of the normal (Duff et al. 2017), so the build is deterministic.
             // Each square is two triangles that OVERLAP along the diagonal (the first reaches
@@ -242,7 +268,8 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
         if (g) {
             float rmax = 0;
             for (std::size_t i = 0; i < n; ++i) rmax = std::max(rmax, radius_[i]);
-            back_ = 2.5 * double(rmax);
+            // Only disc points need the origin moved back (self-intersection avoidance).
+            back_ = n_tri_ > 0 ? 0.0 : 2.5 * double(rmax);
             rtcCommitGeometry(g);
             rtcAttachGeometry(impl_->scene, g);
             rtcReleaseGeometry(g);
@@ -279,6 +306,7 @@ void* OccluderScene::rtc_scene() const { return impl_->scene; }
 std::size_t OccluderScene::bytes() const {
     // Buffers (discs 16 + 12 bytes, quads as two triangles 72 + 24, octagons as eight 204 +
     // 96), our radii, and Embree's BVH (estimated as 64 bytes per primitive).
+    if (n_tri_ > 0) return n_tri_ * (36 + 12 + 64) + size() * 16;
     switch (shape_) {
         case VisibilityOptions::Shape::Quad: return size() * (72 + 24 + 4 + 2 * 64);
         case VisibilityOptions::Shape::Octagon: return size() * (204 + 96 + 4 + 8 * 64);
@@ -381,7 +409,8 @@ RaycastVisibility::RaycastVisibility(Context& ctx, const Octree& tree,
     : VisibilityModel(tree, opt) {
     if (!(opt.endpoint_offset >= 0))
         throw std::invalid_argument("endpoint_offset must be >= 0");
-    scene_ = std::make_unique<OccluderScene>(ctx, tree.s, opt.coverage, opt.shape);
+    scene_ = std::make_unique<OccluderScene>(ctx, tree.s, opt.coverage, opt.shape,
+                                             opt.triangles, opt.n_triangles);
     build_seconds_ = scene_->build_seconds();
     bytes_ = scene_->bytes();
 }

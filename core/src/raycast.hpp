@@ -52,7 +52,10 @@ public:
     // Builds the BVH over s (indices are s's own order). Embree's threads build it while the
     // calling thread polls ctx.monitor. Throws Cancelled, std::invalid_argument on bad
     // options, or std::runtime_error on an Embree error.
-    OccluderScene(Context& ctx, const SurfelSoA& s, double coverage, VisibilityOptions::Shape shape);
+    // With `triangles` (n_tri x 9 doubles, world corners) the occluders are those triangles;
+    // the surfels then only give the endpoint trims (radius sqrt(A/pi), normals).
+    OccluderScene(Context& ctx, const SurfelSoA& s, double coverage, VisibilityOptions::Shape shape,
+                  const double* triangles = nullptr, std::size_t n_tri = 0);
     ~OccluderScene();
     OccluderScene(const OccluderScene&) = delete;
     OccluderScene& operator=(const OccluderScene&) = delete;
@@ -66,6 +69,7 @@ public:
     static constexpr double kTrimReach = 2.0;
     const float* radii() const { return radius_.data(); }
     VisibilityOptions::Shape shape() const { return shape_; }
+    bool triangles() const { return n_tri_ > 0; }
     double build_seconds() const { return build_seconds_; }
     std::size_t bytes() const;
 
@@ -92,6 +96,7 @@ private:
     std::vector<float> radius_;  // disc radius per surfel
     std::vector<float> normal_;  // unit normal per surfel (3 floats), for the trims
     VisibilityOptions::Shape shape_;
+    std::size_t n_tri_ = 0;  // > 0: the occluders are given triangles
     double center_[3] = {0, 0, 0};
     double lo_[3] = {0, 0, 0}, hi_[3] = {0, 0, 0};  // occluders' box (padded), world units
     double back_ = 0;  // rays start this far behind their first endpoint (see raycast.cpp)

@@ -97,6 +97,11 @@ struct VisibilityOptions {
     // the same area (corners at 1.054x the disc radius, edges at 0.974x), eight overlapping
     // triangles: nearly the disc, at nearly the quad's speed.
     enum class Shape : std::uint8_t { Disc = 0, Quad = 1, Octagon = 2 } shape = Shape::Disc;
+    // "exact": when set (n_triangles x 9 doubles, world corners), the occluders are these
+    // triangles, the scene's true surfaces, instead of shapes made from the surfels: nothing
+    // overhangs an outline and nothing leaks between surfels. Read only while building.
+    const double* triangles = nullptr;
+    std::size_t n_triangles = 0;
     // "exact": cast the samples of a node pair as packets of 8 rays (no early exit) instead of
     // one by one with early exit on the first disagreement.
     bool packets = false;

@@ -80,7 +80,7 @@ VISIBILITY_DEFAULTS = {
 
 #: The keywords ``solve`` forwards to TransportOperator.
 OPERATOR_KEYWORDS = ("method", "order", "theta", "leaf_size", "near_field", "visibility",
-                     "threads") + tuple(VISIBILITY_DEFAULTS)
+                     "threads", "occluder_triangles") + tuple(VISIBILITY_DEFAULTS)
 
 
 def _require_core():
@@ -136,9 +136,11 @@ def check_values(values, n: int, name: str = "values") -> np.ndarray:
 
 def validate_keywords(*, method=DEFAULT_METHOD, order=DEFAULT_ORDER, theta=DEFAULT_THETA,
                       leaf_size=DEFAULT_LEAF_SIZE, near_field=DEFAULT_NEAR_FIELD,
-                      visibility=DEFAULT_VISIBILITY, threads=0, **visibility_keywords) -> dict:
+                      visibility=DEFAULT_VISIBILITY, threads=0, occluder_triangles=None,
+                      **visibility_keywords) -> dict:
     """Check the operator keywords (raises InputError) and return them normalized."""
     out = {}
+    _check_triangles(occluder_triangles)
     out["method"] = _check_choice("method", method, METHODS)
     out["order"] = _check_int("order", order, 0, MAX_ORDER)
     if isinstance(theta, bool) or not isinstance(theta, numbers.Real) \
@@ -182,6 +184,19 @@ def validate_keywords(*, method=DEFAULT_METHOD, order=DEFAULT_ORDER, theta=DEFAU
     return out
 
 
+def _check_triangles(triangles) -> np.ndarray | None:
+    """``occluder_triangles`` as C-contiguous float64 (T, 3, 3), finite, or None."""
+    if triangles is None:
+        return None
+    t = np.ascontiguousarray(triangles, dtype=np.float64)
+    if t.ndim != 3 or t.shape[1:] != (3, 3) or len(t) == 0:
+        raise InputError(f"occluder_triangles: expected shape (T, 3, 3) with T >= 1, got {t.shape}")
+    bad = ~np.isfinite(t).all(axis=(1, 2))
+    if bad.any():
+        raise InputError(f"occluder_triangles[{int(np.flatnonzero(bad)[0])}] is not finite")
+    return t
+
+
 class TransportOperator:
     """The gathered transport ``y_i = Σ_j F_ij V_ij x_j`` over validated surfels.
 
@@ -219,6 +234,10 @@ class TransportOperator:
         "exact": disc radius = coverage·sqrt(A/π), in units of the surfel's own spacing.
         1 leaves gaps between discs (light leaks through walls); larger closes them but discs
         overhang edges (over-occlusion). Default 1.3 (a square grid is covered from 1.2533).
+    occluder_triangles : (T, 3, 3) array or None
+        "exact": the scene's own triangles (world corners, metres) as the occluders instead
+        of shapes made from the surfels (``coverage`` and ``visibility_shape`` then only size
+        nothing; the surfels' own radii trim the pair rays' ends).
     visibility_shape : "disc" | "quad" | "octagon"
         "exact": occluders as oriented discs, or squares or regular octagons of equal area
         (faster rays; the octagon is within 0.974-1.054 × the disc's radius).
@@ -250,7 +269,7 @@ class TransportOperator:
                  order: int = DEFAULT_ORDER, theta: float = DEFAULT_THETA,
                  leaf_size: int = DEFAULT_LEAF_SIZE, near_field: str = DEFAULT_NEAR_FIELD,
                  visibility: str = DEFAULT_VISIBILITY, threads: int = 0, progress=None,
-                 **visibility_keywords):
+                 occluder_triangles=None, **visibility_keywords):
         if not isinstance(surfels, Surfels):
             raise InputError(
                 f"surfels: expected an illumap.Surfels, got {type(surfels).__name__} "
@@ -272,6 +291,7 @@ class TransportOperator:
         if progress is not None and not callable(progress):
             raise InputError(f"progress: expected a callable or None, got {progress!r}")
         self.surfels = surfels
+        self.occluder_triangles = _check_triangles(occluder_triangles)
         core = _require_core()
         guard = ProgressGuard(progress)
         with guard:
@@ -280,6 +300,8 @@ class TransportOperator:
                 method=self.method, order=self.order, theta=self.theta,
                 leaf_size=self.leaf_size, near_field=self.near_field, threads=self.threads,
                 progress=guard.native_callback(), visibility=self.visibility,
+                occluder_triangles=(None if self.occluder_triangles is None
+                                    else self.occluder_triangles.reshape(-1, 9)),
                 **self.visibility_options,
             )
 
