@@ -27,7 +27,8 @@ double hash_uniform(std::int64_t id, std::uint64_t seed, std::uint64_t stream) {
 
 SurfelField::SurfelField(const double* positions, const double* normals, const double* values,
                          std::size_t n, int k, double min_cos)
-    : tree_(positions, n), normals_(normals, normals + 3 * n), values_(values, values + 3 * n),
+    : tree_(positions, n), positions_(positions, positions + 3 * n),
+      normals_(normals, normals + 3 * n), values_(values, values + 3 * n),
       k_(std::max(1, std::min<int>(k, int(n)))), min_cos_(min_cos) {
     if (n == 0) throw std::invalid_argument("a surfel field needs at least one surfel");
     // Softening of the inverse-distance weights: 5% of the median k-th neighbour distance over
@@ -46,13 +47,19 @@ SurfelField::SurfelField(const double* positions, const double* normals, const d
 }
 
 void SurfelField::at(const double q[3], const double nrm[3], KdTree::Best& best,
-                     double out[3]) const {
+                     double out[3], const MeshScene* scene, double lift) const {
     best.k = std::size_t(k_);
     tree_.nearest(q, best);
     double w_sum = 0, acc[3] = {0, 0, 0};
+    const double a[3] = {q[0] + lift * nrm[0], q[1] + lift * nrm[1], q[2] + lift * nrm[2]};
     for (const auto& [d2, j] : best.h) {
         const double* nj = &normals_[3 * std::size_t(j)];
         if (nj[0] * nrm[0] + nj[1] * nrm[1] + nj[2] * nrm[2] < min_cos_) continue;
+        if (scene) {
+            const double* pj = &positions_[3 * std::size_t(j)];
+            const double b[3] = {pj[0] + lift * nj[0], pj[1] + lift * nj[1], pj[2] + lift * nj[2]};
+            if (scene->occluded(a, b)) continue;
+        }
         const double w = 1.0 / (d2 + eps2_);
         const double* v = &values_[3 * std::size_t(j)];
         acc[0] += w * v[0]; acc[1] += w * v[1]; acc[2] += w * v[2];
@@ -107,7 +114,7 @@ struct CornerTable {
 };
 
 CornerTable corner_table(Context& ctx, const MeshScene& scene, const SurfelField& field,
-                         double sign) {
+                         double sign, double lift) {
     const std::size_t T = scene.size();
     CornerTable tab;
     tab.values.assign(9 * T, 0.0);
@@ -127,7 +134,8 @@ CornerTable corner_table(Context& ctx, const MeshScene& scene, const SurfelField
             if (longest > reach2) continue;
             const float* tn = scene.triangle_normal(t);
             const double nt[3] = {sign * tn[0], sign * tn[1], sign * tn[2]};
-            for (int k = 0; k < 3; ++k) field.at(c + 3 * k, nt, best, &tab.values[9 * t + 3 * k]);
+            for (int k = 0; k < 3; ++k)
+                field.at(c + 3 * k, nt, best, &tab.values[9 * t + 3 * k], &scene, lift);
             tab.small[t] = 1;
         }
     });
@@ -141,8 +149,9 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
             const GatherOptions& opt, double* out, double* stderr_out) {
     const std::size_t K = std::size_t(std::max(1, opt.rays));
     ctx.set_phase("gather: corners", 0.0, 0.05);
-    const CornerTable front_tab = corner_table(ctx, scene, front, 1.0);
-    const CornerTable back_tab = back ? corner_table(ctx, scene, *back, -1.0) : CornerTable{};
+    const CornerTable front_tab = corner_table(ctx, scene, front, 1.0, opt.offset);
+    const CornerTable back_tab =
+        back ? corner_table(ctx, scene, *back, -1.0, opt.offset) : CornerTable{};
     ctx.set_phase("gather", 0.05, 0.95);
     parallel_for(ctx, m, std::max<std::size_t>(1, 4096 / K), [&](std::size_t lo, std::size_t hi) {
         std::vector<double> org(3 * K), dir(3 * K), dist(K);
@@ -178,7 +187,7 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
                         const double q[3] = {org[3 * k] + dist[k] * dir[3 * k],
                                              org[3 * k + 1] + dist[k] * dir[3 * k + 1],
                                              org[3 * k + 2] + dist[k] * dir[3 * k + 2]};
-                        field->at(q, nt, best, v);
+                        field->at(q, nt, best, v, &scene, opt.offset);
                     }
                 }
                 for (int c = 0; c < 3; ++c) sum[c] += v[c];

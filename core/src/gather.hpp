@@ -29,7 +29,10 @@ public:
     SurfelField(const double* positions, const double* normals, const double* values,
                 std::size_t n, int k, double min_cos);
     // Value at point q on a surface with unit normal nrm; best is the caller's scratch heap.
-    void at(const double q[3], const double nrm[3], KdTree::Best& best, double out[3]) const;
+    // With `scene`, a surfel counts only if no triangle separates it from q (both lifted
+    // `lift` metres off the surface): light under a box does not spill out past its side.
+    void at(const double q[3], const double nrm[3], KdTree::Best& best, double out[3],
+            const MeshScene* scene = nullptr, double lift = 0.0) const;
     std::size_t size() const { return values_.size() / 3; }
     int k() const { return k_; }
     // Median distance to the k-th nearest surfel (m): about 1.6 surfel spacings at k = 8.
@@ -37,7 +40,7 @@ public:
 
 private:
     KdTree tree_;
-    std::vector<double> normals_, values_;
+    std::vector<double> positions_, normals_, values_;
     int k_;
     double min_cos_, eps2_, reach_;
 };

@@ -190,6 +190,22 @@ void MeshScene::segments(Context& ctx, const double* a, const double* b, std::si
     });
 }
 
+bool MeshScene::occluded(const double* a, const double* b) const {
+    if (n_tri_ == 0) return false;
+    double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    const double len = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    if (!(len > 0) || !std::isfinite(len)) return false;
+    for (double& x : u) x /= len;
+    double s0, s1;
+    if (!clip(a, u, len, s0, s1)) return false;
+    RTCRay r;
+    fill(r, a, u, s0, s1, center_);
+    RTCIntersectContext ic;
+    rtcInitIntersectContext(&ic);
+    rtcOccluded1(impl_->scene, &ic, &r);
+    return r.tfar < 0.0f;
+}
+
 void MeshScene::intersect(Context& ctx, const double* o, const double* d, std::size_t n,
                           double tmax, std::int64_t* prim, double* t, std::uint8_t* front) const {
     parallel_for(ctx, n, 1024, [&](std::size_t lo, std::size_t hi) {

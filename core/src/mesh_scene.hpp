@@ -48,6 +48,8 @@ public:
                           std::int64_t* prim, double* t, std::uint8_t* front,
                           float* uv = nullptr) const;
     const float* triangle_normal(std::size_t t) const { return &normal_[3 * t]; }
+    // Whether a triangle meets the open segment a -> b (one ray, calling thread).
+    bool occluded(const double* a, const double* b) const;
     const double* triangle_corners(std::size_t t) const { return &corners_[9 * t]; }
 
 private:
