@@ -507,20 +507,25 @@ NB_MODULE(_core, m) {
              nb::arg("positions"), nb::arg("normals"), nb::arg("values"), nb::kw_only(),
              nb::arg("k") = 8, nb::arg("min_cos") = 0.5)
         .def("at",
-             [](PySurfelField& self, nb::handle points, nb::handle surface_normals) {
+             [](PySurfelField& self, nb::handle points, nb::handle surface_normals,
+                nb::handle scene, double lift) {
                  const double *Q, *N;
                  nb::object k1, k2;
                  const std::size_t m = paired_rays(points, "points", surface_normals, "surface_normals", Q, N, k1, k2);
+                 const MeshScene* sc = nullptr;
+                 if (scene.is_valid() && !scene.is_none()) sc = nb::cast<PyMeshScene&>(scene).scene.get();
                  double* out;
                  auto arr = numpy_rows(m, 3, &out);
                  {
                      nb::gil_scoped_release nogil;
                      KdTree::Best best(std::size_t(self.field->k()));
-                     for (std::size_t i = 0; i < m; ++i) self.field->at(Q + 3 * i, N + 3 * i, best, out + 3 * i);
+                     for (std::size_t i = 0; i < m; ++i)
+                         self.field->at(Q + 3 * i, N + 3 * i, best, out + 3 * i, sc, lift);
                  }
                  return arr;
              },
-             nb::arg("points"), nb::arg("surface_normals"))
+             nb::arg("points"), nb::arg("surface_normals"), nb::arg("scene").none() = nb::none(),
+             nb::arg("lift") = 0.0)
         .def_prop_ro("n", [](const PySurfelField& self) { return self.field->size(); });
 
     m.def("cosine_directions",

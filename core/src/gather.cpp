@@ -106,37 +106,128 @@ void cosine_directions(const double n[3], std::size_t count, std::int64_t id, st
 
 namespace {
 
-// Corner values (9 doubles per triangle, one side) of the triangles no longer than the
-// field's reach; the flag says which triangles have them.
-struct CornerTable {
-    std::vector<double> values;
-    std::vector<std::uint8_t> small;
+// The field tabulated on every triangle (one side): a barycentric lattice of n_t + 1 points
+// per edge, n_t = ceil(longest edge / the field's reach), looked up once per point. A hit then
+// interpolates the three lattice points of its sub-triangle: one lookup per lattice point
+// instead of one per hit, and as fine as the surfels resolve.
+// Sub-triangles whose lattice points see each other ("clean") interpolate; the others (a
+// box's side stands on them) look the field up at the hit itself.
+struct FieldTable {
+    std::vector<std::size_t> start;     // first lattice point of each triangle (T + 1 entries)
+    std::vector<std::size_t> sub_start;  // first sub-triangle of each triangle (T + 1 entries)
+    std::vector<std::uint32_t> n;       // subdivisions per edge of each triangle
+    std::vector<double> values;         // 3 per lattice point
+    std::vector<std::uint8_t> clean;    // per sub-triangle
+
+    static std::size_t row(std::size_t i, std::size_t nn) { return i * (nn + 1) - i * (i - 1) / 2; }
+    static std::size_t count(std::size_t nn) { return (nn + 1) * (nn + 2) / 2; }
+    // Sub-triangles: "lower" (i, j), (i+1, j), (i, j+1) for i + j <= nn - 1, then "upper"
+    // (i+1, j+1), (i, j+1), (i+1, j) for i + j <= nn - 2.
+    static std::size_t lower(std::size_t i, std::size_t j, std::size_t nn) { return row(i, nn - 1) + j; }
+    static std::size_t upper(std::size_t i, std::size_t j, std::size_t nn) {
+        return count(nn - 1) + row(i, nn - 2) + j;
+    }
+
+    // Interpolated value at barycentric (u, v) (Embree's: weights of corners 1 and 2) of
+    // triangle t; false (nothing written) where the sub-triangle is not clean.
+    bool at(std::size_t t, double u, double v, double out[3]) const {
+        const std::size_t nn = n[t];
+        const double x = std::min(std::max(u, 0.0), 1.0) * double(nn);
+        const double y = std::min(std::max(v, 0.0), 1.0) * double(nn);
+        std::size_t i = std::min<std::size_t>(std::size_t(x), nn - 1);
+        std::size_t j = std::min<std::size_t>(std::size_t(y), nn - 1 - i);
+        double fx = x - double(i), fy = y - double(j);
+        const double* base = &values[3 * start[t]];
+        auto pt = [&](std::size_t a, std::size_t b) { return base + 3 * (row(a, nn) + b); };
+        const double *p0, *p1, *p2;
+        double w0, w1, w2;
+        if (fx + fy <= 1.0 || i + j + 1 >= nn) {
+            if (!clean[sub_start[t] + lower(i, j, nn)]) return false;
+            p0 = pt(i, j); p1 = pt(i + 1, j); p2 = pt(i, j + 1);
+            w1 = fx; w2 = fy; w0 = 1.0 - fx - fy;
+        } else {
+            if (!clean[sub_start[t] + upper(i, j, nn)]) return false;
+            p0 = pt(i + 1, j + 1); p1 = pt(i, j + 1); p2 = pt(i + 1, j);
+            w0 = fx + fy - 1.0; w1 = 1.0 - fx; w2 = 1.0 - fy;
+        }
+        for (int c = 0; c < 3; ++c) out[c] = w0 * p0[c] + w1 * p1[c] + w2 * p2[c];
+        return true;
+    }
 };
 
-CornerTable corner_table(Context& ctx, const MeshScene& scene, const SurfelField& field,
-                         double sign, double lift) {
+// Lattice point (i, j) of triangle c (9 doubles) with nn subdivisions, moved kLatticeInset
+// of the way to the centroid: a point on an edge where a wall stands then lies on one side of
+// the wall, the side of its own triangle.
+constexpr double kLatticeInset = 1e-3;
+
+void lattice_point(const double* c, std::size_t i, std::size_t j, std::size_t nn, double q[3]) {
+    const double u = double(i) / double(nn), v = double(j) / double(nn);
+    for (int d = 0; d < 3; ++d) {
+        const double p = c[d] + u * (c[3 + d] - c[d]) + v * (c[6 + d] - c[d]);
+        const double centroid = (c[d] + c[3 + d] + c[6 + d]) / 3.0;
+        q[d] = p + kLatticeInset * (centroid - p);
+    }
+}
+
+FieldTable field_table(Context& ctx, const MeshScene& scene, const SurfelField& field,
+                       double sign, double lift) {
     const std::size_t T = scene.size();
-    CornerTable tab;
-    tab.values.assign(9 * T, 0.0);
-    tab.small.assign(T, 0);
-    const double reach2 = field.reach() * field.reach();
-    parallel_for(ctx, T, 1024, [&](std::size_t lo, std::size_t hi) {
+    FieldTable tab;
+    tab.start.assign(T + 1, 0);
+    tab.sub_start.assign(T + 1, 0);
+    tab.n.assign(T, 1);
+    const double reach = std::max(field.reach(), 1e-300);
+    for (std::size_t t = 0; t < T; ++t) {
+        const double* c = scene.triangle_corners(t);
+        double longest = 0;
+        for (int e = 0; e < 3; ++e) {
+            const double* a = c + 3 * e;
+            const double* b = c + 3 * ((e + 1) % 3);
+            const double dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
+            longest = std::max(longest, std::sqrt(dx * dx + dy * dy + dz * dz));
+        }
+        const double want = std::ceil(longest / reach);
+        tab.n[t] = std::uint32_t(std::min(std::max(want, 1.0), 4096.0));
+        tab.start[t + 1] = tab.start[t] + FieldTable::count(tab.n[t]);
+        tab.sub_start[t + 1] = tab.sub_start[t] + std::size_t(tab.n[t]) * tab.n[t];
+    }
+    tab.values.assign(3 * tab.start[T], 0.0);
+    tab.clean.assign(tab.sub_start[T], 0);
+    parallel_for(ctx, T, 64, [&](std::size_t lo, std::size_t hi) {
         KdTree::Best best{std::size_t(field.k())};
         for (std::size_t t = lo; t < hi; ++t) {
             const double* c = scene.triangle_corners(t);
-            double longest = 0;
-            for (int e = 0; e < 3; ++e) {
-                const double* a = c + 3 * e;
-                const double* b = c + 3 * ((e + 1) % 3);
-                const double dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
-                longest = std::max(longest, dx * dx + dy * dy + dz * dz);
-            }
-            if (longest > reach2) continue;
             const float* tn = scene.triangle_normal(t);
             const double nt[3] = {sign * tn[0], sign * tn[1], sign * tn[2]};
-            for (int k = 0; k < 3; ++k)
-                field.at(c + 3 * k, nt, best, &tab.values[9 * t + 3 * k], &scene, lift);
-            tab.small[t] = 1;
+            const std::size_t nn = tab.n[t];
+            double* out = &tab.values[3 * tab.start[t]];
+            for (std::size_t i = 0; i <= nn; ++i)
+                for (std::size_t j = 0; i + j <= nn; ++j) {
+                    double q[3];
+                    lattice_point(c, i, j, nn, q);
+                    field.at(q, nt, best, out + 3 * (FieldTable::row(i, nn) + j), &scene, lift);
+                }
+            // Lattice points lifted off the surface: does a triangle stand between them?
+            auto lifted = [&](std::size_t i, std::size_t j, double q[3]) {
+                lattice_point(c, i, j, nn, q);
+                for (int d = 0; d < 3; ++d) q[d] += lift * nt[d];
+            };
+            auto sees = [&](std::size_t i0, std::size_t j0, std::size_t i1, std::size_t j1) {
+                double a[3], b[3];
+                lifted(i0, j0, a);
+                lifted(i1, j1, b);
+                return !scene.occluded(a, b);
+            };
+            std::uint8_t* cl = &tab.clean[tab.sub_start[t]];
+            for (std::size_t i = 0; i < nn; ++i)
+                for (std::size_t j = 0; i + j < nn; ++j) {
+                    cl[FieldTable::lower(i, j, nn)] =
+                        sees(i, j, i + 1, j) && sees(i, j, i, j + 1) && sees(i + 1, j, i, j + 1);
+                    if (i + j + 2 <= nn)
+                        cl[FieldTable::upper(i, j, nn)] = sees(i + 1, j + 1, i, j + 1) &&
+                                                          sees(i + 1, j + 1, i + 1, j) &&
+                                                          sees(i, j + 1, i + 1, j);
+                }
         }
     });
     return tab;
@@ -148,11 +239,11 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
             const double* positions, const double* normals, const std::int64_t* ids, std::size_t m,
             const GatherOptions& opt, double* out, double* stderr_out) {
     const std::size_t K = std::size_t(std::max(1, opt.rays));
-    ctx.set_phase("gather: corners", 0.0, 0.05);
-    const CornerTable front_tab = corner_table(ctx, scene, front, 1.0, opt.offset);
-    const CornerTable back_tab =
-        back ? corner_table(ctx, scene, *back, -1.0, opt.offset) : CornerTable{};
-    ctx.set_phase("gather", 0.05, 0.95);
+    ctx.set_phase("gather: field", 0.0, 0.1);
+    const FieldTable front_tab = field_table(ctx, scene, front, 1.0, opt.offset);
+    const FieldTable back_tab =
+        back ? field_table(ctx, scene, *back, -1.0, opt.offset) : FieldTable{};
+    ctx.set_phase("gather", 0.1, 0.9);
     parallel_for(ctx, m, std::max<std::size_t>(1, 4096 / K), [&](std::size_t lo, std::size_t hi) {
         std::vector<double> org(3 * K), dir(3 * K), dist(K);
         std::vector<std::int64_t> prim(K);
@@ -173,14 +264,10 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
                 if (prim[k] >= 0) {
                     const std::size_t t = std::size_t(prim[k]);
                     const SurfelField* field = face[k] ? &front : back;
-                    const CornerTable& tab = face[k] ? front_tab : back_tab;
+                    const FieldTable& tab = face[k] ? front_tab : back_tab;
                     if (!field) {
                         v[0] = v[1] = v[2] = 0.0;
-                    } else if (tab.small[t]) {
-                        const double b1 = uv[2 * k], b2 = uv[2 * k + 1], b0 = 1.0 - b1 - b2;
-                        const double* cv = &tab.values[9 * t];
-                        for (int c = 0; c < 3; ++c) v[c] = b0 * cv[c] + b1 * cv[3 + c] + b2 * cv[6 + c];
-                    } else {
+                    } else if (!tab.at(t, uv[2 * k], uv[2 * k + 1], v)) {
                         const float* tn = scene.triangle_normal(t);
                         const double sg = face[k] ? 1.0 : -1.0;
                         const double nt[3] = {sg * tn[0], sg * tn[1], sg * tn[2]};

@@ -4,10 +4,9 @@
 // (MeshScene); a ray that meets a triangle's front takes the surfels' reflected radiance
 // there (SurfelField: the nearest surfels whose normal agrees with the triangle's, by inverse
 // squared distance), one that meets a back face the back field's (or black: surfaces are
-// one-sided), one that leaves the scene the background radiance. Triangles no longer than the
-// field's reach take that value by barycentric interpolation of their corners' (looked up
-// once per triangle): smooth, and one lookup per triangle instead of one per hit; larger
-// triangles look it up at each hit. The mean is the receiver's
+// one-sided), one that leaves the scene the background radiance. The field is tabulated once
+// on a barycentric lattice of each triangle, about as fine as the surfels, and a hit
+// interpolates it: one lookup per lattice point, none per hit. The mean is the receiver's
 // indirect incident radiance (irradiance / pi). Directions come from one rank-1 lattice,
 // shifted per receiver by a hash of (seed, receiver id): results do not depend on threads,
 // chunking or the order of receivers. Python: illumap.receivers.

@@ -147,10 +147,15 @@ class SurfelField:
         """Number of surfels."""
         return int(self._field.n)
 
-    def at(self, points, surface_normals) -> np.ndarray:
-        """Values (M, 3) at ``points`` (M, 3) on surfaces with unit normals (M, 3)."""
+    def at(self, points, surface_normals, occluders: "MeshOccluders | None" = None) -> np.ndarray:
+        """Values (M, 3) at ``points`` (M, 3) on surfaces with unit normals (M, 3). With
+        ``occluders``, a surfel counts only where no triangle separates it from the point
+        (both lifted ``occluders.offset`` off their surfaces), as in ``gather``."""
         p = _rows3("points", points)
-        return self._field.at(p, _rows3("surface_normals", surface_normals, len(p)))
+        n = _rows3("surface_normals", surface_normals, len(p))
+        if occluders is None:
+            return self._field.at(p, n)
+        return self._field.at(p, n, occluders._scene, occluders.offset)
 
 
 def cosine_directions(normals, count: int, ids, seed: int = 0) -> np.ndarray:
