@@ -12,7 +12,7 @@ What is understood, after the active Material Output's Surface input:
   from the camera only). Each side of a surface is evaluated on its own (``side``).
 * A colour input may be a constant, an RGB node, an Image Texture (sampled at the surfel's UV,
   from the node's UV Map / Texture Coordinate input or the active UV map; sRGB byte images are
-  linearised; flat projection, single images only), a Color Attribute node, an Attribute node
+  filtered as stored and linearised after, as Cycles does; flat projection, single images only), a Color Attribute node, an Attribute node
   (geometry attribute by name), or a Mix Color node (Mix / Multiply / Add with a constant
   factor) of any of these. Reroutes are followed.
 
@@ -57,8 +57,9 @@ def _follow(socket):
     return None
 
 
-def _image_pixels(image) -> np.ndarray:
-    """(H, W, 4) float pixels of ``image``, scene-linear."""
+def _image_pixels(image) -> tuple[np.ndarray, bool]:
+    """(H, W, 4) float pixels of ``image`` as stored, and whether they are sRGB-encoded bytes:
+    those are filtered first and converted to linear after, as Cycles does."""
     w, h = image.size
     if w == 0 or h == 0:
         raise Unsupported(f"image '{image.name}' has no pixels (missing file?)")
@@ -72,10 +73,7 @@ def _image_pixels(image) -> np.ndarray:
         if ch == 1:
             pad[..., 1:3] = px
         px = pad
-    space = image.colorspace_settings.name
-    if not image.is_float and space == "sRGB":
-        px[..., :3] = srgb_to_linear(px[..., :3]).astype(np.float32)
-    return px
+    return px, (not image.is_float and image.colorspace_settings.name == "sRGB")
 
 
 def sample_image(pixels: np.ndarray, uv: np.ndarray, *, interpolation: str = "Linear",
@@ -145,9 +143,10 @@ class _Evaluator:
             key = node.image.name_full
             if key not in self.images:
                 self.images[key] = _image_pixels(node.image)
-            px = self.images[key]
-            return sample_image(px, self._uv(node), interpolation=node.interpolation,
-                                extension=node.extension)[:, :3]
+            px, srgb = self.images[key]
+            rgb = sample_image(px, self._uv(node), interpolation=node.interpolation,
+                               extension=node.extension)[:, :3]
+            return srgb_to_linear(rgb) if srgb else rgb
         if node.type == "VERTEX_COLOR" and out.name == "Color":
             col = self.samples.color(node.layer_name or None)
             if col is None:

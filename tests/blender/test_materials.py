@@ -78,9 +78,31 @@ def test_image_texture_sampled_at_uv():
 def test_byte_srgb_image_is_linearised():
     img = bpy.data.images.new("S", 2, 2)  # byte, sRGB
     img.pixels.foreach_set(np.full(16, 0.5, np.float32))
-    px = materials._image_pixels(img)
-    assert np.allclose(px[..., :3], materials.srgb_to_linear(np.float32(128 / 255)), atol=2e-3)
-    assert abs(px[0, 0, 0] - 0.214) < 0.01
+    px, srgb = materials._image_pixels(img)
+    assert srgb and np.allclose(px[..., :3], 128 / 255, atol=2e-3)   # stored, not yet linear
+    assert abs(materials.srgb_to_linear(px[0, 0, 0]) - 0.214) < 0.01
+
+
+def test_byte_srgb_image_is_filtered_before_linearising():
+    """Half black, half white sRGB bytes, bilinear: midway between the two texels Cycles
+    reads the mean of the encoded values, linearised (0.214), not the mean of linear ones
+    (0.5)."""
+    img = bpy.data.images.new("Edge", 2, 1)  # byte, sRGB: black texel, white texel
+    img.pixels.foreach_set(np.array([0, 0, 0, 1, 1, 1, 1, 1], np.float32))
+    mat, nodes, links, out = new_material("EdgeTex")
+    tex = nodes.new("ShaderNodeTexImage")
+    tex.image = img
+    tex.extension = "EXTEND"
+    bsdf = nodes.new("ShaderNodeBsdfDiffuse")
+    links.new(tex.outputs["Color"], bsdf.inputs["Color"])
+    links.new(bsdf.outputs[0], out.inputs["Surface"])
+    bpy.ops.mesh.primitive_plane_add(size=2.0)  # u = (x + 1) / 2
+    obj = bpy.context.active_object
+    obj.data.materials.append(mat)
+    job = prepare(obj)
+    mid = np.abs(job.positions[:, 0]) < 0.02           # u ≈ 0.5: halfway between texel centres
+    assert mid.sum() > 3
+    assert np.allclose(job.albedo[mid, 0], materials.srgb_to_linear(0.5), atol=0.02)
 
 
 def test_colour_attribute_node():
