@@ -281,8 +281,9 @@ def _report(frame: int, result: pipeline.Result, out) -> None:
               file=out)
     shape = result.stats.get("occluder_shape", "disc")
     if result.stats.get("visibility") == "exact":
-        print(f"  visibility       exact, {result.stats.get('visibility_shape', shape)}s",
-              file=out)
+        against = result.stats.get("visibility_occluders",
+                                   f"{result.stats.get('visibility_shape', shape)}s")
+        print(f"  visibility       exact, {against}", file=out)
     if result.stats.get("shadow_rays"):
         against = result.stats.get("shadow_occluders", f"{shape}s")
         print(f"  shadow rays      {result.stats['shadow_rays']} ({against})", file=out)

@@ -139,6 +139,7 @@ class Job:
     emitters: list = field(default_factory=list)   # lamps.Lamp 'MESH' records (emitters.py)
     solve_emission: np.ndarray | None = None       # emission left to surfels (not in a lamp)
     triangles: np.ndarray | None = None            # (T, 3, 3) every sampled mesh triangle, m
+    two_sided: np.ndarray | None = None            # (T,) bool: its mesh is an open surface
     has_points: bool = False                       # point clouds among the sources
     receivers: list = field(default_factory=list)  # sampling.Receivers, evaluated by ``receive``
     occluders: object = None                       # illumap.receivers.MeshOccluders, built once
@@ -411,12 +412,20 @@ def prepare(depsgraph, objects, settings: Settings) -> Job:
     lights = emitters.mesh_lights(tri_meshes, warnings)
     rng = np.random.default_rng(settings.seed)
     samples = [sampling.sample_mesh(tm, int(n), rng) for tm, n in zip(tri_meshes, first)]
+    triangles = np.concatenate([tm.corners for tm in tri_meshes]) if tri_meshes else None
+    occluders = None
+    if triangles is not None and any(tm.two_sided for tm in tri_meshes):
+        from illumap.receivers import MeshOccluders
+        occluders = MeshOccluders(triangles)
     job = _assemble(settings, samples, point_parts, point_sources, lamp_list, ambient, warnings,
-                    stats, t0)
+                    stats, t0, occluders)
     job.refine = refine
     job.accuracy = chosen
     job.emitters = lights
-    job.triangles = np.concatenate([tm.corners for tm in tri_meshes]) if tri_meshes else None
+    job.triangles = triangles
+    job.two_sided = (np.concatenate([np.full(len(tm.area), tm.two_sided) for tm in tri_meshes])
+                     if tri_meshes else None)
+    job.occluders = occluders
     job.has_points = bool(point_parts)
     if settings.transfer:
         scratch: list[str] = []   # material warnings were given for the surfels already
@@ -425,9 +434,29 @@ def prepare(depsgraph, objects, settings: Settings) -> Job:
     return job
 
 
+#: Rays that look for anything in view of a back face (``_back_faces_in_view``).
+BACK_FACE_PROBE_RAYS = 16
+
+
+def _back_faces_in_view(occluders, positions: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """Which points (facing ``normals``) see any triangle in ``BACK_FACE_PROBE_RAYS`` rays: the
+    back of a room's wall that faces only the black world can neither send nor receive light.
+    All of them when there are no occluders to ask."""
+    if occluders is None or len(positions) == 0:
+        return np.ones(len(positions), dtype=bool)
+    from illumap.receivers import cosine_directions
+    k = BACK_FACE_PROBE_RAYS
+    dirs = cosine_directions(normals, k, np.arange(len(positions))).reshape(-1, 3)
+    origins = np.repeat(positions + occluders.offset * normals, k, axis=0)
+    tri, _, _ = occluders.intersect(origins, dirs)
+    return (tri.reshape(-1, k) >= 0).any(axis=1)
+
+
 def _assemble(settings: Settings, samples: list, point_parts: list, point_sources: list,
-              lamp_list: list, ambient, warnings: list[str], stats: dict, t0: float) -> Job:
-    """Materials and the Job from sampled meshes and point clouds (direct light: ``light``)."""
+              lamp_list: list, ambient, warnings: list[str], stats: dict, t0: float,
+              occluders=None) -> Job:
+    """Materials and the Job from sampled meshes and point clouds (direct light: ``light``);
+    ``occluders`` (the scene's triangles) find the open surfaces' back faces in view."""
     parts, sources, start = [], [], 0
     for s in samples:
         albedo, emission = materials.surfel_materials(s, warnings)
@@ -441,14 +470,34 @@ def _assemble(settings: Settings, samples: list, point_parts: list, point_source
         parts.append(part)
         sources.append(Source(name, "POINTS", start, start + len(part[2]), area))
         start += len(part[2])
+    in_lamp = [s.mesh.light_mask[s.triangle] if s.mesh.light_mask is not None
+               else np.zeros(len(s.areas), dtype=bool) for s in samples]
+    in_lamp += [np.zeros(len(p[2]), dtype=bool) for p in point_parts]
+    # The back faces of open surfaces, as surfels of their own (normals reversed), where they
+    # can exchange light with anything.
+    scratch: list[str] = []   # the front faces' evaluation already warned about the materials
+    for s in samples:
+        if not s.mesh.two_sided:
+            continue
+        keep = _back_faces_in_view(occluders, s.positions, -s.normals) if ambient is None \
+            else np.ones(len(s.areas), dtype=bool)
+        if not keep.any():
+            continue
+        albedo, emission = materials.surfel_materials(s, scratch, side="back")
+        uv = s.uv()
+        parts.append((s.positions[keep], -s.normals[keep], s.areas[keep], albedo[keep],
+                      emission[keep],
+                      (uv if uv is not None else np.full((len(s.areas), 2), np.nan))[keep],
+                      s.triangle[keep], s.bary[keep], s.material_index[keep]))
+        sources.append(Source(s.mesh.name, "BACK", start, start + int(keep.sum()),
+                              s.mesh.total_area))
+        start += int(keep.sum())
+        in_lamp.append(in_lamp[samples.index(s)][keep])
     check_memory(start, settings)
     pos, nrm, area, albedo, emission, uv, tri, bary, mat_idx = (
         np.concatenate([p[i] for p in parts]) for i in range(9))
     # Emission that a lamp of emitters.py carries leaves the solve (the surfels still reflect).
-    in_lamp = np.concatenate(
-        [s.mesh.light_mask[s.triangle] if s.mesh.light_mask is not None
-         else np.zeros(len(s.areas), dtype=bool) for s in samples]
-        + [np.zeros(len(p[2]), dtype=bool) for p in point_parts])
+    in_lamp = np.concatenate(in_lamp)
     timings = {"sampling": time.perf_counter() - t0}
     return Job(settings=settings, positions=np.ascontiguousarray(pos), normals=np.ascontiguousarray(nrm),
                areas=np.ascontiguousarray(area), albedo=np.ascontiguousarray(albedo),
@@ -544,9 +593,16 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     occ = mesh_occluders(job, progress)
     if occ is None:
         return
-    # What the surfels send on: their solved radiance (with the emission left to them).
-    field_ = rc.SurfelField(job.positions, job.normals, result.radiosity - job.emission
-                            + job.solve_emission)
+    # What the surfels send on: their solved radiance (with the emission left to them); the
+    # open surfaces' back faces are a field of their own.
+    sent = result.radiosity - job.emission + job.solve_emission
+    back = np.zeros(job.count, dtype=bool)
+    for src in job.sources:
+        if src.kind == "BACK":
+            back[src.start:src.stop] = True
+    field_ = rc.SurfelField(job.positions[~back], job.normals[~back], sent[~back])
+    back_field = (rc.SurfelField(job.positions[back], job.normals[back], sent[back])
+                  if back.any() else None)
     all_lamps = list(job.lamps) + list(job.emitters)
     rays = 0
     try:
@@ -558,7 +614,8 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
                                         extent=occ.extent)
             direct = lamps.incident_radiance(all_lamps, rec.points, rec.normals, shadows=shadows)
             gathered = rc.gather(occ, field_, rec.points, rec.normals, rays=s.gather_rays,
-                                 seed=s.seed, background=job.ambient,
+                                 seed=s.seed, background=job.ambient, back_field=back_field,
+                                 two_sided=job.two_sided,
                                  progress=None if progress is None else
                                  (lambda f, _p="": progress(f, "gather")))
             incident = direct + gathered.radiance
@@ -602,9 +659,11 @@ def next_pass(job: Job, result: "Result") -> Job | None:
     from .neighbours import knn
     t0 = time.perf_counter()
     s = job.settings
-    values = luminance(result.radiosity)
-    k = min(ADAPTIVE_NEIGHBOURS + 1, job.count)
-    idx, _ = knn(job.positions, job.positions, k)
+    # Front faces only: an open surface's back surfels sit on its front ones.
+    front = min([src.start for src in job.sources if src.kind == "BACK"] + [job.count])
+    values = luminance(result.radiosity[:front])
+    k = min(ADAPTIVE_NEIGHBOURS + 1, front)
+    idx, _ = knn(job.positions[:front], job.positions[:front], k)
     variation = core_sampling.local_variation(values, idx[:, 1:])
     mesh_sources = [src for src in job.sources if src.kind == "MESH"]
     regions, located, offset = [], [], 0
@@ -618,7 +677,7 @@ def next_pass(job: Job, result: "Result") -> Job | None:
     n_mesh = mesh_sources[-1].stop if mesh_sources else 0
     # Regions too small to hold a pass-1 surfel take the variation of the nearest one.
     centres = np.concatenate([reg.corners.mean(axis=1) for reg in regions])
-    nearest, _ = knn(job.positions, centres, 1)
+    nearest, _ = knn(job.positions[:front], centres, 1)
     weights = core_sampling.density_multipliers(np.concatenate(located), variation[:n_mesh], offset,
                                                 max_ratio=s.adaptive_max_ratio,
                                                 fill=variation[nearest[:, 0]])
@@ -637,9 +696,10 @@ def next_pass(job: Job, result: "Result") -> Job | None:
     stats.pop("shadow_rays", None)
     refine_seconds = time.perf_counter() - t0
     new = _assemble(s, samples, scene.points, scene.point_sources, scene.lamps, scene.ambient,
-                    list(job.warnings), stats, t0)
+                    list(job.warnings), stats, t0, job.occluders)
     new.accuracy = job.accuracy
     new.emitters, new.triangles, new.has_points = job.emitters, job.triangles, job.has_points
+    new.two_sided = job.two_sided
     new.receivers, new.occluders = job.receivers, job.occluders
     new.timings = {"pass 1: " + k_: v for k_, v in result.timings.items()} | \
         {"adaptive refinement": refine_seconds} | new.timings
@@ -730,6 +790,9 @@ def run(job: Job, progress: Progress | None = None) -> Result:
     stats = dict(getattr(sol, "stats", {}) or {})
     stats.update(job.stats)
     stats["occluder_shape"] = shape
+    if s.visibility == "exact":
+        stats["visibility_occluders"] = ("triangles" if "occluder_triangles" in kwargs
+                                         else f"{stats.get('visibility_shape', shape)}s")
     result = Result(radiosity=radiosity, iterations=int(sol.iterations),
                     residuals=list(sol.residuals), converged=bool(sol.converged),
                     timings=timings, stats=stats, count=job.count, warnings=warnings)

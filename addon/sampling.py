@@ -49,6 +49,7 @@ class TriangleMesh:
     loops: np.ndarray | None = None     # (T, 3) int64 corner (loop) index of each triangle corner
     vertices: np.ndarray | None = None  # (T, 3) int64 vertex index of each triangle corner
     light_mask: np.ndarray | None = None  # (T,) bool: emission carried by a lamp (emitters)
+    two_sided: bool = False        # an open surface (boundary edges): both faces reflect
 
     @property
     def total_area(self) -> float:
@@ -192,7 +193,11 @@ def _read_mesh_data(name: str, obj_eval, mesh, matrix_world, material_slots) -> 
     active_color = mesh.color_attributes.active_color.name if mesh.color_attributes.active_color else None
     active_uv = mesh.uv_layers.active.name if mesh.uv_layers.active else None
     materials = [slot.material for slot in material_slots]
-    return TriangleMesh(
+    # Open surfaces (an edge with one face) reflect on both faces, as in Cycles; the back of a
+    # closed surface is inside it and never lit.
+    edge_faces = np.bincount(_get(mesh.loops, "edge_index", nl, 1, np.int32),
+                             minlength=len(mesh.edges))
+    return TriangleMesh(two_sided=bool((edge_faces == 1).any()),
         name=name, corners=corners[keep], area=area[keep], normal=normal,
         corner_normals=cn[tri_l[keep]], material_index=mat_idx[keep], uv=uv, colors=colors,
         active_uv=active_uv, active_color=active_color, materials=materials,

@@ -547,7 +547,7 @@ NB_MODULE(_core, m) {
     m.def("gather",
           [](PyMeshScene& scene, PySurfelField& front, nb::handle back, nb::handle positions,
              nb::handle normals, nb::handle ids, int rays, std::uint64_t seed, double offset,
-             nb::handle background, int threads, nb::handle progress) {
+             nb::handle background, nb::handle two_sided, int threads, nb::handle progress) {
               const double *P, *N;
               nb::object k1, k2, k3, k4;
               const std::size_t m = paired_rays(positions, "positions", normals, "normals", P, N, k1, k2);
@@ -558,6 +558,15 @@ NB_MODULE(_core, m) {
               if (nbg != 3) throw nb::value_error("background must have 3 values");
               if (rays < 1) throw nb::value_error("rays must be >= 1");
               if (!(offset >= 0) || !std::isfinite(offset)) throw nb::value_error("offset must be finite and >= 0");
+              std::vector<std::uint8_t> sided;
+              if (two_sided.is_valid() && !two_sided.is_none()) {
+                  std::size_t ns;
+                  nb::object k5;
+                  const std::int64_t* S = view<std::int64_t>(two_sided, "two_sided", 1, 0, ns, k5);
+                  if (ns != scene.scene->size())
+                      throw nb::value_error("two_sided must have one entry per triangle");
+                  sided.assign(S, S + ns);
+              }
               const SurfelField* back_field = nullptr;
               if (back.is_valid() && !back.is_none()) back_field = nb::cast<PySurfelField&>(back).field.get();
               GatherOptions opt;
@@ -571,13 +580,15 @@ NB_MODULE(_core, m) {
               run_released(threads, progress, [&](Context& ctx) {
                   ctx.set_phase("gather", 0.0, 1.0);
                   checkpoint(ctx, 0.0);
-                  gather(ctx, *scene.scene, *front.field, back_field, P, N, I, m, opt, out, err);
+                  gather(ctx, *scene.scene, *front.field, back_field, P, N, I, m, opt, out, err,
+                         sided.empty() ? nullptr : sided.data());
               });
               return nb::make_tuple(a1, a2);
           },
           nb::arg("scene"), nb::arg("front"), nb::arg("back").none(), nb::arg("positions"),
           nb::arg("normals"), nb::arg("ids"), nb::kw_only(), nb::arg("rays"), nb::arg("seed") = 0,
-          nb::arg("offset"), nb::arg("background"), nb::arg("threads") = 0,
+          nb::arg("offset"), nb::arg("background"), nb::arg("two_sided").none() = nb::none(),
+          nb::arg("threads") = 0,
           nb::arg("progress") = nb::none(),
           "Final gather: (mean radiance (M, 3), standard error of its luminance (M,)).");
 

@@ -170,7 +170,7 @@ void lattice_point(const double* c, std::size_t i, std::size_t j, std::size_t nn
 }
 
 FieldTable field_table(Context& ctx, const MeshScene& scene, const SurfelField& field,
-                       double sign, double lift) {
+                       double sign, double lift, const std::uint8_t* only = nullptr) {
     const std::size_t T = scene.size();
     FieldTable tab;
     tab.start.assign(T + 1, 0);
@@ -186,7 +186,7 @@ FieldTable field_table(Context& ctx, const MeshScene& scene, const SurfelField& 
             const double dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
             longest = std::max(longest, std::sqrt(dx * dx + dy * dy + dz * dz));
         }
-        const double want = std::ceil(longest / reach);
+        const double want = only && !only[t] ? 1.0 : std::ceil(longest / reach);
         tab.n[t] = std::uint32_t(std::min(std::max(want, 1.0), 4096.0));
         tab.start[t + 1] = tab.start[t] + FieldTable::count(tab.n[t]);
         tab.sub_start[t + 1] = tab.sub_start[t] + std::size_t(tab.n[t]) * tab.n[t];
@@ -196,6 +196,7 @@ FieldTable field_table(Context& ctx, const MeshScene& scene, const SurfelField& 
     parallel_for(ctx, T, 64, [&](std::size_t lo, std::size_t hi) {
         KdTree::Best best{std::size_t(field.k())};
         for (std::size_t t = lo; t < hi; ++t) {
+            if (only && !only[t]) continue;   // never looked up: zeros, not clean
             const double* c = scene.triangle_corners(t);
             const float* tn = scene.triangle_normal(t);
             const double nt[3] = {sign * tn[0], sign * tn[1], sign * tn[2]};
@@ -237,12 +238,13 @@ FieldTable field_table(Context& ctx, const MeshScene& scene, const SurfelField& 
 
 void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, const SurfelField* back,
             const double* positions, const double* normals, const std::int64_t* ids, std::size_t m,
-            const GatherOptions& opt, double* out, double* stderr_out) {
+            const GatherOptions& opt, double* out, double* stderr_out,
+            const std::uint8_t* two_sided) {
     const std::size_t K = std::size_t(std::max(1, opt.rays));
     ctx.set_phase("gather: field", 0.0, 0.1);
     const FieldTable front_tab = field_table(ctx, scene, front, 1.0, opt.offset);
     const FieldTable back_tab =
-        back ? field_table(ctx, scene, *back, -1.0, opt.offset) : FieldTable{};
+        back ? field_table(ctx, scene, *back, -1.0, opt.offset, two_sided) : FieldTable{};
     ctx.set_phase("gather", 0.1, 0.9);
     parallel_for(ctx, m, std::max<std::size_t>(1, 4096 / K), [&](std::size_t lo, std::size_t hi) {
         std::vector<double> org(3 * K), dir(3 * K), dist(K);
@@ -264,6 +266,7 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
                 if (prim[k] >= 0) {
                     const std::size_t t = std::size_t(prim[k]);
                     const SurfelField* field = face[k] ? &front : back;
+                    if (!face[k] && two_sided && !two_sided[t]) field = nullptr;
                     const FieldTable& tab = face[k] ? front_tab : back_tab;
                     if (!field) {
                         v[0] = v[1] = v[2] = 0.0;

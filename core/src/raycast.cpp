@@ -160,7 +160,12 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
                     for (int k = 0; k < 3; ++k) ib[3 * t + k] = unsigned(3 * t + k);
                 }
             });
-            for (std::size_t i = 0; i < n; ++i) radius_[i] = float(disc_radius(s, i, 1.0));
+            // Triangles neither overlap nor overhang: the trims only have to clear the
+            // surfel's own triangle, a hair of the scene's size (float noise is ~1e-7 of it).
+            double ext = 0;
+            for (int d = 0; d < 3; ++d) ext = std::max(ext, hi_[d] - lo_[d]);
+            const float hair = float(1e-4 * ext);
+            for (std::size_t i = 0; i < n; ++i) radius_[i] = hair;
         } else if (n > 0 && shape == VisibilityOptions::Shape::Quad) {
             // Equal-area squares (side coverage * sqrt(A)) in each tangent plane; the frame is a
             // fixed function of the normal (Duff et al. 2017), so the build is deterministic.

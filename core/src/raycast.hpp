@@ -53,7 +53,8 @@ public:
     // calling thread polls ctx.monitor. Throws Cancelled, std::invalid_argument on bad
     // options, or std::runtime_error on an Embree error.
     // With `triangles` (n_tri x 9 doubles, world corners) the occluders are those triangles;
-    // the surfels then only give the endpoint trims (radius sqrt(A/pi), normals).
+    // the endpoint trims then only clear the surfel's own triangle (radius() is 1e-4 of the
+    // scene's size), so no ray slips past a wall near its end.
     OccluderScene(Context& ctx, const SurfelSoA& s, double coverage, VisibilityOptions::Shape shape,
                   const double* triangles = nullptr, std::size_t n_tri = 0);
     ~OccluderScene();

@@ -204,9 +204,9 @@ def test_occluder_shape_option(capsys):
     bpy.context.object.data.energy = 100.0
     assert batch.main(["--quality", "draft", "--occluder-shape", "octagon"]) == 0
     out = capsys.readouterr().out
-    # Between surfels the shape is the one asked for; lamps shadow mesh receivers and surfels
-    # against the meshes' own triangles.
-    assert "visibility       exact, octagons" in out and "(triangles)" in out, out
+    # Meshes occlude with their own triangles, between surfels and for lamp shadows alike:
+    # the shape matters for point clouds only.
+    assert "visibility       exact, triangles" in out and "(triangles)" in out, out
     assert batch.main(["--quality", "high", "--density", "100", "--occluder-shape", "quad"]) == 0
     out = capsys.readouterr().out
-    assert "visibility       exact, quads" in out and "(triangles)" in out, out
+    assert "visibility       exact, triangles" in out and "(triangles)" in out, out

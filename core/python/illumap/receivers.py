@@ -185,14 +185,16 @@ class GatherResult:
 
 def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, rays: int,
            ids: np.ndarray | None = None, seed: int = 0, background=None,
-           back_field: SurfelField | None = None, threads: int = 0,
+           back_field: SurfelField | None = None, two_sided=None, threads: int = 0,
            progress: Progress | None = None) -> GatherResult:
     """Indirect incident radiance at receivers (``positions``, unit ``normals``, (M, 3)).
 
     ``rays`` cosine-distributed rays per receiver (``cosine_directions``) start
     ``occluders.offset`` off the surface and meet the triangles; a front hit takes
     ``field.at`` there, a back hit ``back_field.at`` (None: black, one-sided surfaces), and a
-    miss the ``background`` radiance (3,) (None: black). ``ids`` (M,) name the receivers for
+    miss the ``background`` radiance (3,) (None: black). ``two_sided`` (T,) bool says which
+    triangles' back faces take ``back_field`` (None: all); the others' are black.
+    ``ids`` (M,) name the receivers for
     their random streams (default: their rows). Runs natively on ``threads`` (0: all), the GIL
     released; ``progress`` returning False cancels (``illumap.Cancelled``).
     """
@@ -207,8 +209,13 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
     bg = np.zeros(3) if background is None else np.ascontiguousarray(background, dtype=np.float64).reshape(3)
     if not np.isfinite(bg).all() or (bg < 0).any():
         raise InputError(f"background must be 3 finite values >= 0, got {bg}")
+    sided = None
+    if two_sided is not None:
+        sided = np.ascontiguousarray(two_sided, dtype=bool).astype(np.int64).reshape(-1)
+        if len(sided) != occluders.n:
+            raise InputError(f"two_sided must have {occluders.n} entries, got {len(sided)}")
     radiance, stderr = _core.gather(
         occluders._scene, field._field, None if back_field is None else back_field._field,
         p, n, ids, rays=int(rays), seed=int(seed), offset=occluders.offset, background=bg,
-        threads=threads, progress=progress)
+        two_sided=sided, threads=threads, progress=progress)
     return GatherResult(radiance=radiance, stderr=stderr, rays=len(p) * int(rays))
