@@ -1,0 +1,48 @@
+"""What differs between the Blender versions Illumap supports (4.2–5.0 on Python 3.11, 5.1+ on
+Python 3.13), in one place: the rest of the add-on calls these helpers and never checks
+``bpy.app.version`` itself.
+
+Differences found between bpy 5.0.1 and 5.2.3 (the two tested builds):
+
+* Geometry Nodes modifier inputs. Up to 5.1 they are ID properties on the modifier
+  (``mod["Socket_1"] = value``). 5.2 gives the modifier RNA properties instead
+  (``mod.properties.inputs.Socket_1.value``; Blender commit 1561c1ea4a, 5.2 Python API release
+  notes) and the modifier no longer holds ID properties: ``mod[key]`` raises ``TypeError``
+  ("id properties not supported for this type"). Writing the RNA property does not tag the
+  object for re-evaluation, so the helper does.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import bpy
+
+
+def _rna_inputs(mod: bpy.types.Modifier) -> Any | None:
+    """The modifier's RNA input collection (Blender 5.2+), or None where inputs are ID
+    properties. Detected by the attribute rather than the version number, so a 5.1 build with or
+    without the change is handled alike."""
+    props = getattr(mod, "properties", None)
+    return getattr(props, "inputs", None) if props is not None else None
+
+
+def set_modifier_input(mod: bpy.types.Modifier, identifier: str, value: Any) -> None:
+    """Set the Geometry Nodes modifier input ``identifier`` (an interface socket's
+    ``identifier``, e.g. ``"Socket_1"``) to ``value`` on every supported Blender."""
+    inputs = _rna_inputs(mod)
+    if inputs is None:
+        mod[identifier] = value
+        return
+    getattr(inputs, identifier).value = value
+    # The RNA property has no update callback: tag the object so the depsgraph re-evaluates.
+    mod.id_data.update_tag()
+
+
+def get_modifier_input(mod: bpy.types.Modifier, identifier: str) -> Any:
+    """The value of the Geometry Nodes modifier input ``identifier`` on every supported
+    Blender."""
+    inputs = _rna_inputs(mod)
+    if inputs is None:
+        return mod[identifier]
+    return getattr(inputs, identifier).value
