@@ -8,8 +8,8 @@ Differences found between bpy 5.0.1 and 5.2.3 (the two tested builds):
   (``mod["Socket_1"] = value``). 5.2 gives the modifier RNA properties instead
   (``mod.properties.inputs.Socket_1.value``; Blender commit 1561c1ea4a, 5.2 Python API release
   notes) and the modifier no longer holds ID properties: ``mod[key]`` raises ``TypeError``
-  ("id properties not supported for this type"). Writing the RNA property does not tag the
-  object for re-evaluation, so the helper does.
+  ("id properties not supported for this type"). Neither write tags the object for
+  re-evaluation (checked on both), so the helper does.
 """
 
 from __future__ import annotations
@@ -29,13 +29,17 @@ def _rna_inputs(mod: bpy.types.Modifier) -> Any | None:
 
 def set_modifier_input(mod: bpy.types.Modifier, identifier: str, value: Any) -> None:
     """Set the Geometry Nodes modifier input ``identifier`` (an interface socket's
-    ``identifier``, e.g. ``"Socket_1"``) to ``value`` on every supported Blender."""
+    ``identifier``, e.g. ``"Socket_1"``) to ``value`` on every supported Blender. Raises
+    ``KeyError`` (up to 5.1) or ``AttributeError`` (5.2+) for an identifier it does not have."""
     inputs = _rna_inputs(mod)
     if inputs is None:
+        if identifier not in mod.keys():  # an ID property write would just add a stray one
+            raise KeyError(f"the modifier '{mod.name}' has no input {identifier!r}")
         mod[identifier] = value
-        return
-    getattr(inputs, identifier).value = value
-    # The RNA property has no update callback: tag the object so the depsgraph re-evaluates.
+    else:
+        getattr(inputs, identifier).value = value
+    # Neither write re-evaluates the modifier by itself (an ID property write, or an RNA property
+    # without an update callback): tag the object so the depsgraph does.
     mod.id_data.update_tag()
 
 
