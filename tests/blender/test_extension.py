@@ -176,10 +176,14 @@ def test_launcher_follows_blender_exit_codes() -> None:
 
 def test_launcher_passes_script_arguments(tmp_path: Path) -> None:
     script = tmp_path / "echo_args.py"
-    script.write_text("import sys\nprint('ARGS', sys.argv[sys.argv.index('--') + 1:])\n")
+    script.write_text("import sys, bpy\nprint('ARGS', sys.argv[sys.argv.index('--') + 1:])\n"
+                      "print('VERSION', tuple(bpy.app.version))\n")
     result = subprocess.run([str(LAUNCHER), "-b", "--python", str(script), "--", "--x", "1"],
                             cwd=ROOT, text=True, capture_output=True, timeout=120)
     assert result.returncode == 0 and "ARGS ['--x', '1']" in result.stdout, result.stderr
+    # The launcher runs on this test run's bpy (5.2 on .venv, 5.0 on .venv-blender50).
+    import bpy
+    assert f"VERSION {tuple(bpy.app.version)}" in result.stdout, result.stdout
 
 
 def test_batch_script_runs_the_installed_extension(extension_zip: Path, tmp_path: Path) -> None:
