@@ -10,6 +10,8 @@ Differences found between bpy 5.0.1 and 5.2.3 (the two tested builds):
   notes) and the modifier no longer holds ID properties: ``mod[key]`` raises ``TypeError``
   ("id properties not supported for this type"). Neither write tags the object for
   re-evaluation (checked on both), so the helper does.
+* Node trees of new materials and worlds. Blender 5.0 and 5.2 create them with one (and deprecate
+  ``use_nodes``); 4.2 creates none until ``use_nodes`` is set (checked on bpy 4.2.23).
 """
 
 from __future__ import annotations
@@ -50,3 +52,10 @@ def get_modifier_input(mod: bpy.types.Modifier, identifier: str) -> Any:
     if inputs is None:
         return mod[identifier]
     return getattr(inputs, identifier).value
+
+
+def node_tree(idblock: bpy.types.ID) -> bpy.types.NodeTree:
+    """The shader node tree of a material or world, made first where Blender 4.x has none."""
+    if idblock.node_tree is None:
+        idblock.use_nodes = True
+    return idblock.node_tree

@@ -150,9 +150,8 @@ def _attribute(nodes, name, location):
 
 
 def _build_material(mat, mode):
-    if mat.node_tree is None:  # Blender 4.x; 5.0 always has a node tree (use_nodes is deprecated)
-        mat.use_nodes = True
-    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    tree = compat.node_tree(mat)
+    nodes, links = tree.nodes, tree.links
     nodes.clear()
     out = nodes.new("ShaderNodeOutputMaterial")
     out.location = (400, 0)

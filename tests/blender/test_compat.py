@@ -35,3 +35,11 @@ def test_modifier_inputs_round_trip_and_re_evaluate(registered_addon):
     assert compat.get_modifier_input(mod, material_id) == mat
     with pytest.raises((AttributeError, KeyError)):
         compat.set_modifier_input(mod, "Socket_999", 1.0)
+
+
+def test_node_tree_of_new_materials_and_worlds(registered_addon):
+    from addon import compat
+    for idblock in (bpy.data.materials.new("M"), bpy.data.worlds.new("W")):
+        tree = compat.node_tree(idblock)
+        assert tree is not None and tree == idblock.node_tree
+        assert compat.node_tree(idblock) == tree  # a second call keeps the same tree
