@@ -33,6 +33,8 @@ import math
 
 import bpy
 
+from . import compat
+
 NODE_GROUP_NAME = "Illumap Disc Preview"
 MODIFIER_NAME = "Illumap Preview"
 MATERIAL_NAMES = {
@@ -148,9 +150,8 @@ def _attribute(nodes, name, location):
 
 
 def _build_material(mat, mode):
-    if mat.node_tree is None:  # Blender 4.x; 5.0 always has a node tree (use_nodes is deprecated)
-        mat.use_nodes = True
-    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    tree = compat.node_tree(mat)
+    nodes, links = tree.nodes, tree.links
     nodes.clear()
     out = nodes.new("ShaderNodeOutputMaterial")
     out.location = (400, 0)
@@ -245,8 +246,8 @@ def build_preview(context, surfel_object, mode="ILLUMINATION", disc_scale=DEFAUL
         mod = surfel_object.modifiers.new(MODIFIER_NAME, "NODES")
     if mod.node_group != ng:
         mod.node_group = ng
-    mod[_socket_identifier(ng, "Material")] = mat
-    mod[_socket_identifier(ng, "Disc Scale")] = float(disc_scale)
+    compat.set_modifier_input(mod, _socket_identifier(ng, "Material"), mat)
+    compat.set_modifier_input(mod, _socket_identifier(ng, "Disc Scale"), float(disc_scale))
     # Duplicates from older runs or manual copies are dropped: one preview per object.
     for other in [m for m in surfel_object.modifiers if m != mod and _is_preview(m)]:
         surfel_object.modifiers.remove(other)

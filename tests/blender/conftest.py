@@ -25,6 +25,10 @@ import bpy  # noqa: E402
 
 EEVEE_ENV = "ILLUMAP_TEST_EEVEE"
 
+# scripts/blender (the stand-in for Blender's binary) runs on the bpy of this test run, so the
+# tests on .venv-blender50 exercise bpy 5.0 there too.
+os.environ.setdefault("ILLUMAP_PYTHON", sys.executable)
+
 # Test modules import the helpers below as ``from illumap_bpy_testing import ...``: several
 # conftest.py files may exist (tests/core too), so the name "conftest" is ambiguous.
 sys.modules.setdefault("illumap_bpy_testing", sys.modules[__name__])

@@ -3,10 +3,12 @@ and the test runner and batch launcher behave like Blender's command line."""
 
 from __future__ import annotations
 
+import io
 import os
 import subprocess
 import sys
 import textwrap
+import tomllib
 import zipfile
 from pathlib import Path
 
@@ -16,8 +18,9 @@ ROOT = Path(__file__).resolve().parents[2]
 LAUNCHER = ROOT / "scripts" / "blender"
 
 
-def run_python(code: str, env: dict | None = None, timeout: float = 300) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], cwd=ROOT, text=True,
+def run_python(code: str, env: dict | None = None, timeout: float = 300,
+               cwd: Path = ROOT) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], cwd=cwd, text=True,
                           capture_output=True, env={**os.environ, **(env or {})}, timeout=timeout)
 
 
@@ -31,35 +34,117 @@ def extension_zip() -> Path:
     return path
 
 
-def test_zip_holds_the_addon_and_its_wheel_only(extension_zip: Path) -> None:
-    names = zipfile.ZipFile(extension_zip).namelist()
+# Blocks every ``illumap`` but the one the extension installed under BLENDER_USER_RESOURCES: the
+# test venv has the core installed too, and it must not stand in for the zip's wheel.
+EXTENSION_ONLY_CORE = """
+    import importlib.abc, importlib.machinery, os, sys
+    USER = os.environ["BLENDER_USER_RESOURCES"]
+    class ExtensionOnlyCore(importlib.abc.MetaPathFinder):
+        def find_spec(self, name, path, target=None):
+            if name != "illumap":
+                return None
+            for entry in sys.path:
+                if entry.startswith(USER):
+                    spec = importlib.machinery.PathFinder.find_spec(name, [entry])
+                    if spec is not None:
+                        return spec
+            raise ModuleNotFoundError("illumap outside the extension is hidden", name=name)
+    sys.meta_path.insert(0, ExtensionOnlyCore())
+"""
+
+
+def test_zip_holds_the_addon_and_a_wheel_per_python_abi(extension_zip: Path) -> None:
+    archive = zipfile.ZipFile(extension_zip)
+    names = archive.namelist()
     assert "blender_manifest.toml" in names and "__init__.py" in names
-    assert any(n.startswith("addon/") for n in names)
-    wheels = [n for n in names if n.startswith("wheels/") and n.endswith(".whl")]
-    assert len(wheels) == 1 and "illumap-" in wheels[0]
-    for excluded in ("core/", "tests/", "bench/", "scripts/", "sample_blends/", ".venv/", "docs/"):
+    assert "addon/compat.py" in names
+    wheels = sorted(n for n in names if n.startswith("wheels/") and n.endswith(".whl"))
+    # Blender 4.2-5.0 run Python 3.11, Blender 5.1+ Python 3.13: one wheel each.
+    assert [w.split("-")[2] for w in wheels] == ["cp311", "cp313"], wheels
+    manifest = tomllib.loads(archive.read("blender_manifest.toml").decode())
+    assert sorted(Path(w).name for w in manifest["wheels"]) == [Path(w).name for w in wheels]
+    # The range the tests cover: bpy 5.0.1 (cp311) and 5.2.3 (cp313); 5.3 is not tested.
+    assert manifest["blender_version_min"] == "4.2.0"
+    assert manifest["blender_version_max"] == "5.3.0"
+    for wheel in wheels:
+        assert "manylinux_" in wheel, wheel  # repaired by auditwheel, not a bare linux_x86_64
+        inner = zipfile.ZipFile(io.BytesIO(archive.read(wheel))).namelist()
+        bundled = " ".join(inner)
+        assert "libembree3" in bundled and "libtbb" in bundled, (wheel, inner)
+    for excluded in ("core/", "tests/", "bench/", "scripts/", "sample_blends/", ".venv", "docs/"):
         assert not any(n.startswith(excluded) for n in names), excluded
 
 
 def test_extension_installs_and_registers(extension_zip: Path, tmp_path: Path) -> None:
-    code = f"""
-        import sys, pathlib
-        import bpy
-        bpy.ops.extensions.package_install_files(repo="user_default", filepath={str(extension_zip)!r},
-                                                 enable_on_install=True)
-        import addon_utils
-        enabled = [m.__name__ for m in addon_utils.modules() if addon_utils.check(m.__name__)[1]]
-        assert "bl_ext.user_default.illumap" in enabled, enabled
-        assert bpy.ops.illumap.compute_illumination_map.idname() == "ILLUMAP_OT_compute_illumination_map"
-        panels = [c for c in bpy.types.Panel.__subclasses__() if getattr(c, "bl_category", "") == "Illumap"]
-        assert panels, "no Illumap panel registered"
-        import illumap, illumap._core
-        site = pathlib.Path({str(tmp_path)!r}) / "extensions" / ".local" / "lib"
-        installed = list(site.rglob("illumap/_core*.so"))
-        assert installed, "the extension's wheel was not installed into the user site-packages"
-        print("OK", illumap.__file__)
+    code = EXTENSION_ONLY_CORE + f"""
+    import pathlib
+    import bpy
+    bpy.ops.extensions.package_install_files(repo="user_default", filepath={str(extension_zip)!r},
+                                             enable_on_install=True)
+    import addon_utils
+    enabled = [m.__name__ for m in addon_utils.modules() if addon_utils.check(m.__name__)[1]]
+    assert "bl_ext.user_default.illumap" in enabled, enabled
+    assert bpy.ops.illumap.compute_illumination_map.idname() == "ILLUMAP_OT_compute_illumination_map"
+    panels = [c for c in bpy.types.Panel.__subclasses__() if getattr(c, "bl_category", "") == "Illumap"]
+    assert panels, "no Illumap panel registered"
+    import illumap, illumap._core
+    site = pathlib.Path({str(tmp_path)!r}) / "extensions" / ".local" / "lib"
+    assert pathlib.Path(illumap._core.__file__).is_relative_to(site), illumap._core.__file__
+    # The wheel of this Python's ABI, with Embree and TBB bundled beside it.
+    abi = f"cpython-{{sys.version_info.major}}{{sys.version_info.minor}}"
+    assert abi in pathlib.Path(illumap._core.__file__).name, (abi, illumap._core.__file__)
+    assert list(site.rglob("illumap.libs/libembree3*")), "Embree is not bundled"
+    print("OK", illumap.__file__)
     """
-    result = run_python(code, env={"BLENDER_USER_RESOURCES": str(tmp_path)})
+    result = run_python(code, env={"BLENDER_USER_RESOURCES": str(tmp_path)}, cwd=tmp_path)
+    assert result.returncode == 0 and "OK" in result.stdout, result.stdout + result.stderr
+
+
+def test_installed_extension_runs_the_operator_with_defaults(extension_zip: Path,
+                                                            tmp_path: Path) -> None:
+    """What a user does first: install the zip into a fresh Blender, enable it, select a small
+    scene and press Compute with every setting at its default, the preview step included (on
+    Blender 5.2 that step once failed: Geometry Nodes modifier inputs are no longer ID
+    properties)."""
+    user = tmp_path / "user"
+    code = EXTENSION_ONLY_CORE + f"""
+    import pathlib
+    import numpy as np
+    import bpy
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.extensions.package_install_files(repo="user_default", filepath={str(extension_zip)!r},
+                                             enable_on_install=True)
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    floor = bpy.context.active_object
+    bpy.ops.mesh.primitive_plane_add(size=0.5, location=(0, 0, 1), rotation=(3.14159, 0, 0))
+    light = bpy.data.lights.new("Lamp", "POINT")
+    light.energy = 50.0
+    lamp = bpy.data.objects.new("Lamp", light)
+    bpy.context.scene.collection.objects.link(lamp)
+    lamp.location = (0.3, 0.0, 2.0)
+    floor.select_set(True)
+    props = bpy.context.scene.illumap
+    assert props.build_preview, "the preview is on by default"
+    assert bpy.ops.illumap.compute_illumination_map() == {{"FINISHED"}}
+    surfels = bpy.data.objects["Illumap Surfels"]
+    n = len(surfels.data.attributes["illumination"].data)
+    illum = np.empty(4 * n, dtype=np.float32)
+    surfels.data.attributes["illumination"].data.foreach_get("color", illum)
+    illum = illum.reshape(n, 4)[:, :3]
+    assert n > 50 and np.isfinite(illum).all() and illum.max() > 0.0, (n, illum.max())
+    # The preview: one Geometry Nodes modifier that instances a disc per surfel at the default
+    # scale.
+    (mod,) = surfels.modifiers
+    assert mod.type == "NODES" and mod.node_group is not None, mod
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    discs = [i for i in depsgraph.object_instances
+             if i.is_instance and i.parent and i.parent.original == surfels]
+    assert len(discs) == n, (len(discs), n)
+    import illumap
+    assert illumap.__file__.startswith({str(user)!r}), illumap.__file__
+    print("OK", bpy.app.version_string, n)
+    """
+    result = run_python(code, env={"BLENDER_USER_RESOURCES": str(user)}, cwd=tmp_path)
     assert result.returncode == 0 and "OK" in result.stdout, result.stdout + result.stderr
 
 
@@ -91,10 +176,14 @@ def test_launcher_follows_blender_exit_codes() -> None:
 
 def test_launcher_passes_script_arguments(tmp_path: Path) -> None:
     script = tmp_path / "echo_args.py"
-    script.write_text("import sys\nprint('ARGS', sys.argv[sys.argv.index('--') + 1:])\n")
+    script.write_text("import sys, bpy\nprint('ARGS', sys.argv[sys.argv.index('--') + 1:])\n"
+                      "print('VERSION', tuple(bpy.app.version))\n")
     result = subprocess.run([str(LAUNCHER), "-b", "--python", str(script), "--", "--x", "1"],
                             cwd=ROOT, text=True, capture_output=True, timeout=120)
     assert result.returncode == 0 and "ARGS ['--x', '1']" in result.stdout, result.stderr
+    # The launcher runs on this test run's bpy (5.2 on .venv, 5.0 on .venv-blender50).
+    import bpy
+    assert f"VERSION {tuple(bpy.app.version)}" in result.stdout, result.stdout
 
 
 def test_batch_script_runs_the_installed_extension(extension_zip: Path, tmp_path: Path) -> None:

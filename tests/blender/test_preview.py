@@ -123,12 +123,13 @@ def test_discs_face_their_normals(registered_addon):
 def test_albedo_irradiance_mode(registered_addon):
     """Emission shows albedo × irradiance: with illumination 0.5, emission 0.1 and albedo 0.8,
     irradiance = (0.5−0.1)/0.8 = 0.5 and the disc shows 0.4."""
-    from addon import preview
+    from addon import compat, preview
     pos = grid_positions(12)
     obj = make_surfels(pos, (0, 0, 1), 0.75 / 12, illumination=(0.5, 0.5, 0.5),
                        albedo=(0.8, 0.4, 0.2), emission=(0.1, 0.1, 0.1))
     preview.build_preview(bpy.context, obj, mode="ALBEDO_IRRADIANCE")
-    assert obj.modifiers[0][preview._socket_identifier(preview.preview_node_group(), "Material")] \
+    material_input = preview._socket_identifier(preview.preview_node_group(), "Material")
+    assert compat.get_modifier_input(obj.modifiers[0], material_input) \
         == bpy.data.materials[preview.MATERIAL_NAMES["ALBEDO_IRRADIANCE"]]
     _scene_for_render()
     px = render_pixels(size=32, engine="CYCLES")
