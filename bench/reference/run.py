@@ -176,6 +176,10 @@ def run_scene(name: str, pipeline, settings: list[tuple[str, dict]], sample_coun
                                 ref["outgoing"], seconds, samples=samples))
         print(f"  Cycles {samples:5d} spp {seconds:8.2f} s  rel. RMS {rows[-1]['relative_rms']:.4f}",
               flush=True)
+    noise = reference_noise(rows, ref["samples"])
+    if noise is not None:
+        print(f"  reference noise (estimated from the {rows[-1]['samples']}-sample bake): "
+              f"rel. RMS {noise:.4f}", flush=True)
     for label, spec in settings:
         scene = scenes.build(name)        # a fresh file for every run
         objects = scene.objects
@@ -194,14 +198,27 @@ def run_scene(name: str, pipeline, settings: list[tuple[str, dict]], sample_coun
                                 warnings=list(result.warnings)))
         print(f"  Illumap {label:12s} {result.count:7d} surfels {seconds:8.2f} s  "
               f"rel. RMS {rows[-1]['relative_rms']:.4f}", flush=True)
-    info = dict(samples=ref["samples"], seconds=ref["seconds"], seed=ref["seed"],
+    info = dict(samples=ref["samples"], seconds=ref["seconds"], seed=ref["seed"], noise=noise,
                 blender=ref["blender"], date=ref["date"], vertices=scene.vertex_count(),
                 notes=scene.notes)
     return info, rows
 
 
-def print_table(rows: list[dict]) -> None:
-    """The results as a fixed-width table."""
+def reference_noise(cycles_rows: list[dict], reference_samples: int) -> float | None:
+    """The reference's own noise (relative RMS) estimated from the sweep's largest bake: with
+    independent seeds and noise variance ∝ 1/samples, a bake of N samples differs from a
+    reference of R samples by e = σ·sqrt(1/N + 1/R), so the reference's share is
+    e·sqrt(N/(N + R)). None without a sweep."""
+    if not cycles_rows:
+        return None
+    row = max(cycles_rows, key=lambda r: r["samples"])
+    n = row["samples"]
+    return float(row["relative_rms"] * np.sqrt(n / (n + reference_samples)))
+
+
+def print_table(rows: list[dict], detail: bool = False) -> None:
+    """The results as a fixed-width table; with ``detail``, each Illumap run's objects and
+    groups below it (relative RMS, mean ratio to the reference)."""
     print(f"\n{'scene':8s} {'run':16s} {'surfels/spp':>11s} {'seconds':>9s} {'rel. RMS':>9s}")
     for r in rows:
         if "error" in r:
@@ -210,6 +227,12 @@ def print_table(rows: list[dict]) -> None:
         size = r.get("surfels", r.get("samples"))
         print(f"{r['scene']:8s} {r['label']:16s} {size:11d} {r['seconds']:9.2f} "
               f"{r['relative_rms']:9.4f}")
+        if detail and r["tool"] == "illumap":
+            for name, o in r["objects"].items():
+                print(f"{'':12s}{name:22s} rel. RMS {o['relative_rms']:7.4f}  "
+                      f"mean ratio {o['mean_ratio']:6.3f}")
+            for group, value in r["groups"].items():
+                print(f"{'':12s}{group:22s} rel. RMS {value:7.4f}")
 
 
 def _commit() -> str:
@@ -233,7 +256,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--settings", nargs="+", default=None, metavar="LABEL",
                     help="only these labels of ILLUMAP_SETTINGS")
     ap.add_argument("--out", default=DEFAULT_OUT)
+    ap.add_argument("--detail", action="store_true",
+                    help="print each Illumap run's objects and groups under it")
+    ap.add_argument("--table", metavar="JSON", default=None,
+                    help="only print the table of an earlier run's JSON")
     args = ap.parse_args(sys.argv[1:] if argv is None else argv)
+    if args.table:
+        with open(args.table) as f:
+            print_table(json.load(f)["rows"], args.detail)
+        return 0
     if args.reference_samples is not None:
         reference_samples = args.reference_samples
     else:
@@ -257,7 +288,7 @@ def main(argv: list[str] | None = None) -> int:
     os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
     with open(args.out, "w") as f:
         json.dump(results, f, indent=1)
-    print_table(rows)
+    print_table(rows, args.detail)
     print(f"wrote {args.out} ({results['wall_seconds']:.0f} s)")
     return 0
 

@@ -28,8 +28,10 @@ thin plate             RMS 0.166 (lit side ratio 1.064); unlit side 0.000. The f
                        shares with the 5 mm rim (RMS 0.99, Illumap 1.88x): Cycles' POINT bake
                        there mixes the front's corners with the rim's
 floor strip by a wall  RMS 0.075; by the wall RMS 0.052
-sphere, point lamp     RMS 0.47-0.49 over runs; lit side mean ratio 0.59-0.60 (the vertex
-                       facing the lamp: Cycles 0.892, analytic 0.901, Illumap 0.319)
+sphere, point lamp     RMS 0.47-0.49 over runs; lit side mean ratio 0.59-0.64 (the vertex
+                       facing the lamp: Cycles 0.892, analytic 0.901, Illumap 0.319). The
+                       spread: bmesh's UV sphere comes in another triangle order on each build,
+                       and Illumap's stratified sampling follows that order
 =====================  ==========================================================================
 """
 
@@ -261,8 +263,7 @@ def test_box_resting_on_a_floor():
     white = diffuse("White")
     floor = plane("Floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], 0.1, white)
     box = closed_box("Box", (-0.25, -0.25, 0.0), (0.25, 0.25, 0.4), 0.1, diffuse("Box", (0.6, 0.6, 0.6)))
-    lamp = add_lamp("AREA", location=(0.3, -0.2, 1.5), energy=200.0, size=0.5)
-    assert lamp is not None
+    add_lamp("AREA", location=(0.3, -0.2, 1.5), energy=200.0, size=0.5)
     got, ref, pos = both([floor, box])
     nf = len(floor.data.vertices)
     inset = np.abs(pos[:nf, :2]).max(axis=1)
