@@ -212,11 +212,9 @@ RECEIVER_INSET = 1e-3
 
 @dataclass
 class Receivers:
-    """The corners of one object's own mesh, where its ``illumination`` is evaluated.
-
-    Light depends on position and normal only, so corners that share both are evaluated once
-    (``points``/``normals``, indexed by ``corner_point``); albedo and emission are per corner.
-    """
+    """The corners of one object's own mesh, where its ``illumination`` is evaluated: each
+    corner lights at ``points[corner_point]`` (a hair inside its face) with its normal;
+    albedo and emission are per corner."""
 
     name: str
     corner_vertex: np.ndarray      # (L,) int64 vertex of each corner
@@ -273,13 +271,13 @@ def read_receivers(obj, warnings: list[str]) -> Receivers | None:
     samples = MeshSamples(mesh=tm, positions=positions, normals=normals, areas=np.ones(nl),
                           triangle=tri, bary=bary, material_index=tm.material_index[tri])
     albedo, emission = surfel_materials(samples, warnings)
-    # One receiver per (vertex, normal): coplanar corners of a vertex share their light.
-    key = np.column_stack([corner_vertex, np.round(normals * 1e4).astype(np.int64)])
-    _, point_of, corner_point = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    # Every corner is its own receiver: the corners of one vertex lie inside different faces,
+    # which a wall standing on that vertex separates (a floor vertex under a box's side is
+    # half in its shadow, as a bake finds averaging the corners).
     return Receivers(name=obj.name, corner_vertex=corner_vertex,
-                     corner_point=corner_point.ravel().astype(np.int64),
-                     points=np.ascontiguousarray(positions[point_of]),
-                     normals=np.ascontiguousarray(normals[point_of]), albedo=albedo,
+                     corner_point=np.arange(nl, dtype=np.int64),
+                     points=np.ascontiguousarray(positions),
+                     normals=np.ascontiguousarray(normals), albedo=albedo,
                      emission=emission, vertex_count=nv)
 
 
