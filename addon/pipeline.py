@@ -43,8 +43,9 @@ _MESH_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
 class Settings:
     """Quality knobs and options of one run (units in the comments)."""
 
-    density: float = 100.0            # surfels per m² (used when budget is None)
-    budget: int | None = None         # total surfels over all mesh objects; overrides density
+    density: float | None = None      # surfels per m² (used when budget is None)
+    budget: int | None = None         # surfels over all mesh objects' front faces; overrides
+                                      # density; neither set: DEFAULT_BUDGET (scale-free)
     method: str = "fmm"               # 'fmm' | 'direct' (exact O(N²) reference)
     order: int = 4                    # FMM expansion order
     theta: float = 0.5                # FMM opening angle
@@ -77,12 +78,16 @@ class Settings:
     lightmap_size: int = 256          # lightmap width = height, pixels
 
 
+#: Surfels over all meshes when neither a density nor a budget is given: a count, not a
+#: density, so a scene modelled in centimetres gets as many as one modelled in metres.
+DEFAULT_BUDGET = 10_000
+
 PRESETS: dict[str, dict] = {
-    "DRAFT": dict(density=25.0, order=3, theta=0.6, visibility="exact", tol=1e-3,
+    "DRAFT": dict(budget=2_500, order=3, theta=0.6, visibility="exact", tol=1e-3,
                   gather_rays=64, receiver_shadow_samples=16),
-    "MEDIUM": dict(density=100.0, order=4, theta=0.5, visibility="exact", tol=1e-4,
+    "MEDIUM": dict(budget=DEFAULT_BUDGET, order=4, theta=0.5, visibility="exact", tol=1e-4,
                    gather_rays=256, receiver_shadow_samples=64),
-    "HIGH": dict(density=400.0, order=6, theta=0.4, visibility="exact", tol=1e-5,
+    "HIGH": dict(budget=40_000, order=6, theta=0.4, visibility="exact", tol=1e-5,
                  gather_rays=1024, receiver_shadow_samples=256),
 }
 
@@ -93,6 +98,8 @@ def settings_from_preset(name: str, **overrides) -> Settings:
     if key not in PRESETS:
         raise IllumapError(f"Unknown quality preset '{name}' (choose draft, medium or high)", 2)
     values = dict(PRESETS[key])
+    if overrides.get("density") is not None and overrides.get("budget") is None:
+        values.pop("budget", None)    # a density asked for replaces the preset's count
     values.update({k: v for k, v in overrides.items() if v is not None})
     known = {f.name for f in fields(Settings)}
     return Settings(**{k: v for k, v in values.items() if k in known})
@@ -394,7 +401,10 @@ def prepare(depsgraph, objects, settings: Settings) -> Job:
         elif density is not None:
             counts = sampling.allocate(mesh_areas, density=density)
         else:
-            counts = sampling.allocate(mesh_areas, density=settings.density, budget=settings.budget)
+            budget = settings.budget
+            if budget is None and settings.density is None:
+                budget = DEFAULT_BUDGET
+            counts = sampling.allocate(mesh_areas, density=settings.density, budget=budget)
     check_memory(int(counts.sum()), settings)  # before sampling allocates anything big
     lamp_list = lamps.read_lamps(depsgraph, warnings) if settings.lamps else []
     ambient = lamps.world_ambient(depsgraph.scene) if settings.world_ambient else None

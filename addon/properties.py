@@ -30,8 +30,8 @@ PRESETS = {name: {key: (value.upper() if key in ("visibility", "solver", "near_f
                   for key, value in values.items()}
            for name, values in _TABLE.items()}
 DEFAULT_PRESET = "MEDIUM"
-_DEFAULTS = dict(density=100.0, order=4, theta=0.5, visibility="EXACT", tol=1e-4,
-                 gather_rays=256, receiver_shadow_samples=64)
+_DEFAULTS = dict(density=100.0, budget=10_000, order=4, theta=0.5, visibility="EXACT",
+                 tol=1e-4, gather_rays=256, receiver_shadow_samples=64)
 _DEFAULTS.update(PRESETS.get(DEFAULT_PRESET, {}))
 
 PRESET_ITEMS = [
@@ -94,7 +94,7 @@ def apply_preset(props, preset):
         for key, value in values.items():
             if value is not None and hasattr(props, key):
                 setattr(props, key, value)
-        props.sampling = "DENSITY"
+        props.sampling = "BUDGET"
     finally:
         _applying_preset = False
 
@@ -123,7 +123,7 @@ def _field_update(self, _context):
         values = PRESETS.get(self.preset, {})
         if any(not _same(getattr(self, k), v) for k, v in values.items()
                if v is not None and hasattr(self, k)) \
-                or self.sampling != "DENSITY":
+                or self.sampling != "BUDGET":
             self.preset = "CUSTOM"
 
 
@@ -187,13 +187,16 @@ class IllumapSettings(bpy.types.PropertyGroup):
                          update=_preset_update)
 
     # Sampling
-    sampling: EnumProperty(name="Sampling", items=SAMPLING_ITEMS, default="DENSITY",
+    sampling: EnumProperty(name="Sampling", items=SAMPLING_ITEMS, default="BUDGET",
                            update=_field_update)
     density: FloatProperty(name="Density", description="Surfels per square metre",
                            default=_DEFAULTS["density"], min=0.001, soft_max=1e5,
                            update=_field_update)
-    budget: IntProperty(name="Budget", description="Total number of surfels", default=5000,
-                        min=1, soft_max=1_000_000, update=_field_update)
+    budget: IntProperty(name="Budget", default=_DEFAULTS["budget"], min=1, soft_max=1_000_000,
+                        update=_field_update,
+                        description="Surfels over all meshes (front faces; open surfaces add "
+                                    "their back faces where these see anything): the same "
+                                    "count whatever the scene's scale")
     seed: IntProperty(name="Seed", description="Sampling seed (results are reproducible)",
                       default=0, min=0, update=_field_update)
     use_target_error: BoolProperty(

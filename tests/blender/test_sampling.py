@@ -62,19 +62,23 @@ def test_density_honoured_across_objects():
     a = make_plane("A", size=2.0)          # 4 m²
     b = make_plane("B", size=1.0, location=(0, 0, 1))  # 1 m²
     job = pipeline.prepare(depsgraph(), [a, b], pipeline.Settings(density=250.0, lamps=False))
-    counts = {s.name: s.stop - s.start for s in job.sources}
+    counts = {s.name: s.stop - s.start for s in job.sources if s.kind == "MESH"}
     assert counts == {"A": 1000, "B": 250}
     assert abs(job.areas[:1000].sum() - 4.0) < 1e-9
-    assert abs(job.areas[1000:].sum() - 1.0) < 1e-9
+    assert abs(job.areas[1000:1250].sum() - 1.0) < 1e-9
+    # Open planes reflect on both faces: the backs that see the other plane get surfels of
+    # their own after the front faces (B's underside faces A; A's underside faces nothing).
+    backs = {s.name: s.stop - s.start for s in job.sources if s.kind == "BACK"}
+    assert backs == {"B": 250}
+    assert np.allclose(job.normals[1250:], -job.normals[1000:1250])
 
 
 def test_budget_shared_by_area():
     a = make_plane("A", size=2.0)
     b = make_plane("B", size=1.0, location=(0, 0, 1))
     job = pipeline.prepare(depsgraph(), [a, b], pipeline.Settings(budget=500, lamps=False))
-    assert job.count == 500
-    counts = {s.name: s.stop - s.start for s in job.sources}
-    assert counts == {"A": 400, "B": 100}
+    counts = {s.name: s.stop - s.start for s in job.sources if s.kind == "MESH"}
+    assert counts == {"A": 400, "B": 100}       # the budget counts front faces
 
 
 def test_stratified_not_clumped():
@@ -159,7 +163,8 @@ def test_non_manifold_mesh_works():
                      [(8, 9)], [(0, 2, 3, 1), (0, 1, 5, 4), (0, 1, 7, 6)])
     obj = link(bpy.data.objects.new("NM", mesh))
     job = pipeline.prepare(depsgraph(), [obj], pipeline.Settings(density=100, lamps=False))
-    assert abs(job.areas.sum() - 3.0) < 1e-9
+    front = sum(s.stop - s.start for s in job.sources if s.kind == "MESH")
+    assert abs(job.areas[:front].sum() - 3.0) < 1e-9
 
 
 def test_budget_too_large_refused_with_estimate():

@@ -219,7 +219,8 @@ def test_scene_settings_start_from_defaults_and_presets_fill_fields(registered_a
         assert props.preset == name  # applying a preset does not mark it Custom
     assert set(properties.PRESETS) == {"DRAFT", "MEDIUM", "HIGH"}
     assert properties.PRESETS["HIGH"]["order"] > properties.PRESETS["DRAFT"]["order"]
-    assert properties.PRESETS["HIGH"]["density"] > properties.PRESETS["DRAFT"]["density"]
+    assert properties.PRESETS["HIGH"]["budget"] > properties.PRESETS["DRAFT"]["budget"]
+    assert properties.PRESETS["HIGH"]["gather_rays"] > properties.PRESETS["DRAFT"]["gather_rays"]
     props.preset = "DRAFT"
     props.build_preview = False  # not a solver setting: stays Draft
     assert props.preset == "DRAFT"
@@ -237,17 +238,19 @@ def test_settings_reach_the_pipeline_settings(registered_addon):
     settings = properties.make_settings(props, pipeline.Settings)
     assert isinstance(settings, pipeline.Settings)
     draft = pipeline.PRESETS["DRAFT"]
-    assert settings.density == pytest.approx(draft["density"])
+    assert settings.budget == draft["budget"] and settings.density is None
     assert settings.order == draft["order"]
     assert settings.visibility == draft["visibility"] == "exact"
     assert settings.gather_rays == draft["gather_rays"]
     assert settings.tol == pytest.approx(draft["tol"], rel=1e-6)
     assert settings.solver == "gmres"
-    assert settings.budget is None
-    props.sampling = "BUDGET"
     props.budget = 1234
     settings = properties.make_settings(props, pipeline.Settings)
-    assert settings.budget == 1234
+    assert settings.budget == 1234 and settings.density is None
+    props.sampling = "DENSITY"
+    props.density = 55.0
+    settings = properties.make_settings(props, pipeline.Settings)
+    assert settings.budget is None and settings.density == pytest.approx(55.0)
 
 
 def test_occluder_shape_reaches_the_pipeline_settings(registered_addon):
