@@ -289,9 +289,11 @@ def _report(frame: int, result: pipeline.Result, out) -> None:
         print(f"  shadow rays      {result.stats['shadow_rays']} ({against})", file=out)
     receivers = result.stats.get("receivers")
     if receivers:
-        print(f"  receivers        {receivers['corners']} corners at {receivers['points']} "
-              f"points, {receivers['rays']} rays ({receivers['gather_rays']} gather rays each)",
-              file=out)
+        print(f"  receivers        {receivers['corners']} corners, {receivers['rays']} rays "
+              f"({receivers['gather_rays']} gather rays each; gather noise "
+              f"{receivers['gather_noise']:.2%}, indirect share {receivers['indirect_share']:.0%}"
+              + (f"; estimated error at the meshes {receivers['estimate']:.2%}"
+                 if "estimate" in receivers else "") + ")", file=out)
     accuracy = result.stats.get("accuracy")
     if accuracy:
         chosen = accuracy["settings"]

@@ -308,6 +308,33 @@ def adaptive_error_ratio_applies(settings: Settings) -> bool:
             and math.isclose(settings.adaptive_max_ratio, accuracy.ADAPTIVE_MAX_RATIO))
 
 
+#: With the light evaluated at the meshes (``receive``), the surfels only carry the indirect
+#: light, a fraction of what a receiver sees, and the final gather averages their error over
+#: its rays: the surfels are solved to this multiple of the target error (measured against
+#: Cycles on bench/reference: a surfel target of 0.1 gave 2.0%, of 0.03 1.3% on the Cornell
+#: box), at most MAX_SURFEL_TARGET.
+RECEIVER_TARGET_RATIO = 3.0
+MAX_SURFEL_TARGET = 0.3
+
+
+def surfel_target(settings: Settings) -> float | None:
+    """The target error the surfel solve is held to: the settings' own, or a multiple of it
+    when the light is evaluated at the meshes (RECEIVER_TARGET_RATIO)."""
+    t = settings.target_error
+    if t is None or not settings.transfer:
+        return t
+    return min(MAX_SURFEL_TARGET, max(t, RECEIVER_TARGET_RATIO * t))
+
+
+def receiver_rays(settings: Settings) -> tuple[int, int]:
+    """(gather rays, shadow samples) per receiver: the settings', or with a target error
+    enough that their noise stays well inside it (256 / 64 down to 2%, 1024 / 256 below)."""
+    t = settings.target_error
+    if t is None:
+        return int(settings.gather_rays), int(settings.receiver_shadow_samples)
+    return (256, 64) if t >= 0.02 else (1024, 256)
+
+
 def target_density(settings: Settings, mesh_area: float, point_count: int, point_area: float,
                    stats: dict) -> tuple[float, dict] | None:
     """Surfels per m² for meshes that the error model says meet ``settings.target_error``,
@@ -331,11 +358,11 @@ def target_density(settings: Settings, mesh_area: float, point_count: int, point
                    kind=kind)
     try:
         if kind == "mesh":
-            chosen = accuracy.choose_mesh_settings(summary, settings.target_error, kind=kind,
+            chosen = accuracy.choose_mesh_settings(summary, surfel_target(settings), kind=kind,
                                                    adaptive=adaptive_error_ratio_applies(settings),
                                                    max_surfels=cap)
         else:
-            chosen = accuracy.choose_settings(summary, settings.target_error, kind=kind,
+            chosen = accuracy.choose_settings(summary, surfel_target(settings), kind=kind,
                                               max_surfels=cap)
     except (ValueError, KeyError) as exc:  # InputError is a ValueError
         raise IllumapError(f"Cannot choose a surfel density for target error "
@@ -444,6 +471,8 @@ def prepare(depsgraph, objects, settings: Settings) -> Job:
     return job
 
 
+#: How far a back-face surfel's preview disc sits off its surface, in surfel radii.
+BACK_DISC_LIFT = 0.05
 #: Rays that look for anything in view of a back face (``_back_faces_in_view``).
 BACK_FACE_PROBE_RAYS = 16
 
@@ -614,23 +643,33 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     back_field = (rc.SurfelField(job.positions[back], job.normals[back], sent[back])
                   if back.any() else None)
     all_lamps = list(job.lamps) + list(job.emitters)
+    gather_rays, shadow_samples = receiver_rays(s)
     rays = 0
+    lum = np.array([0.2126, 0.7152, 0.0722])
+    noise2 = light2 = indirect = total = 0.0
     try:
         for rec in job.receivers:
             shadows = None
             if all_lamps and s.lamp_shadows:
                 shadows = lamps.Shadows(occ.segment_query(rec.normals),
-                                        samples=s.receiver_shadow_samples, seed=s.seed,
+                                        samples=shadow_samples, seed=s.seed,
                                         extent=occ.extent)
             direct = lamps.incident_radiance(all_lamps, rec.points, rec.normals, shadows=shadows)
-            gathered = rc.gather(occ, field_, rec.points, rec.normals, rays=s.gather_rays,
+            gathered = rc.gather(occ, field_, rec.points, rec.normals, rays=gather_rays,
                                  seed=s.seed, background=job.ambient, back_field=back_field,
                                  two_sided=job.two_sided,
                                  progress=None if progress is None else
                                  (lambda f, _p="": progress(f, "gather")))
             incident = direct + gathered.radiance
-            result.receiver_values[rec.name] = rec.emission + rec.albedo * incident[rec.corner_point]
+            values = rec.emission + rec.albedo * incident[rec.corner_point]
+            result.receiver_values[rec.name] = values
             rays += gathered.rays + (shadows.rays if shadows is not None else 0)
+            # What the estimate needs: the gather's noise and the indirect share, by luminance.
+            rho = rec.albedo @ lum
+            noise2 += float(((rho * gathered.stderr[rec.corner_point]) ** 2).sum())
+            light2 += float(((values @ lum) ** 2).sum())
+            indirect += float((rho * (gathered.radiance[rec.corner_point] @ lum)).sum())
+            total += float((values @ lum).sum())
     except IllumapError:
         raise
     except Exception as exc:  # noqa: BLE001
@@ -639,9 +678,17 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
         raise IllumapError(f"Evaluating the light at the meshes failed: "
                            f"{type(exc).__name__}: {exc}", 4) from exc
     result.timings["receivers"] = time.perf_counter() - t0
+    gather_noise = float(np.sqrt(noise2 / light2)) if light2 > 0 else 0.0
+    share = indirect / total if total > 0 else 0.0
     result.stats["receivers"] = dict(points=int(sum(len(r.points) for r in job.receivers)),
                                      corners=int(sum(len(r.corner_point) for r in job.receivers)),
-                                     rays=int(rays), gather_rays=int(s.gather_rays))
+                                     rays=int(rays), gather_rays=int(gather_rays),
+                                     shadow_samples=int(shadow_samples),
+                                     gather_noise=gather_noise, indirect_share=float(share))
+    estimate = (result.stats.get("accuracy") or {}).get("estimate", {}).get("total")
+    if estimate is not None:
+        # The surfels' own error reaches a receiver through its indirect share only.
+        result.stats["receivers"]["estimate"] = float(np.hypot(gather_noise, share * estimate))
 
 
 def _is_cancelled(exc: BaseException) -> bool:
@@ -748,8 +795,10 @@ def run(job: Job, progress: Progress | None = None) -> Result:
         from illumap import accuracy
         solve = accuracy.solve
         # Should the error model choose exact visibility, its occluders are the shadows' too.
-        kwargs = dict(target_error=s.target_error, progress=progress, near_field=s.near_field,
+        kwargs = dict(target_error=surfel_target(s), progress=progress, near_field=s.near_field,
                       coverage=SURFEL_COVERAGE)
+        if job.triangles is not None and not job.has_points:
+            kwargs["occluder_triangles"] = job.triangles   # as without a target (below)
         chosen = job.accuracy or {}
         if job.refine is not None and chosen:
             # An adaptive pass 1 only finds where the light varies: the final count's settings
@@ -816,7 +865,17 @@ def write(context, job: Job, result: Result):
     from . import output
 
     t0 = time.perf_counter()
-    obj = output.write_surfels(context, job.positions, job.normals, job.areas, result.radiosity,
+    # An open surface's back-face surfels sit on its front ones: their discs move a hair
+    # along their own normals, behind the front disc seen from the front and in front of it
+    # seen from the back, so the preview shows each side without z-fighting.
+    shown = job.positions
+    backs = [src for src in job.sources if src.kind == "BACK"]
+    if backs:
+        shown = job.positions.copy()
+        for src in backs:
+            sl = slice(src.start, src.stop)
+            shown[sl] += (BACK_DISC_LIFT * np.sqrt(job.areas[sl] / np.pi))[:, None] * job.normals[sl]
+    obj = output.write_surfels(context, shown, job.normals, job.areas, result.radiosity,
                                job.albedo, job.emission)
     if job.settings.transfer:
         for rec in job.receivers:

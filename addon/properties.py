@@ -205,7 +205,8 @@ class IllumapSettings(bpy.types.PropertyGroup):
                     "a target error instead of the settings below")
     target_error: FloatProperty(
         name="Error", default=0.05, min=0.001, max=0.5, precision=3, update=_field_update,
-        description="Relative RMS error wanted per surfel (0.05 = 5%)")
+        description="Relative RMS error wanted in the light at the meshes (0.05 = 5%); chooses "
+                    "the surfels, their solver settings and the rays per vertex")
     adaptive: BoolProperty(
         name="Adaptive Density", default=True, update=_field_update,
         description="With a target error: solve once with half the surfels, then resample "

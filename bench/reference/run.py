@@ -47,12 +47,14 @@ else:
 #: Illumap settings to score: (label, keywords). ``preset`` picks
 #: ``pipeline.settings_from_preset``; other keys are ``pipeline.Settings`` fields.
 ILLUMAP_SETTINGS: list[tuple[str, dict]] = [
-    ("default", {}),
+    ("default", {}),                      # = MEDIUM
     ("DRAFT", dict(preset="DRAFT")),
-    ("MEDIUM", dict(preset="MEDIUM")),
     ("HIGH", dict(preset="HIGH")),
     ("target 0.1", dict(target_error=0.1)),
+    ("target 0.05", dict(target_error=0.05)),
     ("target 0.03", dict(target_error=0.03)),
+    ("target 0.02", dict(target_error=0.02)),
+    ("target 0.01", dict(target_error=0.01)),
 ]
 CYCLES_SAMPLES = (16, 64, 256, 1024)
 QUICK_CYCLES_SAMPLES = (16, 64, 256)
@@ -195,6 +197,8 @@ def run_scene(name: str, pipeline, settings: list[tuple[str, dict]], sample_coun
         values = {o.name: read_illumination(o) for o in scene.scored}
         rows.append(_scored_row(scene, label, "illumap", values, ref["outgoing"], seconds,
                                 surfels=int(result.count), settings=spec,
+                                receivers=result.stats.get("receivers"),
+                                timings={k: round(float(v), 4) for k, v in result.timings.items()},
                                 warnings=list(result.warnings)))
         print(f"  Illumap {label:12s} {result.count:7d} surfels {seconds:8.2f} s  "
               f"rel. RMS {rows[-1]['relative_rms']:.4f}", flush=True)

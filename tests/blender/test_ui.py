@@ -622,6 +622,8 @@ def _lamp_settings(**values):
     props.lamps = props.lamp_shadows = True
     for name, value in values.items():
         setattr(props, name, value)
+    if "density" in values:
+        props.sampling = "DENSITY"
     return properties.make_settings(props, pipeline.Settings)
 
 
@@ -752,7 +754,8 @@ def test_panel_draws_settings_and_stats(fake_pipeline, two_planes):
     layout = LayoutRecorder()
     panel.draw_advanced(layout, bpy.context)
     props = set(layout.texts("prop"))
-    assert {"density", "order", "visibility", "occluder_shape", "tol", "solver"} <= props
+    assert {"budget", "order", "visibility", "occluder_shape", "tol", "solver",
+            "gather_rays"} <= props
     layout = LayoutRecorder()
     panel.draw_stats(layout, bpy.context)
     assert layout.texts("label") == ["No result yet"]
