@@ -1,5 +1,9 @@
 """Surfel density from a target error, and adaptive density (two passes).
 
+These are the surfel solve's own automatic mode and adaptive passes, so the runs leave the
+meshes alone (``transfer=False``): with the light evaluated at the meshes the surfels are held
+to a multiple of the target (``pipeline.surfel_target``).
+
 Scene for the adaptive comparison: a 2 × 2 m floor and a 2 × 2 m back wall (albedo 0.7) under
 a spot lamp with a hard cone edge (50°, blend 0) at (0, −0.2, 1.5) pointing down: a sharp
 boundary of direct light on the floor, smooth light elsewhere. Lamp shadows are off here (the
@@ -45,7 +49,7 @@ def spot_scene():
 def solve(objects, **kw):
     """prepare → run (→ next_pass → run): the job and result that would be written."""
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), objects,
-                           pipeline.Settings(lamp_shadows=False, **kw))
+                           pipeline.Settings(**{"lamp_shadows": False, "transfer": False, **kw}))
     result = pipeline.run(job)
     second = pipeline.next_pass(job, result)
     if second is not None:
@@ -57,7 +61,8 @@ def test_target_error_chooses_the_density():
     from illumap import accuracy
     objects = spot_scene()
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), objects,
-                           pipeline.Settings(target_error=0.1, adaptive=False, lamp_shadows=False))
+                           pipeline.Settings(transfer=False, target_error=0.1, adaptive=False,
+                                             lamp_shadows=False))
     # the model of the "mesh" kind: stratified triangle samples, as the add-on draws them
     chosen = accuracy.choose_mesh_settings(dict(n=10 ** 9, total_area=8.0), 0.1, adaptive=False)
     info = job.stats["density"]
@@ -68,10 +73,12 @@ def test_target_error_chooses_the_density():
     assert 0 < info["predicted_discretization"] <= 0.1
     # A tighter target asks for more surfels; the budget caps the count.
     tighter = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), objects,
-                               pipeline.Settings(target_error=0.07, adaptive=False, lamp_shadows=False))
+                               pipeline.Settings(transfer=False, target_error=0.07,
+                                                 adaptive=False, lamp_shadows=False))
     assert tighter.count > 1.2 * job.count
     capped = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), objects,
-                              pipeline.Settings(target_error=0.07, budget=900, adaptive=False,
+                              pipeline.Settings(transfer=False, target_error=0.07, budget=900,
+                                                adaptive=False,
                                                 lamp_shadows=False))
     assert capped.count == 900 < job.count
     assert capped.stats["density"]["predicted_discretization"] > info["predicted_discretization"]
@@ -90,7 +97,7 @@ def test_target_error_outside_range_is_an_error():
     objects = spot_scene()
     with pytest.raises(pipeline.IllumapError, match=r"Target error must lie in \(0, 1\)"):
         pipeline.prepare(bpy.context.evaluated_depsgraph_get(), objects,
-                         pipeline.Settings(target_error=1.5))
+                         pipeline.Settings(transfer=False, target_error=1.5))
 
 
 def test_adaptive_pass_is_denser_at_the_light_edge_and_keeps_areas():
@@ -135,7 +142,7 @@ def test_adaptive_beats_uniform_with_the_same_count():
 
 def test_compute_runs_both_passes_and_reports_them():
     objects = spot_scene()
-    result = pipeline.compute(bpy.context, objects, pipeline.Settings(
+    result = pipeline.compute(bpy.context, objects, pipeline.Settings(transfer=False,
         target_error=0.1, budget=800, lamp_shadows=False))
     assert result.count == 800 and result.stats["adaptive"]["pass1"]["surfels"] == 400
     obj = bpy.data.objects["Illumap Surfels"]
@@ -164,7 +171,7 @@ def test_adaptive_pass_is_denser_at_a_shadow_edge(monkeypatch):
     link(bpy.data.objects.new("P", light)).location = (0, 0, 3)
     bpy.context.view_layer.update()
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), [floor, plate],
-                           pipeline.Settings(target_error=0.1, budget=2000))
+                           pipeline.Settings(transfer=False, target_error=0.1, budget=2000))
     result = pipeline.run(job)
     job = pipeline.next_pass(job, result)
     src = next(s for s in job.sources if s.name == "Floor")
@@ -188,7 +195,8 @@ def test_adaptive_pass_one_solves_with_the_final_counts_settings():
     objects = spot_scene()
     # a budget below what one uniform pass needs at 10%: two passes lower the error there
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), objects,
-                           pipeline.Settings(target_error=0.1, budget=3000, lamp_shadows=False))
+                           pipeline.Settings(transfer=False, target_error=0.1, budget=3000,
+                                             lamp_shadows=False))
     chosen = job.accuracy
     assert chosen["adaptive"] and job.refine is not None
     assert chosen["kind"] == "mesh" and job.count < chosen["n"]
@@ -222,7 +230,7 @@ def test_one_uniform_pass_where_the_models_predict_it_faster():
     assert target is not None, "two passes are predicted faster at every target from 20% to 15%"
     objects = spot_scene()
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), objects,
-                           pipeline.Settings(target_error=target, lamp_shadows=False))
+                           pipeline.Settings(transfer=False, target_error=target, lamp_shadows=False))
     assert job.refine is None and not job.accuracy["adaptive"]
     assert abs(job.count - job.accuracy["n"]) <= 2
     assert any(n.startswith("adaptive: one uniform pass")
@@ -231,6 +239,6 @@ def test_one_uniform_pass_where_the_models_predict_it_faster():
     assert pipeline.next_pass(job, result) is None and "adaptive" not in result.stats
     # settings whose passes differ from the measured ones keep the user's two passes
     custom = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), objects,
-                              pipeline.Settings(target_error=target, lamp_shadows=False,
+                              pipeline.Settings(transfer=False, target_error=target, lamp_shadows=False,
                                                 adaptive_first_pass=0.4))
     assert custom.refine is not None

@@ -162,7 +162,7 @@ def test_target_error_option_reports_chosen_settings(tmp_path, capfd):
     make_plane("Floor", size=2.0, material=diffuse_material("F", (0.5,) * 3))
     make_plane("Emitter", size=0.5, location=(0, 0, 1), flip=True,
                material=emission_material("E", (1, 1, 1), 1.0))
-    assert batch.main(["--target-error", "0.05", "--budget", "600",
+    assert batch.main(["--target-error", "0.05", "--budget", "600", "--no-transfer",
                        "--output", str(tmp_path / "t.blend")]) == 0
     assert (tmp_path / "t.blend").exists()
     printed = capfd.readouterr().out

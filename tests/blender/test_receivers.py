@@ -1,0 +1,139 @@
+"""The light evaluated at the meshes' own corners (pipeline.receive): emission semantics as in
+Cycles, open surfaces lit on both faces, results that do not depend on the run.
+
+Analytic values: a Lambertian emitter of radiance L that fills a receiver's hemisphere gives
+it incident radiance L; a unit square of radiance L at height h above a point on its axis
+gives L·F with F the point-to-square form factor (0.23945 at h = 1 for a unit square).
+"""
+
+import bpy
+import numpy as np
+import pytest
+
+from illumap_bpy_testing import diffuse_material, emission_material, link, make_plane, requires_core
+
+from addon import pipeline
+
+pytestmark = requires_core
+ALBEDO = 0.5
+RADIANCE = 4.0
+
+
+def illumination(obj, domain="POINT"):
+    attr = obj.data.color_attributes["illumination"]
+    assert attr.domain == domain
+    out = np.empty(len(attr.data) * 4, np.float32)
+    attr.data.foreach_get("color", out)
+    return out.reshape(-1, 4)[:, :3].astype(np.float64)
+
+
+def one_sided_emission(name, value):
+    """Emission on the front face, black on the back: Geometry ▸ Backfacing into a Mix."""
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    nodes.clear()
+    out = nodes.new("ShaderNodeOutputMaterial")
+    emit = nodes.new("ShaderNodeEmission")
+    emit.inputs["Color"].default_value = (value, value, value, 1.0)
+    black = nodes.new("ShaderNodeEmission")
+    black.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    geometry = nodes.new("ShaderNodeNewGeometry")
+    mix = nodes.new("ShaderNodeMixShader")
+    links.new(geometry.outputs["Backfacing"], mix.inputs["Fac"])
+    links.new(emit.outputs[0], mix.inputs[1])
+    links.new(black.outputs[0], mix.inputs[2])
+    links.new(mix.outputs[0], out.inputs["Surface"])
+    return mat
+
+
+def panel_under_ceiling(material):
+    """A 2 m ceiling facing down at z = 1 and a 1 m emitter facing down 1 cm below it."""
+    ceiling = make_plane("Ceiling", size=2.0, location=(0, 0, 1.0), flip=True,
+                         material=diffuse_material("White", (ALBEDO,) * 3))
+    bpy.ops.object.mode_set(mode="OBJECT") if bpy.context.object else None
+    panel = make_plane("Panel", size=1.0, location=(0, 0, 0.99), flip=True, material=material)
+    return ceiling, panel
+
+
+def centre_value(obj, radius=0.3):
+    """Mean illumination of the vertices within ``radius`` m of the object's axis."""
+    co = np.empty(len(obj.data.vertices) * 3)
+    obj.data.vertices.foreach_get("co", co)
+    near = np.linalg.norm(co.reshape(-1, 3)[:, :2], axis=1) < radius
+    return illumination(obj)[near].mean(), int(near.sum())
+
+
+def subdivided(obj, cuts=8):
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.mesh.subdivide(number_cuts=cuts)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    return obj
+
+
+@pytest.mark.parametrize("one_sided", [False, True])
+def test_emitter_faces_as_in_cycles(one_sided):
+    """A plain Emission shader emits from both faces, as in Cycles: the ceiling just behind
+    the panel sees almost a hemisphere of radiance L (F ≈ 0.96 at 1 cm under a 1 m panel's
+    middle). With the Backfacing idiom the back is black and the ceiling behind stays dark."""
+    mat = one_sided_emission("OneSided", RADIANCE) if one_sided else \
+        emission_material("Emit", (RADIANCE,) * 3, 1.0)
+    ceiling, panel = panel_under_ceiling(mat)
+    subdivided(ceiling, cuts=15)
+    pipeline.compute(bpy.context, [ceiling, panel], pipeline.Settings(
+        budget=2000, transfer_domain="POINT", gather_rays=64))
+    value, count = centre_value(ceiling)
+    assert count >= 9
+    if one_sided:
+        assert value < 0.02 * ALBEDO * RADIANCE
+    else:
+        assert 0.9 * ALBEDO * RADIANCE < value < 1.0 * ALBEDO * RADIANCE
+
+
+def test_open_plane_reflects_from_its_back_face():
+    """A single plane (normal up) hangs over a floor lit by an overhead sun: the floor under
+    its middle is in its shadow and gets only what the plane's underside, its back face,
+    reflects of the lit floor around. Open surfaces reflect on both faces as in Cycles, so
+    that is the same light as under a thin closed slab, whose underside is a front face; a
+    one-sided plane would leave the floor there black."""
+    floor = subdivided(make_plane("Floor", size=6.0, material=diffuse_material("F", (ALBEDO,) * 3)),
+                       cuts=29)
+    plate = make_plane("Plate", size=2.0, location=(0, 0, 1.0),
+                       material=diffuse_material("P", (ALBEDO,) * 3))
+    sun = bpy.data.lights.new("Sun", "SUN")
+    sun.energy = 3.0
+    link(bpy.data.objects.new("Sun", sun))                    # straight down
+    bpy.context.view_layer.update()
+    settings = pipeline.Settings(budget=3000, transfer_domain="POINT", gather_rays=256)
+    result = pipeline.compute(bpy.context, [floor, plate], settings)
+    under, n_under = centre_value(floor)
+    lit = ALBEDO * 3.0 / np.pi                                # the floor in the open sun
+    assert n_under > 0 and under > 0.03 * lit, (under, lit)
+    assert result.stats["receivers"]["indirect_share"] > 0
+    bpy.data.objects.remove(plate)
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0, 0, 1.0))
+    slab = bpy.context.active_object
+    slab.scale = (2.0, 2.0, 0.002)
+    bpy.ops.object.transform_apply(scale=True)
+    slab.data.materials.append(bpy.data.materials["P"])
+    pipeline.compute(bpy.context, [floor, slab], settings)
+    closed, _ = centre_value(floor)
+    assert under == pytest.approx(closed, rel=0.1)
+
+
+def test_same_input_same_result():
+    """Two runs of the same scene and settings write the same values (threads, ray order and
+    chunking do not enter the result)."""
+    ceiling, panel = panel_under_ceiling(emission_material("Emit", (RADIANCE,) * 3, 1.0))
+    floor = subdivided(make_plane("Floor", size=2.0, material=diffuse_material("W", (ALBEDO,) * 3)))
+    first = None
+    for _ in range(2):
+        pipeline.compute(bpy.context, [ceiling, panel, floor], pipeline.Settings(
+            budget=1500, transfer_domain="CORNER", gather_rays=32))
+        values = illumination(floor, "CORNER")
+        if first is None:
+            first = values
+    assert first.max() > 0
+    np.testing.assert_array_equal(values, first)
