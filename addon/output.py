@@ -231,6 +231,28 @@ def write_mesh_values(obj, receivers, corner_values: np.ndarray, domain: str = "
     mesh.update()
 
 
+def write_point_values(obj, values: np.ndarray) -> None:
+    """Write radiance per point (n, 3) of a point-cloud object, or of a mesh that has vertices
+    only, as its FLOAT_COLOR point attribute ``illumination``."""
+    data = obj.data
+    values = np.asarray(values, dtype=np.float64)
+    attr = data.attributes.get(ATTRIBUTE)
+    if attr is not None:
+        data.attributes.remove(attr)
+    if hasattr(data, "color_attributes") and not is_pointcloud(data):
+        attr = data.color_attributes.new(ATTRIBUTE, "FLOAT_COLOR", "POINT")
+    else:
+        attr = data.attributes.new(ATTRIBUTE, "FLOAT_COLOR", "POINT")
+    attr.data.foreach_set("color", _rgba(values))
+    data.update_tag()
+
+
+def point_count(obj) -> int:
+    """Points of a point-cloud object, or vertices of a mesh."""
+    data = obj.data
+    return len(data.points) if is_pointcloud(data) else len(data.vertices)
+
+
 def export_npz(path: str, **arrays: np.ndarray) -> None:
     """Save surfel arrays (positions m, normals, areas m², albedo, emission, illumination)."""
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)

@@ -165,7 +165,7 @@ class _Scene:
     tri_meshes: list
     counts: np.ndarray            # pass-2 surfels per mesh object
     points: list                  # point-cloud parts, reused as they are
-    point_sources: list           # (name, area) per point cloud
+    point_sources: list           # (name, area, two-sided) per point cloud
     lamps: list
     ambient: np.ndarray | None
 
@@ -411,12 +411,12 @@ def prepare(depsgraph, objects, settings: Settings) -> Job:
         point_parts.append((p.positions, p.normals, p.areas, p.albedo, p.emission,
                             np.full((m, 2), np.nan), np.full(m, -1, np.int64),
                             np.full((m, 3), np.nan), np.full(m, -1, np.int64)))
-        point_sources.append((p.name, float(p.areas.sum())))
+        point_sources.append((p.name, float(p.areas.sum()), p.two_sided))
     stats: dict = {}
     mesh_areas = np.array([tm.total_area for tm in tri_meshes])
     target = target_density(settings, float(mesh_areas.sum()),
                             sum(len(pp[2]) for pp in point_parts),
-                            sum(a for _, a in point_sources), stats)
+                            sum(src[1] for src in point_sources), stats)
     density, chosen = target if target is not None else (None, None)
     counts = np.zeros(0, dtype=np.int64)
     if tri_meshes:
@@ -505,7 +505,7 @@ def _assemble(settings: Settings, samples: list, point_parts: list, point_source
                       s.triangle, s.bary, s.material_index))
         sources.append(Source(s.mesh.name, "MESH", start, start + len(s.areas), s.mesh.total_area))
         start += len(s.areas)
-    for part, (name, area) in zip(point_parts, point_sources):
+    for part, (name, area, _) in zip(point_parts, point_sources):
         parts.append(part)
         sources.append(Source(name, "POINTS", start, start + len(part[2]), area))
         start += len(part[2])
@@ -532,6 +532,14 @@ def _assemble(settings: Settings, samples: list, point_parts: list, point_source
                               s.mesh.total_area))
         start += int(keep.sum())
         in_lamp.append(in_lamp[samples.index(s)][keep])
+    # Points of unknown orientation (normals estimated) are two-sided: a surfel each way.
+    for part, (name, area, two_sided) in zip(point_parts, point_sources):
+        if two_sided:
+            pos, nrm = part[0], part[1]
+            parts.append((pos, -nrm) + tuple(part[2:]))
+            sources.append(Source(name, "BACK", start, start + len(pos), area))
+            start += len(pos)
+            in_lamp.append(np.zeros(len(pos), dtype=bool))
     check_memory(start, settings)
     pos, nrm, area, albedo, emission, uv, tri, bary, mat_idx = (
         np.concatenate([p[i] for p in parts]) for i in range(9))
@@ -878,6 +886,15 @@ def write(context, job: Job, result: Result):
     obj = output.write_surfels(context, shown, job.normals, job.areas, result.radiosity,
                                job.albedo, job.emission)
     if job.settings.transfer:
+        for name, values in point_values(job, result).items():
+            target = context.blend_data.objects.get(name)
+            if target is None or target.type not in ("POINTCLOUD", "MESH"):
+                continue
+            if output.point_count(target) != len(values):
+                result.warnings.append(f"Point cloud '{name}': its modifiers change the number of "
+                                       "points; the illumination stays on the surfel object")
+                continue
+            output.write_point_values(target, values)
         for rec in job.receivers:
             target = context.blend_data.objects.get(rec.name)
             values = result.receiver_values.get(rec.name)
@@ -908,6 +925,24 @@ def write(context, job: Job, result: Result):
     result.timings["write"] = time.perf_counter() - t0
     result.object_name = obj.name
     return obj
+
+
+def point_values(job: Job, result: Result) -> dict[str, np.ndarray]:
+    """Outgoing radiance (n, 3) per point of each point-cloud source, in its own order: the
+    point's surfel, or for two-sided points the brighter of its two sides."""
+    out = {}
+    backs = {src.name: src for src in job.sources if src.kind == "BACK"}
+    lum = np.array([0.2126, 0.7152, 0.0722])
+    for src in job.sources:
+        if src.kind != "POINTS":
+            continue
+        values = result.radiosity[src.start:src.stop]
+        back = backs.get(src.name)
+        if back is not None:
+            other = result.radiosity[back.start:back.stop]
+            values = np.where((other @ lum > values @ lum)[:, None], other, values)
+        out[src.name] = values
+    return out
 
 
 def bpy_safe_name(name: str) -> str:

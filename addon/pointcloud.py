@@ -6,9 +6,10 @@
   a surface, E[d_j²] = j/(πρ), so 1/ρ ≈ 2π·mean_j(d_j²)/(k+1). A warning says so.
 * Normals: a ``normal`` or ``N`` FLOAT_VECTOR attribute. Without one, PCA over the k nearest
   neighbours (smallest eigenvector of the local covariance), oriented consistently along a
-  minimum spanning tree of the neighbour graph (``illumap.pointcloud``: thin sheets and concave
-  folds keep their sides), each connected part facing away from the cloud's centroid, or
-  towards +Z where that is ambiguous (|cos| < 0.3, e.g. flat patches). A warning says so.
+  minimum spanning tree of the neighbour graph (``illumap.pointcloud``). No rule can tell the
+  inside of a scanned room from the outside of a scanned statue, so such points are two-sided
+  (``two_sided``): the pipeline adds a surfel facing the other way at every point, and each
+  point shows its brighter side. A warning says so.
 * Albedo: the active colour attribute (or one named ``Col``/``Cd``/``color``), else the first
   material as for meshes (without UVs). Emission: from that material.
 """
@@ -38,6 +39,7 @@ class PointSamples:
     albedo: np.ndarray
     emission: np.ndarray
     colors: dict[str, np.ndarray] = field(default_factory=dict)
+    two_sided: bool = False   # normals estimated: their orientation is unknown, both sides lit
 
 
 class _Attributes:
@@ -160,8 +162,9 @@ def _finish(obj, obj_eval, name, pos, extra, active, mats, warnings) -> PointSam
     else:
         normal = estimate_normals(pos, k)
         warnings.append(f"Point cloud '{name}': no 'normal' attribute; normals estimated by PCA "
-                        f"over {k} neighbours, oriented consistently between neighbours and away "
-                        f"from the centroid")
+                        f"over {k} neighbours, and as their orientation is unknown both sides of "
+                        f"every point are lit (each point shows its brighter side: the inside of "
+                        f"a scanned room, the outside of a scanned object)")
     colors = extra["colors"]
     key = active if active in colors else next((c for c in _COLOR_NAMES if c in colors), None)
     material = mats[0].material if mats else None
@@ -173,4 +176,5 @@ def _finish(obj, obj_eval, name, pos, extra, active, mats, warnings) -> PointSam
         warnings.append(f"Point cloud '{name}': albedo above {materials.MAX_ALBEDO} clamped")
     albedo = np.clip(np.nan_to_num(albedo), 0.0, materials.MAX_ALBEDO)
     return PointSamples(name=name, positions=pos, normals=normal, areas=areas, albedo=albedo,
-                        emission=np.maximum(np.nan_to_num(emission), 0.0), colors=colors)
+                        emission=np.maximum(np.nan_to_num(emission), 0.0), colors=colors,
+                        two_sided=extra["normal"] is None)
