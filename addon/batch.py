@@ -27,6 +27,7 @@ Options (after ``--``)::
     --output out.blend     save the result (#### → frame number; added before the extension
                            when several frames are computed and the name has no #)
     --render out.png       Cycles render of the point-instanced preview (same # rules)
+    --render-preview meshes  render the meshes with their illumination instead of the discs
     --resolution PX        render size of the longer side (default 256)
     --samples S            Cycles samples (default 16)
     --export-npz PATH      surfel data per frame;  --export-exr PATH  illumination as EXR
@@ -95,6 +96,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--frames", help="e.g. 1-3 or 1,5,7-9")
     p.add_argument("--output", help="output .blend (#### = frame)")
     p.add_argument("--render", help="output PNG of the preview (#### = frame)")
+    p.add_argument("--render-preview", choices=["points", "meshes"], default="points",
+                   type=str.lower, help="what --render shows: the surfels' discs, or the "
+                                        "meshes with the light evaluated at their corners")
     p.add_argument("--resolution", type=int, default=256)
     p.add_argument("--samples", type=int, default=16)
     p.add_argument("--export-npz")
@@ -225,17 +229,25 @@ def add_preview(context, surfel_object) -> bool:
     return True
 
 
-def render_preview(context, surfel_object, sources, path: str, resolution: int, samples: int) -> str:
-    """Render the point-instanced preview with Cycles to ``path`` (PNG); returns a message."""
-    if not add_preview(context, surfel_object):
-        return "render skipped: the preview is not available"
+def render_preview(context, surfel_object, sources, path: str, resolution: int, samples: int,
+                   what: str = "points") -> str:
+    """Render the preview with Cycles to ``path`` (PNG): the point-instanced discs, or with
+    ``what="meshes"`` the source meshes through the mesh preview (mesh_preview.py), which
+    stays on in the saved file. Returns a message."""
+    from . import mesh_preview
     scene = context.scene
+    if what == "meshes":
+        if not mesh_preview.build_mesh_preview(sources):
+            return "render skipped: no mesh has an 'illumination' attribute"
+        surfel_object.hide_render = True
+    elif not add_preview(context, surfel_object):
+        return "render skipped: the preview is not available"
     if scene.camera is None:
         return "render skipped: the scene has no camera"
     r = scene.render
     saved = (r.engine, r.resolution_x, r.resolution_y, r.resolution_percentage, r.filepath,
              r.image_settings.file_format, scene.cycles.samples, scene.cycles.device)
-    hidden = [o for o in sources if not o.hide_render]
+    hidden = [o for o in sources if not o.hide_render] if what == "points" else []
     aspect = r.resolution_y / max(r.resolution_x, 1)
     try:
         for o in hidden:  # the discs stand in for the source geometry
@@ -343,7 +355,8 @@ def run_frames(args, out=None) -> int:
             bpy.ops.wm.save_as_mainfile(filepath=outputs["output"], copy=True, check_existing=False)
             print(f"  saved {outputs['output']}", file=out)
         if outputs["render"]:
-            msg = render_preview(context, surfels, objects, outputs["render"], args.resolution, args.samples)
+            msg = render_preview(context, surfels, objects, outputs["render"], args.resolution,
+                                 args.samples, args.render_preview)
             print(f"  {msg}", file=out)
     return EXIT_OK
 

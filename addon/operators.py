@@ -22,7 +22,7 @@ import time
 import bpy
 from bpy.props import BoolProperty, EnumProperty
 
-from . import preferences, preview, properties
+from . import mesh_preview, preferences, preview, properties
 
 SURFEL_OBJECT_NAME = "Illumap Surfels"
 # What pipeline.prepare reads: meshes and anything that evaluates to one, and point clouds.
@@ -482,6 +482,33 @@ class ILLUMAP_OT_build_preview(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class ILLUMAP_OT_mesh_preview(bpy.types.Operator):
+    """Show the illumination on the meshes themselves (an emission material through a
+    modifier; the meshes' own materials are untouched), or switch that off again"""
+
+    bl_idname = "illumap.mesh_preview"
+    bl_label = "Mesh Preview"
+    bl_options = {"REGISTER", "UNDO"}
+
+    show: BoolProperty(name="Show", default=True, options={"SKIP_SAVE"})
+
+    def execute(self, context):
+        objects = context.selected_objects or list(context.scene.objects)
+        if not self.show:
+            removed = mesh_preview.remove_mesh_preview(objects)
+            self.report({"INFO"}, f"Illumap: mesh preview off on {removed} mesh"
+                                  f"{'es' * (removed != 1)}")
+            return {"FINISHED"}
+        shown = mesh_preview.build_mesh_preview(objects)
+        if not shown:
+            self.report({"ERROR"}, "No selected mesh has an 'illumination' attribute: compute "
+                                   "an illumination map with Transfer to Meshes first")
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Illumap: mesh preview on {len(shown)} mesh"
+                              f"{'es' * (len(shown) != 1)}")
+        return {"FINISHED"}
+
+
 class ILLUMAP_OT_clear_results(bpy.types.Operator):
     """Remove Illumap's surfel objects (and optionally the transferred attributes)"""
 
@@ -528,6 +555,7 @@ class ILLUMAP_OT_reset_settings(bpy.types.Operator):
 
 
 # Registered even without the native module (they need only bpy).
-basic_classes = (ILLUMAP_OT_build_preview, ILLUMAP_OT_clear_results, ILLUMAP_OT_reset_settings)
+basic_classes = (ILLUMAP_OT_build_preview, ILLUMAP_OT_mesh_preview, ILLUMAP_OT_clear_results,
+                 ILLUMAP_OT_reset_settings)
 # Registered only when the native module imports.
 core_classes = (ILLUMAP_OT_compute_illumination_map,)

@@ -101,6 +101,9 @@ def draw_preview(layout, context):
     row = layout.row(align=True)
     row.operator("illumap.build_preview", icon="MESH_CIRCLE")
     row.operator("illumap.clear_results", icon="TRASH", text="Clear")
+    row = layout.row(align=True)
+    row.operator("illumap.mesh_preview", icon="SHADING_RENDERED", text="Mesh Preview").show = True
+    row.operator("illumap.mesh_preview", icon="X", text="Off").show = False
 
 
 def draw_stats(layout, context):

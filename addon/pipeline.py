@@ -381,6 +381,16 @@ def target_density(settings: Settings, mesh_area: float, point_count: int, point
 
 
 def prepare(depsgraph, objects, settings: Settings) -> Job:
+    """Read the scene on the main thread and build the job (``_prepare``), with any mesh
+    preview of the objects switched off while their materials are read."""
+    from . import mesh_preview
+    objects = list(objects)
+    import bpy
+    with mesh_preview.suspended(objects, bpy.context.view_layer):
+        return _prepare(depsgraph, objects, settings)
+
+
+def _prepare(depsgraph, objects, settings: Settings) -> Job:
     """Read the scene on the main thread and build the job (surfels, materials, lamps; the
     direct light is ``run``'s first phase, ``light``).
 
@@ -655,28 +665,32 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     rays = 0
     lum = np.array([0.2126, 0.7152, 0.0722])
     noise2 = light2 = indirect = total = 0.0
+    # Every object's receivers in one batch: the gather tabulates the surfels' light once.
+    points = np.concatenate([rec.points for rec in job.receivers])
+    normals = np.concatenate([rec.normals for rec in job.receivers])
+    offsets = np.cumsum([0] + [len(rec.points) for rec in job.receivers])
     try:
-        for rec in job.receivers:
-            shadows = None
-            if all_lamps and s.lamp_shadows:
-                shadows = lamps.Shadows(occ.segment_query(rec.normals),
-                                        samples=shadow_samples, seed=s.seed,
-                                        extent=occ.extent)
-            direct = lamps.incident_radiance(all_lamps, rec.points, rec.normals, shadows=shadows)
-            gathered = rc.gather(occ, field_, rec.points, rec.normals, rays=gather_rays,
-                                 seed=s.seed, background=job.ambient, back_field=back_field,
-                                 two_sided=job.two_sided,
-                                 progress=None if progress is None else
-                                 (lambda f, _p="": progress(f, "gather")))
-            incident = direct + gathered.radiance
-            values = rec.emission + rec.albedo * incident[rec.corner_point]
+        shadows = None
+        if all_lamps and s.lamp_shadows:
+            shadows = lamps.Shadows(occ.segment_query(normals), samples=shadow_samples,
+                                    seed=s.seed, extent=occ.extent)
+        direct = lamps.incident_radiance(all_lamps, points, normals, shadows=shadows)
+        gathered = rc.gather(occ, field_, points, normals, rays=gather_rays, seed=s.seed,
+                             background=job.ambient, back_field=back_field,
+                             two_sided=job.two_sided,
+                             progress=None if progress is None else
+                             (lambda f, _p="": progress(f, "gather")))
+        incident = direct + gathered.radiance
+        rays = gathered.rays + (shadows.rays if shadows is not None else 0)
+        for rec, lo in zip(job.receivers, offsets[:-1]):
+            rows = lo + rec.corner_point
+            values = rec.emission + rec.albedo * incident[rows]
             result.receiver_values[rec.name] = values
-            rays += gathered.rays + (shadows.rays if shadows is not None else 0)
             # What the estimate needs: the gather's noise and the indirect share, by luminance.
             rho = rec.albedo @ lum
-            noise2 += float(((rho * gathered.stderr[rec.corner_point]) ** 2).sum())
+            noise2 += float(((rho * gathered.stderr[rows]) ** 2).sum())
             light2 += float(((values @ lum) ** 2).sum())
-            indirect += float((rho * (gathered.radiance[rec.corner_point] @ lum)).sum())
+            indirect += float((rho * (gathered.radiance[rows] @ lum)).sum())
             total += float((values @ lum).sum())
     except IllumapError:
         raise

@@ -1,0 +1,123 @@
+"""Mesh preview: the illumination shown on the meshes themselves, in one click.
+
+``build_mesh_preview(objects)`` puts a Geometry Nodes modifier, last in each mesh's stack,
+whose Set Material node gives the evaluated mesh the shared material ``Illumap
+Illumination``: an Attribute node (GEOMETRY) reading ``illumination`` (corner or point domain,
+interpolated by the renderer like any colour attribute) into an Emission shader of strength 1,
+so Cycles and EEVEE show the light Illumap computed at the mesh's own corners, as a render
+would show it. The user's material slots are never touched: removing the modifier
+(``remove_mesh_preview``) gives the meshes back exactly as they were.
+"""
+
+from __future__ import annotations
+
+import bpy
+
+from . import compat
+
+MODIFIER_NAME = "Illumap Mesh Preview"
+NODE_GROUP_NAME = "Illumap Mesh Preview"
+MATERIAL_NAME = "Illumap Illumination"
+ATTRIBUTE = "illumination"
+
+
+def preview_material() -> bpy.types.Material:
+    """The shared material: Attribute ``illumination`` → Emission (strength 1)."""
+    mat = bpy.data.materials.get(MATERIAL_NAME)
+    if mat is None:
+        mat = bpy.data.materials.new(MATERIAL_NAME)
+    tree = compat.node_tree(mat)
+    nodes, links = tree.nodes, tree.links
+    nodes.clear()
+    out = nodes.new("ShaderNodeOutputMaterial")
+    out.location = (400, 0)
+    emission = nodes.new("ShaderNodeEmission")
+    emission.location = (200, 0)
+    emission.inputs["Strength"].default_value = 1.0
+    attr = nodes.new("ShaderNodeAttribute")
+    attr.attribute_type = "GEOMETRY"
+    attr.attribute_name = ATTRIBUTE
+    links.new(attr.outputs["Color"], emission.inputs["Color"])
+    links.new(emission.outputs["Emission"], out.inputs["Surface"])
+    return mat
+
+
+def node_group() -> bpy.types.NodeTree:
+    """The shared node group: Set Material to ``preview_material()`` on the whole mesh."""
+    ng = bpy.data.node_groups.get(NODE_GROUP_NAME)
+    if ng is None:
+        ng = bpy.data.node_groups.new(NODE_GROUP_NAME, "GeometryNodeTree")
+    ng.nodes.clear()
+    for item in list(ng.interface.items_tree):
+        ng.interface.remove(item)
+    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    ng.is_modifier = True
+    group_in = ng.nodes.new("NodeGroupInput")
+    group_in.location = (-300, 0)
+    set_material = ng.nodes.new("GeometryNodeSetMaterial")
+    set_material.inputs["Material"].default_value = preview_material()
+    group_out = ng.nodes.new("NodeGroupOutput")
+    group_out.location = (300, 0)
+    ng.links.new(group_in.outputs["Geometry"], set_material.inputs["Geometry"])
+    ng.links.new(set_material.outputs["Geometry"], group_out.inputs["Geometry"])
+    return ng
+
+
+def has_mesh_preview(obj) -> bool:
+    """Whether ``obj`` carries the mesh preview modifier."""
+    return obj.type == "MESH" and MODIFIER_NAME in obj.modifiers
+
+
+def build_mesh_preview(objects) -> list[str]:
+    """Show each mesh of ``objects`` that has an ``illumination`` attribute through the preview
+    material (a modifier added last, or refreshed). Returns the names of the meshes shown."""
+    ng = None
+    shown = []
+    for obj in objects:
+        if obj is None or obj.type != "MESH" or ATTRIBUTE not in obj.data.attributes:
+            continue
+        ng = ng or node_group()
+        mod = obj.modifiers.get(MODIFIER_NAME)
+        if mod is None:
+            mod = obj.modifiers.new(MODIFIER_NAME, "NODES")
+        mod.node_group = ng
+        obj.update_tag()
+        shown.append(obj.name)
+    return shown
+
+
+def remove_mesh_preview(objects) -> int:
+    """Remove the mesh preview modifier from ``objects``; returns how many were removed."""
+    removed = 0
+    for obj in objects:
+        if obj is not None and obj.type == "MESH" and MODIFIER_NAME in obj.modifiers:
+            obj.modifiers.remove(obj.modifiers[MODIFIER_NAME])
+            removed += 1
+    return removed
+
+
+class suspended:
+    """Context manager: the mesh previews of ``objects`` switched off while the scene is read
+    (their Set Material would hand the reader the preview's emission instead of the user's
+    materials), then switched back as they were."""
+
+    def __init__(self, objects, view_layer) -> None:
+        self.mods = [obj.modifiers[MODIFIER_NAME] for obj in objects
+                     if obj is not None and has_mesh_preview(obj)]
+        self.view_layer = view_layer
+        self.saved = []
+
+    def __enter__(self):
+        self.saved = [(m.show_viewport, m.show_render) for m in self.mods]
+        for m in self.mods:
+            m.show_viewport = m.show_render = False
+        if self.mods:
+            self.view_layer.update()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for m, (viewport, render) in zip(self.mods, self.saved):
+            m.show_viewport, m.show_render = viewport, render
+        if self.mods:
+            self.view_layer.update()
