@@ -67,8 +67,8 @@ class Settings:
     shadow_samples: int = 16          # rays per surfel for lamps with a size (radius/area/angle)
     world_ambient: bool = False       # add the world colour as uniform ambient light
     transfer: bool = True             # evaluate 'illumination' at the source meshes' corners
-    gather_rays: int = 256            # final-gather rays per receiver (indirect light)
-    receiver_shadow_samples: int = 64  # shadow rays per receiver and sized lamp/emitter
+    gather_rays: int = 512            # final-gather rays per receiver (indirect light)
+    receiver_shadow_samples: int = 128  # shadow rays per receiver and sized lamp/emitter
     transfer_domain: str = "CORNER"   # 'POINT' | 'CORNER'
     seed: int = 0                     # sampling seed (results are reproducible)
     memory_limit: int | None = None   # bytes; None → half the physical memory
@@ -84,11 +84,11 @@ DEFAULT_BUDGET = 10_000
 
 PRESETS: dict[str, dict] = {
     "DRAFT": dict(budget=2_500, order=3, theta=0.6, visibility="exact", tol=1e-3,
-                  gather_rays=64, receiver_shadow_samples=16),
+                  gather_rays=128, receiver_shadow_samples=32),
     "MEDIUM": dict(budget=DEFAULT_BUDGET, order=4, theta=0.5, visibility="exact", tol=1e-4,
-                   gather_rays=256, receiver_shadow_samples=64),
+                   gather_rays=512, receiver_shadow_samples=128),
     "HIGH": dict(budget=40_000, order=6, theta=0.4, visibility="exact", tol=1e-5,
-                 gather_rays=1024, receiver_shadow_samples=256),
+                 gather_rays=2048, receiver_shadow_samples=512),
 }
 
 
@@ -328,11 +328,11 @@ def surfel_target(settings: Settings) -> float | None:
 
 def receiver_rays(settings: Settings) -> tuple[int, int]:
     """(gather rays, shadow samples) per receiver: the settings', or with a target error
-    enough that their noise stays well inside it (256 / 64 down to 2%, 1024 / 256 below)."""
+    enough that their noise stays well inside it (512 / 128 down to 2%, 2048 / 512 below)."""
     t = settings.target_error
     if t is None:
         return int(settings.gather_rays), int(settings.receiver_shadow_samples)
-    return (256, 64) if t >= 0.02 else (1024, 256)
+    return (512, 128) if t >= 0.02 else (2048, 512)
 
 
 def target_density(settings: Settings, mesh_area: float, point_count: int, point_area: float,
@@ -637,6 +637,26 @@ def light(job: Job, progress: Progress | None = None) -> Job:
     return job
 
 
+def _merged_corners(occ, rec) -> tuple[np.ndarray, np.ndarray]:
+    """Which corners of ``rec`` share one evaluation: corners of one vertex with one normal
+    (a flat grid's four) see the same light unless a wall stands on the vertex between them,
+    so each joins the first such corner when a ray between their points (lifted off the
+    surface) is free. Returns (the rows to evaluate, each corner's row among them)."""
+    key = np.column_stack([rec.corner_vertex, np.round(rec.normals * 1e5).astype(np.int64)])
+    _, first, group = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    group = group.ravel()
+    lead = first[group]
+    others = np.flatnonzero(lead != np.arange(len(lead)))
+    joined = np.arange(len(lead))
+    if others.size:
+        lift = occ.offset * rec.normals
+        free = occ.visible(rec.points[lead[others]] + lift[lead[others]],
+                           rec.points[others] + lift[others]) > 0
+        joined[others[free]] = lead[others[free]]
+    rows, index = np.unique(joined, return_inverse=True)
+    return rows, index.ravel()
+
+
 def receive(job: Job, result: "Result", progress: Progress | None = None) -> None:
     """Evaluate the light at every receiver of ``job.receivers`` (DESIGN.md §6) into
     ``result.receiver_values``: direct light from lamps and emitters with shadow rays from the
@@ -665,10 +685,12 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     rays = 0
     lum = np.array([0.2126, 0.7152, 0.0722])
     noise2 = light2 = indirect = total = 0.0
-    # Every object's receivers in one batch: the gather tabulates the surfels' light once.
-    points = np.concatenate([rec.points for rec in job.receivers])
-    normals = np.concatenate([rec.normals for rec in job.receivers])
-    offsets = np.cumsum([0] + [len(rec.points) for rec in job.receivers])
+    # Every object's receivers in one batch (the gather tabulates the surfels' light once),
+    # corners that see the same light evaluated once.
+    merged = [_merged_corners(occ, rec) for rec in job.receivers]
+    points = np.concatenate([rec.points[rows] for rec, (rows, _) in zip(job.receivers, merged)])
+    normals = np.concatenate([rec.normals[rows] for rec, (rows, _) in zip(job.receivers, merged)])
+    offsets = np.cumsum([0] + [len(rows) for rows, _ in merged])
     try:
         shadows = None
         if all_lamps and s.lamp_shadows:
@@ -682,8 +704,8 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
                              (lambda f, _p="": progress(f, "gather")))
         incident = direct + gathered.radiance
         rays = gathered.rays + (shadows.rays if shadows is not None else 0)
-        for rec, lo in zip(job.receivers, offsets[:-1]):
-            rows = lo + rec.corner_point
+        for rec, lo, (_, index) in zip(job.receivers, offsets[:-1], merged):
+            rows = lo + index[rec.corner_point]
             values = rec.emission + rec.albedo * incident[rows]
             result.receiver_values[rec.name] = values
             # What the estimate needs: the gather's noise and the indirect share, by luminance.
@@ -702,7 +724,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     result.timings["receivers"] = time.perf_counter() - t0
     gather_noise = float(np.sqrt(noise2 / light2)) if light2 > 0 else 0.0
     share = indirect / total if total > 0 else 0.0
-    result.stats["receivers"] = dict(points=int(sum(len(r.points) for r in job.receivers)),
+    result.stats["receivers"] = dict(points=int(len(points)),
                                      corners=int(sum(len(r.corner_point) for r in job.receivers)),
                                      rays=int(rays), gather_rays=int(gather_rays),
                                      shadow_samples=int(shadow_samples),

@@ -31,7 +31,7 @@ PRESETS = {name: {key: (value.upper() if key in ("visibility", "solver", "near_f
            for name, values in _TABLE.items()}
 DEFAULT_PRESET = "MEDIUM"
 _DEFAULTS = dict(density=100.0, budget=10_000, order=4, theta=0.5, visibility="EXACT",
-                 tol=1e-4, gather_rays=256, receiver_shadow_samples=64)
+                 tol=1e-4, gather_rays=512, receiver_shadow_samples=128)
 _DEFAULTS.update(PRESETS.get(DEFAULT_PRESET, {}))
 
 PRESET_ITEMS = [

@@ -547,7 +547,8 @@ NB_MODULE(_core, m) {
     m.def("gather",
           [](PyMeshScene& scene, PySurfelField& front, nb::handle back, nb::handle positions,
              nb::handle normals, nb::handle ids, int rays, std::uint64_t seed, double offset,
-             nb::handle background, nb::handle two_sided, int threads, nb::handle progress) {
+             nb::handle background, nb::handle two_sided, nb::handle rays_per, int threads,
+             nb::handle progress) {
               const double *P, *N;
               nb::object k1, k2, k3, k4;
               const std::size_t m = paired_rays(positions, "positions", normals, "normals", P, N, k1, k2);
@@ -567,6 +568,19 @@ NB_MODULE(_core, m) {
                       throw nb::value_error("two_sided must have one entry per triangle");
                   sided.assign(S, S + ns);
               }
+              std::vector<std::int32_t> per;
+              if (rays_per.is_valid() && !rays_per.is_none()) {
+                  std::size_t nr;
+                  nb::object k6;
+                  const std::int64_t* R = view<std::int64_t>(rays_per, "rays_per", 1, 0, nr, k6);
+                  if (nr != m) throw nb::value_error("rays_per must have one entry per receiver");
+                  per.resize(m);
+                  for (std::size_t i = 0; i < m; ++i) {
+                      if (R[i] < 1 || R[i] > (1 << 20))
+                          throw nb::value_error(("rays_per[" + std::to_string(i) + "] must be in 1..2^20").c_str());
+                      per[i] = std::int32_t(R[i]);
+                  }
+              }
               const SurfelField* back_field = nullptr;
               if (back.is_valid() && !back.is_none()) back_field = nb::cast<PySurfelField&>(back).field.get();
               GatherOptions opt;
@@ -581,13 +595,14 @@ NB_MODULE(_core, m) {
                   ctx.set_phase("gather", 0.0, 1.0);
                   checkpoint(ctx, 0.0);
                   gather(ctx, *scene.scene, *front.field, back_field, P, N, I, m, opt, out, err,
-                         sided.empty() ? nullptr : sided.data());
+                         sided.empty() ? nullptr : sided.data(), per.empty() ? nullptr : per.data());
               });
               return nb::make_tuple(a1, a2);
           },
           nb::arg("scene"), nb::arg("front"), nb::arg("back").none(), nb::arg("positions"),
           nb::arg("normals"), nb::arg("ids"), nb::kw_only(), nb::arg("rays"), nb::arg("seed") = 0,
           nb::arg("offset"), nb::arg("background"), nb::arg("two_sided").none() = nb::none(),
+          nb::arg("rays_per").none() = nb::none(),
           nb::arg("threads") = 0,
           nb::arg("progress") = nb::none(),
           "Final gather: (mean radiance (M, 3), standard error of its luminance (M,)).");

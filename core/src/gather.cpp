@@ -239,22 +239,28 @@ FieldTable field_table(Context& ctx, const MeshScene& scene, const SurfelField& 
 void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, const SurfelField* back,
             const double* positions, const double* normals, const std::int64_t* ids, std::size_t m,
             const GatherOptions& opt, double* out, double* stderr_out,
-            const std::uint8_t* two_sided) {
-    const std::size_t K = std::size_t(std::max(1, opt.rays));
+            const std::uint8_t* two_sided, const std::int32_t* rays_per) {
+    std::size_t K_max = std::size_t(std::max(1, opt.rays));
+    if (rays_per)
+        for (std::size_t i = 0; i < m; ++i)
+            K_max = std::max(K_max, std::size_t(std::max(1, rays_per[i])));
+    const std::size_t K_grain = std::size_t(std::max(1, opt.rays));
     ctx.set_phase("gather: field", 0.0, 0.1);
     const FieldTable front_tab = field_table(ctx, scene, front, 1.0, opt.offset);
     const FieldTable back_tab =
         back ? field_table(ctx, scene, *back, -1.0, opt.offset, two_sided) : FieldTable{};
     ctx.set_phase("gather", 0.1, 0.9);
-    parallel_for(ctx, m, std::max<std::size_t>(1, 4096 / K), [&](std::size_t lo, std::size_t hi) {
-        std::vector<double> org(3 * K), dir(3 * K), dist(K);
-        std::vector<std::int64_t> prim(K);
-        std::vector<std::uint8_t> face(K);
-        std::vector<float> uv(2 * K);
+    parallel_for(ctx, m, std::max<std::size_t>(1, 4096 / K_grain), [&](std::size_t lo, std::size_t hi) {
+        std::vector<double> org(3 * K_max), dir(3 * K_max), dist(K_max);
+        std::vector<std::int64_t> prim(K_max);
+        std::vector<std::uint8_t> face(K_max);
+        std::vector<float> uv(2 * K_max);
         KdTree::Best best{std::size_t(std::max(front.k(), back ? back->k() : 1))};
         for (std::size_t i = lo; i < hi; ++i) {
             const double* p = positions + 3 * i;
             const double* n = normals + 3 * i;
+            const std::size_t K = rays_per ? std::size_t(std::max(1, rays_per[i]))
+                                           : std::size_t(std::max(1, opt.rays));
             cosine_directions(n, K, ids ? ids[i] : std::int64_t(i), opt.seed, dir.data());
             for (std::size_t k = 0; k < K; ++k)
                 for (int d = 0; d < 3; ++d) org[3 * k + d] = p[d] + opt.offset * n[d];

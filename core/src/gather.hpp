@@ -58,9 +58,10 @@ struct GatherOptions {
 // out: m x 3 mean radiance; stderr_out: m, standard error of the mean's luminance.
 // two_sided (one flag per triangle, may be null: all): which triangles' back faces take the
 // back field; the others' back faces are black.
+// rays_per (m entries, may be null: opt.rays each) gives each receiver its own ray count.
 void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, const SurfelField* back,
             const double* positions, const double* normals, const std::int64_t* ids, std::size_t m,
             const GatherOptions& opt, double* out, double* stderr_out,
-            const std::uint8_t* two_sided = nullptr);
+            const std::uint8_t* two_sided = nullptr, const std::int32_t* rays_per = nullptr);
 
 }  // namespace illumap

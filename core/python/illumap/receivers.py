@@ -183,13 +183,14 @@ class GatherResult:
     rays: int                 # rays cast
 
 
-def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, rays: int,
+def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, rays,
            ids: np.ndarray | None = None, seed: int = 0, background=None,
            back_field: SurfelField | None = None, two_sided=None, threads: int = 0,
            progress: Progress | None = None) -> GatherResult:
     """Indirect incident radiance at receivers (``positions``, unit ``normals``, (M, 3)).
 
-    ``rays`` cosine-distributed rays per receiver (``cosine_directions``) start
+    ``rays`` cosine-distributed rays per receiver (an int, or an int array (M,) of counts
+    per receiver; ``cosine_directions``) start
     ``occluders.offset`` off the surface and meet the triangles; a front hit takes
     ``field.at`` there, a back hit ``back_field.at`` (None: black, one-sided surfaces), and a
     miss the ``background`` radiance (3,) (None: black). ``two_sided`` (T,) bool says which
@@ -200,8 +201,17 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
     """
     p = _rows3("positions", positions)
     n = _rows3("normals", normals, len(p))
-    if int(rays) < 1:
-        raise InputError(f"rays must be >= 1, got {rays}")
+    per = None
+    if np.ndim(rays) == 0:
+        if int(rays) < 1:
+            raise InputError(f"rays must be >= 1, got {rays}")
+        count = len(p) * int(rays)
+    else:
+        per = np.ascontiguousarray(rays, dtype=np.int64).reshape(-1)
+        if len(per) != len(p) or (per < 1).any():
+            raise InputError(f"rays must be an int >= 1 or {len(p)} counts >= 1")
+        count = int(per.sum())
+        rays = int(per.max()) if len(per) else 1
     ids = (np.arange(len(p), dtype=np.int64) if ids is None
            else np.ascontiguousarray(ids, dtype=np.int64).reshape(-1))
     if len(ids) != len(p):
@@ -217,5 +227,5 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
     radiance, stderr = _core.gather(
         occluders._scene, field._field, None if back_field is None else back_field._field,
         p, n, ids, rays=int(rays), seed=int(seed), offset=occluders.offset, background=bg,
-        two_sided=sided, threads=threads, progress=progress)
-    return GatherResult(radiance=radiance, stderr=stderr, rays=len(p) * int(rays))
+        two_sided=sided, rays_per=per, threads=threads, progress=progress)
+    return GatherResult(radiance=radiance, stderr=stderr, rays=count)
