@@ -217,3 +217,24 @@ def test_bad_input_is_refused_with_its_name():
         occ.visible(np.zeros((1, 3)), np.full((1, 3), np.inf))
     with pytest.raises(illumap.InputError, match="rays"):
         rc.gather(occ, surfels_on(closed_box()), np.zeros((1, 3)), np.array([[0, 0, 1.0]]), rays=0)
+
+
+def test_gather_takes_a_ray_count_per_receiver():
+    box = closed_box()
+    occ = rc.MeshOccluders(box)
+    pos = np.einsum("kc,tcd->tkd", np.array([[0.6, 0.2, 0.2]]), box).reshape(-1, 3)
+    nrm = np.cross(box[:, 1] - box[:, 0], box[:, 2] - box[:, 0])
+    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+    field = rc.SurfelField(pos, nrm, np.abs(pos) + 0.1)
+    p = pos + 1e-3 * nrm
+    same = rc.gather(occ, field, p, nrm, rays=np.full(len(p), 32))
+    np.testing.assert_array_equal(same.radiance, rc.gather(occ, field, p, nrm, rays=32).radiance)
+    counts = np.arange(len(p)) % 3 * 16 + 8
+    mixed = rc.gather(occ, field, p, nrm, rays=counts)
+    assert mixed.rays == counts.sum()
+    for k in (8, 24, 40):      # each receiver casts exactly its own count's rays
+        rows = np.flatnonzero(counts == k)
+        alone = rc.gather(occ, field, p[rows], nrm[rows], rays=k, ids=rows)
+        np.testing.assert_array_equal(mixed.radiance[rows], alone.radiance)
+    with pytest.raises(illumap.InputError, match="counts"):
+        rc.gather(occ, field, p, nrm, rays=np.zeros(len(p), dtype=int))

@@ -29,9 +29,10 @@ def illumination(obj, domain="POINT"):
 
 def one_sided_emission(name, value):
     """Emission on the front face, black on the back: Geometry ▸ Backfacing into a Mix."""
+    from addon import compat
     mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
-    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    tree = compat.node_tree(mat)
+    nodes, links = tree.nodes, tree.links
     nodes.clear()
     out = nodes.new("ShaderNodeOutputMaterial")
     emit = nodes.new("ShaderNodeEmission")
