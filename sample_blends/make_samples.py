@@ -30,6 +30,7 @@ Writes next to this script:
     camera (Cycles ray visibility) so that both rooms show. All surfaces are white (0.8).
 """
 
+import math
 import os
 import sys
 
@@ -65,6 +66,9 @@ CORNELL = [
     ("Light", "Light", [[(343, 547.8, 227), (343, 547.8, 332), (213, 547.8, 332), (213, 547.8, 227)]]),
 ]
 CORNELL_CAMERA_MM = (278.0, 273.0, -800.0)
+#: Grid cell of the walls and blocks (m): the light lands on their vertices, so they are fine
+#: enough to show the blocks' soft shadows in the mesh preview.
+CORNELL_CELL = 0.015
 _DEPTH_CENTRE_MM = 279.6
 
 
@@ -82,6 +86,10 @@ def _sub(a, b):
 
 def _cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _length(a):
+    return math.sqrt(sum(x * x for x in a))
 
 
 def _dot(a, b):
@@ -112,28 +120,59 @@ def diffuse(name, color):
     return mat
 
 
-def emission(name, color, strength):
+def emission(name, color, strength, one_sided=False):
+    """An Emission material; ``one_sided``: the usual one-sided light, Geometry ▸ Backfacing
+    mixing it with black (an Emission shader alone emits from both faces in Cycles)."""
     mat = bpy.data.materials.new(name)
     if mat.node_tree is None:
         mat.use_nodes = True
     nodes = mat.node_tree.nodes
     nodes.clear()
     out = nodes.new("ShaderNodeOutputMaterial")
-    out.location = (200, 0)
+    out.location = (400, 0)
     em = nodes.new("ShaderNodeEmission")
     em.inputs["Color"].default_value = (*color, 1.0)
     em.inputs["Strength"].default_value = strength
-    mat.node_tree.links.new(em.outputs["Emission"], out.inputs["Surface"])
+    if one_sided:
+        black = nodes.new("ShaderNodeEmission")
+        black.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+        facing = nodes.new("ShaderNodeNewGeometry")
+        mix = nodes.new("ShaderNodeMixShader")
+        mix.location = (200, 0)
+        mat.node_tree.links.new(facing.outputs["Backfacing"], mix.inputs["Fac"])
+        mat.node_tree.links.new(em.outputs["Emission"], mix.inputs[1])
+        mat.node_tree.links.new(black.outputs["Emission"], mix.inputs[2])
+        mat.node_tree.links.new(mix.outputs["Shader"], out.inputs["Surface"])
+    else:
+        mat.node_tree.links.new(em.outputs["Emission"], out.inputs["Surface"])
     peak = max(color)
     mat.diffuse_color = (*(c / peak for c in color), 1.0)
     return mat
 
 
-def quads_object(name, quads, material, scene):
+def quads_object(name, quads, material, scene, cell=None):
+    """A mesh object of planar quads, each split into a grid of cells about ``cell`` metres
+    wide (None: one face each). The illumination lands on the mesh's own corners, so a wall
+    needs vertices as fine as the shadows it should show."""
     verts, faces = [], []
     for quad in quads:
-        faces.append(tuple(range(len(verts), len(verts) + len(quad))))
-        verts.extend(quad)
+        if cell is None:
+            faces.append(tuple(range(len(verts), len(verts) + len(quad))))
+            verts.extend(quad)
+            continue
+        a, b, c, d = quad
+        n = max(1, math.ceil(max(_length(_sub(b, a)), _length(_sub(d, a))) / cell))
+        m = max(1, math.ceil(max(_length(_sub(c, b)), _length(_sub(d, a))) / cell))
+        base = len(verts)
+        for j in range(m + 1):
+            for i in range(n + 1):
+                u, v = i / n, j / m
+                verts.append(tuple((1 - u) * (1 - v) * a[k] + u * (1 - v) * b[k] + u * v * c[k]
+                                   + (1 - u) * v * d[k] for k in range(3)))
+        for j in range(m):
+            for i in range(n):
+                q = base + j * (n + 1) + i
+                faces.append((q, q + 1, q + n + 2, q + n + 1))
     mesh = bpy.data.meshes.new(name)
     mesh.from_pydata(verts, [], faces)
     mesh.validate()
@@ -197,7 +236,8 @@ def make_cornell_box(path):
     scene = reset()
     scene.name = "Cornell Box"
     mats = {"White": diffuse("White", WHITE), "Red": diffuse("Red", RED),
-            "Green": diffuse("Green", GREEN), "Light": emission("Light", LIGHT, 1.0)}
+            "Green": diffuse("Green", GREEN),
+            "Light": emission("Light", LIGHT, 1.0, one_sided=True)}
     centre = (0.0, 0.0, 0.2744)
     objects = {}
     for name, mat, quads in CORNELL:
@@ -211,7 +251,8 @@ def make_cornell_box(path):
         else:
             towards = (lambda c: _sub(centre, c))
         quads = [_oriented(q, towards) for q in quads]
-        objects[name] = quads_object(name, quads, mats[mat], scene)
+        objects[name] = quads_object(name, quads, mats[mat], scene,
+                                     cell=None if name == "Light" else CORNELL_CELL)
 
     cam_data = bpy.data.cameras.new("Camera")
     cam_data.lens = 35.0
