@@ -207,12 +207,7 @@ def transfer_to_mesh(obj, surfel_positions: np.ndarray, surfel_normals: np.ndarr
     nrm = nrm @ inv
     nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
     out = interpolate(surfel_positions, surfel_normals, np.asarray(values, dtype=np.float64), pos, nrm)
-    attr = mesh.attributes.get(ATTRIBUTE)
-    if attr is not None:
-        mesh.attributes.remove(attr)
-    attr = mesh.color_attributes.new(ATTRIBUTE, "FLOAT_COLOR", domain)
-    attr.data.foreach_set("color", _rgba(out))
-    mesh.update()
+    _replace_colors(mesh, domain, out)
 
 
 def write_mesh_values(obj, receivers, corner_values: np.ndarray, domain: str = "CORNER") -> None:
@@ -223,28 +218,30 @@ def write_mesh_values(obj, receivers, corner_values: np.ndarray, domain: str = "
     values = np.asarray(corner_values, dtype=np.float64)
     if domain == "POINT":
         values = receivers.per_vertex(values)
-    attr = mesh.attributes.get(ATTRIBUTE)
-    if attr is not None:
-        mesh.attributes.remove(attr)
-    attr = mesh.color_attributes.new(ATTRIBUTE, "FLOAT_COLOR", domain)
-    attr.data.foreach_set("color", _rgba(values))
-    mesh.update()
+    _replace_colors(mesh, domain, values)
 
 
 def write_point_values(obj, values: np.ndarray) -> None:
     """Write radiance per point (n, 3) of a point-cloud object, or of a mesh that has vertices
     only, as its FLOAT_COLOR point attribute ``illumination``."""
-    data = obj.data
-    values = np.asarray(values, dtype=np.float64)
+    _replace_colors(obj.data, "POINT", np.asarray(values, dtype=np.float64))
+
+
+def _replace_colors(data, domain: str, values: np.ndarray) -> None:
+    """(Re)create the FLOAT_COLOR attribute ``illumination`` of a mesh or point cloud in
+    ``domain`` with ``values`` (n, 3)."""
     attr = data.attributes.get(ATTRIBUTE)
     if attr is not None:
         data.attributes.remove(attr)
-    if hasattr(data, "color_attributes") and not is_pointcloud(data):
-        attr = data.color_attributes.new(ATTRIBUTE, "FLOAT_COLOR", "POINT")
+    if is_pointcloud(data):
+        attr = data.attributes.new(ATTRIBUTE, "FLOAT_COLOR", domain)
     else:
-        attr = data.attributes.new(ATTRIBUTE, "FLOAT_COLOR", "POINT")
+        attr = data.color_attributes.new(ATTRIBUTE, "FLOAT_COLOR", domain)
     attr.data.foreach_set("color", _rgba(values))
-    data.update_tag()
+    if is_pointcloud(data):
+        data.update_tag()
+    else:
+        data.update()
 
 
 def point_count(obj) -> int:
