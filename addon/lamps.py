@@ -10,7 +10,8 @@ Cycles conventions, measured with bakes on this machine (bpy 5.0.1; see tests/bl
   ``H = P c cos θ / (4π² (d² + r²))`` (r = 0 is a true point; r > 0 is Cycles' sphere light,
   whose on-axis value is exactly this). Spots are not renormalised by their cone.
 * Spot cone: with t = cos(angle from the axis), t0 = cos(spot_size/2) and
-  s = (1 − t0)·spot_blend, the factor is 0 for t < t0, else smoothstep(0, 1, (t − t0)/s) (1 if s = 0).
+  s = (1 − t0)·spot_blend, the factor is 0 for t < t0, else smoothstep(0, 1, (t − t0)/s) (1 if s = 0),
+  averaged over the lamp's silhouette disc when it has a radius (``_spot_attenuation``).
 * Sun, strength S [W/m²]: ``H = S c cos θ / π`` (the sun's angular size is ignored).
 * Area, power P over world area A: radiance ``L = P c / (π A)``, one-sided (emits along the
   lamp's −Z), ``H = L · F`` with F the exact point-to-polygon form factor (Lambert's contour
@@ -187,14 +188,42 @@ def _point_like(lamp: Lamp, p: np.ndarray, n: np.ndarray) -> np.ndarray:
     cos_r = np.maximum(np.einsum("ij,ij->i", n, d), 0.0) / np.sqrt(np.maximum(dist2, 1e-300))
     h = cos_r / (4 * np.pi ** 2 * (dist2 + lamp.radius ** 2))
     if lamp.kind == "SPOT":
-        t = -np.einsum("ij,j->i", d, lamp.direction) / np.sqrt(np.maximum(dist2, 1e-300))
-        t0 = np.cos(lamp.spot_size / 2)
-        smooth = (1 - t0) * lamp.spot_blend
-        att = (t > t0).astype(np.float64)
-        if smooth > 0:
-            att *= _smoothstep((t - t0) / smooth)
-        h *= att
+        h *= _spot_attenuation(lamp, p, d, dist2)
     return h
+
+
+#: Points on a sized spot lamp over which its cone's blend is averaged.
+SPOT_CONE_SAMPLES = 32
+
+
+def _spot_attenuation(lamp: Lamp, p: np.ndarray, d: np.ndarray, dist2: np.ndarray) -> np.ndarray:
+    """The spot cone's factor (N,) at receivers p, d = lamp − p. A lamp with a radius is
+    seen over its silhouette disc and Cycles applies the cone to each point of it, which
+    softens the cone's edge: the factor is averaged over SPOT_CONE_SAMPLES stratified points
+    of that disc (on the open scene of bench/reference the floor at a 60° spot's edge went
+    from 10–15% to within a few per cent of Cycles)."""
+    t0 = np.cos(lamp.spot_size / 2)
+    smooth = (1 - t0) * lamp.spot_blend
+
+    def factor(t):
+        att = (t > t0).astype(np.float64)
+        return att * _smoothstep((t - t0) / smooth) if smooth > 0 else att
+
+    dist = np.sqrt(np.maximum(dist2, 1e-300))
+    if lamp.radius <= 0:
+        return factor(-(d @ lamp.direction) / dist)
+    k = SPOT_CONE_SAMPLES
+    disc = _disc(np.column_stack([(np.arange(k) + 0.5) / k,
+                                  np.mod(np.arange(k) * 0.6180339887498949, 1.0)]))
+    out = np.empty(len(p))
+    for start in range(0, len(p), _CHUNK):
+        r = slice(start, start + _CHUNK)
+        u, v = _basis(d[r] / dist[r, None])
+        q = lamp.position + lamp.radius * (disc[None, :, :1] * u[:, None] + disc[None, :, 1:] * v[:, None])
+        to_p = q - p[r, None, :]
+        t = -np.einsum("mkc,c->mk", to_p, lamp.direction) / np.linalg.norm(to_p, axis=2)
+        out[r] = factor(t).mean(axis=1)
+    return out
 
 
 def _lambert(pts: np.ndarray, valid_next: np.ndarray | None, n: np.ndarray) -> np.ndarray:

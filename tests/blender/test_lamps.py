@@ -158,3 +158,24 @@ def test_all_lamp_types_against_cycles_bake():
     assert sorted(lp.kind for lp in lamp_list) == ["AREA", "POINT", "SPOT", "SUN"]
     ours = lamps.incident_radiance(lamp_list, co, nrm)
     assert np.allclose(ours, baked, rtol=0.02, atol=1e-3), (ours, baked)
+
+
+def test_a_sized_spot_softens_its_cone_edge():
+    """A spot lamp with a radius is seen over its disc and the cone applies to every point of
+    it (as in Cycles): just outside the cone some of the disc still shines, and the factor
+    tends to the point lamp's as the radius shrinks."""
+    import numpy as np
+    from addon import lamps
+    spot = lamps.Lamp("S", "SPOT", np.ones(3), np.array([0.0, 0.0, 5.0]), np.array([0.0, 0.0, -1.0]),
+                      radius=0.3, spot_size=np.radians(60.0), spot_blend=0.1)
+    edge = 5.0 * np.tan(np.radians(30.0))
+    p = np.array([[edge * 1.02, 0.0, 0.0], [0.0, 0.0, 0.0]])       # just outside; on the axis
+    d = spot.position - p
+    soft = lamps._spot_attenuation(spot, p, d, np.einsum("ij,ij->i", d, d))
+    assert 0.0 < soft[0] < 0.5 and soft[1] == 1.0
+    sharp = lamps._spot_attenuation(lamps.Lamp(**{**spot.__dict__, "radius": 0.0}), p, d,
+                                    np.einsum("ij,ij->i", d, d))
+    assert sharp[0] == 0.0
+    tiny = lamps._spot_attenuation(lamps.Lamp(**{**spot.__dict__, "radius": 1e-6}), p, d,
+                                   np.einsum("ij,ij->i", d, d))
+    np.testing.assert_allclose(tiny, sharp, atol=1e-9)
