@@ -6,7 +6,8 @@
 
 Measured 2026-12-04 (2 cores, FMM order 4, θ 0.5, tol 1e-4; one run each): 100k surfels 2.2 s
 (triangles) against 2.7 s (discs); 1M surfels 41 s (build 7.2 s, 1.06 GB) against 81 s
-(build 37 s, 1.22 GB); six iterations each, mean radiosity equal to 0.1%.
+(build 37 s, 1.22 GB; those two each in a process of its own: ``peak_gb`` is the process's peak
+so far); six iterations each, mean radiosity equal to 0.1%.
 """
 
 from __future__ import annotations
