@@ -200,8 +200,8 @@ def _spot_attenuation(lamp: Lamp, p: np.ndarray, d: np.ndarray, dist2: np.ndarra
     """The spot cone's factor (N,) at receivers p, d = lamp − p. A lamp with a radius is
     seen over its silhouette disc and Cycles applies the cone to each point of it, which
     softens the cone's edge: the factor is averaged over SPOT_CONE_SAMPLES stratified points
-    of that disc (on the open scene of bench/reference the floor at a 60° spot's edge went
-    from 10–15% to within a few per cent of Cycles)."""
+    of that disc (the open scene of bench/reference, against its 2048-sample Cycles bake:
+    1.47% to 1.24% at default settings, its error had sat on the spot's edge)."""
     t0 = np.cos(lamp.spot_size / 2)
     smooth = (1 - t0) * lamp.spot_blend
 

@@ -20,10 +20,8 @@ from .neighbours import knn
 
 SURFEL_OBJECT = "Illumap Surfels"
 ATTRIBUTE = "illumination"
+#: Nearest surfels a lightmap texel averages (``export_lightmap``).
 TRANSFER_K = 8
-# A surfel contributes to a vertex/corner only if their normals are within ~60°: keeps light
-# from crossing hard edges (corners of a cube have one normal per face in CORNER domain).
-TRANSFER_MIN_COS = 0.5
 
 
 def _rgba(rgb: np.ndarray) -> np.ndarray:
@@ -120,94 +118,6 @@ def _remove_data(datablock) -> None:
         if datablock.name in coll and coll[datablock.name] == datablock:
             coll.remove(datablock)
             return
-
-
-def interpolate(surfel_positions: np.ndarray, surfel_normals: np.ndarray, values: np.ndarray,
-                query_positions: np.ndarray, query_normals: np.ndarray,
-                k: int = TRANSFER_K, min_cos: float = TRANSFER_MIN_COS,
-                linear: bool = False) -> np.ndarray:
-    """Normal-aware interpolation of surfel ``values`` (M, C) at query points.
-
-    Among the k nearest surfels only those whose normal is within acos(min_cos) of the query
-    normal count, so light does not bleed across hard edges (where none does, the nearest
-    surfel is used). ``linear``: a weighted least-squares plane fit in the query's tangent plane
-    (moving least squares, basis 1, u, v), which follows gradients and extrapolates properly
-    at borders and edges where all surfels lie on one side; it falls back to inverse-distance
-    weights where the fit is ill-conditioned, and is clamped to the neighbours' range widened
-    by half its span (and to ≥ 0). Otherwise (the default) inverse-distance weights
-    1/(d² + ε²). On the Cornell-box bake comparison (tests/blender/test_bake_compare.py) the
-    plane fit gained at interior vertices (3.2 % vs 3.4 % RMS) but lost at box edges (10.8 %
-    vs 9.5 %), because near-edge surfel values themselves dip there; hence IDW by default.
-    """
-    idx, dist = knn(surfel_positions, query_positions, k)
-    agree = np.einsum("mkc,mc->mk", surfel_normals[idx], query_normals) >= min_cos
-    eps2 = (0.1 * np.median(dist[:, -1])) ** 2 + 1e-30
-    w = agree / (dist ** 2 + eps2)
-    none = w.sum(axis=1) == 0
-    w[none, 0] = 1.0
-    w /= w.sum(axis=1, keepdims=True)
-    nb = values[idx]                                          # (M, k, C)
-    idw = np.einsum("mk,mkc->mc", w, nb)
-    if not linear or k < 4:
-        return idw
-    # Tangent frame of each query normal.
-    n = query_normals
-    helper = np.where(np.abs(n[:, :1]) < 0.9, np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]]))
-    t1 = np.cross(n, helper)
-    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
-    t2 = np.cross(n, t1)
-    rel = surfel_positions[idx] - query_positions[:, None, :]
-    h = np.maximum(dist[:, -1:], 1e-12)
-    basis = np.stack([np.ones_like(dist), np.einsum("mkc,mc->mk", rel, t1) / h,
-                      np.einsum("mkc,mc->mk", rel, t2) / h], axis=2)          # (M, k, 3)
-    wm = agree * np.clip(1 - (dist / (1.5 * h)) ** 2, 0, None) ** 2            # smooth, local
-    mat = np.einsum("mk,mki,mkj->mij", wm, basis, basis)
-    rhs = np.einsum("mk,mki,mkc->mic", wm, basis, nb)
-    det = np.linalg.det(mat)
-    scale = np.maximum(wm.sum(axis=1), 1e-300) ** 3
-    ok = (det > 1e-4 * scale) & (agree.sum(axis=1) >= 4)
-    out = idw.copy()
-    if ok.any():
-        coef = np.linalg.solve(mat[ok], rhs[ok])
-        fit = coef[:, 0, :]
-        big = np.where(agree[ok][..., None], nb[ok], -np.inf).max(axis=1)
-        small = np.where(agree[ok][..., None], nb[ok], np.inf).min(axis=1)
-        span = big - small
-        out[ok] = np.clip(fit, np.maximum(small - 0.5 * span, 0.0), big + 0.5 * span)
-    return out
-
-
-def transfer_to_mesh(obj, surfel_positions: np.ndarray, surfel_normals: np.ndarray,
-                     values: np.ndarray, domain: str = "CORNER") -> None:
-    """Write ``values`` from this object's surfels onto ``obj.data`` as FLOAT_COLOR ``illumination``.
-
-    The original (unevaluated) mesh receives the attribute at its own vertices/corners placed by
-    ``obj.matrix_world``; generative modifiers (e.g. Subdivision) then interpolate it.
-    ``domain``: 'POINT' (vertex normals) or 'CORNER' (split normals, seam-free at hard edges).
-    """
-    mesh = obj.data
-    m = np.array(obj.matrix_world, dtype=np.float64)
-    lin, trans = m[:3, :3], m[:3, 3]
-    nv = len(mesh.vertices)
-    co = np.empty(nv * 3)
-    mesh.vertices.foreach_get("co", co)
-    world = co.reshape(nv, 3) @ lin.T + trans
-    inv = np.linalg.inv(lin)
-    if domain == "POINT":
-        nrm = np.empty(nv * 3)
-        mesh.vertices.foreach_get("normal", nrm)
-        pos, nrm = world, nrm.reshape(nv, 3)
-    else:
-        nl = len(mesh.loops)
-        vidx = np.empty(nl, dtype=np.int32)
-        mesh.loops.foreach_get("vertex_index", vidx)
-        nrm = np.empty(nl * 3)
-        mesh.corner_normals.foreach_get("vector", nrm)
-        pos, nrm = world[vidx], nrm.reshape(nl, 3)
-    nrm = nrm @ inv
-    nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
-    out = interpolate(surfel_positions, surfel_normals, np.asarray(values, dtype=np.float64), pos, nrm)
-    _replace_colors(mesh, domain, out)
 
 
 def write_mesh_values(obj, receivers, corner_values: np.ndarray, domain: str = "CORNER") -> None:

@@ -313,9 +313,9 @@ def adaptive_error_ratio_applies(settings: Settings) -> bool:
 
 #: With the light evaluated at the meshes (``receive``), the surfels only carry the indirect
 #: light, a fraction of what a receiver sees, and the final gather averages their error over
-#: its rays: the surfels are solved to this multiple of the target error (measured against
-#: Cycles on bench/reference: a surfel target of 0.1 gave 2.0%, of 0.03 1.3% on the Cornell
-#: box), at most MAX_SURFEL_TARGET.
+#: its rays: the surfels are solved to this multiple of the target error, at most
+#: MAX_SURFEL_TARGET (bench/reference, the Cornell box against its 2048-sample Cycles bake:
+#: surfels held to 0.1 gave 2.0% at the vertices, held to 0.03 gave 1.3%).
 RECEIVER_TARGET_RATIO = 3.0
 MAX_SURFEL_TARGET = 0.3
 
@@ -326,7 +326,7 @@ def surfel_target(settings: Settings) -> float | None:
     t = settings.target_error
     if t is None or not settings.transfer:
         return t
-    return min(MAX_SURFEL_TARGET, max(t, RECEIVER_TARGET_RATIO * t))
+    return min(MAX_SURFEL_TARGET, RECEIVER_TARGET_RATIO * t)
 
 
 def receiver_rays(settings: Settings) -> tuple[int, int]:
@@ -386,9 +386,10 @@ def target_density(settings: Settings, mesh_area: float, point_count: int, point
 def prepare(depsgraph, objects, settings: Settings) -> Job:
     """Read the scene on the main thread and build the job (``_prepare``), with any mesh
     preview of the objects switched off while their materials are read."""
+    import bpy
+
     from . import mesh_preview
     objects = list(objects)
-    import bpy
     with mesh_preview.suspended(objects, bpy.context.view_layer):
         return _prepare(depsgraph, objects, settings)
 
@@ -401,7 +402,6 @@ def _prepare(depsgraph, objects, settings: Settings) -> Job:
     uniform); ``next_pass`` builds pass 2 from its result.
     """
     t0 = time.perf_counter()
-    objects = list(objects)
     meshes, points, warnings = _split_objects(depsgraph, objects)
     # Instances (collection instances, Geometry Nodes instances…) of the given objects: one
     # Python loop over the scene's instances, not over any geometry.
@@ -528,7 +528,7 @@ def _assemble(settings: Settings, samples: list, point_parts: list, point_source
     # The back faces of open surfaces, as surfels of their own (normals reversed), where they
     # can exchange light with anything.
     scratch: list[str] = []   # the front faces' evaluation already warned about the materials
-    for s in samples:
+    for index, s in enumerate(samples):
         if not s.mesh.two_sided:
             continue
         keep = _back_faces_in_view(occluders, s.positions, -s.normals) if ambient is None \
@@ -544,7 +544,7 @@ def _assemble(settings: Settings, samples: list, point_parts: list, point_source
         sources.append(Source(s.mesh.name, "BACK", start, start + int(keep.sum()),
                               s.mesh.total_area))
         start += int(keep.sum())
-        in_lamp.append(in_lamp[samples.index(s)][keep])
+        in_lamp.append(in_lamp[index][keep])
     # Points of unknown orientation (normals estimated) are two-sided: a surfel each way.
     for part, (name, area, two_sided) in zip(point_parts, point_sources):
         if two_sided:
@@ -569,6 +569,12 @@ def _assemble(settings: Settings, samples: list, point_parts: list, point_source
                lamps=list(lamp_list), ambient=ambient)
 
 
+def triangles_occlude(job: Job) -> bool:
+    """Whether the meshes' own triangles are this job's occluders (lamp shadows, exact
+    visibility, receivers): every source is a mesh; point clouds occlude only as surfels."""
+    return job.triangles is not None and not job.has_points
+
+
 def mesh_occluders(job: Job, progress: Progress | None = None):
     """The sampled triangles as a ray-casting scene (``illumap.receivers.MeshOccluders``),
     built once per job; None without mesh triangles. No bpy."""
@@ -584,7 +590,7 @@ def shadow_query(job: Job, normals: np.ndarray, progress: Progress | None = None
     receivers), ``visible(origins, targets, rows, progress=None)``: against the meshes' own
     triangles when every source is a mesh (``MeshOccluders.segment_query``), else against the
     surfels as occluders (``make_segment_query``). None when the core has neither."""
-    if job.triangles is not None and not job.has_points:
+    if triangles_occlude(job):
         return mesh_occluders(job, progress).segment_query(normals)
     return make_segment_query(job.positions, job.normals, job.areas, progress,
                               shape=occluder_shape(job.settings))
@@ -633,7 +639,7 @@ def light(job: Job, progress: Progress | None = None) -> Job:
     if shadows is not None:
         job.timings["shadow rays"] = shadows.seconds
         job.stats["shadow_rays"] = int(shadows.rays)
-        job.stats["shadow_occluders"] = ("triangles" if job.occluders is not None
+        job.stats["shadow_occluders"] = ("triangles" if triangles_occlude(job)
                                          else f"{occluder_shape(s)}s")
     job.direct = np.ascontiguousarray(job.albedo * incident)
     job.timings["direct light"] = time.perf_counter() - t0
@@ -708,7 +714,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
         incident = direct + gathered.radiance
         rays = gathered.rays + (shadows.rays if shadows is not None else 0)
         for rec, lo, (_, index) in zip(job.receivers, offsets[:-1], merged):
-            rows = lo + index[rec.corner_point]
+            rows = lo + index
             values = rec.emission + rec.albedo * incident[rows]
             result.receiver_values[rec.name] = values
             # What the estimate needs: the gather's noise and the indirect share, by luminance.
@@ -728,7 +734,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     gather_noise = float(np.sqrt(noise2 / light2)) if light2 > 0 else 0.0
     share = indirect / total if total > 0 else 0.0
     result.stats["receivers"] = dict(points=int(len(points)),
-                                     corners=int(sum(len(r.corner_point) for r in job.receivers)),
+                                     corners=int(sum(len(r.points) for r in job.receivers)),
                                      rays=int(rays), gather_rays=int(gather_rays),
                                      shadow_samples=int(shadow_samples),
                                      gather_noise=gather_noise, indirect_share=float(share))
@@ -844,7 +850,7 @@ def run(job: Job, progress: Progress | None = None) -> Result:
         # Should the error model choose exact visibility, its occluders are the shadows' too.
         kwargs = dict(target_error=surfel_target(s), progress=progress, near_field=s.near_field,
                       coverage=SURFEL_COVERAGE)
-        if job.triangles is not None and not job.has_points:
+        if triangles_occlude(job):
             kwargs["occluder_triangles"] = job.triangles   # as without a target (below)
         chosen = job.accuracy or {}
         if job.refine is not None and chosen:
@@ -865,7 +871,7 @@ def run(job: Job, progress: Progress | None = None) -> Result:
         if s.visibility != "none":
             kwargs["visibility"] = s.visibility
         if s.visibility == "exact":
-            if job.triangles is not None and not job.has_points:
+            if triangles_occlude(job):
                 # Meshes only: surfels see each other past the true triangles (what lamp
                 # shadows and receivers see too), not past discs that overhang outlines.
                 kwargs["occluder_triangles"] = job.triangles

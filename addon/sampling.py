@@ -213,14 +213,13 @@ RECEIVER_INSET = 1e-3
 @dataclass
 class Receivers:
     """The corners of one object's own mesh, where its ``illumination`` is evaluated: each
-    corner lights at ``points[corner_point]`` (a hair inside its face) with its normal;
-    albedo and emission are per corner."""
+    corner is lit at its point (a hair inside its face) with its normal, and has its own
+    albedo and emission."""
 
     name: str
     corner_vertex: np.ndarray      # (L,) int64 vertex of each corner
-    corner_point: np.ndarray       # (L,) int64 row of ``points`` lighting each corner
-    points: np.ndarray             # (R, 3) m, world space
-    normals: np.ndarray            # (R, 3) unit, world space
+    points: np.ndarray             # (L, 3) m, world space
+    normals: np.ndarray            # (L, 3) unit, world space
     albedo: np.ndarray             # (L, 3) front-face albedo per corner
     emission: np.ndarray           # (L, 3) front-face emission per corner (radiance)
     vertex_count: int
@@ -275,7 +274,6 @@ def read_receivers(obj, warnings: list[str]) -> Receivers | None:
     # which a wall standing on that vertex separates (a floor vertex under a box's side is
     # half in its shadow, as a bake finds averaging the corners).
     return Receivers(name=obj.name, corner_vertex=corner_vertex,
-                     corner_point=np.arange(nl, dtype=np.int64),
                      points=np.ascontiguousarray(positions),
                      normals=np.ascontiguousarray(normals), albedo=albedo,
                      emission=emission, vertex_count=nv)

@@ -147,10 +147,6 @@ struct PySurfelField {
     std::unique_ptr<SurfelField> field;
 };
 
-nb::ndarray<nb::numpy, double> numpy_rows(std::size_t rows, std::size_t cols, double** data) {
-    return new_array(rows, cols, data);
-}
-
 // Two (M, 3) float64 arrays of one length, every value finite.
 std::size_t paired_rays(nb::handle a, const char* an, nb::handle b, const char* bn,
                         const double*& A, const double*& B, nb::object& ka, nb::object& kb) {
@@ -515,7 +511,7 @@ NB_MODULE(_core, m) {
                  const MeshScene* sc = nullptr;
                  if (scene.is_valid() && !scene.is_none()) sc = nb::cast<PyMeshScene&>(scene).scene.get();
                  double* out;
-                 auto arr = numpy_rows(m, 3, &out);
+                 auto arr = new_array(m, 3, &out);
                  {
                      nb::gil_scoped_release nogil;
                      KdTree::Best best(std::size_t(self.field->k()));

@@ -1,7 +1,7 @@
 // mesh_scene.cpp — Embree 3 triangle scene for receivers (see mesh_scene.hpp).
 #include "mesh_scene.hpp"
 
-#include <embree3/rtcore.h>
+#include "embree_util.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -23,18 +23,6 @@ struct MeshScene::Impl {
 namespace {
 
 constexpr std::size_t kBatch = 64;  // rays per rtcOccluded1M / rtcIntersect1M call
-
-void check_embree(RTCDevice dev, const char* what) {
-    const RTCError e = rtcGetDeviceError(dev);
-    if (e == RTC_ERROR_NONE) return;
-    if (e == RTC_ERROR_CANCELLED) throw Cancelled();
-    throw std::runtime_error(std::string("embree: ") + what + " failed (error " +
-                             std::to_string(int(e)) + ")");
-}
-
-bool build_progress(void* ptr, double) {
-    return !static_cast<std::atomic<bool>*>(ptr)->load(std::memory_order_relaxed);
-}
 
 }  // namespace
 
@@ -71,14 +59,14 @@ MeshScene::MeshScene(Context& ctx, const double* corners, std::size_t n_tri) : n
     try {
         impl_->scene = rtcNewScene(impl_->device);
         rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);
-        rtcSetSceneProgressMonitorFunction(impl_->scene, build_progress, &ctx.cancel);
+        rtcSetSceneProgressMonitorFunction(impl_->scene, embree_build_progress, &ctx.cancel);
         if (n_tri > 0) {
             RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
             float* v = static_cast<float*>(rtcSetNewGeometryBuffer(
                 g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 3 * n_tri));
             unsigned* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
                 g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), n_tri));
-            check_embree(impl_->device, "buffers");
+            throw_embree(impl_->device, "buffers");
             ctx.set_phase("receivers: triangles", 0.0, 0.3);
             parallel_for(ctx, n_tri, 1 << 15, [&](std::size_t b, std::size_t e) {
                 for (std::size_t t = b; t < e; ++t) {
@@ -104,7 +92,7 @@ MeshScene::MeshScene(Context& ctx, const double* corners, std::size_t n_tri) : n
         else
             run_watched(ctx, [&] { rtcCommitScene(impl_->scene); });
         if (ctx.cancel.load()) throw Cancelled();
-        check_embree(impl_->device, "BVH build");
+        throw_embree(impl_->device, "BVH build");
     } catch (...) {
         delete impl_;
         impl_ = nullptr;
@@ -117,20 +105,7 @@ MeshScene::MeshScene(Context& ctx, const double* corners, std::size_t n_tri) : n
 MeshScene::~MeshScene() { delete impl_; }
 
 bool MeshScene::clip(const double* p, const double* u, double len, double& s0, double& s1) const {
-    double a = 0, e = len;
-    for (int d = 0; d < 3; ++d) {
-        if (u[d] != 0.0) {
-            double ta = (lo_[d] - p[d]) / u[d], tb = (hi_[d] - p[d]) / u[d];
-            if (ta > tb) std::swap(ta, tb);
-            a = std::max(a, ta);
-            e = std::min(e, tb);
-        } else if (p[d] < lo_[d] || p[d] > hi_[d]) {
-            return false;
-        }
-    }
-    s0 = a;
-    s1 = e;
-    return s1 > s0;
+    return clip_to_box(lo_, hi_, p, u, len, s0, s1);
 }
 
 namespace {

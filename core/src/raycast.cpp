@@ -2,7 +2,7 @@
 // raycast.hpp).
 #include "raycast.hpp"
 
-#include <embree3/rtcore.h>
+#include "embree_util.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -25,19 +25,6 @@ namespace {
 
 // Occluders from which the BVH build is watched from a second thread (run_watched).
 constexpr std::size_t kWatchedBuild = std::size_t(1) << 14;
-
-bool build_progress(void* ptr, double) {  // called by Embree's build threads
-    auto* cancel = static_cast<std::atomic<bool>*>(ptr);
-    return !cancel->load(std::memory_order_relaxed);
-}
-
-void throw_embree(RTCDevice dev, const char* what) {
-    RTCError e = rtcGetDeviceError(dev);
-    if (e == RTC_ERROR_NONE) return;
-    if (e == RTC_ERROR_CANCELLED) throw Cancelled();
-    throw std::runtime_error(std::string("embree: ") + what + " failed (error " +
-                             std::to_string(int(e)) + ")");
-}
 
 // Incoherent occlusion rays cast 64 at a time (rtcOccluded1M); each ray writes 0 (blocked) or
 // 1 (visible) into its own output slot. Slots without a ray are the caller's to fill.
@@ -142,7 +129,7 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
         impl_->scene = rtcNewScene(impl_->device);
         rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);
         impl_->cancel = &ctx.cancel;
-        rtcSetSceneProgressMonitorFunction(impl_->scene, build_progress, &ctx.cancel);
+        rtcSetSceneProgressMonitorFunction(impl_->scene, embree_build_progress, &ctx.cancel);
         RTCGeometry g = nullptr;  // the occluders: quads as triangle pairs, or oriented discs
         if (n_tri_ > 0) {
             // The scene's own triangles; the surfels' radii (coverage 1) only size the trims.
@@ -332,19 +319,10 @@ bool OccluderScene::make_ray(const double* p, const double* q, double t0, double
     const double len = std::sqrt(dx * dx + dy * dy + dz * dz);
     if (!(len > t0 + t1) || !(len > 0) || !std::isfinite(len)) return false;
     const double u[3] = {dx / len, dy / len, dz / len};
-    // [a, e]: the part of [0, len] inside the box (slabs); a = 0, e = len when both ends are
-    // inside, which is always the case for surfel pairs.
-    double a = 0, e = len;
-    for (int d = 0; d < 3; ++d) {
-        if (u[d] != 0.0) {
-            double ta = (lo_[d] - p[d]) / u[d], tb = (hi_[d] - p[d]) / u[d];
-            if (ta > tb) std::swap(ta, tb);
-            a = std::max(a, ta);
-            e = std::min(e, tb);
-        } else if (p[d] < lo_[d] || p[d] > hi_[d]) {
-            return false;
-        }
-    }
+    // [a, e]: the part of [0, len] inside the box; a = 0, e = len when both ends are inside,
+    // which is always the case for surfel pairs.
+    double a, e;
+    if (!clip_to_box(lo_, hi_, p, u, len, a, e)) return false;
     const double s0 = std::max(t0, a), s1 = std::min(len - t1, e);
     if (!(s1 > s0)) return false;
     fill_ray(p, u, a, e, s0, s1, rtc_ray);
