@@ -691,7 +691,6 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
                   if back.any() else None)
     all_lamps = list(job.lamps) + list(job.emitters)
     gather_rays, shadow_samples = receiver_rays(s)
-    rays = 0
     lum = np.array([0.2126, 0.7152, 0.0722])
     noise2 = light2 = indirect = total = 0.0
     # Every object's receivers in one batch (the gather tabulates the surfels' light once),
