@@ -22,7 +22,7 @@ Options (after ``--``)::
     --no-lamps             ignore Blender lamps
     --no-lamp-shadows      lamp light unshadowed (default: rays against the surfels)
     --shadow-samples N     rays per surfel for lamps with a size (default 16)
-    --world                add the world colour as uniform ambient light
+    --no-world             leave out the world's light (default: included, shadowed)
     --frames A-B[,C...]    frames to compute, one result per frame (default: the current frame)
     --output out.blend     save the result (#### → frame number; added before the extension
                            when several frames are computed and the name has no #)
@@ -92,7 +92,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--occluder-shape", choices=list(pipeline.OCCLUDER_SHAPES), type=str.lower,
                    help="the surfels as occluders for exact visibility and lamp shadows "
                         "(default disc; ignored with --target-error, calibrated on discs)")
-    p.add_argument("--world", action="store_true")
+    p.add_argument("--world", action=argparse.BooleanOptionalAction, default=True,
+                   help="light from the world's Background (default on; --no-world: off)")
     p.add_argument("--frames", help="e.g. 1-3 or 1,5,7-9")
     p.add_argument("--output", help="output .blend (#### = frame)")
     p.add_argument("--render", help="output PNG of the preview (#### = frame)")

@@ -246,9 +246,10 @@ class IllumapSettings(bpy.types.PropertyGroup):
         name="Shadow Samples", default=16, min=1, soft_max=128, update=_field_update,
         description="Rays per surfel for lamps with a size (radius, area, sun angle): more "
                     "give smoother penumbrae; cost grows in proportion")
-    world_ambient: BoolProperty(name="World Ambient",
-                                description="Add the world colour as uniform ambient light",
-                                default=False, update=_field_update)
+    world_ambient: BoolProperty(
+        name="World Light", default=True, update=_field_update,
+        description="Light from the world's Background (a colour, or an environment image's "
+                    "mean), shadowed by the scene as Cycles does; a black world adds nothing")
     gather_rays: IntProperty(
         name="Gather Rays", default=_DEFAULTS["gather_rays"], min=1, soft_max=4096,
         update=_field_update,
