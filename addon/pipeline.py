@@ -151,6 +151,7 @@ class Job:
     triangles: np.ndarray | None = None            # (T, 3, 3) every sampled mesh triangle, m
     two_sided: np.ndarray | None = None            # (T,) bool: its mesh is an open surface
     has_points: bool = False                       # point clouds among the sources
+    clouds: list = field(default_factory=list)     # PointCloud per point source, as read
     splat_point: np.ndarray | None = None          # (T,) point (over all clouds) whose splat
                                                    # each triangle is, -1: a mesh's own
     receivers: list = field(default_factory=list)  # sampling.Receivers, evaluated by ``receive``
@@ -458,6 +459,7 @@ def _prepare(depsgraph, objects, settings: Settings) -> Job:
                             sum(src[1] for src in point_sources), stats)
     density, chosen = target if target is not None else (None, None)
     counts = np.zeros(0, dtype=np.int64)
+    point_area = sum(src[1] for src in point_sources)
     if tri_meshes:
         n_points = sum(len(pp[2]) for pp in point_parts)
         if density is not None and settings.budget and stats["density"]["surfels"] >= settings.budget:
@@ -469,10 +471,21 @@ def _prepare(depsgraph, objects, settings: Settings) -> Job:
         else:
             budget = settings.budget
             if budget is None and settings.density is None:
-                budget = _mesh_share(DEFAULT_BUDGET, float(mesh_areas.sum()),
-                                     sum(src[1] for src in point_sources), len(tri_meshes))
+                budget = DEFAULT_BUDGET
+            if budget is not None:
+                budget = _mesh_share(budget, float(mesh_areas.sum()), point_area, len(tri_meshes))
             counts = sampling.allocate(mesh_areas, density=settings.density, budget=budget)
     check_memory(int(counts.sum()), settings)  # before sampling allocates anything big
+    rng = np.random.default_rng(settings.seed)
+    # Every point is a receiver; the solve needs only as many surfels as the light does.
+    clouds = point_parts
+    wanted = _point_counts(settings, density, clouds, point_sources, float(mesh_areas.sum()))
+    thinned = [_thin_points(part, n, rng) for part, n in zip(clouds, wanted)]
+    point_parts = [part for part, _ in thinned]
+    for (name, _, _), full, part in zip(point_sources, clouds, point_parts):
+        if len(part[0]) < len(full[0]):
+            stats.setdefault("point_surfels", {})[name] = dict(points=len(full[0]),
+                                                               surfels=len(part[0]))
     lamp_list = lamps.read_lamps(depsgraph, warnings) if settings.lamps else []
     world = lamps.world_light(depsgraph.scene, warnings) if settings.world_ambient else None
     refine = None
@@ -487,9 +500,8 @@ def _prepare(depsgraph, objects, settings: Settings) -> Job:
         refine = _Scene(tri_meshes, counts, point_parts, point_sources, lamp_list, world)
         first = np.maximum(np.rint(counts * fraction).astype(np.int64), 1)
     lights = emitters.mesh_lights(tri_meshes, warnings)
-    rng = np.random.default_rng(settings.seed)
     samples = [sampling.sample_mesh(tm, int(n), rng) for tm, n in zip(tri_meshes, first)]
-    triangles, two_sided, splat_point = _surface_triangles(tri_meshes, point_parts, point_sources)
+    triangles, two_sided, splat_point = _surface_triangles(tri_meshes, clouds, point_sources)
     occluders = None
     if triangles is not None and any(tm.two_sided for tm in tri_meshes):
         from illumap.receivers import MeshOccluders
@@ -504,6 +516,8 @@ def _prepare(depsgraph, objects, settings: Settings) -> Job:
     job.splat_point = splat_point
     job.occluders = occluders
     job.has_points = bool(point_parts)
+    job.clouds = [PointCloud(name, full[0], full[1], full[3], full[4], owner)
+                  for (name, _, _), full, (_, owner) in zip(point_sources, clouds, thinned)]
     if settings.transfer:
         scratch: list[str] = []   # material warnings were given for the surfels already
         job.receivers = [r for r in (sampling.read_receivers(obj, scratch)
@@ -515,6 +529,67 @@ def _prepare(depsgraph, objects, settings: Settings) -> Job:
 BACK_DISC_LIFT = 0.05
 #: Rays that look for anything in view of a back face (``_back_faces_in_view``).
 BACK_FACE_PROBE_RAYS = 16
+
+
+@dataclass
+class PointCloud:
+    """A point cloud as read, every point a receiver (numpy only): positions and normals
+    (P, 3), albedo and emission (P, 3), and the surfel (row in its own source) that stands
+    for each point in the solve."""
+
+    name: str
+    positions: np.ndarray
+    normals: np.ndarray
+    albedo: np.ndarray
+    emission: np.ndarray
+    surfel: np.ndarray
+
+
+def _point_counts(settings: Settings, density: float | None, clouds: list, sources: list,
+                  mesh_area: float) -> list[int]:
+    """Surfels per point cloud: its area (m²) × the density when one is set or chosen, else
+    its share of the surface in the budget; never more than its points."""
+    total = mesh_area + sum(src[1] for src in sources)
+    out = []
+    for part, (_, area, _) in zip(clouds, sources):
+        points = len(part[0])
+        dens = density if density is not None else settings.density
+        if dens is not None:
+            want = dens * area
+        else:
+            budget = settings.budget if settings.budget is not None else DEFAULT_BUDGET
+            want = budget * area / total if total > 0 else points
+        out.append(int(min(points, max(1, round(want)))))
+    return out
+
+
+def _thin_points(part: tuple, count: int, rng: np.random.Generator) -> tuple[tuple, np.ndarray]:
+    """About ``count`` of a cloud's points as surfels, one per cell of a grid sized to the
+    cloud's area, each carrying the area, albedo and emission (area-weighted) of the points
+    nearest to it. Returns (the surfels' part, the surfel (row) of every point)."""
+    positions, normals, areas = part[0], part[1], part[2]
+    n = len(positions)
+    if count >= n:
+        return part, np.arange(n, dtype=np.int64)
+    from illumap import _core
+    cell = np.sqrt(areas.sum() / count)
+    order = rng.permutation(n)
+    for _ in range(3):   # a surface crosses more cells than its area / cell²: correct the size
+        keys = np.floor((positions[order] - positions.min(axis=0)) / cell).astype(np.int64)
+        _, first = np.unique(keys, axis=0, return_index=True)
+        keep = np.sort(order[first])
+        if abs(len(keep) - count) <= 0.1 * count:
+            break
+        cell *= np.sqrt(len(keep) / count)
+    idx, _ = _core.knn(np.ascontiguousarray(positions[keep]), positions, 1)
+    owner = np.asarray(idx)[:, 0].astype(np.int64)
+    area = np.bincount(owner, weights=areas, minlength=len(keep))
+    weighted = [np.stack([np.bincount(owner, weights=areas * v[:, c], minlength=len(keep))
+                          for c in range(3)], axis=1) / np.maximum(area, 1e-300)[:, None]
+                for v in (part[3], part[4])]
+    thinned = (positions[keep], normals[keep], area, weighted[0], weighted[1]) + \
+        tuple(p[keep] for p in part[5:])
+    return thinned, owner
 
 
 def _surface_triangles(tri_meshes: list, point_parts: list, point_sources: list) -> tuple:
@@ -747,45 +822,39 @@ def covered_receivers(job: Job, points: np.ndarray, normals: np.ndarray,
 
 
 def _point_receivers(job: Job) -> list[tuple]:
-    """Receivers at the points of each point cloud (``(receivers, back)``; ``back`` the same
+    """Receivers at every point of each point cloud (``(receivers, back)``; ``back`` the same
     points facing the other way for clouds of unknown orientation, else None), in the order
-    of their sources. The values of a point are its surfel's albedo and emission."""
-    backs = {src.name: src for src in job.sources if src.kind == "BACK"}
+    of their sources."""
+    backs = {src.name for src in job.sources if src.kind == "BACK"}
     out = []
-    for src in job.sources:
-        if src.kind != "POINTS":
-            continue
-        sl = slice(src.start, src.stop)
-        n = src.stop - src.start
-        make = lambda normals: sampling.Receivers(  # noqa: E731
-            src.name, np.arange(n, dtype=np.int64), job.positions[sl], normals,
-            job.albedo[sl], job.emission[sl], n)
-        front = make(job.normals[sl])
-        out.append((front, make(-job.normals[sl]) if src.name in backs else None))
+    for cloud in job.clouds:
+        n = len(cloud.positions)
+        make = lambda normals, c=cloud, n=n: sampling.Receivers(  # noqa: E731
+            c.name, np.arange(n, dtype=np.int64), c.positions, normals, c.albedo, c.emission, n)
+        out.append((make(cloud.normals), make(-cloud.normals) if cloud.name in backs else None))
     return out
 
 
 def _splat_owners(job: Job, back: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
     """Per triangle of ``job.triangles``: the row in the front field (surfels not in
-    ``back``) and in the back field of the point whose splat it is, or -1 (mesh triangles)."""
+    ``back``) and in the back field of the surfel that stands for the point whose splat it
+    is, or -1 (mesh triangles)."""
     if job.splat_point is None or (job.splat_point < 0).all():
         return None, None
     front_row = np.cumsum(~back) - 1
     back_row = np.cumsum(back) - 1
-    backs = {src.name: src for src in job.sources if src.kind == "BACK"}
+    sources = {(src.name, src.kind): src for src in job.sources}
     owner_front = np.full(len(job.splat_point), -1, dtype=np.int64)
     owner_back = np.full(len(job.splat_point), -1, dtype=np.int64)
     offset = 0
-    for src in job.sources:
-        if src.kind != "POINTS":
-            continue
-        n = src.stop - src.start
+    for cloud in job.clouds:
+        n = len(cloud.positions)
         mine = (job.splat_point >= offset) & (job.splat_point < offset + n)
-        local = job.splat_point[mine] - offset
-        owner_front[mine] = front_row[src.start + local]
-        twin = backs.get(src.name)
+        surfel = cloud.surfel[job.splat_point[mine] - offset]
+        owner_front[mine] = front_row[sources[(cloud.name, "POINTS")].start + surfel]
+        twin = sources.get((cloud.name, "BACK"))
         if twin is not None:
-            owner_back[mine] = back_row[twin.start + local]
+            owner_back[mine] = back_row[twin.start + surfel]
         offset += n
     return owner_front, owner_back
 
@@ -956,7 +1025,7 @@ def next_pass(job: Job, result: "Result") -> Job | None:
                     list(job.warnings), stats, t0, job.occluders)
     new.accuracy = job.accuracy
     new.emitters, new.triangles, new.has_points = job.emitters, job.triangles, job.has_points
-    new.two_sided, new.splat_point = job.two_sided, job.splat_point
+    new.two_sided, new.splat_point, new.clouds = job.two_sided, job.splat_point, job.clouds
     new.receivers, new.occluders = job.receivers, job.occluders
     new.timings = {"pass 1: " + k_: v for k_, v in result.timings.items()} | \
         {"adaptive refinement": refine_seconds} | new.timings
