@@ -28,7 +28,7 @@ from typing import Callable
 
 import numpy as np
 
-from . import emitters, lamps, materials, pointcloud, sampling
+from . import checks, emitters, lamps, materials, pointcloud, sampling
 from .errors import IllumapCancelled, IllumapError
 
 Progress = Callable[[float, str], "bool | None"]
@@ -389,6 +389,7 @@ def prepare(depsgraph, objects, settings: Settings) -> Job:
     import bpy
 
     from . import mesh_preview
+    checks.check_settings(settings)   # refused before anything is read
     objects = list(objects)
     with mesh_preview.suspended(objects, bpy.context.view_layer):
         return _prepare(depsgraph, objects, settings)
@@ -836,6 +837,7 @@ def run(job: Job, progress: Progress | None = None) -> Result:
     s = job.settings
     shape = occluder_shape(s)   # an unknown shape is refused before any work
     light(job, progress)
+    checks.check_light(job)   # no light reaches any surface: no solve for a black map
     try:
         surfels = illumap.Surfels(job.positions, job.normals, job.areas, job.albedo,
                                   job.solve_emission + job.direct)
