@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from illumap import sampling as core_sampling
+from illumap import surfels as core_surfels
 
 from .errors import IllumapError
 
@@ -85,9 +86,9 @@ class MeshSamples:
 
 
 #: Farther than this from the origin (m, world space), a coordinate is taken for an infinite or
-#: absurd value (Blender stores an infinite coordinate as ±3.4e38): georeferenced scans sit
-#: within 1e7 m, and nothing a renderer lights needs 1e12 m.
-MAX_COORDINATE = 1e12
+#: absurd value (Blender stores an infinite coordinate as ±3.4e38): the core's own limit
+#: (``illumap.surfels.MAX_COORDINATE``, 1e12 m; georeferenced scans sit within 1e7 m).
+MAX_COORDINATE = core_surfels.MAX_COORDINATE
 
 
 def check_transform(name: str, matrix, kind: str = "Object") -> np.ndarray:
