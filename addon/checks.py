@@ -77,7 +77,10 @@ def check_settings(settings) -> None:
     _choice("solver", s.solver, ("auto", "cg", "gmres", "jacobi"))
     _number("tol", s.tol, 0.0, 1.0)
     _integer("max_iterations", s.max_iterations, 1)
-    _number("target_error", s.target_error, 0.0, 1.0, optional=True)
+    t = s.target_error
+    if t is not None and (isinstance(t, bool) or not isinstance(t, numbers.Real)
+                          or not 0.0 < float(t) < 1.0):   # NaN fails too
+        raise IllumapError(f"Target error must lie in (0, 1), got {t!r}", ExitCode.USAGE)
     _number("adaptive_first_pass", s.adaptive_first_pass, 0.0, 1.0, open_high=False)
     _number("adaptive_max_ratio", s.adaptive_max_ratio, 1.0, None, open_low=False)
     _integer("shadow_samples", s.shadow_samples, 1)

@@ -205,7 +205,7 @@ ADDON_CASES = [
     ("occluder-shape", lambda: [lit_floor()], {"occluder_shape": "hexagon"}, IllumapError,
      r"Unknown occluder shape 'hexagon'"),
     ("target-error-range", lambda: [lit_floor()], {"target_error": 1.5}, IllumapError,
-     r"Invalid setting target_error: expected a number in \(0, 1\), got 1\.5"),
+     r"Target error must lie in \(0, 1\), got 1\.5"),
 ]
 
 
