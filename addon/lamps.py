@@ -46,7 +46,7 @@ from typing import Callable
 
 import numpy as np
 
-from .errors import IllumapCancelled
+from .errors import IllumapCancelled, IllumapError
 
 #: A segment query: origins (M, 3), targets (M, 3), skip (M,) surfel index to ignore per ray
 #: (-1: none) → (M,) visibility in [0, 1] (1: the segment is free).
@@ -127,11 +127,22 @@ def read_lamps(depsgraph, warnings: list[str]) -> list[Lamp]:
             continue
         light = obj.data
         m = np.array(inst.matrix_world, dtype=np.float64)
+        if not np.all(np.isfinite(m)):
+            raise IllumapError(f"Lamp '{obj.name}' has a non-finite transform (NaN or infinite "
+                               "location, rotation or scale, on it or on a parent, constraint "
+                               "or driver)")
         lin, pos = m[:3, :3], m[:3, 3].copy()
         direction = -lin[:, 2]
-        direction /= np.linalg.norm(direction)
-        color = np.array(light.color, dtype=np.float64) * float(light.energy)
+        length = float(np.linalg.norm(direction))
         kind = light.type
+        if not length > 0:
+            warnings.append(f"Lamp '{obj.name}': its scale is zero, so it points nowhere and "
+                            "emits no light; ignored")
+            continue
+        direction /= length
+        color = np.array(light.color, dtype=np.float64) * float(light.energy)
+        if not np.all(np.isfinite(color)):
+            raise IllumapError(f"Lamp '{obj.name}': colour × power {tuple(color)} is not finite")
         if kind in ("POINT", "SPOT"):
             lamp = Lamp(obj.name, kind, color, pos, direction, radius=float(light.shadow_soft_size))
             if kind == "SPOT":
@@ -151,6 +162,12 @@ def read_lamps(depsgraph, warnings: list[str]) -> list[Lamp]:
                 k = np.sqrt(2 * np.pi / (_DISK_SIDES * np.sin(2 * np.pi / _DISK_SIDES)))
                 corners = k * np.column_stack([np.cos(phi), np.sin(phi)])
                 area = np.pi * np.linalg.norm(np.cross(ax, ay))
+            if not area > 0:
+                # Its power would be spread over no area: infinite radiance, NaN form factors.
+                warnings.append(f"Lamp '{obj.name}': area light of size 0 m² (size "
+                                f"{sx:g} × {sy:g} m at its scale) emits no light; ignored — "
+                                "give it a size")
+                continue
             polygon = pos + corners[:, :1] * ax + corners[:, 1:] * ay
             if getattr(light, "spread", np.pi) < np.pi - 1e-6:
                 warnings.append(f"Lamp '{obj.name}': area light spread is ignored (treated as 180°)")

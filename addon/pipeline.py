@@ -28,8 +28,8 @@ from typing import Callable
 
 import numpy as np
 
-from . import emitters, lamps, materials, pointcloud, sampling
-from .errors import IllumapCancelled, IllumapError
+from . import checks, emitters, lamps, materials, pointcloud, sampling
+from .errors import ExitCode, IllumapCancelled, IllumapError
 
 Progress = Callable[[float, str], "bool | None"]
 
@@ -99,7 +99,7 @@ def settings_from_preset(name: str, **overrides) -> Settings:
     """Settings for a preset name (DRAFT/MEDIUM/HIGH, any case) with keyword overrides."""
     key = name.upper()
     if key not in PRESETS:
-        raise IllumapError(f"Unknown quality preset '{name}' (choose draft, medium or high)", 2)
+        raise IllumapError(f"Unknown quality preset '{name}' (choose draft, medium or high)", ExitCode.USAGE)
     values = dict(PRESETS[key])
     if overrides.get("density") is not None and overrides.get("budget") is None:
         values.pop("budget", None)    # a density asked for replaces the preset's count
@@ -291,7 +291,7 @@ def occluder_shape(settings: Settings) -> str:
     shape = str(settings.occluder_shape).lower()
     if shape not in OCCLUDER_SHAPES:
         raise IllumapError(f"Unknown occluder shape '{settings.occluder_shape}' (choose "
-                           f"{', '.join(OCCLUDER_SHAPES)})", 2)
+                           f"{', '.join(OCCLUDER_SHAPES)})", ExitCode.USAGE)
     return "disc" if settings.target_error is not None else shape
 
 
@@ -376,7 +376,7 @@ def target_density(settings: Settings, mesh_area: float, point_count: int, point
     if settings.target_error is None:
         return None
     if not 0.0 < settings.target_error < 1.0:
-        raise IllumapError(f"Target error must lie in (0, 1), got {settings.target_error}", 2)
+        raise IllumapError(f"Target error must lie in (0, 1), got {settings.target_error}", ExitCode.USAGE)
     from illumap import accuracy
     total = mesh_area + point_area
     kind = "mesh" if mesh_area > 0 else "point_cloud"
@@ -396,7 +396,7 @@ def target_density(settings: Settings, mesh_area: float, point_count: int, point
                                               max_surfels=cap)
     except (ValueError, KeyError) as exc:  # InputError is a ValueError
         raise IllumapError(f"Cannot choose a surfel density for target error "
-                           f"{settings.target_error:g}: {exc}", 3) from None
+                           f"{settings.target_error:g}: {exc}", ExitCode.INPUT) from None
     density = chosen["n"] / total
     predicted = chosen.get("predicted") or {}
     disc = predicted.get("discretization")
@@ -416,6 +416,7 @@ def prepare(depsgraph, objects, settings: Settings) -> Job:
     import bpy
 
     from . import mesh_preview
+    checks.check_settings(settings)   # refused before anything is read
     objects = list(objects)
     with mesh_preview.suspended(objects, bpy.context.view_layer):
         return _prepare(depsgraph, objects, settings)
@@ -496,7 +497,7 @@ def _prepare(depsgraph, objects, settings: Settings) -> Job:
     if settings.target_error is not None and two_passes and tri_meshes:
         fraction = float(settings.adaptive_first_pass)
         if not 0.0 < fraction <= 1.0:
-            raise IllumapError(f"Adaptive first pass must be a fraction in (0, 1], got {fraction}", 2)
+            raise IllumapError(f"Adaptive first pass must be a fraction in (0, 1], got {fraction}", ExitCode.USAGE)
         refine = _Scene(tri_meshes, counts, point_parts, point_sources, lamp_list, world)
         first = np.maximum(np.rint(counts * fraction).astype(np.int64), 1)
     lights = emitters.mesh_lights(tri_meshes, warnings)
@@ -759,7 +760,7 @@ def light(job: Job, progress: Progress | None = None) -> Job:
     except Exception as exc:  # noqa: BLE001 - a failing ray query is reported, not raised raw
         if _is_cancelled(exc):
             raise IllumapCancelled("Cancelled") from None
-        raise IllumapError(f"Lamp shadows failed: {type(exc).__name__}: {exc}", 4) from exc
+        raise IllumapError(f"Lamp shadows failed: {type(exc).__name__}: {exc}", ExitCode.SOLVER) from exc
     if shadows is not None:
         job.timings["shadow rays"] = shadows.seconds
         job.stats["shadow_rays"] = int(shadows.rays)
@@ -935,7 +936,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
         if _is_cancelled(exc):
             raise IllumapCancelled("Cancelled") from None
         raise IllumapError(f"Evaluating the light at the receivers failed: "
-                           f"{type(exc).__name__}: {exc}", 4) from exc
+                           f"{type(exc).__name__}: {exc}", ExitCode.SOLVER) from exc
     for rec, values in zip(job.receivers, values_of):
         result.receiver_values[rec.name] = values
     rest = iter(values_of[len(job.receivers):])
@@ -1049,18 +1050,19 @@ def run(job: Job, progress: Progress | None = None) -> Result:
     try:
         import illumap
     except ImportError as exc:
-        raise IllumapError(f"The Illumap core module is not installed ({exc})", 4) from None
+        raise IllumapError(f"The Illumap core module is not installed ({exc})", ExitCode.SOLVER) from None
     s = job.settings
     shape = occluder_shape(s)   # an unknown shape is refused before any work
     light(job, progress)
+    checks.check_light(job)   # no light reaches any surface: no solve for a black map
     try:
         surfels = illumap.Surfels(job.positions, job.normals, job.areas, job.albedo,
                                   job.solve_emission + job.direct)
     except illumap.InputError as exc:
-        raise IllumapError(f"Invalid surfels: {exc}", 3) from None
+        raise IllumapError(f"Invalid surfels: {exc}", ExitCode.INPUT) from None
     if s.target_error is not None:
         if not 0.0 < s.target_error < 1.0:
-            raise IllumapError(f"Target error must lie in (0, 1), got {s.target_error}", 2)
+            raise IllumapError(f"Target error must lie in (0, 1), got {s.target_error}", ExitCode.USAGE)
         from illumap import accuracy
         solve = accuracy.solve
         # Should the error model choose exact visibility, its occluders are the shadows' too.
@@ -1099,11 +1101,11 @@ def run(job: Job, progress: Progress | None = None) -> Result:
     except illumap.Cancelled:
         raise IllumapCancelled("Cancelled") from None
     except illumap.InputError as exc:
-        raise IllumapError(f"Invalid input: {exc}", 3) from None
+        raise IllumapError(f"Invalid input: {exc}", ExitCode.INPUT) from None
     except IllumapError:
         raise
     except Exception as exc:  # noqa: BLE001 - anything from the solver is a solver failure
-        raise IllumapError(f"Solver failed: {type(exc).__name__}: {exc}", 4) from exc
+        raise IllumapError(f"Solver failed: {type(exc).__name__}: {exc}", ExitCode.SOLVER) from exc
     timings = dict(job.timings)
     timings.update({f"solve: {k}": float(v) for k, v in dict(getattr(sol, "timings", {}) or {}).items()})
     timings["solve"] = time.perf_counter() - t0
@@ -1114,7 +1116,7 @@ def run(job: Job, progress: Progress | None = None) -> Result:
     # The emission that lamps carried is still what those surfels send to the eye.
     radiosity = np.asarray(sol.radiosity, dtype=np.float64) + (job.emission - job.solve_emission)
     if not np.all(np.isfinite(radiosity)):
-        raise IllumapError("Solver returned non-finite values", 4)
+        raise IllumapError("Solver returned non-finite values", ExitCode.SOLVER)
     stats = dict(getattr(sol, "stats", {}) or {})
     stats.update(job.stats)
     stats["occluder_shape"] = shape
