@@ -445,9 +445,10 @@ def _prepare(depsgraph, objects, settings: Settings) -> Job:
             warnings.append(f"Object '{tm.name}': {tm.skipped_triangles} zero-area triangle(s) skipped")
     if not tri_meshes and not points:
         raise IllumapError("Nothing to compute: the selected instancers hold no mesh geometry")
-    point_parts, point_sources = [], []
+    point_parts, point_sources, looks = [], [], []
     for obj in points:
         p = pointcloud.read_points(obj, depsgraph, warnings)
+        looks.append(p.receiver_normals if p.receiver_normals is not None else p.normals)
         m = len(p.areas)
         point_parts.append((p.positions, p.normals, p.areas, p.albedo, p.emission,
                             np.full((m, 2), np.nan), np.full(m, -1, np.int64),
@@ -517,8 +518,9 @@ def _prepare(depsgraph, objects, settings: Settings) -> Job:
     job.splat_point = splat_point
     job.occluders = occluders
     job.has_points = bool(point_parts)
-    job.clouds = [PointCloud(name, full[0], full[1], full[3], full[4], owner)
-                  for (name, _, _), full, (_, owner) in zip(point_sources, clouds, thinned)]
+    job.clouds = [PointCloud(name, full[0], look, full[3], full[4], owner)
+                  for (name, _, _), full, look, (_, owner) in zip(point_sources, clouds, looks,
+                                                                   thinned)]
     if settings.transfer:
         scratch: list[str] = []   # material warnings were given for the surfels already
         job.receivers = [r for r in (sampling.read_receivers(obj, scratch)
@@ -534,9 +536,9 @@ BACK_FACE_PROBE_RAYS = 16
 
 @dataclass
 class PointCloud:
-    """A point cloud as read, every point a receiver (numpy only): positions and normals
-    (P, 3), albedo and emission (P, 3), and the surfel (row in its own source) that stands
-    for each point in the solve."""
+    """A point cloud as read, every point a receiver (numpy only): positions and the normals
+    it is lit about (P, 3; ``PointSamples.receiver_normals``), albedo and emission (P, 3), and
+    the surfel (row in its own source) that stands for each point in the solve."""
 
     name: str
     positions: np.ndarray

@@ -40,6 +40,9 @@ class PointSamples:
     emission: np.ndarray
     colors: dict[str, np.ndarray] = field(default_factory=dict)
     two_sided: bool = False   # normals estimated: their orientation is unknown, both sides lit
+    # Estimated normals: the directions each point is lit from as a receiver (a crease's
+    # points between its surfaces, as a vertex on it shows their mean); None: ``normals``.
+    receiver_normals: np.ndarray | None = None
 
 
 class _Attributes:
@@ -170,6 +173,7 @@ def _finish(obj, obj_eval, name, pos, extra, active, mats, warnings) -> PointSam
         _check_spacing(name, pos, areas, k)
         warnings.append(f"Point cloud '{name}': no 'radius' attribute; areas estimated from the "
                         f"spacing of {k} nearest neighbours")
+    receiver_normals = None
     if normal is not None:
         normal = normal @ np.linalg.inv(lin)
         length = np.linalg.norm(normal, axis=1)
@@ -178,10 +182,13 @@ def _finish(obj, obj_eval, name, pos, extra, active, mats, warnings) -> PointSam
         normal = normal / length[:, None]
     else:
         normal = estimate_normals(pos, k)
-        warnings.append(f"Point cloud '{name}': no 'normal' attribute; normals estimated by PCA "
-                        f"over {k} neighbours, and as their orientation is unknown both sides of "
-                        f"every point are lit (each point shows its brighter side: the inside of "
-                        f"a scanned room, the outside of a scanned object)")
+        from illumap.pointcloud import pca_normals  # noqa: PLC0415 - native, loaded on use
+        spread = pca_normals(pos, k)
+        receiver_normals = spread * np.where(np.einsum("ij,ij->i", spread, normal) < 0, -1.0, 1.0)[:, None]
+        warnings.append(f"Point cloud '{name}': no 'normal' attribute; normals estimated from the "
+                        f"plane most of {k} neighbours lie on, and as their orientation is unknown "
+                        f"both sides of every point are lit (each point shows its brighter side: "
+                        f"the inside of a scanned room, the outside of a scanned object)")
     colors = extra["colors"]
     key = active if active in colors else next((c for c in _COLOR_NAMES if c in colors), None)
     material = mats[0].material if mats else None
@@ -194,4 +201,4 @@ def _finish(obj, obj_eval, name, pos, extra, active, mats, warnings) -> PointSam
     albedo = np.clip(np.nan_to_num(albedo), 0.0, materials.MAX_ALBEDO)
     return PointSamples(name=name, positions=pos, normals=normal, areas=areas, albedo=albedo,
                         emission=np.maximum(np.nan_to_num(emission), 0.0), colors=colors,
-                        two_sided=extra["normal"] is None)
+                        two_sided=extra["normal"] is None, receiver_normals=receiver_normals)

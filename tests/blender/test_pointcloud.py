@@ -154,9 +154,16 @@ def test_interior_scan_without_normals_is_lit_inside_and_gets_its_result():
     oriented = vertex_mesh("Oriented", pos, {"Col": ("FLOAT_COLOR", grey),
                                              "normal": ("FLOAT_VECTOR", est)})
     pipeline.compute(bpy.context, [oriented], settings)
-    # The solves agree to 1e-8; at the points, the gather's rays meet the two scans' splats
-    # from opposite faces (two-sided against one-sided splats), which moves a few by 0.1%.
-    np.testing.assert_allclose(got, scan_illumination(oriented), rtol=3e-3)
+    # The solves agree to 1e-8. At the points, the gather's rays meet the two scans' splats
+    # from opposite faces (two-sided against one-sided splats), which moves a few by 0.1%;
+    # and the scan without normals is lit about its points' PCA normals, which bend round
+    # the room's edges (a crease shows the mean of its surfaces), where the given normals
+    # do not: away from the edges both agree.
+    lo, hi = np.array([-2.0, -2.0, 0.0]), np.array([2.0, 2.0, 3.0])
+    to_edge = np.sort(np.minimum(pos - lo, hi - pos), axis=1)[:, 1]   # 2nd-nearest wall
+    inner = to_edge > 0.3
+    assert inner.sum() > len(pos) // 2
+    np.testing.assert_allclose(got[inner], scan_illumination(oriented)[inner], rtol=3e-3)
     bpy.data.objects.remove(oriented)
     # With the true normals: PCA normals bend round the room's edges, the rest agrees.
     known = vertex_mesh("Known", pos, {"Col": ("FLOAT_COLOR", grey),
