@@ -26,7 +26,7 @@ curves (the grid's error is a step curve: its model can only choose a measured s
 
 and how well the time models extrapolate (``time_holdout``: each setting's largest size
 predicted from the smaller ones; its rms sets ``ADAPTIVE_TIME_MARGIN``), and writes them
-to core/python/illumap/data/calibration.json (loaded as ``illumap.accuracy.CALIBRATION``),
+to core/python/illumap/data/calibration.json (loaded as ``illumap.accuracy.calibration.CALIBRATION``),
 with the run's date and core commit.
 
     .venv/bin/python bench/calibrate.py --results bench/results/accuracy_speed.json --write
@@ -45,6 +45,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import scenes as S  # noqa: E402
 from illumap import accuracy  # noqa: E402
+from illumap.accuracy import models  # noqa: E402
 
 CALIBRATION_JSON = os.path.join(os.path.dirname(HERE), "core", "python", "illumap", "data",
                                 "calibration.json")
@@ -184,7 +185,7 @@ def sampling_ratios(rows, table):
         entry = table["settings"].get(r["label"])
         if entry is None:
             continue
-        model = accuracy._predicted_error(entry, table, r["n"], None, sampling=False)
+        model = models.predicted_error(entry, table, r["n"], None, sampling=False)
         by_size.setdefault(r["size"], []).append((r["n"], r["error"] / model))
     return by_size
 
@@ -240,7 +241,7 @@ def time_holdout(results, min_sizes=5):
                 continue
             model = fit_time([p for p in pts if p["n"] < sizes[-1]])
             measured = min(p["time"] for p in pts if p["n"] == sizes[-1])
-            out.append(math.log(accuracy._loglog(model, sizes[-1], error=False) / measured))
+            out.append(math.log(models.loglog(model, sizes[-1], error=False) / measured))
     return out
 
 
