@@ -239,11 +239,6 @@ def _split_objects(depsgraph, objects) -> tuple[list, list, list[str]]:
     return meshes, points, warnings
 
 
-#: Surfels of the first pass per region of the adaptive refinement (regions are the mesh
-#: triangles split until each holds about this many): enough to see a variation inside one.
-ADAPTIVE_SURFELS_PER_REGION = 6
-#: Neighbours compared per surfel to measure how much the first pass's illumination varies.
-ADAPTIVE_NEIGHBOURS = 8
 #: Disc radius of the surfels as occluders, in units of each surfel's own radius sqrt(A/π):
 #: for lamp shadows (``make_segment_query``) and for exact visibility between surfels
 #: (``TransportOperator``'s ``coverage``), so both see the same walls. Holes in a stratified
@@ -752,11 +747,6 @@ def _is_cancelled(exc: BaseException) -> bool:
     return isinstance(exc, getattr(illumap, "Cancelled", ()))
 
 
-def luminance(rgb: np.ndarray) -> np.ndarray:
-    """Rec. 709 luminance (N,) of linear RGB (N, 3)."""
-    return np.asarray(rgb, dtype=np.float64) @ np.array([0.2126, 0.7152, 0.0722])
-
-
 def next_pass(job: Job, result: "Result") -> Job | None:
     """Pass 2 of an adaptive run (main thread): resample every mesh with a density multiplier
     per region from how much pass 1's illumination varies there, same final surfel count as a
@@ -764,39 +754,22 @@ def next_pass(job: Job, result: "Result") -> Job | None:
     scene = job.refine
     if scene is None:
         return None
-    from illumap import sampling as core_sampling
+    from illumap import refinement
     from .neighbours import knn
     t0 = time.perf_counter()
     s = job.settings
     # Front faces only: an open surface's back surfels sit on its front ones.
     front = min([src.start for src in job.sources if src.kind == "BACK"] + [job.count])
-    values = luminance(result.radiosity[:front])
-    k = min(ADAPTIVE_NEIGHBOURS + 1, front)
-    idx, _ = knn(job.positions[:front], job.positions[:front], k)
-    variation = core_sampling.local_variation(values, idx[:, 1:])
-    mesh_sources = [src for src in job.sources if src.kind == "MESH"]
-    regions, located, offset = [], [], 0
-    for tm, src in zip(scene.tri_meshes, mesh_sources):
-        sl = slice(src.start, src.stop)
-        density1 = (src.stop - src.start) / tm.total_area
-        reg = core_sampling.Regions.build(tm.corners, ADAPTIVE_SURFELS_PER_REGION / density1)
-        located.append(offset + reg.locate(job.triangle[sl], job.bary[sl]))
-        regions.append(reg)
-        offset += reg.count
-    n_mesh = mesh_sources[-1].stop if mesh_sources else 0
-    # Regions too small to hold a pass-1 surfel take the variation of the nearest one.
-    centres = np.concatenate([reg.corners.mean(axis=1) for reg in regions])
-    nearest, _ = knn(job.positions[:front], centres, 1)
-    weights = core_sampling.density_multipliers(np.concatenate(located), variation[:n_mesh], offset,
-                                                max_ratio=s.adaptive_max_ratio,
-                                                fill=variation[nearest[:, 0]])
+    meshes = [(tm.corners, job.triangle[src.start:src.stop], job.bary[src.start:src.stop],
+               tm.total_area)
+              for tm, src in zip(scene.tri_meshes, (src for src in job.sources
+                                                    if src.kind == "MESH"))]
+    refined = refinement.refine(job.positions[:front], result.radiosity[:front], meshes,
+                                max_ratio=s.adaptive_max_ratio, knn=knn)
+    regions, weights, offset = refined.regions, refined.multipliers, refined.count
     # The uniform run's mesh budget, shared by weighted area: same total, moved to variation.
-    per_mesh, weighted, start = [], [], 0
-    for reg in regions:
-        w = weights[start:start + reg.count]
-        per_mesh.append(w)
-        weighted.append(float((w * reg.area).sum()))
-        start += reg.count
+    per_mesh = refined.per_mesh()
+    weighted = [float((w * reg.area).sum()) for w, reg in zip(per_mesh, regions)]
     counts = sampling.allocate(np.array(weighted), budget=int(scene.counts.sum()))
     rng = np.random.default_rng([s.seed, 2])
     samples = [sampling.sample_mesh(tm, int(n), rng, regions=reg, weights=w)
