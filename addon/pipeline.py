@@ -30,13 +30,14 @@ import numpy as np
 
 from . import emitters, lamps, materials, pointcloud, sampling
 from .errors import IllumapCancelled, IllumapError
+from .kinds import MESH_TYPES, OCCLUDER_SHAPES
+from .presets import DEFAULT_BUDGET, QUALITY_PRESETS
 
 Progress = Callable[[float, str], "bool | None"]
 
 # Rough peak memory per surfel for sampling, solver vectors and the FMM tree (bytes). Used to
 # refuse budgets that cannot fit before anything is allocated.
 BYTES_PER_SURFEL = 2048
-_MESH_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
 
 
 @dataclass
@@ -78,29 +79,12 @@ class Settings:
     lightmap_size: int = 256          # lightmap width = height, pixels
 
 
-#: Surfels over all meshes when neither a density nor a budget is given: a count, not a
-#: density, so a scene modelled in centimetres gets as many as one modelled in metres.
-DEFAULT_BUDGET = 10_000
-
-PRESETS: dict[str, dict] = {
-    "DRAFT": dict(budget=2_500, order=3, theta=0.6, visibility="exact", tol=1e-3,
-                  gather_rays=128, receiver_shadow_samples=32),
-    "MEDIUM": dict(budget=DEFAULT_BUDGET, order=4, theta=0.5, visibility="exact", tol=1e-4,
-                   gather_rays=512, receiver_shadow_samples=128),
-    # The light at the meshes is limited by the gather and the surfel count, not by the
-    # expansions: order 4 at 30k surfels reached 0.94% on the Cornell box in 4.5 s where
-    # order 6, theta 0.4 at 40k took 11 s for 0.93% (bench/reference, 8192-sample reference).
-    "HIGH": dict(budget=30_000, order=4, theta=0.5, visibility="exact", tol=1e-4,
-                 gather_rays=2048, receiver_shadow_samples=512),
-}
-
-
 def settings_from_preset(name: str, **overrides) -> Settings:
     """Settings for a preset name (DRAFT/MEDIUM/HIGH, any case) with keyword overrides."""
     key = name.upper()
-    if key not in PRESETS:
+    if key not in QUALITY_PRESETS:
         raise IllumapError(f"Unknown quality preset '{name}' (choose draft, medium or high)", 2)
-    values = dict(PRESETS[key])
+    values = dict(QUALITY_PRESETS[key])
     if overrides.get("density") is not None and overrides.get("budget") is None:
         values.pop("budget", None)    # a density asked for replaces the preset's count
     values.update({k: v for k, v in overrides.items() if v is not None})
@@ -228,7 +212,7 @@ def _split_objects(depsgraph, objects) -> tuple[list, list, list[str]]:
             continue
         if obj.type == "POINTCLOUD":
             points.append(obj)
-        elif obj.type in _MESH_TYPES:
+        elif obj.type in MESH_TYPES:
             ev = obj.evaluated_get(depsgraph)
             if obj.type == "MESH" and len(ev.data.polygons) == 0 and len(ev.data.vertices) > 0:
                 points.append(obj)  # vertex-only mesh: a point cloud
@@ -260,13 +244,6 @@ def _split_objects(depsgraph, objects) -> tuple[list, list, list[str]]:
 #: 1.7 keeps speckles out of lamp shadows and light out of closed rooms; the price is a few
 #: per cent less light in enclosed scenes, shrinking with density.
 SURFEL_COVERAGE = 1.7
-#: Occluder shapes a run may ask for (``Settings.occluder_shape``), each of the disc's area:
-#: discs (what the automatic mode is calibrated on), regular octagons (nearly the disc; solves
-#: with exact visibility on the bunny scan took 0.55–0.74× the discs' time) and squares (about
-#: as fast; corners reach 1.25× the disc radius).
-OCCLUDER_SHAPES = ("disc", "octagon", "quad")
-
-
 def occluder_shape(settings: Settings) -> str:
     """The occluder shape this run uses for lamp shadows and exact visibility alike: the
     settings' own, except with a target error, whose models are calibrated on discs.
@@ -978,5 +955,5 @@ def compute(context, objects, settings: Settings, progress: Progress | None = No
     return result
 
 
-__all__ = ["Settings", "PRESETS", "settings_from_preset", "Job", "Result", "Source", "prepare",
+__all__ = ["Settings", "QUALITY_PRESETS", "settings_from_preset", "Job", "Result", "Source", "prepare",
            "light", "run", "write", "compute", "next_pass", "IllumapError", "IllumapCancelled", "replace"]

@@ -27,6 +27,7 @@ import numpy as np
 from illumap import sampling as core_sampling
 
 from .errors import IllumapError
+from .kinds import MESH_TYPES
 
 
 @dataclass
@@ -109,9 +110,6 @@ def read_mesh(obj, depsgraph, allow_empty: bool = False) -> TriangleMesh | None:
         obj_eval.to_mesh_clear()
 
 
-_INSTANCE_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
-
-
 def read_instances(depsgraph, instancer_names: set[str]) -> list[TriangleMesh]:
     """World-space triangles of every instance (collection instances, Geometry Nodes
     instances, particle/vertex/face instancing) whose instancer is one of ``instancer_names``.
@@ -127,7 +125,7 @@ def read_instances(depsgraph, instancer_names: set[str]) -> list[TriangleMesh]:
         if inst.parent.original.name not in instancer_names:
             continue
         ob = inst.object
-        if ob.type not in _INSTANCE_TYPES:
+        if ob.type not in MESH_TYPES:
             continue
         mesh = ob.to_mesh()
         try:
