@@ -329,8 +329,8 @@ def target_density(settings: Settings, mesh_area: float, point_count: int, point
     if kind == "point_cloud":
         cap = point_count
     # meshes are sampled at any count, a scan has its points
-    summary = dict(n=10 ** 9 if kind == "mesh" else max(point_count, 1), total_area=total,
-                   kind=kind)
+    summary = dict(n=accuracy.NO_SURFEL_LIMIT if kind == "mesh" else max(point_count, 1),
+                   total_area=total, kind=kind)
     try:
         if kind == "mesh":
             chosen = accuracy.choose_mesh_settings(summary, surfel_target(settings), kind=kind,
