@@ -80,5 +80,6 @@ __all__ = ["choose_settings", "choose_mesh_settings", "solve_keywords", "estimat
            "adaptive_time_ratio", "bounce_gain",
            "FMM_ERROR", "EXACT_KEYWORDS", "TARGET_PRESETS", "KINDS", "NO_SURFEL_LIMIT", "SAFETY",
            "SAMPLING_Z", "SETTING_VISIBILITY_KEYS", "SOLVER_ERROR_SHARE", "SOLVER_ESTIMATE_MARGIN",
-           "PROBE_SURFELS", "PROBE_FIRST_SHARE", "ADAPTIVE_FIRST_SHARE", "ADAPTIVE_MAX_RATIO", "ADAPTIVE_ERROR_RATIO",
+           "PROBE_SURFELS", "PROBE_FIRST_SHARE", "ADAPTIVE_FIRST_SHARE", "ADAPTIVE_MAX_RATIO",
+           "ADAPTIVE_ERROR_RATIO",
            "ADAPTIVE_TIME_RATIO", "ADAPTIVE_TIME_MARGIN", "ADAPTIVE_MIN_COUNT"]

@@ -40,7 +40,7 @@ ADAPTIVE_ERROR_RATIO = 0.8
 ADAPTIVE_TIME_RATIO = [[1447, 1.18], [2873, 0.96], [5731, 1.02], [11422, 1.39]]
 #: Two passes run (uncapped) only where predicted at most this share of one uniform pass's
 #: time, exp(-rms) of the time models' own error: each setting's largest swept size predicted
-#: from the smaller ones (bench/calibrate.py's ``time_holdout``, kept in calibration.CALIBRATION: 0.42 rms
+#: from the smaller ones (bench/calibrate.py's ``time_holdout``, kept in the calibration: 0.42 rms
 #: in log time; 0.66), or 0.7 when the calibration has no hold-out. Twice on the triangles at
 #: 5%, two passes predicted at 0.78x one pass's time measured 1.28x and 1.35x, and missed the
 #: target on one sampling (5.11%) where one pass met it.
@@ -130,7 +130,7 @@ def solve_triangles(corners, albedo, emission, target_error, *, kind: str = "mes
         ADAPTIVE_ERROR_RATIO from ADAPTIVE_MIN_COUNT surfels up); pass 1 solves
         ADAPTIVE_FIRST_SHARE of the count, uniformly; pass 2
         resamples the full count with a density multiplier per region that grows with how
-        much pass 1's luminance varies there (``illumap.sampling``), and solves again. Without
+        much pass 1's luminance varies there (``illumap.refinement``), and solves again. Without
         it: one uniform pass of the count chosen for the target.
     keep : optional callable, positions (N, 3) → bool (N,): which samples become surfels
         (e.g. not those inside a closed solid).
@@ -151,7 +151,8 @@ def solve_triangles(corners, albedo, emission, target_error, *, kind: str = "mes
     areas = sampling.triangle_areas(c)
     target = check_target(target_error)
     chosen = choose_mesh_settings(
-        dict(n=NO_SURFEL_LIMIT, total_area=float(areas.sum()), kind=kind, albedo_max=float(rho.max()),
+        dict(n=NO_SURFEL_LIMIT, total_area=float(areas.sum()), kind=kind,
+             albedo_max=float(rho.max()),
              albedo_mean=float(np.average(rho.mean(axis=1), weights=areas))),
         target, kind=kind, adaptive=adaptive,
         max_surfels=None if count is None else max(int(count), 1))

@@ -50,6 +50,7 @@ def visibility_keywords(visibility: str, kind: str = "random") -> dict:
         raise InputError(f"kind: expected one of {KINDS}, got {kind!r}")
     return dict(EXACT_KEYWORDS[kind])
 
+
 #: Visibility keywords a calibrated setting may fix itself (bench/calibrate.py keeps them):
 #: "per_pair_all" leaf pairs and more samples per node pair take the FMM's visibility error
 #: down to the direct method's.
@@ -69,6 +70,7 @@ def _load_calibration() -> dict:
     data/calibration.json."""
     path = resources.files("illumap") / "data" / "calibration.json"
     return json.loads(path.read_text(encoding="utf-8"))
+
 
 #: The fitted error and time models per scene kind (see the module docstring), with the
 #: sweeps they were fitted on: data/calibration.json, written by bench/calibrate.py.

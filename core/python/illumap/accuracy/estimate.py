@@ -61,6 +61,7 @@ def _even_half(surfels: Surfels):
     order = np.argsort(keep)
     return keep[order], areas[order]
 
+
 _OPERATOR_STATS = ("method", "order", "theta", "leaf_size", "near_field", "visibility")
 
 

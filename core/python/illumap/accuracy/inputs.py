@@ -15,7 +15,7 @@ NO_SURFEL_LIMIT = 10 ** 9
 
 #: Target error of each named preset (``target_error="medium"``).
 TARGET_PRESETS = {"draft": 0.10, "preview": 0.10, "medium": 0.03, "high": 0.01, "final": 0.01,
-           "reference": 0.003}
+                  "reference": 0.003}
 
 
 def _grid_like(surfels: Surfels) -> bool:

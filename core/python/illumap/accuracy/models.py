@@ -26,6 +26,7 @@ def _steps(table: dict) -> bool:
     kinds = calibration.CALIBRATION.get("kinds", {})
     return any(table is kinds.get(k) for k in STEP_KINDS)
 
+
 #: Curves as sorted lists with their logarithms, by id (checked against the object itself, so a
 #: curve rebuilt at the same address is read afresh): the choice evaluates a few thousand of
 #: them per call, and rebuilding the lists each time was most of its cost.
@@ -111,7 +112,7 @@ def predicted_time(entry: dict, n: float) -> float:
 
 
 def predicted_error(entry: dict, table: dict, n: float, e_occlusion,
-                     scale: float = 1.0, sampling: bool = True) -> float | None:
+                    scale: float = 1.0, sampling: bool = True) -> float | None:
     """The model's error of one calibrated setting at ``n`` surfels (None: not usable), its
     discretization part (the direct exact-visibility model) times ``scale`` (an adaptive
     sampling's ratio): what the setting adds to it (expansion, visibility model) stays. A leaf
