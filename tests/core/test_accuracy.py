@@ -339,6 +339,13 @@ def test_solve_with_target_error_chooses_and_reports_settings():
     assert jac.stats["accuracy"]["solve_keywords"]["solver"] == "jacobi"
     ref = illumap.solve(q, method="direct", tol=1e-10)
     assert _rel(sol.radiosity, ref.radiosity, q.emission) < 0.1
+    # the facade: target_error goes to the automatic mode, which chooses the operator
+    auto = accuracy.solve(q, 0.1)
+    assert np.array_equal(auto.radiosity, sol.radiosity)
+    with pytest.raises(illumap.InputError, match="operator"):
+        illumap.solve(q, target_error=0.1, operator=illumap.TransportOperator(q))
+    with pytest.raises(TypeError):   # the plain solver knows nothing of targets
+        illumap.solver.solve(q, target_error=0.1)
 
 
 def test_a_settings_own_visibility_keywords_reach_the_solve_and_the_estimate(monkeypatch):

@@ -491,6 +491,7 @@ def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float =
         solves (e.g. for new albedo or emission). Operator keywords may not be given with it.
     restart : int
         GMRES restart length.
+
     Returns
     -------
     Solution
