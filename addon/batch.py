@@ -22,7 +22,7 @@ Options (after ``--``)::
     --no-lamps             ignore Blender lamps
     --no-lamp-shadows      lamp light unshadowed (default: rays against the surfels)
     --shadow-samples N     rays per surfel for lamps with a size (default 16)
-    --world                add the world colour as uniform ambient light
+    --no-world             leave out the world's light (default: included, shadowed)
     --frames A-B[,C...]    frames to compute, one result per frame (default: the current frame)
     --output out.blend     save the result (#### → frame number; added before the extension
                            when several frames are computed and the name has no #)
@@ -36,30 +36,61 @@ Options (after ``--``)::
                            (lightmaps do not take part in the skip-if-exists check)
     --overwrite            recompute frames whose outputs already exist (default: skip them,
                            so farm machines can split a frame range safely)
+    --overwrite-input      allow an output path that is the input .blend itself (refused
+                           otherwise)
     --seed N               sampling seed
 
-Exit codes: 0 success, 2 bad arguments, 3 bad scene or input, 4 solver failure, 130 cancelled.
+At most ``MAX_FRAMES`` (10,000) frames per job, inside Blender's frame range; split longer
+ranges over several jobs.
+
+Every output path is checked before the solve (its folder must be, or can be created as, a
+writable folder; no path may be the input file or another output), and every file is written
+atomically: first to a hidden temporary file in the same folder, then renamed into place, so a
+farm never sees a half-written file and a failed job leaves no partial output.
+
+Exit codes (``errors.ExitCode``, the one table of them):
+
+    0    success: every requested frame computed and every output written
+    1    unexpected error (a bug; the traceback is printed)
+    2    bad arguments (unknown option, bad value, frame range too long)
+    3    bad scene or input (nothing to compute, bad geometry, no light in the scene, memory)
+    4    solver failure
+    5    an output cannot be written (unwritable folder, path under a file, the input file,
+         a render without a camera); checked before the solve where possible
+    130  cancelled
+
 Each computed frame prints the surfel count, time per phase, iterations and final residual.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import math
 import os
 import re
 import sys
+import tempfile
 import time
+import traceback
 
 import bpy
 
-from . import pipeline
-from .errors import IllumapCancelled, IllumapError
+from . import checks, pipeline
+from .errors import (ExitCode, IllumapCancelled, IllumapError, NoLightError, OutputError,
+                     exit_code_help)
 
-EXIT_OK, EXIT_ARGS, EXIT_INPUT, EXIT_SOLVER, EXIT_CANCELLED = 0, 2, 3, 4, 130
+#: The most frames one job computes (``--frames``): a farm splits longer ranges over jobs, and
+#: a typo such as 1-100000000 is refused before anything is allocated or written.
+MAX_FRAMES = 10_000
+#: The largest --resolution: Blender's render size limit (RenderSettings.resolution_x).
+MAX_RESOLUTION = 65536
+#: The output options that name files, as argparse destinations.
+OUTPUT_OPTIONS = ("output", "render", "export_npz", "export_exr", "export_lightmaps")
 
 
 class UsageError(Exception):
-    """Bad command-line arguments (exit code 2)."""
+    """Bad command-line arguments (``ExitCode.USAGE``)."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -70,8 +101,8 @@ class _Parser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the batch command (documented in the module docstring)."""
     p = _Parser(prog="illumap_batch.py", description="Compute Illumap illumination maps headless.",
-                epilog="Exit codes: 0 ok, 2 bad arguments, 3 bad scene/input, 4 solver failure, "
-                       "130 cancelled.")
+                epilog=exit_code_help() + f" At most {MAX_FRAMES:,} frames per job. Outputs "
+                       "are checked before the solve and written atomically.")
     p.add_argument("--objects", help="comma-separated object names")
     p.add_argument("--collection", help="collection name")
     p.add_argument("--quality", default="medium", choices=["draft", "medium", "high"], type=str.lower)
@@ -92,8 +123,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--occluder-shape", choices=list(pipeline.OCCLUDER_SHAPES), type=str.lower,
                    help="the surfels as occluders for exact visibility and lamp shadows "
                         "(default disc; ignored with --target-error, calibrated on discs)")
-    p.add_argument("--world", action="store_true")
-    p.add_argument("--frames", help="e.g. 1-3 or 1,5,7-9")
+    p.add_argument("--world", action=argparse.BooleanOptionalAction, default=True,
+                   help="light from the world's Background (default on; --no-world: off)")
+    p.add_argument("--frames", help=f"e.g. 1-3 or 1,5,7-9 (at most {MAX_FRAMES:,} frames)")
     p.add_argument("--output", help="output .blend (#### = frame)")
     p.add_argument("--render", help="output PNG of the preview (#### = frame)")
     p.add_argument("--render-preview", choices=["points", "meshes"], default="points",
@@ -105,26 +137,57 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--export-exr")
     p.add_argument("--export-lightmaps", help="UV-space EXR per mesh; pattern with {object}")
     p.add_argument("--lightmap-size", type=int, default=256)
-    p.add_argument("--overwrite", action="store_true")
+    p.add_argument("--overwrite", action="store_true",
+                   help="recompute frames whose outputs exist (default: skip them)")
+    p.add_argument("--overwrite-input", action="store_true",
+                   help="allow an output path that is the input .blend itself")
     p.add_argument("--seed", type=int, default=0)
     return p
 
 
+def frame_limits(scene=None) -> tuple[int, int]:
+    """The frame numbers Blender can set (``Scene.frame_current``'s hard range: it clamps
+    anything outside, which would compute one frame under many numbers)."""
+    prop = bpy.types.Scene.bl_rna.properties["frame_current"]
+    return int(prop.hard_min), int(prop.hard_max)
+
+
 def parse_frames(text: str | None, current: int) -> list[int]:
-    """'1-3,7' → [1, 2, 3, 7]; None → [current]."""
+    """'1-3,7' → [1, 2, 3, 7]; None → [current].
+
+    The ranges are checked (Blender's frame range, at most ``MAX_FRAMES`` distinct frames)
+    before any list of frames is built, so a typo such as 1-100000000 costs nothing."""
     if not text:
         return [current]
-    frames = []
+    low, high = frame_limits()
+    ranges = []
     for part in text.split(","):
-        m = re.fullmatch(r"\s*(-?\d+)\s*(?:-\s*(-?\d+)\s*)?", part)
+        m = re.fullmatch(r"\s*(-?\d{1,18})\s*(?:-\s*(-?\d{1,18})\s*)?", part)
         if not m:
-            raise UsageError(f"bad frame range {text!r} (use e.g. 1-3 or 1,5,7-9)")
+            raise UsageError(f"bad frame range {part.strip()!r} in --frames "
+                             "(use e.g. 1-3 or 1,5,7-9)")
         a = int(m.group(1))
         b = int(m.group(2)) if m.group(2) is not None else a
         if b < a:
-            raise UsageError(f"bad frame range {part!r}: end before start")
-        frames.extend(range(a, b + 1))
-    return sorted(set(frames))
+            raise UsageError(f"bad frame range {part.strip()!r}: end before start")
+        ranges.append((a, b))
+    # Distinct frames of the union of the ranges, counted without listing them.
+    count, reach = 0, None
+    for a, b in sorted(ranges):
+        if reach is not None and a <= reach:
+            a = reach + 1
+        if b >= a:
+            count += b - a + 1
+        reach = b if reach is None else max(reach, b)
+        if count > MAX_FRAMES:
+            raise UsageError(f"--frames {text.strip()!r} asks for more than {MAX_FRAMES:,} "
+                             f"frames, the most one job computes: split the range over "
+                             "several jobs")
+    for a, b in ranges:
+        if a < low or b > high:
+            raise UsageError(f"frame range '{a}-{b}' lies outside Blender's frames "
+                             f"{low}..{high}")
+    return sorted({f for a, b in ranges for f in range(a, b + 1)})
 
 
 def frame_path(path: str | None, frame: int, several: bool) -> str | None:
@@ -184,16 +247,25 @@ def make_settings(args) -> pipeline.Settings:
                      seed=args.seed, target_error=args.target_error,
                      occluder_shape=args.occluder_shape)
     settings = pipeline.settings_from_preset(args.quality, **overrides)
-    if args.density is not None and args.density <= 0:
-        raise UsageError("--density must be positive")
+    if args.density is not None and not (math.isfinite(args.density) and args.density > 0):
+        raise UsageError("--density must be a positive number of surfels per m²")
     if args.budget is not None and args.budget <= 0:
         raise UsageError("--budget must be positive")
-    if args.lightmap_size <= 0 or args.resolution <= 0 or args.samples <= 0:
-        raise UsageError("--lightmap-size, --resolution and --samples must be positive")
-    if args.shadow_samples <= 0:
-        raise UsageError("--shadow-samples must be positive")
-    if args.gather_rays is not None and args.gather_rays <= 0:
-        raise UsageError("--gather-rays must be positive")
+    if args.tol is not None and not 0.0 < args.tol < 1.0:   # NaN fails too
+        raise UsageError(f"--tol must lie in (0, 1), got {args.tol}")
+    for option, value, high in (("--resolution", args.resolution, MAX_RESOLUTION),
+                                ("--samples", args.samples, checks.MAX_INT32),
+                                ("--lightmap-size", args.lightmap_size,
+                                 checks.MAX_LIGHTMAP_SIZE),
+                                ("--shadow-samples", args.shadow_samples, checks.MAX_INT32),
+                                ("--gather-rays", args.gather_rays, checks.MAX_INT32),
+                                ("--seed", args.seed, checks.MAX_SEED)):
+        low = 0 if option == "--seed" else 1
+        if value is not None and not low <= value <= high:
+            raise UsageError(f"{option} must lie in {low}..{high}, got {value}")
+    if args.render_preview == "meshes" and args.no_transfer:
+        raise UsageError("--render-preview meshes shows the light transferred to the meshes: "
+                         "it cannot be combined with --no-transfer")
     if args.transfer and args.no_transfer:
         raise UsageError("--transfer and --no-transfer exclude each other")
     if args.target_error is not None and not 0.0 < args.target_error < 1.0:
@@ -233,17 +305,20 @@ def render_preview(context, surfel_object, sources, path: str, resolution: int, 
                    what: str = "points") -> str:
     """Render the preview with Cycles to ``path`` (PNG): the point-instanced discs, or with
     ``what="meshes"`` the source meshes through the mesh preview (mesh_preview.py), which
-    stays on in the saved file. Returns a message."""
+    stays on in the saved file. Returns a message; raises OutputError when nothing could be
+    rendered or written."""
     from . import mesh_preview
     scene = context.scene
     if what == "meshes":
         if not mesh_preview.build_mesh_preview(sources):
-            return "render skipped: no mesh has an 'illumination' attribute"
+            raise OutputError(f"--render {path!r} not rendered: no mesh has an 'illumination' "
+                              "attribute (--render-preview meshes needs the transfer)")
         surfel_object.hide_render = True
     elif not add_preview(context, surfel_object):
-        return "render skipped: the preview is not available"
+        raise OutputError(f"--render {path!r} not rendered: the point preview is not "
+                          "available")
     if scene.camera is None:
-        return "render skipped: the scene has no camera"
+        raise OutputError(f"--render {path!r} not rendered: the scene has no camera")
     r = scene.render
     saved = (r.engine, r.resolution_x, r.resolution_y, r.resolution_percentage, r.filepath,
              r.image_settings.file_format, scene.cycles.samples, scene.cycles.device)
@@ -261,10 +336,13 @@ def render_preview(context, surfel_object, sources, path: str, resolution: int, 
             r.resolution_x, r.resolution_y = max(1, round(resolution / aspect)), resolution
         r.resolution_percentage = 100
         r.image_settings.file_format = "PNG"
-        tmp = path + ".partial.png"
-        r.filepath = tmp
-        bpy.ops.render.render(write_still=True)
-        os.replace(tmp, path)  # a farm never sees a half-written frame
+        with atomic_path(path) as tmp:  # a farm never sees a half-written frame
+            r.filepath = tmp
+            bpy.ops.render.render(write_still=True)
+            if not os.path.isfile(tmp) or not os.path.getsize(tmp):
+                raise OutputError(f"--render {path!r}: Cycles wrote no image")
+    except (OSError, RuntimeError) as exc:
+        raise OutputError(f"--render {path!r} could not be written: {str(exc).strip()}") from None
     finally:
         for o in hidden:
             o.hide_render = False
@@ -321,44 +399,190 @@ def _report(frame: int, result: pipeline.Result, out) -> None:
         print(f"  Warning: {w}", file=out)
 
 
+def _flag(option: str) -> str:
+    return "--" + option.replace("_", "-")
+
+
+def _npz_path(path: str) -> str:
+    """The file numpy writes for ``path`` (it adds ``.npz`` when the name lacks it)."""
+    return path if path.endswith(".npz") else path + ".npz"
+
+
+def _same_file(a: str, b: str) -> bool:
+    return bool(a) and bool(b) and os.path.realpath(a) == os.path.realpath(b)
+
+
+def _writable_folder(option: str, path: str, checked: dict) -> None:
+    """Raise OutputError unless files can be created next to ``path``: its folder exists and
+    is writable, or can be created under a writable folder (a temporary file is made and
+    removed to find out; nothing else is created). ``checked`` caches the folders seen."""
+    folder = os.path.dirname(os.path.abspath(path)) or os.sep
+    ancestor = folder
+    while not os.path.lexists(ancestor):
+        parent = os.path.dirname(ancestor)
+        if parent == ancestor:
+            break
+        ancestor = parent
+    if ancestor in checked:
+        problem = checked[ancestor]
+    else:
+        problem = None
+        if not os.path.isdir(ancestor):
+            problem = f"{ancestor!r} is a file, not a folder, so nothing can be written under it"
+        else:
+            try:
+                fd, probe = tempfile.mkstemp(prefix=".illumap-probe-", dir=ancestor)
+                os.close(fd)
+                os.remove(probe)
+            except OSError as exc:
+                problem = (f"the folder {ancestor!r} is not writable "
+                           f"({exc.strerror or type(exc).__name__})")
+        checked[ancestor] = problem
+    if problem:
+        raise OutputError(f"{_flag(option)} {path!r} cannot be written: {problem}")
+
+
+def check_outputs(args, frames: list[int], several: bool, input_path: str) -> None:
+    """Refuse, before anything is computed, output paths that cannot be written: a folder
+    that is not writable or lies under a file, a path that is a folder, the input .blend
+    (unless ``--overwrite-input``), two options naming one file, and ``--render`` in a scene
+    without a camera. Raises OutputError (``ExitCode.OUTPUT``)."""
+    if args.render and bpy.context.scene.camera is None:
+        raise OutputError(f"--render {args.render!r} cannot be rendered: the scene has no "
+                          "camera (add one, or leave out --render)")
+    checked: dict = {}
+    for frame in frames:
+        seen: dict[str, str] = {}
+        for option in OUTPUT_OPTIONS:
+            path = frame_path(getattr(args, option), frame, several)
+            if not path:
+                continue
+            if option == "export_npz":
+                path = _npz_path(path)
+            if os.path.isdir(path):
+                raise OutputError(f"{_flag(option)} {path!r} is a folder: give a file name")
+            if _same_file(path, input_path) and not args.overwrite_input:
+                raise OutputError(f"{_flag(option)} {path!r} is the input file itself: "
+                                  "choose another path, or pass --overwrite-input to replace "
+                                  "the input")
+            real = os.path.realpath(path)
+            if real in seen and option != "export_lightmaps":
+                raise OutputError(f"{_flag(seen[real])} and {_flag(option)} both name "
+                                  f"{path!r}: give each output its own file")
+            seen[real] = option
+            _writable_folder(option, path, checked)
+        if not several:
+            break
+
+
+@contextlib.contextmanager
+def atomic_path(final: str):
+    """Yield a temporary path in ``final``'s folder (hidden, same extension) to write to;
+    on success it is renamed onto ``final`` in one step (``os.replace``), on failure removed.
+    Creates the folder."""
+    folder = os.path.dirname(os.path.abspath(final))
+    os.makedirs(folder, exist_ok=True)
+    root, ext = os.path.splitext(os.path.basename(final))
+    fd, tmp = tempfile.mkstemp(prefix=f".{root}.", suffix=".partial" + ext, dir=folder)
+    os.close(fd)
+    os.remove(tmp)   # a fresh name: Blender would keep an existing file as a .blend1 backup
+    try:
+        yield tmp
+        if not os.path.isfile(tmp):
+            raise OutputError(f"{final!r} was not written")
+        os.replace(tmp, final)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.remove(tmp)
+        raise
+
+
+@contextlib.contextmanager
+def atomic_pattern(pattern: str):
+    """Lightmaps: yield a pattern with ``{object}`` inside a hidden temporary folder next to
+    the final files; on success every file written there is renamed into place, on failure
+    the folder is removed. A pattern with ``{object}`` in its folder part is written in
+    place (no common folder to stage in)."""
+    if "{object}" not in pattern:
+        root, ext = os.path.splitext(pattern)
+        pattern = f"{root}_{{object}}{ext or '.exr'}"
+    folder, base = os.path.split(os.path.abspath(pattern))
+    if "{object}" in folder:
+        yield pattern
+        return
+    os.makedirs(folder, exist_ok=True)
+    stage = tempfile.mkdtemp(prefix=".illumap-partial-", dir=folder)
+    try:
+        yield os.path.join(stage, base)
+        for name in os.listdir(stage):
+            os.replace(os.path.join(stage, name), os.path.join(folder, name))
+    finally:
+        import shutil
+        shutil.rmtree(stage, ignore_errors=True)
+
+
+def save_copy(path: str) -> None:
+    """Save a copy of the open file to ``path`` (the open file keeps its own path)."""
+    bpy.ops.wm.save_as_mainfile(filepath=path, copy=True, check_existing=False)
+
+
 def run_frames(args, out=None) -> int:
-    """Compute every requested frame; returns the exit code (raises IllumapError on failure)."""
+    """Compute every requested frame; returns ``ExitCode.OK`` (raises IllumapError,
+    OutputError or UsageError on failure)."""
     out = out or sys.stdout  # looked up per call, so redirected output is honoured
     context = bpy.context
     scene = context.scene
     settings = make_settings(args)
     frames = parse_frames(args.frames, scene.frame_current)
     several = len(frames) > 1
+    input_path = bpy.data.filepath
+    check_outputs(args, frames, several, input_path)   # before any solve
     for frame in frames:
         outputs = {k: frame_path(getattr(args, k), frame, several)
                    for k in ("output", "render", "export_npz", "export_exr")}
-        wanted = [p for p in outputs.values() if p]
+        if outputs["export_npz"]:
+            outputs["export_npz"] = _npz_path(outputs["export_npz"])
+        wanted = [p for p in outputs.values()
+                  if p and not (args.overwrite_input and _same_file(p, input_path))]
         if wanted and not args.overwrite and all(os.path.exists(p) for p in wanted):
             print(f"Illumap frame {frame}: outputs exist, skipped (use --overwrite)", file=out)
             continue
-        for p in wanted:
-            os.makedirs(os.path.dirname(p) or ".", exist_ok=True)
         scene.frame_set(frame)
         objects = select_objects(scene, context.view_layer, args.objects, args.collection)
         lightmaps = frame_path(args.export_lightmaps, frame, several) if args.export_lightmaps else ""
-        frame_settings = pipeline.replace(settings, export_npz=outputs["export_npz"] or "",
-                                          export_exr=outputs["export_exr"] or "",
-                                          export_lightmaps=lightmaps,
-                                          lightmap_size=args.lightmap_size)
         t0 = time.perf_counter()
-        result = pipeline.compute(context, objects, frame_settings)
+        try:
+            # The exports go to temporary files beside their targets, renamed into place
+            # when the frame succeeded (atomic_path, atomic_pattern).
+            with contextlib.ExitStack() as stack:
+                npz = stack.enter_context(atomic_path(outputs["export_npz"])) \
+                    if outputs["export_npz"] else ""
+                exr = stack.enter_context(atomic_path(outputs["export_exr"])) \
+                    if outputs["export_exr"] else ""
+                maps = stack.enter_context(atomic_pattern(lightmaps)) if lightmaps else ""
+                frame_settings = pipeline.replace(settings, export_npz=npz, export_exr=exr,
+                                                  export_lightmaps=maps,
+                                                  lightmap_size=args.lightmap_size)
+                result = pipeline.compute(context, objects, frame_settings)
+        except OSError as exc:   # the inputs are in memory: an export failed
+            raise OutputError(f"Writing the exports of frame {frame} failed: {exc}") from None
         result.timings["total"] = time.perf_counter() - t0
         _report(frame, result, out)
         surfels = bpy.data.objects.get(result.object_name or "Illumap Surfels")
         add_preview(context, surfels)  # the saved file opens with the preview in place
         if outputs["output"]:
-            bpy.ops.wm.save_as_mainfile(filepath=outputs["output"], copy=True, check_existing=False)
+            try:
+                with atomic_path(outputs["output"]) as tmp:
+                    save_copy(tmp)
+            except (OSError, RuntimeError) as exc:
+                raise OutputError(f"--output {outputs['output']!r} could not be saved: "
+                                  f"{str(exc).strip()}") from None
             print(f"  saved {outputs['output']}", file=out)
         if outputs["render"]:
             msg = render_preview(context, surfels, objects, outputs["render"], args.resolution,
                                  args.samples, args.render_preview)
             print(f"  {msg}", file=out)
-    return EXIT_OK
+    return ExitCode.OK
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -367,16 +591,23 @@ def main(argv: list[str] | None = None) -> int:
         argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     try:
         args = build_parser().parse_args(argv)
-        return run_frames(args)
+        return int(run_frames(args))
     except UsageError as exc:
         print(f"illumap_batch: error: {exc}", file=sys.stderr)
-        return EXIT_ARGS
+        return int(ExitCode.USAGE)
     except IllumapCancelled as exc:
         print(f"illumap_batch: cancelled: {exc}", file=sys.stderr)
-        return EXIT_CANCELLED
+        return int(ExitCode.CANCELLED)
     except KeyboardInterrupt:
         print("illumap_batch: cancelled", file=sys.stderr)
-        return EXIT_CANCELLED
+        return int(ExitCode.CANCELLED)
+    except NoLightError as exc:
+        print(f"illumap_batch: nothing computed: {exc}", file=sys.stderr)
+        return int(exc.exit_code)
     except IllumapError as exc:
         print(f"illumap_batch: error: {exc}", file=sys.stderr)
-        return exc.exit_code
+        return int(exc.exit_code)
+    except Exception:  # noqa: BLE001 - a bug: say so, and never exit 0
+        traceback.print_exc()
+        print("illumap_batch: internal error (see the traceback above)", file=sys.stderr)
+        return int(ExitCode.INTERNAL)

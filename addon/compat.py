@@ -54,6 +54,14 @@ def get_modifier_input(mod: bpy.types.Modifier, identifier: str) -> Any:
     return getattr(inputs, identifier).value
 
 
+def uses_nodes(idblock: bpy.types.ID) -> bool:
+    """Whether a material or world renders through its node tree: always from 5.0, where
+    ``use_nodes`` is deprecated; up to 4.x only when ``use_nodes`` is set."""
+    if idblock.node_tree is None:
+        return False
+    return bpy.app.version >= (5, 0, 0) or bool(idblock.use_nodes)
+
+
 def node_tree(idblock: bpy.types.ID) -> bpy.types.NodeTree:
     """The shader node tree of a material or world, made first where Blender 4.x has none."""
     if idblock.node_tree is None:

@@ -1,4 +1,4 @@
-"""Direct light from Blender lamps (and optional uniform world light) on surfels.
+"""Direct light from Blender lamps and the world on surfels.
 
 Everything here is *incident radiance* H in Blender/Cycles units: irradiance / π, the value a
 Cycles DIFFUSE bake with the DIRECT pass gives. A surfel with albedo ρ then emits ρ·H, which is
@@ -17,7 +17,9 @@ Cycles conventions, measured with bakes on this machine (bpy 5.0.1; see tests/bl
   lamp's −Z), ``H = L · F`` with F the exact point-to-polygon form factor (Lambert's contour
   integral after clipping the lamp to the receiver's upper half-space). Disk/ellipse lamps are
   48-gons scaled to the same area. Spread < 180° is ignored (warned).
-* World: a constant world colour × strength C adds ``H = C`` (an unoccluded hemisphere).
+* World: a uniform sky of radiance C (Background colour × strength, or an environment image's
+  mean) adds ``H = C · V``, V the cosine-weighted share of the hemisphere that sees the sky
+  (1 without shadows; with them, estimated with cosine-distributed rays that leave the scene).
 
 Shadows: with ``shadows`` (a ``Shadows`` record holding a segment query such as the core's
 ``illumap.Occluders(...).visible``), each lamp's analytic value is multiplied by the fraction
@@ -30,7 +32,7 @@ distance), and each surfel's pattern is shifted at random so that penumbrae show
 than bands. When no ray is blocked the fraction is exactly 1, so the unshadowed value is
 unchanged. Only lit surfels cast rays: the cost is about (lit surfels) × (samples) rays per lamp.
 
-Everything here is numpy only (no bpy) except ``read_lamps`` and ``world_ambient``: the
+Everything here is numpy only (no bpy) except ``read_lamps`` and ``world_light``: the
 pipeline casts shadow rays on its worker thread, reporting the share of rays cast through
 ``Shadows.progress`` (a ``progress(fraction, phase)`` that returns False to cancel).
 """
@@ -44,7 +46,7 @@ from typing import Callable
 
 import numpy as np
 
-from .errors import IllumapCancelled
+from .errors import IllumapCancelled, IllumapError
 
 #: A segment query: origins (M, 3), targets (M, 3), skip (M,) surfel index to ignore per ray
 #: (-1: none) → (M,) visibility in [0, 1] (1: the segment is free).
@@ -64,8 +66,8 @@ class Lamp:
     """A lamp in world space, numpy only (no bpy)."""
 
     name: str
-    kind: str                    # 'POINT' | 'SPOT' | 'SUN' | 'AREA'
-    color: np.ndarray            # (3,) colour × energy (W, or W/m² for suns)
+    kind: str                    # 'POINT' | 'SPOT' | 'SUN' | 'AREA' | 'MESH' | 'WORLD'
+    color: np.ndarray            # (3,) colour × energy (W, or W/m² for suns; radiance: world)
     position: np.ndarray         # (3,) m
     direction: np.ndarray        # (3,) unit, where the lamp points (its −Z axis)
     radius: float = 0.0          # m, point/spot
@@ -125,11 +127,22 @@ def read_lamps(depsgraph, warnings: list[str]) -> list[Lamp]:
             continue
         light = obj.data
         m = np.array(inst.matrix_world, dtype=np.float64)
+        if not np.all(np.isfinite(m)):
+            raise IllumapError(f"Lamp '{obj.name}' has a non-finite transform (NaN or infinite "
+                               "location, rotation or scale, on it or on a parent, constraint "
+                               "or driver)")
         lin, pos = m[:3, :3], m[:3, 3].copy()
         direction = -lin[:, 2]
-        direction /= np.linalg.norm(direction)
-        color = np.array(light.color, dtype=np.float64) * float(light.energy)
+        length = float(np.linalg.norm(direction))
         kind = light.type
+        if not length > 0:
+            warnings.append(f"Lamp '{obj.name}': its scale is zero, so it points nowhere and "
+                            "emits no light; ignored")
+            continue
+        direction /= length
+        color = np.array(light.color, dtype=np.float64) * float(light.energy)
+        if not np.all(np.isfinite(color)):
+            raise IllumapError(f"Lamp '{obj.name}': colour × power {tuple(color)} is not finite")
         if kind in ("POINT", "SPOT"):
             lamp = Lamp(obj.name, kind, color, pos, direction, radius=float(light.shadow_soft_size))
             if kind == "SPOT":
@@ -149,6 +162,12 @@ def read_lamps(depsgraph, warnings: list[str]) -> list[Lamp]:
                 k = np.sqrt(2 * np.pi / (_DISK_SIDES * np.sin(2 * np.pi / _DISK_SIDES)))
                 corners = k * np.column_stack([np.cos(phi), np.sin(phi)])
                 area = np.pi * np.linalg.norm(np.cross(ax, ay))
+            if not area > 0:
+                # Its power would be spread over no area: infinite radiance, NaN form factors.
+                warnings.append(f"Lamp '{obj.name}': area light of size 0 m² (size "
+                                f"{sx:g} × {sy:g} m at its scale) emits no light; ignored — "
+                                "give it a size")
+                continue
             polygon = pos + corners[:, :1] * ax + corners[:, 1:] * ay
             if getattr(light, "spread", np.pi) < np.pi - 1e-6:
                 warnings.append(f"Lamp '{obj.name}': area light spread is ignored (treated as 180°)")
@@ -161,20 +180,83 @@ def read_lamps(depsgraph, warnings: list[str]) -> list[Lamp]:
     return lamps
 
 
-def world_ambient(scene) -> np.ndarray:
-    """Uniform world radiance (3,): the unlinked Background colour × strength, or world colour."""
+#: Rays per surfel that estimate how much of the sky a surfel sees (at most; fewer when the
+#: shadow samples are fewer). Surfels only carry the world light on to the receivers, which
+#: gather the sky with their own rays, so their noise averages out.
+WORLD_SAMPLES = 64
+
+
+def world_light(scene, warnings: list[str]) -> Lamp | None:
+    """The world's light as a uniform sky (kind 'WORLD', ``color`` the radiance (3,)), or None
+    when the world is black or absent (main thread only).
+
+    Understood: a Background (or Emission) node on the World Output whose Color is a constant
+    or an equirectangular Environment Texture (its solid-angle mean, linear), times a
+    constant Strength; without a node tree, the world colour. Anything else is warned about
+    and left out."""
     world = scene.world
     if world is None:
-        return np.zeros(3)
+        return None
+    radiance = _world_radiance(world, warnings)
+    if radiance is None or not np.all(np.isfinite(radiance)) or radiance.max() <= 0:
+        return None
+    return Lamp(f"World '{world.name}'", "WORLD", radiance, np.zeros(3), np.array([0.0, 0.0, -1.0]))
+
+
+def _world_radiance(world, warnings: list[str]) -> np.ndarray | None:
+    from .compat import uses_nodes
+    if not uses_nodes(world):
+        return np.array(world.color[:3], dtype=np.float64)
     tree = world.node_tree
-    if tree is not None:
-        out = tree.get_output_node("CYCLES") if hasattr(tree, "get_output_node") else None
-        if out is not None and out.inputs["Surface"].is_linked:
-            node = out.inputs["Surface"].links[0].from_node
-            if node.type == "BACKGROUND" and not node.inputs["Color"].is_linked \
-                    and not node.inputs["Strength"].is_linked:
-                return np.array(node.inputs["Color"].default_value[:3]) * node.inputs["Strength"].default_value
-    return np.array(world.color[:3], dtype=np.float64)
+    out = tree.get_output_node("CYCLES") if hasattr(tree, "get_output_node") else None
+    if out is None or not out.inputs["Surface"].is_linked:
+        return None
+    node = out.inputs["Surface"].links[0].from_node
+    where = f"World '{world.name}'"
+    if node.type not in ("BACKGROUND", "EMISSION"):
+        warnings.append(f"{where}: its surface is a '{node.name}' node, which Illumap does not "
+                        "evaluate (a Background node is): world light left out")
+        return None
+    strength_socket = node.inputs["Strength"]
+    if strength_socket.is_linked:
+        warnings.append(f"{where}: the Background strength is linked, which Illumap does not "
+                        "evaluate: its unlinked value is used")
+    strength = float(strength_socket.default_value)
+    color_socket = node.inputs["Color"]
+    if not color_socket.is_linked:
+        return np.array(color_socket.default_value[:3], dtype=np.float64) * strength
+    source = color_socket.links[0].from_node
+    if source.type == "TEX_ENVIRONMENT" and source.image is not None:
+        try:
+            return _environment_mean(source, warnings, where) * strength
+        except Exception as exc:  # noqa: BLE001 - a missing file is a warning, not a failure
+            warnings.append(f"{where}: environment image '{source.image.name}' could not be "
+                            f"read ({exc}): world light left out")
+            return None
+    warnings.append(f"{where}: the Background colour comes from a '{source.name}' node, which "
+                    "Illumap does not evaluate (a constant or an Environment Texture is): "
+                    "world light left out")
+    return None
+
+
+def _environment_mean(node, warnings: list[str], where: str) -> np.ndarray:
+    """Mean radiance (3,) of an Environment Texture's image over the sphere, linear."""
+    from .materials import _image_pixels, srgb_to_linear
+    px, srgb = _image_pixels(node.image)
+    rgb = px[..., :3].astype(np.float64)
+    if srgb:
+        rgb = srgb_to_linear(rgb)
+    h = rgb.shape[0]
+    if node.projection == "EQUIRECTANGULAR":
+        # Rows run from the south pole up; each covers a band of solid angle ∝ cos(latitude).
+        latitude = ((np.arange(h) + 0.5) / h - 0.5) * np.pi
+        weight = np.cos(latitude)
+    else:
+        warnings.append(f"{where}: the environment's {node.projection.lower()} projection is "
+                        "averaged without solid-angle weights")
+        weight = np.ones(h)
+    rows = rgb.mean(axis=1)
+    return (weight[:, None] * rows).sum(axis=0) / weight.sum()
 
 
 def _smoothstep(x: np.ndarray) -> np.ndarray:
@@ -354,6 +436,13 @@ def _lamp_samples(lamp: Lamp, p: np.ndarray, n: np.ndarray, k: int, rng: np.rand
     """Sample points (M, k, 3) on ``lamp`` seen from receivers p (M, 3) and each sample's
     unshadowed weight (M, k) (relative contribution; only ratios matter)."""
     uv = _pattern(k, rng, len(p))
+    if lamp.kind == "WORLD":
+        # Cosine-distributed directions: every sample weighs the same.
+        disc = _disc(uv)
+        up = np.sqrt(np.maximum(1.0 - np.einsum("mkc,mkc->mk", disc, disc), 0.0))
+        u, v = _basis(n)
+        dirs = disc[..., :1] * u[:, None] + disc[..., 1:] * v[:, None] + up[..., None] * n[:, None]
+        return p[:, None, :] + far * dirs, np.ones(up.shape)
     if lamp.kind == "SUN":
         cone = np.tan(lamp.angle / 2) * _disc(uv)                       # (M, k, 2)
         d = np.broadcast_to(-lamp.direction, p.shape)
@@ -405,6 +494,8 @@ def _lamp_samples(lamp: Lamp, p: np.ndarray, n: np.ndarray, k: int, rng: np.rand
 
 def rays_per_surfel(lamp: Lamp, shadows: Shadows) -> int:
     """Shadow rays per lit surfel: ``shadows.samples`` for a lamp with a size, else one."""
+    if lamp.kind == "WORLD":
+        return max(1, min(int(shadows.samples), WORLD_SAMPLES))
     sized = (lamp.kind in ("AREA", "MESH") or (lamp.kind == "SUN" and lamp.angle > 0)
              or (lamp.kind in ("POINT", "SPOT") and lamp.radius > 0))
     return max(1, int(shadows.samples)) if sized else 1
@@ -448,9 +539,9 @@ def _lit(value: np.ndarray) -> np.ndarray:
 
 
 def incident_radiance(lamps: list[Lamp], positions: np.ndarray, normals: np.ndarray, *,
-                      ambient: np.ndarray | None = None,
                       shadows: Shadows | None = None) -> np.ndarray:
-    """Incident radiance H (N, 3) at surfels from ``lamps`` and uniform ``ambient`` radiance.
+    """Incident radiance H (N, 3) at surfels from ``lamps`` (a 'WORLD' lamp among them is the
+    uniform sky: H = its radiance × the share of the hemisphere that sees it).
 
     ``shadows`` (optional) shadows each lamp by ray casting; see the module docstring.
     """
@@ -461,6 +552,8 @@ def incident_radiance(lamps: list[Lamp], positions: np.ndarray, normals: np.ndar
     for lamp in lamps:
         if lamp.kind == "SUN":
             scalars.append(np.maximum(n @ -lamp.direction, 0.0) / np.pi)
+        elif lamp.kind == "WORLD":
+            scalars.append(np.ones(len(p)))
         elif lamp.kind == "AREA":
             scalars.append(_area(lamp, p, n))
         elif lamp.kind == "MESH":
@@ -482,6 +575,4 @@ def incident_radiance(lamps: list[Lamp], positions: np.ndarray, normals: np.ndar
         h += scalar if scalar.ndim == 2 else scalar[:, None] * lamp.color[None, :]
     if shadows is not None:
         shadows.report(shadows.rays)
-    if ambient is not None:
-        h += np.asarray(ambient, dtype=np.float64)[None, :]
     return h

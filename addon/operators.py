@@ -44,6 +44,11 @@ def _is_cancelled_error(error):
 _USER_ERRORS = {"IllumapError", "InputError", "ValueError", "RuntimeError", "MemoryError"}
 
 
+def _is_no_light(error):
+    """The pipeline's NoLightError: the scene has no light, the solve was skipped."""
+    return "NoLightError" in _class_names(error)
+
+
 def error_message(error):
     """A one-line message for the user: the text of errors meant for users, else type: text."""
     text = str(error).strip() or type(error).__name__
@@ -180,14 +185,37 @@ def _written_object(result, write_return=None):
     return objs[0] if objs else None
 
 
-# The interactive run in progress, if any (one at a time; the panel shows its progress).
+# The interactive run in progress, if any (one at a time; the panel shows its progress), and
+# the id of the latest run started (``begin_run``): only that run may write its result.
 _current = {"task": None}
+_runs = {"latest": 0}
 
 
 def current_task():
     """The ComputeTask of the interactive run in progress, or None."""
     task = _current["task"]
     return task if task is not None and task.state == "RUNNING" else None
+
+
+def run_in_flight():
+    """The interactive run that has not finished writing (its worker may be done, its result
+    not yet written), or None. A second run is refused while there is one."""
+    task = _current["task"]
+    return task if task is not None and task.state in ("PENDING", "RUNNING", "DONE") else None
+
+
+ALREADY_RUNNING = ("An Illumap computation is already running: wait for it to finish, or "
+                   "press Esc to cancel it, before starting another")
+
+
+def begin_run():
+    """A new run's id: from now on only this run may write its result."""
+    _runs["latest"] += 1
+    return _runs["latest"]
+
+
+def is_latest(run_id):
+    return run_id == _runs["latest"]
 
 
 # --- the worker's state machine -------------------------------------------------------------
@@ -203,9 +231,11 @@ class ComputeTask:
     (cancel was requested; any result is discarded), ``"FAILED"`` (``error`` holds why).
     """
 
-    def __init__(self, job, run):
+    def __init__(self, job, run, run_id=None):
         self.job = job
         self._run = run
+        # Which run this is (``begin_run``); the passes of one run share it.
+        self.run_id = begin_run() if run_id is None else run_id
         self._cancel = threading.Event()
         self._thread = None
         self.fraction = 0.0
@@ -284,7 +314,7 @@ def next_task(task):
     if job is None:
         return None
     started = task.started
-    follow = ComputeTask(job, task._run).start()
+    follow = ComputeTask(job, task._run, run_id=task.run_id).start()
     follow.started = started  # the statistics time the whole run
     return follow
 
@@ -301,7 +331,15 @@ def finish_task(context, task, report):
         report({"WARNING"}, "Illumap: cancelled, nothing was written")
         return {"CANCELLED"}
     if state == "FAILED":
-        report({"ERROR"}, f"Illumap failed: {error_message(task.error)}")
+        if _is_no_light(task.error):
+            report({"WARNING"}, f"Illumap: {error_message(task.error)}")
+        else:
+            report({"ERROR"}, f"Illumap failed: {error_message(task.error)}")
+        return {"CANCELLED"}
+    if not is_latest(task.run_id):
+        # An older run must never overwrite a newer one's result.
+        report({"WARNING"}, "Illumap: the result of an older run was discarded: a newer run "
+                            "was started since, nothing was written")
         return {"CANCELLED"}
     props = context.scene.illumap
     try:
@@ -315,6 +353,37 @@ def finish_task(context, task, report):
     report_warnings(task.result, report)
     report({"INFO"}, "Illumap: " + props.stats.summary)
     return {"FINISHED"}
+
+
+def _modal_step(self, context, event):
+    """One event of the modal compute operator (``modal`` guards it)."""
+    task = self._task
+    if event.type == "ESC" and event.value == "PRESS":
+        task.cancel()
+        self._status(context, task.status_text())
+        return {"RUNNING_MODAL"}
+    if event.type != "TIMER":
+        return {"PASS_THROUGH"}
+    if task.state == "RUNNING":
+        context.window_manager.progress_update(task.fraction)
+        self._status(context, task.status_text())
+        for area in context.screen.areas if context.screen else ():
+            if area.type == "VIEW_3D":
+                area.tag_redraw()  # the panel shows the progress too
+        return {"RUNNING_MODAL"}
+    try:
+        follow = next_task(task)
+    except Exception as error:
+        self._cleanup(context)
+        self.report({"ERROR"}, f"Illumap failed: {error_message(error)}")
+        return {"CANCELLED"}
+    if follow is not None:  # adaptive density: pass 2 runs on the worker in turn
+        self._task = follow
+        _current["task"] = follow
+        self._status(context, follow.status_text())
+        return {"RUNNING_MODAL"}
+    self._cleanup(context)
+    return finish_task(context, task, self.report)
 
 
 # --- operators ------------------------------------------------------------------------------
@@ -334,6 +403,9 @@ class ILLUMAP_OT_compute_illumination_map(bpy.types.Operator):
         return context.scene is not None
 
     def execute(self, context):
+        if run_in_flight() is not None:
+            self.report({"ERROR"}, ALREADY_RUNNING)
+            return {"CANCELLED"}
         objects, problem = input_objects(context)
         if problem:
             self.report({"ERROR"}, problem)
@@ -345,11 +417,14 @@ class ILLUMAP_OT_compute_illumination_map(bpy.types.Operator):
             self.report({"ERROR"}, f"Illumap settings are invalid: {error_message(error)}")
             return {"CANCELLED"}
         start = time.perf_counter()
+        begin_run()   # an interactive run still writing would now be discarded
         try:
             result = _pipeline().compute(context, objects, settings)
         except Exception as error:
             if _is_cancelled_error(error):
                 self.report({"WARNING"}, "Illumap: cancelled, nothing was written")
+            elif _is_no_light(error):
+                self.report({"WARNING"}, f"Illumap: {error_message(error)}")
             else:
                 self.report({"ERROR"}, f"Illumap failed: {error_message(error)}")
             return {"CANCELLED"}
@@ -368,8 +443,8 @@ class ILLUMAP_OT_compute_illumination_map(bpy.types.Operator):
         wm = context.window_manager
         if bpy.app.background or context.window is None:
             return self.execute(context)
-        if current_task() is not None:
-            self.report({"ERROR"}, "An Illumap computation is already running (Esc cancels it)")
+        if run_in_flight() is not None:
+            self.report({"ERROR"}, ALREADY_RUNNING)
             return {"CANCELLED"}
         objects, problem = input_objects(context)
         if problem:
@@ -390,33 +465,14 @@ class ILLUMAP_OT_compute_illumination_map(bpy.types.Operator):
         return {"RUNNING_MODAL"}
 
     def modal(self, context, event):
-        task = self._task
-        if event.type == "ESC" and event.value == "PRESS":
-            task.cancel()
-            self._status(context, task.status_text())
-            return {"RUNNING_MODAL"}
-        if event.type != "TIMER":
-            return {"PASS_THROUGH"}
-        if task.state == "RUNNING":
-            context.window_manager.progress_update(task.fraction)
-            self._status(context, task.status_text())
-            for area in context.screen.areas if context.screen else ():
-                if area.type == "VIEW_3D":
-                    area.tag_redraw()  # the panel shows the progress too
-            return {"RUNNING_MODAL"}
         try:
-            follow = next_task(task)
-        except Exception as error:
+            return _modal_step(self, context, event)
+        except Exception as error:  # never leave the run marked in flight
+            if self._task is not None:
+                self._task.cancel()
             self._cleanup(context)
             self.report({"ERROR"}, f"Illumap failed: {error_message(error)}")
             return {"CANCELLED"}
-        if follow is not None:  # adaptive density: pass 2 runs on the worker in turn
-            self._task = follow
-            _current["task"] = follow
-            self._status(context, follow.status_text())
-            return {"RUNNING_MODAL"}
-        self._cleanup(context)
-        return finish_task(context, task, self.report)
 
     def cancel(self, context):
         # Blender cancels modal operators when it must (e.g. a file is loaded): stop the worker.

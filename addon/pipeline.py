@@ -28,8 +28,8 @@ from typing import Callable
 
 import numpy as np
 
-from . import emitters, lamps, materials, pointcloud, sampling
-from .errors import IllumapCancelled, IllumapError
+from . import checks, emitters, lamps, materials, pointcloud, sampling
+from .errors import ExitCode, IllumapCancelled, IllumapError
 from .kinds import MESH_TYPES, OCCLUDER_SHAPES
 from .presets import DEFAULT_BUDGET, QUALITY_PRESETS
 
@@ -66,7 +66,7 @@ class Settings:
     lamps: bool = True                # add direct light from Blender lamps
     lamp_shadows: bool = True         # shadow lamp light by ray casting against the surfels
     shadow_samples: int = 16          # rays per surfel for lamps with a size (radius/area/angle)
-    world_ambient: bool = False       # add the world colour as uniform ambient light
+    world_ambient: bool = True        # light from the world (Background), shadowed like lamps
     transfer: bool = True             # evaluate 'illumination' at the source meshes' corners
     gather_rays: int = 512            # final-gather rays per receiver (indirect light)
     receiver_shadow_samples: int = 128  # shadow rays per receiver and sized lamp/emitter
@@ -83,7 +83,7 @@ def settings_from_preset(name: str, **overrides) -> Settings:
     """Settings for a preset name (DRAFT/MEDIUM/HIGH, any case) with keyword overrides."""
     key = name.upper()
     if key not in QUALITY_PRESETS:
-        raise IllumapError(f"Unknown quality preset '{name}' (choose draft, medium or high)", 2)
+        raise IllumapError(f"Unknown quality preset '{name}' (choose draft, medium or high)", ExitCode.USAGE)
     values = dict(QUALITY_PRESETS[key])
     if overrides.get("density") is not None and overrides.get("budget") is None:
         values.pop("budget", None)    # a density asked for replaces the preset's count
@@ -126,7 +126,7 @@ class Job:
     # thread. None when there is no further pass.
     refine: "_Scene | None" = None
     lamps: list = field(default_factory=list)   # lamps.Lamp records, lit by ``light``
-    ambient: np.ndarray | None = None           # uniform world radiance (3,), or None
+    world: "lamps.Lamp | None" = None           # the world's light ('WORLD'), or None
     # With a target error: the settings the error model chose for the final count
     # (``target_density``); an adaptive pass 1 solves with them.
     accuracy: dict | None = None
@@ -135,6 +135,9 @@ class Job:
     triangles: np.ndarray | None = None            # (T, 3, 3) every sampled mesh triangle, m
     two_sided: np.ndarray | None = None            # (T,) bool: its mesh is an open surface
     has_points: bool = False                       # point clouds among the sources
+    clouds: list = field(default_factory=list)     # PointCloud per point source, as read
+    splat_point: np.ndarray | None = None          # (T,) point (over all clouds) whose splat
+                                                   # each triangle is, -1: a mesh's own
     receivers: list = field(default_factory=list)  # sampling.Receivers, evaluated by ``receive``
     occluders: object = None                       # illumap.receivers.MeshOccluders, built once
 
@@ -154,7 +157,7 @@ class _Scene:
     points: list                  # point-cloud parts, reused as they are
     point_sources: list           # (name, area, two-sided) per point cloud
     lamps: list
-    ambient: np.ndarray | None
+    world: "lamps.Lamp | None"
 
 
 @dataclass
@@ -171,6 +174,7 @@ class Result:
     warnings: list[str] = field(default_factory=list)
     object_name: str = ""
     receiver_values: dict = field(default_factory=dict)  # object name → (corners, 3) radiance
+    point_receiver_values: dict = field(default_factory=dict)  # point cloud → (points, 3)
 
     @property
     def residual(self) -> float:
@@ -191,6 +195,14 @@ def memory_limit(settings: Settings) -> int:
         return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") // 2
     except (ValueError, OSError, AttributeError):
         return 8 << 30
+
+
+def _mesh_share(budget: int, mesh_area: float, point_area: float, meshes: int) -> int:
+    """The meshes' part of the default budget beside point clouds: their share of the whole
+    surface (m²), so that a lamp-sized emitter beside a scan is not given the whole budget."""
+    if point_area <= 0:
+        return budget
+    return max(meshes, int(round(budget * mesh_area / (mesh_area + point_area))))
 
 
 def check_memory(count: int, settings: Settings) -> None:
@@ -251,15 +263,22 @@ def occluder_shape(settings: Settings) -> str:
     shape = str(settings.occluder_shape).lower()
     if shape not in OCCLUDER_SHAPES:
         raise IllumapError(f"Unknown occluder shape '{settings.occluder_shape}' (choose "
-                           f"{', '.join(OCCLUDER_SHAPES)})", 2)
+                           f"{', '.join(OCCLUDER_SHAPES)})", ExitCode.USAGE)
     return "disc" if settings.target_error is not None else shape
+
+
+#: Lamp-shadow segments against surfels end this fraction of the scene's extent short of
+#: their target: a sample on an emitting mesh lies in the plane of that mesh's own surfels,
+#: which must not hide it (float32 occluders resolve ~1e-7 of the extent).
+SHADOW_END_TRIM = 1e-4
 
 
 def make_segment_query(positions, normals, areas, progress=None, shape="disc"):
     """The segment query lamp shadows are cast with, ``visible(origins, targets, skip,
     progress=None)``: the core's ``illumap.Occluders`` built once on the surfels (``shape``s
     of the area of discs of SURFEL_COVERAGE), or None when the installed core has none.
-    ``progress`` hears the build."""
+    Each segment's last ``SHADOW_END_TRIM`` × the extent is left out. ``progress`` hears the
+    build."""
     import illumap
     occluders = getattr(illumap, "Occluders", None)
     if occluders is None:
@@ -269,8 +288,16 @@ def make_segment_query(positions, normals, areas, progress=None, shape="disc"):
     build = None if progress is None else (lambda f, _phase="": progress(0.0, lamps.PHASE))
     occ = occluders(surfels, coverage=SURFEL_COVERAGE, shape=shape, progress=build)
 
+    extent = float(np.ptp(positions, axis=0).max()) if n else 0.0
+    trim = SHADOW_END_TRIM * extent
+
     def visible(origins, targets, skip, progress=None):
-        return occ.visible(origins, targets, skip=skip, progress=progress)
+        o = np.asarray(origins, dtype=np.float64)
+        t = np.asarray(targets, dtype=np.float64)
+        d = t - o
+        length = np.linalg.norm(d, axis=1, keepdims=True)
+        t = t - d * (np.minimum(trim, 0.5 * length) / np.maximum(length, 1e-300))
+        return occ.visible(o, np.ascontiguousarray(t), skip=skip, progress=progress)
     return visible
 
 
@@ -321,7 +348,7 @@ def target_density(settings: Settings, mesh_area: float, point_count: int, point
     if settings.target_error is None:
         return None
     if not 0.0 < settings.target_error < 1.0:
-        raise IllumapError(f"Target error must lie in (0, 1), got {settings.target_error}", 2)
+        raise IllumapError(f"Target error must lie in (0, 1), got {settings.target_error}", ExitCode.USAGE)
     from illumap import accuracy
     total = mesh_area + point_area
     kind = "mesh" if mesh_area > 0 else "point_cloud"
@@ -341,7 +368,7 @@ def target_density(settings: Settings, mesh_area: float, point_count: int, point
                                               max_surfels=cap)
     except (ValueError, KeyError) as exc:  # InputError is a ValueError
         raise IllumapError(f"Cannot choose a surfel density for target error "
-                           f"{settings.target_error:g}: {exc}", 3) from None
+                           f"{settings.target_error:g}: {exc}", ExitCode.INPUT) from None
     density = chosen["n"] / total
     predicted = chosen.get("predicted") or {}
     disc = predicted.get("discretization")
@@ -361,6 +388,7 @@ def prepare(depsgraph, objects, settings: Settings) -> Job:
     import bpy
 
     from . import mesh_preview
+    checks.check_settings(settings)   # refused before anything is read
     objects = list(objects)
     with mesh_preview.suspended(objects, bpy.context.view_layer):
         return _prepare(depsgraph, objects, settings)
@@ -404,6 +432,7 @@ def _prepare(depsgraph, objects, settings: Settings) -> Job:
                             sum(src[1] for src in point_sources), stats)
     density, chosen = target if target is not None else (None, None)
     counts = np.zeros(0, dtype=np.int64)
+    point_area = sum(src[1] for src in point_sources)
     if tri_meshes:
         n_points = sum(len(pp[2]) for pp in point_parts)
         if density is not None and settings.budget and stats["density"]["surfels"] >= settings.budget:
@@ -416,10 +445,22 @@ def _prepare(depsgraph, objects, settings: Settings) -> Job:
             budget = settings.budget
             if budget is None and settings.density is None:
                 budget = DEFAULT_BUDGET
+            if budget is not None:
+                budget = _mesh_share(budget, float(mesh_areas.sum()), point_area, len(tri_meshes))
             counts = sampling.allocate(mesh_areas, density=settings.density, budget=budget)
     check_memory(int(counts.sum()), settings)  # before sampling allocates anything big
+    rng = np.random.default_rng(settings.seed)
+    # Every point is a receiver; the solve needs only as many surfels as the light does.
+    clouds = point_parts
+    wanted = _point_counts(settings, density, clouds, point_sources, float(mesh_areas.sum()))
+    thinned = [_thin_points(part, n, rng) for part, n in zip(clouds, wanted)]
+    point_parts = [part for part, _ in thinned]
+    for (name, _, _), full, part in zip(point_sources, clouds, point_parts):
+        if len(part[0]) < len(full[0]):
+            stats.setdefault("point_surfels", {})[name] = dict(points=len(full[0]),
+                                                               surfels=len(part[0]))
     lamp_list = lamps.read_lamps(depsgraph, warnings) if settings.lamps else []
-    ambient = lamps.world_ambient(depsgraph.scene) if settings.world_ambient else None
+    world = lamps.world_light(depsgraph.scene, warnings) if settings.world_ambient else None
     refine = None
     first = counts
     two_passes = settings.adaptive
@@ -428,27 +469,28 @@ def _prepare(depsgraph, objects, settings: Settings) -> Job:
     if settings.target_error is not None and two_passes and tri_meshes:
         fraction = float(settings.adaptive_first_pass)
         if not 0.0 < fraction <= 1.0:
-            raise IllumapError(f"Adaptive first pass must be a fraction in (0, 1], got {fraction}", 2)
-        refine = _Scene(tri_meshes, counts, point_parts, point_sources, lamp_list, ambient)
+            raise IllumapError(f"Adaptive first pass must be a fraction in (0, 1], got {fraction}", ExitCode.USAGE)
+        refine = _Scene(tri_meshes, counts, point_parts, point_sources, lamp_list, world)
         first = np.maximum(np.rint(counts * fraction).astype(np.int64), 1)
     lights = emitters.mesh_lights(tri_meshes, warnings)
-    rng = np.random.default_rng(settings.seed)
     samples = [sampling.sample_mesh(tm, int(n), rng) for tm, n in zip(tri_meshes, first)]
-    triangles = np.concatenate([tm.corners for tm in tri_meshes]) if tri_meshes else None
+    triangles, two_sided, splat_point = _surface_triangles(tri_meshes, clouds, point_sources)
     occluders = None
     if triangles is not None and any(tm.two_sided for tm in tri_meshes):
         from illumap.receivers import MeshOccluders
         occluders = MeshOccluders(triangles)
-    job = _assemble(settings, samples, point_parts, point_sources, lamp_list, ambient, warnings,
+    job = _assemble(settings, samples, point_parts, point_sources, lamp_list, world, warnings,
                     stats, t0, occluders)
     job.refine = refine
     job.accuracy = chosen
     job.emitters = lights
     job.triangles = triangles
-    job.two_sided = (np.concatenate([np.full(len(tm.area), tm.two_sided) for tm in tri_meshes])
-                     if tri_meshes else None)
+    job.two_sided = two_sided
+    job.splat_point = splat_point
     job.occluders = occluders
     job.has_points = bool(point_parts)
+    job.clouds = [PointCloud(name, full[0], full[1], full[3], full[4], owner)
+                  for (name, _, _), full, (_, owner) in zip(point_sources, clouds, thinned)]
     if settings.transfer:
         scratch: list[str] = []   # material warnings were given for the surfels already
         job.receivers = [r for r in (sampling.read_receivers(obj, scratch)
@@ -460,6 +502,90 @@ def _prepare(depsgraph, objects, settings: Settings) -> Job:
 BACK_DISC_LIFT = 0.05
 #: Rays that look for anything in view of a back face (``_back_faces_in_view``).
 BACK_FACE_PROBE_RAYS = 16
+
+
+@dataclass
+class PointCloud:
+    """A point cloud as read, every point a receiver (numpy only): positions and normals
+    (P, 3), albedo and emission (P, 3), and the surfel (row in its own source) that stands
+    for each point in the solve."""
+
+    name: str
+    positions: np.ndarray
+    normals: np.ndarray
+    albedo: np.ndarray
+    emission: np.ndarray
+    surfel: np.ndarray
+
+
+def _point_counts(settings: Settings, density: float | None, clouds: list, sources: list,
+                  mesh_area: float) -> list[int]:
+    """Surfels per point cloud: its area (m²) × the density when one is set or chosen, else
+    its share of the surface in the budget; never more than its points."""
+    total = mesh_area + sum(src[1] for src in sources)
+    out = []
+    for part, (_, area, _) in zip(clouds, sources):
+        points = len(part[0])
+        dens = density if density is not None else settings.density
+        if dens is not None:
+            want = dens * area
+        else:
+            budget = settings.budget if settings.budget is not None else DEFAULT_BUDGET
+            want = budget * area / total if total > 0 else points
+        out.append(int(min(points, max(1, round(want)))))
+    return out
+
+
+def _thin_points(part: tuple, count: int, rng: np.random.Generator) -> tuple[tuple, np.ndarray]:
+    """About ``count`` of a cloud's points as surfels, one per cell of a grid sized to the
+    cloud's area, each carrying the area, albedo and emission (area-weighted) of the points
+    nearest to it. Returns (the surfels' part, the surfel (row) of every point)."""
+    positions, normals, areas = part[0], part[1], part[2]
+    n = len(positions)
+    if count >= n:
+        return part, np.arange(n, dtype=np.int64)
+    from illumap import _core
+    cell = np.sqrt(areas.sum() / count)
+    order = rng.permutation(n)
+    for _ in range(3):   # a surface crosses more cells than its area / cell²: correct the size
+        keys = np.floor((positions[order] - positions.min(axis=0)) / cell).astype(np.int64)
+        _, first = np.unique(keys, axis=0, return_index=True)
+        keep = np.sort(order[first])
+        if abs(len(keep) - count) <= 0.1 * count:
+            break
+        cell *= np.sqrt(len(keep) / count)
+    idx, _ = _core.knn(np.ascontiguousarray(positions[keep]), positions, 1)
+    owner = np.asarray(idx)[:, 0].astype(np.int64)
+    area = np.bincount(owner, weights=areas, minlength=len(keep))
+    weighted = [np.stack([np.bincount(owner, weights=areas * v[:, c], minlength=len(keep))
+                          for c in range(3)], axis=1) / np.maximum(area, 1e-300)[:, None]
+                for v in (part[3], part[4])]
+    thinned = (positions[keep], normals[keep], area, weighted[0], weighted[1]) + \
+        tuple(p[keep] for p in part[5:])
+    return thinned, owner
+
+
+def _surface_triangles(tri_meshes: list, point_parts: list, point_sources: list) -> tuple:
+    """The scene's surface as triangles (T, 3, 3), m: the meshes' own, then each point
+    cloud's splats (``illumap.splats``); which of them are two-sided (T,) bool (open meshes;
+    point clouds of unknown orientation); and the point each splat triangle belongs to (T,)
+    int64, counted over all clouds in order (-1: a mesh's). Nones for an empty scene."""
+    parts = [tm.corners for tm in tri_meshes]
+    sided = [np.full(len(tm.corners), tm.two_sided) for tm in tri_meshes]
+    owner = [np.full(len(tm.corners), -1, dtype=np.int64) for tm in tri_meshes]
+    first = 0
+    if point_parts:
+        from illumap.splats import splat_triangles
+        for part, (_, _, both) in zip(point_parts, point_sources):
+            tri = splat_triangles(part[0], part[1], part[2])
+            parts.append(tri)
+            sided.append(np.full(len(tri), both))
+            n = len(part[0])
+            owner.append(first + np.repeat(np.arange(n, dtype=np.int64), len(tri) // max(n, 1)))
+            first += n
+    if not parts:
+        return None, None, None
+    return np.concatenate(parts), np.concatenate(sided), np.concatenate(owner)
 
 
 def _back_faces_in_view(occluders, positions: np.ndarray, normals: np.ndarray) -> np.ndarray:
@@ -477,7 +603,7 @@ def _back_faces_in_view(occluders, positions: np.ndarray, normals: np.ndarray) -
 
 
 def _assemble(settings: Settings, samples: list, point_parts: list, point_sources: list,
-              lamp_list: list, ambient, warnings: list[str], stats: dict, t0: float,
+              lamp_list: list, world, warnings: list[str], stats: dict, t0: float,
               occluders=None) -> Job:
     """Materials and the Job from sampled meshes and point clouds (direct light: ``light``);
     ``occluders`` (the scene's triangles) find the open surfaces' back faces in view."""
@@ -503,7 +629,7 @@ def _assemble(settings: Settings, samples: list, point_parts: list, point_source
     for index, s in enumerate(samples):
         if not s.mesh.two_sided:
             continue
-        keep = _back_faces_in_view(occluders, s.positions, -s.normals) if ambient is None \
+        keep = _back_faces_in_view(occluders, s.positions, -s.normals) if world is None \
             else np.ones(len(s.areas), dtype=bool)
         if not keep.any():
             continue
@@ -538,13 +664,13 @@ def _assemble(settings: Settings, samples: list, point_parts: list, point_source
                solve_emission=np.ascontiguousarray(np.where(in_lamp[:, None], 0.0, emission)),
                triangle=tri.astype(np.int64), bary=bary, material_index=mat_idx.astype(np.int64),
                sources=sources, warnings=warnings, timings=timings, stats=stats,
-               lamps=list(lamp_list), ambient=ambient)
+               lamps=list(lamp_list), world=world)
 
 
 def triangles_occlude(job: Job) -> bool:
-    """Whether the meshes' own triangles are this job's occluders (lamp shadows, exact
-    visibility, receivers): every source is a mesh; point clouds occlude only as surfels."""
-    return job.triangles is not None and not job.has_points
+    """Whether triangles are this job's occluders (lamp shadows, exact visibility,
+    receivers): the meshes' own and the point clouds' splats (``_surface_triangles``)."""
+    return job.triangles is not None
 
 
 def mesh_occluders(job: Job, progress: Progress | None = None):
@@ -582,8 +708,8 @@ def _shadows(job: Job, normals: np.ndarray, samples: int, progress: Progress | N
 
 
 def light(job: Job, progress: Progress | None = None) -> Job:
-    """Direct light of ``job.lamps``, the emissive meshes' lamps (``job.emitters``) and world
-    ambient into ``job.direct``, shadows cast against the scene; no bpy, runs on the worker
+    """Direct light of ``job.lamps``, the emissive meshes' lamps (``job.emitters``) and the
+    world (``job.world``) into ``job.direct``, shadows cast against the scene; no bpy, runs on the worker
     (``run`` calls it first). Adds the "direct light" and "shadow rays" timings and
     ``stats["shadow_rays"]``. Does nothing when ``job.direct`` is already set. Raises
     IllumapCancelled when ``progress`` returns False."""
@@ -592,7 +718,7 @@ def light(job: Job, progress: Progress | None = None) -> Job:
     t0 = time.perf_counter()
     s = job.settings
     pos, nrm = job.positions, job.normals
-    all_lamps = list(job.lamps) + list(job.emitters)
+    all_lamps = list(job.lamps) + list(job.emitters) + ([job.world] if job.world else [])
     shadows = None
     try:
         if progress is not None and progress(0.0, lamps.PHASE if all_lamps and s.lamp_shadows
@@ -600,14 +726,13 @@ def light(job: Job, progress: Progress | None = None) -> Job:
             raise IllumapCancelled("Cancelled")
         if all_lamps and s.lamp_shadows:
             shadows = _shadows(job, nrm, s.shadow_samples, progress)
-        incident = lamps.incident_radiance(all_lamps, pos, nrm, ambient=job.ambient,
-                                           shadows=shadows)
+        incident = lamps.incident_radiance(all_lamps, pos, nrm, shadows=shadows)
     except IllumapError:
         raise
     except Exception as exc:  # noqa: BLE001 - a failing ray query is reported, not raised raw
         if _is_cancelled(exc):
             raise IllumapCancelled("Cancelled") from None
-        raise IllumapError(f"Lamp shadows failed: {type(exc).__name__}: {exc}", 4) from exc
+        raise IllumapError(f"Lamp shadows failed: {type(exc).__name__}: {exc}", ExitCode.SOLVER) from exc
     if shadows is not None:
         job.timings["shadow rays"] = shadows.seconds
         job.stats["shadow_rays"] = int(shadows.rays)
@@ -638,12 +763,86 @@ def _merged_corners(occ, rec) -> tuple[np.ndarray, np.ndarray]:
     return rows, index.ravel()
 
 
+#: A surface pressed against a receiver hides it when a surfel of it faces the receiver
+#: (normals more opposite than this cosine) within this many of its own spacings.
+COVER_COS = -0.9
+COVER_REACH = 1.5
+_COVER_NEIGHBOURS = 16
+
+
+def covered_receivers(job: Job, points: np.ndarray, normals: np.ndarray,
+                      tolerance: float) -> np.ndarray:
+    """bool (M,): receivers that another surface lies flat against, facing them (a box's
+    bottom on a floor). Rays lifted off such a receiver would start beyond the covering
+    surface and see past it, so no light reaches them, as in Cycles. Found among the meshes'
+    front-face surfels: one within ``tolerance`` (m) of the receiver's plane, facing it and
+    laterally within ``COVER_REACH`` of its own spacing."""
+    from illumap import _core
+    rows = np.concatenate([np.arange(src.start, src.stop) for src in job.sources
+                           if src.kind == "MESH"] or [np.zeros(0, dtype=np.int64)])
+    if rows.size == 0 or len(points) == 0:
+        return np.zeros(len(points), dtype=bool)
+    pos, nrm = job.positions[rows], job.normals[rows]
+    spacing = np.sqrt(job.areas[rows])
+    k = min(_COVER_NEIGHBOURS, len(rows))
+    idx, _ = _core.knn(pos, np.ascontiguousarray(points, dtype=np.float64), k)
+    d = pos[idx] - points[:, None, :]
+    height = np.einsum("mkc,mc->mk", d, normals)
+    lateral = np.sqrt(np.maximum(np.einsum("mkc,mkc->mk", d, d) - height ** 2, 0.0))
+    facing = np.einsum("mkc,mc->mk", nrm[idx], normals) < COVER_COS
+    return (facing & (np.abs(height) < tolerance)
+            & (lateral < COVER_REACH * spacing[idx])).any(axis=1)
+
+
+def _point_receivers(job: Job) -> list[tuple]:
+    """Receivers at every point of each point cloud (``(receivers, back)``; ``back`` the same
+    points facing the other way for clouds of unknown orientation, else None), in the order
+    of their sources."""
+    backs = {src.name for src in job.sources if src.kind == "BACK"}
+    out = []
+    for cloud in job.clouds:
+        n = len(cloud.positions)
+        make = lambda normals, c=cloud, n=n: sampling.Receivers(  # noqa: E731
+            c.name, np.arange(n, dtype=np.int64), c.positions, normals, c.albedo, c.emission, n)
+        out.append((make(cloud.normals), make(-cloud.normals) if cloud.name in backs else None))
+    return out
+
+
+def _splat_owners(job: Job, back: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Per triangle of ``job.triangles``: the row in the front field (surfels not in
+    ``back``) and in the back field of the surfel that stands for the point whose splat it
+    is, or -1 (mesh triangles)."""
+    if job.splat_point is None or (job.splat_point < 0).all():
+        return None, None
+    front_row = np.cumsum(~back) - 1
+    back_row = np.cumsum(back) - 1
+    sources = {(src.name, src.kind): src for src in job.sources}
+    owner_front = np.full(len(job.splat_point), -1, dtype=np.int64)
+    owner_back = np.full(len(job.splat_point), -1, dtype=np.int64)
+    offset = 0
+    for cloud in job.clouds:
+        n = len(cloud.positions)
+        mine = (job.splat_point >= offset) & (job.splat_point < offset + n)
+        surfel = cloud.surfel[job.splat_point[mine] - offset]
+        owner_front[mine] = front_row[sources[(cloud.name, "POINTS")].start + surfel]
+        twin = sources.get((cloud.name, "BACK"))
+        if twin is not None:
+            owner_back[mine] = back_row[twin.start + surfel]
+        offset += n
+    return owner_front, owner_back
+
+
 def receive(job: Job, result: "Result", progress: Progress | None = None) -> None:
-    """Evaluate the light at every receiver of ``job.receivers`` (DESIGN.md §6) into
-    ``result.receiver_values``: direct light from lamps and emitters with shadow rays from the
-    receiver, plus the final gather of the surfels' solved light (``illumap.receivers``).
-    No bpy; runs on the worker after the solve. Raises IllumapCancelled when cancelled."""
-    if not job.receivers:
+    """Evaluate the light at every receiver (DESIGN.md §6): the meshes' corners
+    (``job.receivers``) into ``result.receiver_values``, and with Transfer the point clouds'
+    points (their brighter side where the orientation is unknown) into
+    ``result.point_receiver_values``. Direct light from lamps and emitters with shadow rays
+    from the receiver, plus the final gather of the surfels' solved light
+    (``illumap.receivers``); the world's light through the gather's rays that leave the
+    scene. No bpy; runs on the worker after the solve. Raises IllumapCancelled when
+    cancelled."""
+    point_sets = _point_receivers(job) if job.settings.transfer else []
+    if not job.receivers and not point_sets:
         return
     from illumap import receivers as rc
     t0 = time.perf_counter()
@@ -652,7 +851,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     if occ is None:
         return
     # What the surfels send on: their solved radiance (with the emission left to them); the
-    # open surfaces' back faces are a field of their own.
+    # open surfaces' and two-sided points' back faces are a field of their own.
     sent = result.radiosity - job.emission + job.solve_emission
     back = np.zeros(job.count, dtype=bool)
     for src in job.sources:
@@ -661,33 +860,42 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     field_ = rc.SurfelField(job.positions[~back], job.normals[~back], sent[~back])
     back_field = (rc.SurfelField(job.positions[back], job.normals[back], sent[back])
                   if back.any() else None)
+    owners, back_owners = _splat_owners(job, back)
     all_lamps = list(job.lamps) + list(job.emitters)
     gather_rays, shadow_samples = receiver_rays(s)
     lum = np.array([0.2126, 0.7152, 0.0722])
     noise2 = light2 = indirect = total = 0.0
     # Every object's receivers in one batch (the gather tabulates the surfels' light once),
     # corners that see the same light evaluated once.
-    merged = [_merged_corners(occ, rec) for rec in job.receivers]
-    points = np.concatenate([rec.points[rows] for rec, (rows, _) in zip(job.receivers, merged)])
-    normals = np.concatenate([rec.normals[rows] for rec, (rows, _) in zip(job.receivers, merged)])
+    batch = list(job.receivers) + [r for pair in point_sets for r in pair if r is not None]
+    merged = [_merged_corners(occ, rec) for rec in batch]
+    points = np.concatenate([rec.points[rows] for rec, (rows, _) in zip(batch, merged)])
+    normals = np.concatenate([rec.normals[rows] for rec, (rows, _) in zip(batch, merged)])
     offsets = np.cumsum([0] + [len(rows) for rows, _ in merged])
+    # Each receiver's rays follow from its index in its object alone (both sides of a point
+    # alike): not from which other objects are in the batch, nor from their names.
+    ids = np.concatenate([rows for rows, _ in merged]).astype(np.int64)
+    values_of = []
     try:
         shadows = None
         if all_lamps and s.lamp_shadows:
             shadows = lamps.Shadows(occ.segment_query(normals), samples=shadow_samples,
                                     seed=s.seed, extent=occ.extent)
         direct = lamps.incident_radiance(all_lamps, points, normals, shadows=shadows)
-        gathered = rc.gather(occ, field_, points, normals, rays=gather_rays, seed=s.seed,
-                             background=job.ambient, back_field=back_field,
-                             two_sided=job.two_sided,
+        gathered = rc.gather(occ, field_, points, normals, rays=gather_rays, seed=s.seed, ids=ids,
+                             background=None if job.world is None else job.world.color,
+                             back_field=back_field, two_sided=job.two_sided, owners=owners,
+                             back_owners=back_owners,
                              progress=None if progress is None else
                              (lambda f, _p="": progress(f, "gather")))
         incident = direct + gathered.radiance
+        hidden = covered_receivers(job, points, normals, 2.0 * occ.offset)
+        incident[hidden] = 0.0
         rays = gathered.rays + (shadows.rays if shadows is not None else 0)
-        for rec, lo, (_, index) in zip(job.receivers, offsets[:-1], merged):
+        for rec, lo, (_, index) in zip(batch, offsets[:-1], merged):
             rows = lo + index
             values = rec.emission + rec.albedo * incident[rows]
-            result.receiver_values[rec.name] = values
+            values_of.append(values)
             # What the estimate needs: the gather's noise and the indirect share, by luminance.
             rho = rec.albedo @ lum
             noise2 += float(((rho * gathered.stderr[rows]) ** 2).sum())
@@ -699,15 +907,25 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     except Exception as exc:  # noqa: BLE001
         if _is_cancelled(exc):
             raise IllumapCancelled("Cancelled") from None
-        raise IllumapError(f"Evaluating the light at the meshes failed: "
-                           f"{type(exc).__name__}: {exc}", 4) from exc
+        raise IllumapError(f"Evaluating the light at the receivers failed: "
+                           f"{type(exc).__name__}: {exc}", ExitCode.SOLVER) from exc
+    for rec, values in zip(job.receivers, values_of):
+        result.receiver_values[rec.name] = values
+    rest = iter(values_of[len(job.receivers):])
+    for front, other in point_sets:
+        values = next(rest)
+        if other is not None:   # the brighter side, as the surfels show it
+            flipped = next(rest)
+            values = np.where((flipped @ lum > values @ lum)[:, None], flipped, values)
+        result.point_receiver_values[front.name] = values
     result.timings["receivers"] = time.perf_counter() - t0
     gather_noise = float(np.sqrt(noise2 / light2)) if light2 > 0 else 0.0
     share = indirect / total if total > 0 else 0.0
     result.stats["receivers"] = dict(points=int(len(points)),
                                      corners=int(sum(len(r.points) for r in job.receivers)),
+                                     scan_points=int(sum(len(f.points) for f, _ in point_sets)),
                                      rays=int(rays), gather_rays=int(gather_rays),
-                                     shadow_samples=int(shadow_samples),
+                                     shadow_samples=int(shadow_samples), covered=int(hidden.sum()),
                                      gather_noise=gather_noise, indirect_share=float(share))
     estimate = (result.stats.get("accuracy") or {}).get("estimate", {}).get("total")
     if estimate is not None:
@@ -754,11 +972,11 @@ def next_pass(job: Job, result: "Result") -> Job | None:
     stats = dict(job.stats)
     stats.pop("shadow_rays", None)
     refine_seconds = time.perf_counter() - t0
-    new = _assemble(s, samples, scene.points, scene.point_sources, scene.lamps, scene.ambient,
+    new = _assemble(s, samples, scene.points, scene.point_sources, scene.lamps, scene.world,
                     list(job.warnings), stats, t0, job.occluders)
     new.accuracy = job.accuracy
     new.emitters, new.triangles, new.has_points = job.emitters, job.triangles, job.has_points
-    new.two_sided = job.two_sided
+    new.two_sided, new.splat_point, new.clouds = job.two_sided, job.splat_point, job.clouds
     new.receivers, new.occluders = job.receivers, job.occluders
     new.timings = {"pass 1: " + k_: v for k_, v in result.timings.items()} | \
         {"adaptive refinement": refine_seconds} | new.timings
@@ -782,18 +1000,19 @@ def run(job: Job, progress: Progress | None = None) -> Result:
     try:
         import illumap
     except ImportError as exc:
-        raise IllumapError(f"The Illumap core module is not installed ({exc})", 4) from None
+        raise IllumapError(f"The Illumap core module is not installed ({exc})", ExitCode.SOLVER) from None
     s = job.settings
     shape = occluder_shape(s)   # an unknown shape is refused before any work
     light(job, progress)
+    checks.check_light(job)   # no light reaches any surface: no solve for a black map
     try:
         surfels = illumap.Surfels(job.positions, job.normals, job.areas, job.albedo,
                                   job.solve_emission + job.direct)
     except illumap.InputError as exc:
-        raise IllumapError(f"Invalid surfels: {exc}", 3) from None
+        raise IllumapError(f"Invalid surfels: {exc}", ExitCode.INPUT) from None
     if s.target_error is not None:
         if not 0.0 < s.target_error < 1.0:
-            raise IllumapError(f"Target error must lie in (0, 1), got {s.target_error}", 2)
+            raise IllumapError(f"Target error must lie in (0, 1), got {s.target_error}", ExitCode.USAGE)
         from illumap import accuracy
         solve = accuracy.solve
         # Should the error model choose exact visibility, its occluders are the shadows' too.
@@ -832,11 +1051,11 @@ def run(job: Job, progress: Progress | None = None) -> Result:
     except illumap.Cancelled:
         raise IllumapCancelled("Cancelled") from None
     except illumap.InputError as exc:
-        raise IllumapError(f"Invalid input: {exc}", 3) from None
+        raise IllumapError(f"Invalid input: {exc}", ExitCode.INPUT) from None
     except IllumapError:
         raise
     except Exception as exc:  # noqa: BLE001 - anything from the solver is a solver failure
-        raise IllumapError(f"Solver failed: {type(exc).__name__}: {exc}", 4) from exc
+        raise IllumapError(f"Solver failed: {type(exc).__name__}: {exc}", ExitCode.SOLVER) from exc
     timings = dict(job.timings)
     timings.update({f"solve: {k}": float(v) for k, v in dict(getattr(sol, "timings", {}) or {}).items()})
     timings["solve"] = time.perf_counter() - t0
@@ -847,7 +1066,7 @@ def run(job: Job, progress: Progress | None = None) -> Result:
     # The emission that lamps carried is still what those surfels send to the eye.
     radiosity = np.asarray(sol.radiosity, dtype=np.float64) + (job.emission - job.solve_emission)
     if not np.all(np.isfinite(radiosity)):
-        raise IllumapError("Solver returned non-finite values", 4)
+        raise IllumapError("Solver returned non-finite values", ExitCode.SOLVER)
     stats = dict(getattr(sol, "stats", {}) or {})
     stats.update(job.stats)
     stats["occluder_shape"] = shape
@@ -922,13 +1141,17 @@ def write(context, job: Job, result: Result):
 
 
 def point_values(job: Job, result: Result) -> dict[str, np.ndarray]:
-    """Outgoing radiance (n, 3) per point of each point-cloud source, in its own order: the
-    point's surfel, or for two-sided points the brighter of its two sides."""
+    """Outgoing radiance (n, 3) per point of each point-cloud source, in its own order: as
+    evaluated at the point (``receive``), else the point's surfel, for two-sided points the
+    brighter of its two sides."""
     out = {}
     backs = {src.name: src for src in job.sources if src.kind == "BACK"}
     lum = np.array([0.2126, 0.7152, 0.0722])
     for src in job.sources:
         if src.kind != "POINTS":
+            continue
+        if src.name in result.point_receiver_values:
+            out[src.name] = result.point_receiver_values[src.name]
             continue
         values = result.radiosity[src.start:src.stop]
         back = backs.get(src.name)

@@ -115,6 +115,19 @@ def read_points(obj, depsgraph, warnings: list[str]) -> PointSamples:
     return _finish(obj, obj_eval, name, pos, extra, active, mats, warnings)
 
 
+def _check_spacing(name: str, pos: np.ndarray, areas: np.ndarray, k: int) -> None:
+    """Raise an IllumapError naming the point cloud when points coincide with all their
+    nearest neighbours: no spacing, so no area, can be estimated for them."""
+    bad = ~(areas > 0)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        where = ", ".join(f"{c:.6g}" for c in pos[i])
+        raise IllumapError(
+            f"Point cloud '{name}': {int(bad.sum())} points coincide with their {k} nearest "
+            f"neighbours (e.g. point {i} at ({where})), so their spacing and area cannot be "
+            "estimated: remove the duplicates (Merge by Distance) or add a 'radius' attribute")
+
+
 def _point_attrs(attributes, count: int) -> dict:
     out = {"radius": _read_attr(attributes, "radius", count, 1), "normal": None, "colors": {}}
     for nm in ("normal", "N"):
@@ -134,9 +147,12 @@ def _finish(obj, obj_eval, name, pos, extra, active, mats, warnings) -> PointSam
         raise IllumapError(f"Object '{name}' has no points")
     if not np.all(np.isfinite(pos)):
         raise IllumapError(f"Object '{name}' has points with NaN or infinite coordinates")
-    m = np.array(obj_eval.matrix_world, dtype=np.float64)
+    from .sampling import check_coordinates, check_transform
+    m = check_transform(name, obj_eval.matrix_world)
     lin = m[:3, :3]
-    pos = pos @ lin.T + m[:3, 3]
+    with np.errstate(over="ignore", invalid="ignore"):
+        pos = pos @ lin.T + m[:3, 3]
+    check_coordinates(name, pos, "point")
     radius, normal = extra["radius"], extra["normal"]
     if (radius is None or normal is None) and count < 4:
         missing = "radius" if radius is None else "normal"
@@ -151,6 +167,7 @@ def _finish(obj, obj_eval, name, pos, extra, active, mats, warnings) -> PointSam
             raise IllumapError(f"Point cloud '{name}': radius attribute has zero, negative or NaN values")
     else:
         areas = estimate_areas(pos, k)
+        _check_spacing(name, pos, areas, k)
         warnings.append(f"Point cloud '{name}': no 'radius' attribute; areas estimated from the "
                         f"spacing of {k} nearest neighbours")
     if normal is not None:

@@ -42,7 +42,8 @@ class IllumapPreferences(bpy.types.AddonPreferences):
                                 description="Add Blender lamps as direct light in new scenes")
     default_lamp_shadows: BoolProperty(name="Lamp Shadows", default=True,
                                        description="Shadow lamp light in new scenes")
-    default_world_ambient: BoolProperty(name="World Ambient", default=False)
+    default_world_ambient: BoolProperty(name="World Light", default=True,
+                                        description="Light from the world in new scenes")
     default_build_preview: BoolProperty(name="Build Preview After Compute", default=True)
     default_disc_scale: FloatProperty(name="Disc Scale", default=preview.DEFAULT_DISC_SCALE,
                                        min=0.0, soft_max=4.0)

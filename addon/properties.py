@@ -22,6 +22,13 @@ PRESET_PROPERTY_VALUES = {name: {key: (value.upper() if key in ("visibility", "s
                                        else value)
                                  for key, value in values.items()}
                           for name, values in QUALITY_PRESETS.items()}
+# The FMM order stops where the native core does: the core's one constant (without the core,
+# the reduced UI cannot compute, and the field has no upper bound to show).
+try:
+    from illumap.operator import MAX_ORDER as _MAX_ORDER
+    _ORDER_LIMIT = {"max": int(_MAX_ORDER)}
+except Exception:  # pragma: no cover - the reduced UI
+    _ORDER_LIMIT = {}
 DEFAULT_PRESET = "MEDIUM"
 _DEFAULTS = dict(density=100.0, budget=10_000, order=4, theta=0.5, visibility="EXACT",
                  tol=1e-4, gather_rays=512, receiver_shadow_samples=128)
@@ -208,8 +215,8 @@ class IllumapSettings(bpy.types.PropertyGroup):
     # Solver
     method: EnumProperty(name="Method", items=METHOD_ITEMS, default="FMM", update=_field_update)
     order: IntProperty(name="FMM Order", description="Expansion order p of the multipole method",
-                       default=_DEFAULTS["order"], min=1, max=12,
-                       update=_field_update)
+                       default=_DEFAULTS["order"], min=1, update=_field_update,
+                       **_ORDER_LIMIT)
     theta: FloatProperty(name="Opening Angle", description="Separation ratio for the far field",
                          default=_DEFAULTS["theta"], min=0.05, max=0.95, update=_field_update)
     leaf_size: IntProperty(name="Leaf Size", description="Surfels per octree leaf", default=32,
@@ -239,9 +246,10 @@ class IllumapSettings(bpy.types.PropertyGroup):
         name="Shadow Samples", default=16, min=1, soft_max=128, update=_field_update,
         description="Rays per surfel for lamps with a size (radius, area, sun angle): more "
                     "give smoother penumbrae; cost grows in proportion")
-    world_ambient: BoolProperty(name="World Ambient",
-                                description="Add the world colour as uniform ambient light",
-                                default=False, update=_field_update)
+    world_ambient: BoolProperty(
+        name="World Light", default=True, update=_field_update,
+        description="Light from the world's Background (a colour, or an environment image's "
+                    "mean), shadowed by the scene as Cycles does; a black world adds nothing")
     gather_rays: IntProperty(
         name="Gather Rays", default=_DEFAULTS["gather_rays"], min=1, soft_max=4096,
         update=_field_update,

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from illumap import sampling as core_sampling
+from illumap import surfels as core_surfels
 
 from .errors import IllumapError
 from .kinds import MESH_TYPES
@@ -83,6 +84,39 @@ class MeshSamples:
         if key not in self.mesh.colors:
             return None
         return np.einsum("nk,nkc->nc", self.bary, self.mesh.colors[key][self.triangle])
+
+
+#: Farther than this from the origin (m, world space), a coordinate is taken for an infinite or
+#: absurd value (Blender stores an infinite coordinate as ±3.4e38): the core's own limit
+#: (``illumap.surfels.MAX_COORDINATE``, 1e12 m; georeferenced scans sit within 1e7 m).
+MAX_COORDINATE = core_surfels.MAX_COORDINATE
+
+
+def check_transform(name: str, matrix, kind: str = "Object") -> np.ndarray:
+    """``matrix`` (4×4 world matrix) as float64, or an IllumapError naming ``name`` when it
+    holds NaN or infinite values (a NaN location, rotation or scale, here or on a parent or
+    through a constraint or driver)."""
+    m = np.array(matrix, dtype=np.float64)
+    if not np.all(np.isfinite(m)):
+        raise IllumapError(f"{kind} '{name}' has a non-finite transform (NaN or infinite "
+                           "location, rotation or scale, on it or on a parent, constraint or "
+                           "driver)")
+    return m
+
+
+def check_coordinates(name: str, world: np.ndarray, what: str = "vertex") -> None:
+    """Raise an IllumapError naming ``name`` and the first ``what`` (vertex, point) whose world
+    coordinates (N, 3) are not finite or lie beyond ``MAX_COORDINATE``."""
+    bad = ~np.isfinite(world).all(axis=1)
+    with np.errstate(invalid="ignore", over="ignore"):
+        bad |= (np.abs(world) > MAX_COORDINATE).any(axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        where = ", ".join(f"{c:.3g}" for c in world[i])
+        more = f" (and {int(bad.sum()) - 1} more)" if bad.sum() > 1 else ""
+        raise IllumapError(f"Object '{name}': {what} {i} lies at ({where}) m in world space"
+                           f"{more}, beyond ±{MAX_COORDINATE:.0e} m: an infinite or absurd "
+                           "coordinate or scale; fix the geometry or the object's transform")
 
 
 def _get(collection, attr: str, count: int, width: int, dtype) -> np.ndarray:
@@ -150,9 +184,11 @@ def _read_mesh_data(name: str, obj_eval, mesh, matrix_world, material_slots) -> 
     if not np.all(np.isfinite(co)):
         bad = int((~np.isfinite(co)).any(axis=1).sum())
         raise IllumapError(f"Object '{name}' has {bad} vertices with NaN or infinite coordinates")
-    m = np.array(matrix_world, dtype=np.float64)
+    m = check_transform(name, matrix_world)
     lin, trans = m[:3, :3], m[:3, 3]
-    world = co @ lin.T + trans
+    with np.errstate(over="ignore", invalid="ignore"):
+        world = co @ lin.T + trans
+    check_coordinates(name, world)
     tri_v = _get(mesh.loop_triangles, "vertices", nt, 3, np.int32)
     tri_l = _get(mesh.loop_triangles, "loops", nt, 3, np.int32)
     mat_idx = _get(mesh.loop_triangles, "material_index", nt, 1, np.int32).astype(np.int64)
@@ -167,8 +203,11 @@ def _read_mesh_data(name: str, obj_eval, mesh, matrix_world, material_slots) -> 
         raise IllumapError(f"Object '{name}' has a degenerate (zero-scale) transform") from None
     cn = _get(mesh.corner_normals, "vector", nl, 3, np.float64) @ inv
     cn /= np.maximum(np.linalg.norm(cn, axis=1, keepdims=True), 1e-300)
-    extent = np.ptp(world, axis=0).max() if nv else 0.0
-    keep = np.isfinite(area) & (area > 1e-12 * max(extent, 1e-30) ** 2)
+    # Zero area relative to each triangle's own size (not the object's: one far vertex would
+    # make every ordinary face look degenerate).
+    edges = corners - np.roll(corners, 1, axis=1)
+    longest = np.sqrt(np.einsum("tkc,tkc->tk", edges, edges).max(axis=1))
+    keep = np.isfinite(area) & (area > 1e-12 * np.maximum(longest, 1e-30) ** 2)
     skipped = int(nt - keep.sum())
     if not keep.any():
         raise IllumapError(f"Object '{name}': all {nt} faces have zero area; nothing to sample")

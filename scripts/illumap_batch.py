@@ -1,7 +1,8 @@
 """Batch entry point: ``blender -b scene.blend --python scripts/illumap_batch.py -- <options>``.
 
-Run ``... -- --help`` for the options (documented in addon/batch.py). Exit codes: 0 ok,
-2 bad arguments, 3 bad scene/input, 4 solver failure, 130 cancelled.
+Run ``... -- --help`` for the options and exit codes (documented in addon/batch.py; the codes
+are ``addon.errors.ExitCode``: 0 ok, 1 internal error, 2 bad arguments, 3 bad scene/input,
+4 solver failure, 5 output cannot be written, 130 cancelled).
 
 Works from a repository checkout (the repo root goes on sys.path and ``addon`` is imported) and
 with the extension installed (``bl_ext.<repo>.illumap.addon``).

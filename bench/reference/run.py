@@ -97,6 +97,42 @@ def read_illumination(obj) -> np.ndarray:
 
 # --- the cached reference -------------------------------------------------------------------
 
+def scan_objects(scene: "scenes.ReferenceScene") -> tuple[list, dict]:
+    """What Illumap is given for ``scene``: one vertex-only point object holding the vertices
+    of the meshes named in ``scene.scan`` (albedo in "Col", no normals, no radii) in place of
+    those meshes, and how to read it back ({mesh name: (first point, count)})."""
+    if not scene.scan:
+        return scene.objects, {}
+    meshes = [o for o in scene.scored if o.name in scene.scan]
+    points = np.concatenate([bake.vertex_positions(o) for o in meshes])
+    albedo = np.concatenate([scene.albedo[o.name] for o in meshes])
+    data = bpy.data.meshes.new("Scan")
+    data.vertices.add(len(points))
+    data.vertices.foreach_set("co", points.ravel())
+    colour = data.color_attributes.new("Col", "FLOAT_COLOR", "POINT")
+    rgba = np.ones((len(points), 4), dtype=np.float32)
+    rgba[:, :3] = albedo
+    colour.data.foreach_set("color", rgba.ravel())
+    data.color_attributes.active_color = colour
+    scan = bpy.data.objects.new("Scan", data)
+    bpy.context.scene.collection.objects.link(scan)
+    spans, start = {}, 0
+    for o in meshes:
+        spans[o.name] = (start, len(o.data.vertices))
+        start += len(o.data.vertices)
+    rest = [o for o in scene.objects if o.name not in scene.scan]
+    return [scan] + rest, spans
+
+
+def read_scan(spans: dict) -> dict[str, np.ndarray]:
+    """The scan object's ``illumination`` point attribute, split back into its meshes."""
+    attr = bpy.data.objects["Scan"].data.attributes["illumination"]
+    rgba = np.empty(len(attr.data) * 4, dtype=np.float32)
+    attr.data.foreach_get("color", rgba)
+    values = rgba.reshape(-1, 4)[:, :3].astype(np.float64)
+    return {name: values[start:start + count] for name, (start, count) in spans.items()}
+
+
 def _cache_path(name: str) -> str:
     return os.path.join(CACHE_DIR, f"{name}.npz")
 
@@ -104,7 +140,7 @@ def _cache_path(name: str) -> str:
 def load_reference(scene: "scenes.ReferenceScene", min_samples: int) -> dict | None:
     """The cached reference of ``scene`` if it matches the built vertices and has at least
     ``min_samples`` samples, else None."""
-    path = _cache_path(scene.name)
+    path = _cache_path(scene.reference_name)
     if not os.path.exists(path):
         return None
     data = np.load(path, allow_pickle=False)
@@ -134,7 +170,7 @@ def make_reference(scene: "scenes.ReferenceScene", samples: int) -> dict:
     os.makedirs(CACHE_DIR, exist_ok=True)
     date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     np.savez_compressed(
-        _cache_path(scene.name), names=np.array(names),
+        _cache_path(scene.reference_name), names=np.array(names),
         counts=np.array([len(o.data.vertices) for o in scene.scored]),
         positions=np.concatenate([bake.vertex_positions(o) for o in scene.scored]).astype(np.float32),
         outgoing=score.stacked(outgoing, names).astype(np.float32), samples=samples,
@@ -184,7 +220,7 @@ def run_scene(name: str, pipeline, settings: list[tuple[str, dict]], sample_coun
               f"rel. RMS {noise:.4f}", flush=True)
     for label, spec in settings:
         scene = scenes.build(name)        # a fresh file for every run
-        objects = scene.objects
+        objects, spans = scan_objects(scene)
         settings_obj = make_settings(pipeline, spec)
         start = time.perf_counter()
         try:
@@ -194,7 +230,8 @@ def run_scene(name: str, pipeline, settings: list[tuple[str, dict]], sample_coun
             rows.append(dict(scene=name, tool="illumap", label=label, error=str(exc)))
             continue
         seconds = time.perf_counter() - start
-        values = {o.name: read_illumination(o) for o in scene.scored}
+        values = {o.name: read_illumination(o) for o in scene.scored if o.name not in spans}
+        values.update(read_scan(spans) if spans else {})
         rows.append(_scored_row(scene, label, "illumap", values, ref["outgoing"], seconds,
                                 surfels=int(result.count), settings=spec,
                                 receivers=result.stats.get("receivers"),

@@ -34,6 +34,14 @@ Scenes (``SCENES``):
 * ``lamps``: an open scene: a 12 m floor, a single-plane wall and a tilted single-plane awning
   (open surfaces: Cycles reflects on both faces), a box and a sphere on the floor, a spot lamp
   and a sun lamp.
+* ``world``: an open scene under a constant sky (Background colour × strength, no lamps): a
+  floor, a box resting on it, a sphere, a single-plane wall and a two-sided emissive panel
+  (a plain Emission shader, which Cycles emits from both faces).
+* ``scan_room``: the Cornell box given to Illumap as a scan, its walls' and blocks' vertices
+  as one point cloud without normals, scored at those points against ``cornell``'s reference.
+* ``scan_object``: the Stanford bunny (a real range scan; test data, credited in
+  ``BUNNY_CREDIT``) on a floor under the sky and a sun, the bunny's vertices given to Illumap
+  as a point cloud without normals, Cycles baking the scan's own triangles.
 * ``near``: stability cases side by side, 20 m apart: an emitter 1 mm under a ceiling above a
   floor; a room corner lit by a point lamp; a floor strip against a wall under an area lamp; a
   thin plate (a 5 mm slab, what Solidify makes) lit from one side by a spot above a floor; a
@@ -43,6 +51,7 @@ Scenes (``SCENES``):
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 
 import bpy  # before bmesh: the bpy module provides it
@@ -56,6 +65,14 @@ CORNELL_RADIANCE = (17.0, 12.0, 4.0)
 CORNELL_SCALE = 0.005
 #: Distance of an emitter below the surface it hangs from, m.
 EMITTER_GAP = 0.001
+#: The open scenes' sky (linear RGB radiance at strength 1) and the emissive panel's radiance.
+SKY = (0.5, 0.65, 1.0)
+PANEL_RADIANCE = (4.0, 3.0, 1.5)
+#: The Stanford bunny (test data outside the extension, see its README) and its scale.
+BUNNY_PLY = os.environ.get("ILLUMAP_BUNNY", "/work/shared/data/stanford-bunny/bun_zipper.ply")
+BUNNY_SCALE = 3.3
+BUNNY_CREDIT = ("Stanford Bunny: Stanford 3D Scanning Repository, Stanford University Computer "
+                "Graphics Laboratory")
 
 
 @dataclass
@@ -70,11 +87,21 @@ class ReferenceScene:
     emission: dict[str, np.ndarray]     # object name -> (V, 3) emitted radiance per vertex
     notes: str = ""
     groups: dict[str, list[str]] = field(default_factory=dict)  # label -> object names
+    # Scored meshes that Illumap is given as one scanned point cloud (their vertices, albedo
+    # in a "Col" attribute, no normals, no radii), scored at those points; Cycles bakes the
+    # meshes themselves.
+    scan: list[str] = field(default_factory=list)
+    reference: str = ""                 # the cached reference to use ("": this scene's own)
 
     @property
     def objects(self) -> list:
         """Every mesh Illumap solves (scored meshes and emitters)."""
         return self.scored + self.emitters
+
+    @property
+    def reference_name(self) -> str:
+        """The name of the cached Cycles reference this scene is scored against."""
+        return self.reference or self.name
 
     def vertex_count(self) -> int:
         """Number of scored vertices."""
@@ -526,7 +553,111 @@ def near() -> ReferenceScene:
     return _finish("near", scored, emitters, lamps_, "stability cases 20 m apart", groups)
 
 
-SCENES = {"cornell": cornell, "room": room, "lamps": lamps, "near": near}
+def sky_world(color=SKY, strength: float = 1.0) -> None:
+    """A world whose Background is a constant sky ``color`` × ``strength``: lights every open
+    scene in Cycles, and in Illumap (World Light)."""
+    world = bpy.data.worlds.new("Sky")
+    if world.node_tree is None:
+        world.use_nodes = True
+    background = world.node_tree.nodes.get("Background")
+    background.inputs["Color"].default_value = (*color, 1.0)
+    background.inputs["Strength"].default_value = strength
+    bpy.context.scene.world = world
+
+
+def two_sided_emission(name: str, radiance) -> "bpy.types.Material":
+    """A plain Emission shader: Cycles emits it from both faces."""
+    mat, out = _new_material(name)
+    strength = float(max(radiance))
+    emission = mat.node_tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Color"].default_value = (*[c / strength for c in radiance], 1.0)
+    emission.inputs["Strength"].default_value = strength
+    mat.node_tree.links.new(emission.outputs["Emission"], out.inputs["Surface"])
+    mat["albedo"] = (0.0, 0.0, 0.0)
+    mat["emission"] = tuple(radiance)
+    return mat
+
+
+def world() -> ReferenceScene:
+    """An open scene lit by the sky: a floor, a box resting on it, a sphere, a free-standing
+    wall, and a two-sided emissive panel (plain Emission) between them; no lamps."""
+    _reset()
+    sky_world()
+    grey = diffuse_material("Grey", (0.6, 0.6, 0.6))
+    red = diffuse_material("Red", (0.7, 0.15, 0.1))
+    paint = matte_principled("Paint", (0.8, 0.78, 0.74))
+    floor = mesh_object("Floor", quad_parts([(-4, -4, 0), (4, -4, 0), (4, 4, 0), (-4, 4, 0)],
+                                            (0, 0, 1), 0.2), grey)
+    box = mesh_object("Box", box_parts((0.5, -1.0, 0.0), (1.5, 0.0, 0.8), 0.1), red)
+    sphere = uv_sphere("Sphere", (-1.2, -0.5, 0.6), 0.6, paint)
+    wall = mesh_object("Wall", quad_parts([(-2.5, 1.2, 0), (2.5, 1.2, 0), (2.5, 1.2, 2.0),
+                                           (-2.5, 1.2, 2.0)], (0, -1, 0), 0.2), paint)
+    panel = mesh_object("Panel", quad_parts([(-0.2, 0.4, 0.3), (0.2, 0.4, 0.3), (0.2, 0.4, 1.1),
+                                             (-0.2, 0.4, 1.1)], (0, -1, 0), 1.0),
+                        two_sided_emission("Panel", PANEL_RADIANCE))
+    return _finish("world", [floor, box, sphere, wall], [panel], [],
+                   "open scene under a constant sky (no lamps), box on the floor, "
+                   "single-plane wall, two-sided emissive panel")
+
+
+def scan_room() -> ReferenceScene:
+    """The Cornell box given to Illumap as a scan: its walls' and blocks' vertices as one
+    point cloud without normals (the light kept as a mesh), scored against the Cornell box's
+    reference at those points."""
+    scene = cornell()
+    scene.name, scene.reference = "scan_room", "cornell"
+    scene.scan = [o.name for o in scene.scored]
+    scene.notes = "the Cornell box's 5,341 vertices as a point cloud without normals; " + scene.notes
+    return scene
+
+
+def read_ply(path: str) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices (V, 3) and triangles (F, 3) of an ASCII PLY such as the Stanford bunny."""
+    with open(path) as f:
+        counts, header = {}, 0
+        for line in f:
+            header += 1
+            parts = line.split()
+            if parts[:1] == ["element"]:
+                counts[parts[1]] = int(parts[2])
+            if parts[:1] == ["end_header"]:
+                break
+        rows = f.read().split("\n")
+    nv, nf = counts["vertex"], counts["face"]
+    verts = np.array([r.split()[:3] for r in rows[:nv]], dtype=np.float64)
+    faces = np.array([r.split()[1:4] for r in rows[nv:nv + nf]], dtype=np.int64)
+    return verts, faces
+
+
+def scan_object() -> ReferenceScene:
+    """The Stanford bunny (a real range scan, BUNNY_CREDIT) scaled to 0.5 m, standing on a
+    floor under the sky and a sun. Illumap gets the bunny's vertices as a point cloud without
+    normals; Cycles bakes the scan's own triangles."""
+    _reset()
+    sky_world(strength=0.5)
+    verts, faces = read_ply(BUNNY_PLY)
+    verts = verts[:, [0, 2, 1]] * np.array([1.0, -1.0, 1.0])          # y up -> z up
+    verts = (verts - [verts[:, 0].mean(), verts[:, 1].mean(), verts[:, 2].min()]) * BUNNY_SCALE
+    mesh = bpy.data.meshes.new("Bunny")
+    mesh.from_pydata(verts, [], faces)          # (x, -z, y) is a rotation: winding kept
+    mesh.validate()
+    mesh.materials.append(diffuse_material("Clay", (0.75, 0.6, 0.45)))
+    bunny = bpy.data.objects.new("Bunny", mesh)
+    bpy.context.scene.collection.objects.link(bunny)
+    floor = mesh_object("Floor", quad_parts([(-1.5, -1.5, 0), (1.5, -1.5, 0), (1.5, 1.5, 0),
+                                             (-1.5, 1.5, 0)], (0, 0, 1), 0.1),
+                        diffuse_material("Grey", (0.6, 0.6, 0.6)))
+    sun = add_lamp("SUN", (0, 0, 5), name="Sun", energy=3.0, angle=math.radians(2.0))
+    sun.rotation_euler = (math.radians(40.0), 0.0, math.radians(30.0))
+    scene = _finish("scan_object", [bunny, floor], [], [sun],
+                    f"Stanford bunny ({len(verts)} vertices) x {BUNNY_SCALE:g} as a point cloud "
+                    "without normals on a mesh floor, sky + sun")
+    scene.scan = ["Bunny"]
+    return scene
+
+
+SCENES = {"cornell": cornell, "room": room, "lamps": lamps, "near": near, "world": world,
+          "scan_room": scan_room, "scan_object": scan_object}
 
 
 def build(name: str) -> ReferenceScene:

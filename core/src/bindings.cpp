@@ -543,8 +543,8 @@ NB_MODULE(_core, m) {
     m.def("gather",
           [](PyMeshScene& scene, PySurfelField& front, nb::handle back, nb::handle positions,
              nb::handle normals, nb::handle ids, int rays, std::uint64_t seed, double offset,
-             nb::handle background, nb::handle two_sided, nb::handle rays_per, int threads,
-             nb::handle progress) {
+             nb::handle background, nb::handle two_sided, nb::handle rays_per,
+             nb::handle owner_front, nb::handle owner_back, int threads, nb::handle progress) {
               const double *P, *N;
               nb::object k1, k2, k3, k4;
               const std::size_t m = paired_rays(positions, "positions", normals, "normals", P, N, k1, k2);
@@ -579,6 +579,25 @@ NB_MODULE(_core, m) {
               }
               const SurfelField* back_field = nullptr;
               if (back.is_valid() && !back.is_none()) back_field = nb::cast<PySurfelField&>(back).field.get();
+              // Splat owners: -1, or a row of the field they index (checked here, once).
+              auto owners = [&](nb::handle h, const char* name, const SurfelField* field) {
+                  std::vector<std::int64_t> o;
+                  if (!h.is_valid() || h.is_none()) return o;
+                  std::size_t no;
+                  nb::object keep;
+                  const std::int64_t* O = view<std::int64_t>(h, name, 1, 0, no, keep);
+                  if (no != scene.scene->size())
+                      throw nb::value_error((std::string(name) + " must have one entry per triangle").c_str());
+                  const std::int64_t limit = field ? std::int64_t(field->size()) : 0;
+                  for (std::size_t t = 0; t < no; ++t)
+                      if (O[t] < -1 || O[t] >= limit)
+                          throw nb::value_error((std::string(name) + "[" + std::to_string(t) +
+                                                 "] is not -1 or a surfel of its field").c_str());
+                  o.assign(O, O + no);
+                  return o;
+              };
+              const std::vector<std::int64_t> own_front = owners(owner_front, "owner_front", front.field.get());
+              const std::vector<std::int64_t> own_back = owners(owner_back, "owner_back", back_field);
               GatherOptions opt;
               opt.rays = rays;
               opt.seed = seed;
@@ -591,7 +610,9 @@ NB_MODULE(_core, m) {
                   ctx.set_phase("gather", 0.0, 1.0);
                   checkpoint(ctx, 0.0);
                   gather(ctx, *scene.scene, *front.field, back_field, P, N, I, m, opt, out, err,
-                         sided.empty() ? nullptr : sided.data(), per.empty() ? nullptr : per.data());
+                         sided.empty() ? nullptr : sided.data(), per.empty() ? nullptr : per.data(),
+                         own_front.empty() ? nullptr : own_front.data(),
+                         own_back.empty() ? nullptr : own_back.data());
               });
               return nb::make_tuple(a1, a2);
           },
@@ -599,6 +620,7 @@ NB_MODULE(_core, m) {
           nb::arg("normals"), nb::arg("ids"), nb::kw_only(), nb::arg("rays"), nb::arg("seed") = 0,
           nb::arg("offset"), nb::arg("background"), nb::arg("two_sided").none() = nb::none(),
           nb::arg("rays_per").none() = nb::none(),
+          nb::arg("owner_front").none() = nb::none(), nb::arg("owner_back").none() = nb::none(),
           nb::arg("threads") = 0,
           nb::arg("progress") = nb::none(),
           "Final gather: (mean radiance (M, 3), standard error of its luminance (M,)).");

@@ -239,16 +239,32 @@ FieldTable field_table(Context& ctx, const MeshScene& scene, const SurfelField& 
 void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, const SurfelField* back,
             const double* positions, const double* normals, const std::int64_t* ids, std::size_t m,
             const GatherOptions& opt, double* out, double* stderr_out,
-            const std::uint8_t* two_sided, const std::int32_t* rays_per) {
+            const std::uint8_t* two_sided, const std::int32_t* rays_per,
+            const std::int64_t* owner_front, const std::int64_t* owner_back) {
     std::size_t K_max = std::size_t(std::max(1, opt.rays));
     if (rays_per)
         for (std::size_t i = 0; i < m; ++i)
             K_max = std::max(K_max, std::size_t(std::max(1, rays_per[i])));
     const std::size_t K_grain = std::size_t(std::max(1, opt.rays));
     ctx.set_phase("gather: field", 0.0, 0.1);
-    const FieldTable front_tab = field_table(ctx, scene, front, 1.0, opt.offset);
+    // Tabulated only where a hit looks the field up: not on splats, which carry their own.
+    const std::size_t T = scene.size();
+    std::vector<std::uint8_t> need_front, need_back;
+    if (owner_front) {
+        need_front.resize(T);
+        for (std::size_t t = 0; t < T; ++t) need_front[t] = owner_front[t] < 0;
+    }
+    if (back && (two_sided || owner_back)) {
+        need_back.resize(T);
+        for (std::size_t t = 0; t < T; ++t)
+            need_back[t] = (!two_sided || two_sided[t]) && (!owner_back || owner_back[t] < 0);
+    }
+    const FieldTable front_tab = field_table(ctx, scene, front, 1.0, opt.offset,
+                                             need_front.empty() ? nullptr : need_front.data());
     const FieldTable back_tab =
-        back ? field_table(ctx, scene, *back, -1.0, opt.offset, two_sided) : FieldTable{};
+        back ? field_table(ctx, scene, *back, -1.0, opt.offset,
+                           need_back.empty() ? nullptr : need_back.data())
+             : FieldTable{};
     ctx.set_phase("gather", 0.1, 0.9);
     parallel_for(ctx, m, std::max<std::size_t>(1, 4096 / K_grain), [&](std::size_t lo, std::size_t hi) {
         std::vector<double> org(3 * K_max), dir(3 * K_max), dist(K_max);
@@ -274,8 +290,12 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
                     const SurfelField* field = face[k] ? &front : back;
                     if (!face[k] && two_sided && !two_sided[t]) field = nullptr;
                     const FieldTable& tab = face[k] ? front_tab : back_tab;
+                    const std::int64_t* owner = face[k] ? owner_front : owner_back;
                     if (!field) {
                         v[0] = v[1] = v[2] = 0.0;
+                    } else if (owner && owner[t] >= 0) {
+                        const double* own = field->value(std::size_t(owner[t]));
+                        for (int c = 0; c < 3; ++c) v[c] = own[c];
                     } else if (!tab.at(t, uv[2 * k], uv[2 * k + 1], v)) {
                         const float* tn = scene.triangle_normal(t);
                         const double sg = face[k] ? 1.0 : -1.0;

@@ -33,6 +33,8 @@ public:
     void at(const double q[3], const double nrm[3], KdTree::Best& best, double out[3],
             const MeshScene* scene = nullptr, double lift = 0.0) const;
     std::size_t size() const { return values_.size() / 3; }
+    // Surfel i's own value (i < size()).
+    const double* value(std::size_t i) const { return &values_[3 * i]; }
     int k() const { return k_; }
     // Median distance to the k-th nearest surfel (m): about 1.6 surfel spacings at k = 8.
     double reach() const { return reach_; }
@@ -59,9 +61,13 @@ struct GatherOptions {
 // two_sided (one flag per triangle, may be null: all): which triangles' back faces take the
 // back field; the others' back faces are black.
 // rays_per (m entries, may be null: opt.rays each) gives each receiver its own ray count.
+// owner_front / owner_back (one entry per triangle, may be null) name the surfel of the front /
+// back field that a triangle stands for (a point's splat), or -1: a hit on such a triangle
+// takes that surfel's value, not a lookup.
 void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, const SurfelField* back,
             const double* positions, const double* normals, const std::int64_t* ids, std::size_t m,
             const GatherOptions& opt, double* out, double* stderr_out,
-            const std::uint8_t* two_sided = nullptr, const std::int32_t* rays_per = nullptr);
+            const std::uint8_t* two_sided = nullptr, const std::int32_t* rays_per = nullptr,
+            const std::int64_t* owner_front = nullptr, const std::int64_t* owner_back = nullptr);
 
 }  // namespace illumap

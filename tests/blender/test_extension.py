@@ -206,8 +206,9 @@ def test_batch_script_runs_the_installed_extension(extension_zip: Path, tmp_path
         lamp = bpy.data.objects.new("Lamp", light)
         bpy.context.scene.collection.objects.link(lamp)
         lamp.location = (0.3, 0.0, 2.0)
+        # Both planes: the plate alone faces away from the lamps, a black map that is refused.
         sys.argv = ["blender", "--python", {str(script)!r}, "--", "--quality", "draft",
-                    "--output", {str(out)!r}]
+                    "--objects", "Plane,Plane.001", "--output", {str(out)!r}]
         try:
             runpy.run_path({str(script)!r}, run_name="__main__")
         except SystemExit as exc:

@@ -54,6 +54,7 @@ BOUNDS = {
     "thin_plate": dict(rms=0.05, lit_side_rms=0.05, unlit_side=0.02),
     "floor_strip": dict(rms=0.10, by_the_wall_rms=0.10),
     "lit_sphere": dict(rms=0.05, lit_side_rms=0.05, lit_side_ratio=0.05),
+    "world_lit": dict(rms=0.05, contact_rms=0.05, hidden_floor=0.02),
 }
 SAMPLES = 256
 WHITE = (0.8, 0.8, 0.8)
@@ -363,4 +364,39 @@ def test_sphere_lit_by_a_point_lamp():
     assert lit.sum() > 50 and ref[lit].mean() > 0.1
     assert abs(ratio - 1.0) < bound["lit_side_ratio"]
     assert lit_rms < bound["lit_side_rms"]
+    assert rms < bound["rms"]
+
+
+def sky_world(color=(0.6, 0.75, 1.0), strength=1.0):
+    """A world whose Background is a constant sky colour."""
+    world = bpy.data.worlds.new("Sky")
+    if world.node_tree is None:
+        world.use_nodes = True
+    background = world.node_tree.nodes["Background"]
+    background.inputs["Color"].default_value = (*color, 1.0)
+    background.inputs["Strength"].default_value = strength
+    bpy.context.scene.world = world
+
+
+def test_open_scene_lit_by_the_world():
+    """A box on a 2 m floor under a blue sky, no lamps: the world's light, shadowed by the box
+    (the floor under it is hidden, its foot in ambient occlusion) and bounced between them."""
+    bound = BOUNDS["world_lit"]
+    sky_world()
+    white = diffuse("White")
+    floor = plane("Floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], 0.1, white)
+    box = closed_box("Box", (-0.25, -0.25, 0.0), (0.25, 0.25, 0.4), 0.1, diffuse("Red", (0.7, 0.2, 0.1)))
+    got, ref, pos = both([floor, box])
+    nf = len(floor.data.vertices)
+    inset = np.abs(pos[:nf, :2]).max(axis=1)
+    hidden = np.flatnonzero(inset < 0.25)
+    contact = np.flatnonzero((inset > 0.25) & (inset < 0.36))
+    lit = ref[:nf][inset > 0.6].mean()
+    rms, contact_rms = relative_rms(got, ref), relative_rms(got[contact], ref[contact])
+    report("world-lit open scene", rms=rms, contact_rms=contact_rms,
+           hidden_ours=got[hidden].mean() / lit, open_floor_ratio=got[:nf][inset > 0.6].mean() / lit,
+           box_ratio=got[nf:].mean() / ref[nf:].mean())
+    assert lit > 0.3 and ref[hidden].mean() <= bound["hidden_floor"] * lit
+    assert got[hidden].mean() <= bound["hidden_floor"] * lit
+    assert contact_rms < bound["contact_rms"]
     assert rms < bound["rms"]

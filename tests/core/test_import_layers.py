@@ -7,7 +7,10 @@ and function-level alike: a lazy import closes a cycle as surely as an eager one
 * ``illumap`` imports neither ``bpy`` nor the add-on;
 * the add-on's pure modules import no ``bpy``, and not the core at module level;
 * what registers without the native core (the reduced UI) imports no ``illumap`` at module
-  level, directly or through another add-on module.
+  level, directly or through another add-on module, except where a ``try`` guards the import
+  of the core itself (an optional limit); a guarded import of the add-on's own modules is
+  refused, since it hides a broken layer (the presets were once read that way from the
+  pipeline and were silently empty without the core).
 
 Imports under ``if TYPE_CHECKING:`` are for annotations and do not count.
 """
@@ -51,21 +54,25 @@ MODULES = _modules()
 
 
 def _imports(name):
-    """(imported module name, at module level) for each import of module ``name``: the module
-    a ``from X import y`` reads is X.y when that is a module, else X."""
+    """(imported module name, when) for each import of module ``name``, ``when`` True at module
+    level, "guarded" at module level inside a ``try``, False inside a function: the module a
+    ``from X import y`` reads is X.y when that is a module, else X."""
     path, is_package = MODULES[name]
     with open(path, encoding="utf-8") as f:
         tree = ast.parse(f.read(), path)
     package = name if is_package else name.rpartition(".")[0]
     typing_only = {id(n) for node in ast.walk(tree) if isinstance(node, ast.If)
                    and "TYPE_CHECKING" in ast.unparse(node.test) for n in ast.walk(node)}
+    guarded = {id(n) for top in tree.body if isinstance(top, ast.Try) for n in ast.walk(top)}
+    conditional = {id(n) for top in tree.body if isinstance(top, ast.If) for n in ast.walk(top)}
     top_level = {id(node) for node in tree.body}
     for node in ast.walk(tree):
         if id(node) in typing_only:
             continue
-        eager = id(node) in top_level or any(
-            id(node) in {id(n) for n in ast.walk(top)} for top in tree.body
-            if isinstance(top, (ast.Try, ast.If)))
+        if id(node) in guarded:
+            eager = "guarded"
+        else:
+            eager = id(node) in top_level or id(node) in conditional
         if isinstance(node, ast.Import):
             for alias in node.names:
                 yield alias.name, eager
@@ -82,7 +89,9 @@ def _imports(name):
 
 
 GRAPH = {name: sorted({m for m, _ in _imports(name) if m in MODULES}) for name in MODULES}
-EAGER = {name: sorted({m for m, eager in _imports(name) if eager}) for name in MODULES}
+EAGER = {name: sorted({m for m, when in _imports(name) if when is True}) for name in MODULES}
+GUARDED = {name: sorted({m for m, when in _imports(name) if when == "guarded"})
+           for name in MODULES}
 
 
 def _cycles(graph):
@@ -130,13 +139,14 @@ def test_the_core_imports_neither_bpy_nor_the_addon(name):
 @pytest.mark.parametrize("name", PURE_ADDON)
 def test_pure_addon_modules_need_neither_blender_nor_the_core(name):
     assert not [m for m, _ in _imports(name) if m.split(".")[0] == "bpy"]
-    assert not [m for m in EAGER[name] if m.split(".")[0] == "illumap"]
+    assert not [m for m in EAGER[name] + GUARDED[name] if m.split(".")[0] == "illumap"]
 
 
 @pytest.mark.parametrize("name", REDUCED_UI)
 def test_the_reduced_ui_imports_without_the_core(name):
     """Module-level imports, followed through the add-on's own modules, reach no ``illumap``
-    (so e.g. the presets table is there without the core)."""
+    (so e.g. the presets table is there without the core); none of them guards an import of
+    the add-on's own code."""
     seen, todo = set(), [name]
     while todo:
         mod = todo.pop()
@@ -144,4 +154,6 @@ def test_the_reduced_ui_imports_without_the_core(name):
             continue
         seen.add(mod)
         assert mod.split(".")[0] != "illumap", f"{name} imports {mod} at module level"
+        hidden = [m for m in GUARDED.get(mod, ()) if m.split(".")[0] == "addon"]
+        assert not hidden, f"{mod} imports {hidden} inside a try"
         todo += [m for m in EAGER.get(mod, ()) if m in MODULES or m.split(".")[0] == "illumap"]

@@ -48,7 +48,10 @@ DEFAULT_VISIBILITY = "none"
 
 METHODS = ("fmm", "direct")
 NEAR_FIELDS = ("disc", "point")
-MAX_ORDER = 16
+#: The highest FMM expansion order: the native core's limit (kMaxOrder in
+#: core/src/expansions.hpp, which the module does not expose). The add-on's FMM Order
+#: setting and its settings check use this constant.
+MAX_ORDER = 10
 
 #: Visibility modes: name -> (implemented, reciprocal). A reciprocal mode has V_ij = V_ji, which
 #: keeps diag(A)·F·V symmetric so that CG applies. Both native methods evaluate V(i, j) in the
@@ -100,13 +103,18 @@ def _check_choice(name, value, choices):
     return value
 
 
-def _check_int(name, value, low, high=None):
+#: The largest integer the native module takes for a count (a C ``int``).
+MAX_INT = 2 ** 31 - 1
+
+
+def _check_int(name, value, low, high=MAX_INT):
+    """``value`` as an int in [low, high] (default: what a C ``int`` holds), or an
+    InputError naming ``name``; never the native module's raw type error."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise InputError(f"{name}: expected an integer, got {value!r}")
     value = int(value)
-    if value < low or (high is not None and value > high):
-        upper = "" if high is None else f" and <= {high}"
-        raise InputError(f"{name}: expected an integer >= {low}{upper}, got {value}")
+    if value < low or value > high:
+        raise InputError(f"{name}: expected an integer >= {low} and <= {high}, got {value}")
     return value
 
 

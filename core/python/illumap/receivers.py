@@ -185,7 +185,8 @@ class GatherResult:
 
 def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, rays,
            ids: np.ndarray | None = None, seed: int = 0, background=None,
-           back_field: SurfelField | None = None, two_sided=None, threads: int = 0,
+           back_field: SurfelField | None = None, two_sided=None, owners=None,
+           back_owners=None, threads: int = 0,
            progress: Progress | None = None) -> GatherResult:
     """Indirect incident radiance at receivers (``positions``, unit ``normals``, (M, 3)).
 
@@ -195,6 +196,9 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
     ``field.at`` there, a back hit ``back_field.at`` (None: black, one-sided surfaces), and a
     miss the ``background`` radiance (3,) (None: black). ``two_sided`` (T,) bool says which
     triangles' back faces take ``back_field`` (None: all); the others' are black.
+    ``owners`` / ``back_owners`` (T,) int name, per triangle, the surfel of ``field`` /
+    ``back_field`` it stands for (a point's splat, ``illumap.splats``) or -1: a hit on it takes
+    that surfel's value instead of a lookup.
     ``ids`` (M,) name the receivers for
     their random streams (default: their rows). Runs natively on ``threads`` (0: all), the GIL
     released; ``progress`` returning False cancels (``illumap.Cancelled``).
@@ -224,8 +228,17 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
         sided = np.ascontiguousarray(two_sided, dtype=bool).astype(np.int64).reshape(-1)
         if len(sided) != occluders.n:
             raise InputError(f"two_sided must have {occluders.n} entries, got {len(sided)}")
+    def owner_rows(value, name):
+        if value is None:
+            return None
+        o = np.ascontiguousarray(value, dtype=np.int64).reshape(-1)
+        if len(o) != occluders.n:
+            raise InputError(f"{name} must have {occluders.n} entries, got {len(o)}")
+        return o
+
     radiance, stderr = _core.gather(
         occluders._scene, field._field, None if back_field is None else back_field._field,
         p, n, ids, rays=int(rays), seed=int(seed), offset=occluders.offset, background=bg,
-        two_sided=sided, rays_per=per, threads=threads, progress=progress)
+        two_sided=sided, rays_per=per, owner_front=owner_rows(owners, "owners"),
+        owner_back=owner_rows(back_owners, "back_owners"), threads=threads, progress=progress)
     return GatherResult(radiance=radiance, stderr=stderr, rays=count)

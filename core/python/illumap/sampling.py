@@ -50,7 +50,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .surfels import InputError
+from .surfels import MAX_COORDINATE, InputError
 
 __all__ = ["Samples", "Regions", "triangle_areas", "allocate", "sample_triangles",
            "local_variation", "density_multipliers", "thin_points"]
@@ -71,12 +71,41 @@ class Samples:
 
 
 def _corners(corners) -> np.ndarray:
-    c = np.asarray(corners, dtype=np.float64)
+    """Triangle corners (T, 3, 3) as float64, finite and within ±MAX_COORDINATE, or an
+    InputError naming the first bad triangle."""
+    try:
+        c = np.asarray(corners, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"corners: cannot be read as a float array ({exc})") from None
     if c.ndim != 3 or c.shape[1:] != (3, 3):
         raise InputError(f"corners: expected shape (T, 3, 3), got {c.shape}")
     if len(c) == 0:
         raise InputError("corners: no triangles")
+    finite = np.isfinite(c).all(axis=(1, 2))
+    if not finite.all():
+        t = int(np.flatnonzero(~finite)[0])
+        raise InputError(f"corners[{t}] = {c[t].tolist()} is not finite")
+    far = (np.abs(c) > MAX_COORDINATE).any(axis=(1, 2))
+    if far.any():
+        t = int(np.flatnonzero(far)[0])
+        raise InputError(f"corners[{t}] = {c[t].tolist()} lies beyond ±{MAX_COORDINATE:g}: "
+                         "express the scene in metres (or rescale it)")
     return c
+
+
+def _object_areas(areas, name: str = "areas") -> np.ndarray:
+    """Areas (T,) finite and >= 0 with a positive sum, or an InputError naming the first bad
+    entry."""
+    a = np.asarray(areas, dtype=np.float64)
+    if a.ndim != 1 or len(a) == 0:
+        raise InputError(f"{name}: expected a non-empty 1-D array, got shape {a.shape}")
+    bad = ~np.isfinite(a) | (a < 0)
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise InputError(f"{name}[{k}] = {a[k]!r} must be a finite area >= 0")
+    if not a.sum() > 0:
+        raise InputError(f"{name}: every area is zero; nothing to sample")
+    return a
 
 
 def triangle_areas(corners) -> np.ndarray:
@@ -92,9 +121,11 @@ def allocate(areas, *, density: float | None = None, budget: int | None = None) 
     shared in proportion to ``areas`` (m², or weighted areas) by largest remainder.
     Raises InputError for a budget below the number of objects or a non-positive density.
     """
-    areas = np.asarray(areas, dtype=np.float64)
+    areas = _object_areas(areas)
     if budget is not None:
         budget = int(budget)
+        if budget > 2 ** 53:
+            raise InputError(f"Surfel budget {budget:,} is far beyond any memory")
         if budget < len(areas):
             raise InputError(f"Surfel budget {budget} is smaller than the number of objects "
                              f"({len(areas)})")
@@ -127,7 +158,9 @@ def sample_triangles(corners, count: int, rng: np.random.Generator, *,
     count = int(count)
     if count < 1:
         raise InputError(f"count: need at least one surfel, got {count}")
-    area = triangle_areas(c) if areas is None else np.asarray(areas, dtype=np.float64)
+    area = _object_areas(triangle_areas(c) if areas is None else areas)
+    if len(area) != len(c):
+        raise InputError(f"areas: expected {len(c)} triangle areas, got {len(area)}")
     cum = np.cumsum(area)
     total = cum[-1]
     if weights is None:
@@ -213,7 +246,7 @@ class Regions:
         """Split each triangle of ``corners`` (T, 3, 3) until its regions are no larger than
         ``max_area`` (m²), at most ``max_level`` times (4^max_level regions per triangle)."""
         c = _corners(corners)
-        if not max_area > 0:
+        if not (max_area > 0 and np.isfinite(max_area)):
             raise InputError(f"max_area: expected a positive area, got {max_area}")
         area = triangle_areas(c)
         level = np.ceil(np.log(np.maximum(area / max_area, 1.0)) / np.log(4.0) - 1e-9)

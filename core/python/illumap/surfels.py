@@ -13,11 +13,20 @@ import os
 
 import numpy as np
 
-__all__ = ["InputError", "Surfels", "NORMAL_TOLERANCE", "BYTES_PER_SURFEL_ESTIMATE"]
+__all__ = ["InputError", "Surfels", "NORMAL_TOLERANCE", "BYTES_PER_SURFEL_ESTIMATE",
+           "MAX_COORDINATE", "AREA_RANGE"]
 
 #: Normals whose length differs from 1 by less than this are normalized silently;
 #: anything further off is taken for a bug upstream (wrong array, unnormalized data) and raises.
 NORMAL_TOLERANCE = 1e-3
+
+#: The largest |coordinate| taken (m). The kernels raise distances to powers up to the FMM
+#: order: a scene at 1e38 (order 10) or 1e100 (any order) overflows float64 deep in the solve
+#: ("solver iterate became non-finite"); an infinite coordinate stored by Blender reads 3.4e38.
+MAX_COORDINATE = 1e12
+#: The surfel areas taken (m²): radii from 1e-12 m to 1e12 m. Scenes scaled by 1e-40 (order 10)
+#: or 1e-80 (any order) underflow in the same way.
+AREA_RANGE = (1e-24, 1e24)
 
 #: Rough peak memory per surfel of a solve: the input arrays (15 float64), the native octree
 #: and interaction lists, and the solver's work vectors (GMRES(30) keeps 31 N×3 vectors).
@@ -145,10 +154,28 @@ class Surfels:
             )
         normals /= length[:, None]
 
+        bad = np.abs(positions) > MAX_COORDINATE
+        if bad.any():
+            k, c = _first_bad(bad)
+            raise InputError(
+                f"positions[{k}, {c}] = {positions[k, c]!r} lies beyond ±{MAX_COORDINATE:g}: "
+                "at such scales the kernels overflow; express the scene in metres (or "
+                "rescale it) and keep it near the origin"
+            )
+
         bad = areas <= 0.0
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
             raise InputError(f"areas[{k}] = {areas[k]!r} must be > 0")
+        low, high = AREA_RANGE
+        bad = (areas < low) | (areas > high)
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise InputError(
+                f"areas[{k}] = {areas[k]!r} lies outside [{low:g}, {high:g}] (radii from "
+                f"{np.sqrt(low):g} to {np.sqrt(high):g}): at such scales the kernels overflow "
+                "or underflow; express the scene in metres (or rescale it)"
+            )
 
         bad = albedo < 0.0
         if bad.any():

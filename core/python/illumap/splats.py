@@ -1,0 +1,136 @@
+"""Splats: the surface a point cloud stands for, as triangles.
+
+A point model has no faces, yet shadows, visibility and the final gather need a surface to
+stop rays. Each point p (normal n, area A) gets a splat: a disc of radius
+``reach × sqrt(A/π)`` in its tangent plane, clipped so that neighbouring splats tile the
+surface instead of overlapping, and so that nothing overhangs where the surface turns:
+
+* by the bisector plane between p and each of its nearest neighbours q on the same surface
+  (normals within acos ``EDGE_COS``; the restricted
+  Voronoi cell: on a flat or gently curved surface, splats meet about half-way; they overlap
+  by ``CORNER_SLACK`` so that the sampled outline leaves no holes at the cells' corners);
+* by the tangent plane of each neighbour q whose normal turns away from p's by more than
+  ``EDGE_COS``, keeping the side of that plane that the surface bends towards (the sign of
+  (q − p)·n_p, which does not depend on how the normals are oriented when they are oriented
+  consistently). At a box's edge, the top's splats end at the side's plane and the side's at
+  the top's, even for points lying exactly on the edge, where no bisector can clip; at a
+  floor–wall junction the floor's splats stop at the wall instead of poking through it. Where
+  another surface runs on through p's plane on both sides (a box on a floor that continues
+  under it), neither clips the other.
+
+A splat is a fan of ``sides`` triangles about p, its rim sampled at ``sides`` directions where
+the clipped outline is reached exactly (the cell is star-shaped about p). Units: metres.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _core
+from .surfels import InputError
+
+#: Radius of the unclipped splat in units of the point's own radius sqrt(A/π): large enough
+#: that the clipped cells leave no holes in a jittered sampling.
+DEFAULT_REACH = 1.5
+#: Neighbours whose bisector and tangent planes clip a splat.
+DEFAULT_NEIGHBOURS = 12
+#: Triangles per splat (directions at which its outline is found).
+DEFAULT_SIDES = 12
+#: Splats reach this far past the bisectors: the fan through the outline's sampled points is
+#: inscribed in the cell and would cut its corners (a square cell sampled every 30° loses 9%
+#: of its area at the corners); 1.27 covers them, and coplanar overlap hides nothing.
+CORNER_SLACK = 1.3
+#: A neighbour's tangent plane clips only where the surface turns by more than acos(this),
+#: about 25°: on flat or gently curved parts the bisectors alone shape the cells.
+EDGE_COS = 0.9
+#: p lies on a neighbour's tangent plane when within this fraction of their distance of it.
+JUNCTION_TOLERANCE = 0.05
+
+
+def _basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A tangent basis that is the same for n and −n (u × v = ±n), so a splat's outline does
+    not depend on which way its point's normal was oriented."""
+    lead = np.take_along_axis(n, np.argmax(np.abs(n), axis=1)[:, None], axis=1)
+    m = n * np.where(lead < 0, -1.0, 1.0)
+    helper = np.where((np.abs(m[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    u = np.cross(m, helper)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    return u, np.cross(m, u)
+
+
+def splat_radii(positions, normals, areas, *, reach: float = DEFAULT_REACH,
+                neighbours: int = DEFAULT_NEIGHBOURS, sides: int = DEFAULT_SIDES,
+                chunk: int = 65536) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The clipped outline of every splat: (radii (N, sides) in m along the directions
+    cos θ_m u + sin θ_m v, u (N, 3), v (N, 3)), the tangent basis of each point."""
+    p = np.ascontiguousarray(positions, dtype=np.float64)
+    n = np.asarray(normals, dtype=np.float64)
+    a = np.asarray(areas, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 3 or n.shape != p.shape or a.shape != (len(p),):
+        raise InputError(f"splats need positions and normals (N, 3) and areas (N,), got "
+                         f"{p.shape}, {n.shape}, {a.shape}")
+    if not (np.isfinite(p).all() and np.isfinite(n).all() and np.isfinite(a).all()):
+        raise InputError("splats need finite positions, normals and areas")
+    if (a <= 0).any():
+        raise InputError(f"splat area {int(np.flatnonzero(a <= 0)[0])} is not positive")
+    count = len(p)
+    n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    u, v = _basis(n)
+    theta = 2.0 * np.pi * np.arange(sides) / sides
+    directions = (np.cos(theta)[None, :, None] * u[:, None, :]
+                  + np.sin(theta)[None, :, None] * v[:, None, :])          # (N, M, 3)
+    radii = np.repeat((reach * np.sqrt(a / np.pi))[:, None], sides, axis=1)
+    k = min(neighbours, count - 1)
+    if k < 1:
+        return radii, u, v
+    idx, _ = _core.knn(p, p, k + 1)
+    idx = idx[:, 1:]
+    for lo in range(0, count, chunk):
+        rows = slice(lo, min(lo + chunk, count))
+        radii[rows] = np.minimum(radii[rows], _clip(p[rows], n[rows], directions[rows],
+                                                    p[idx[rows]], n[idx[rows]]))
+    return radii, u, v
+
+
+def _clip(p, n, d, q, nq) -> np.ndarray:
+    """Largest radius along each direction d (R, M, 3) inside every neighbour's half-spaces."""
+    w = q - p[:, None, :]                                       # (R, k, 3)
+    dw = np.einsum("rmc,rkc->rmk", d, w)
+    half = 0.5 * np.einsum("rkc,rkc->rk", w, w)
+    turn = np.einsum("rc,rkc->rk", n, nq) < EDGE_COS
+    # Bisector with neighbours on the same surface: ρ (d·w) ≤ |w|²/2; coincident points
+    # (w = 0) leave each other whole.
+    limit = np.where((dw > 1e-12 * np.sqrt(half)[:, None, :] + 1e-300) & ~turn[:, None, :],
+                     CORNER_SLACK * half[:, None, :] / np.where(dw > 0, dw, 1.0), np.inf)
+    # Tangent planes where the surface turns: stay on the side s·(x − q)·n_q ≥ 0 that p is on.
+    s = np.sign(np.einsum("rkc,rc->rk", w, n))                 # (q − p)·n_p: where it bends
+    g = s * np.einsum("rkc,rkc->rk", -w, nq)                   # s·(p − q)·n_q ≥ 0 at p
+    slope = s[:, None, :] * np.einsum("rmc,rkc->rmk", d, nq)
+    # p on the plane itself: an edge when the other surface lies on one side of p's plane, a
+    # junction (a box's side meeting a floor that runs on under it) when on both; a junction
+    # clips nothing, or the side's splats would lose their half above the floor.
+    on_plane = turn & (np.abs(g) <= JUNCTION_TOLERANCE * np.sqrt(2.0 * half))
+    junction = (on_plane & (s > 0)).any(axis=1) & (on_plane & (s < 0)).any(axis=1)
+    keep = turn & (s != 0) & (g >= 0) & ~(on_plane & junction[:, None])
+    applies = keep[:, None, :] & (slope < 0)
+    plane = np.where(applies, g[:, None, :] / np.where(slope < 0, -slope, 1.0), np.inf)
+    return np.minimum(limit, plane).min(axis=2)
+
+
+def splat_triangles(positions, normals, areas, **options) -> np.ndarray:
+    """(N × sides, 3, 3) triangles, the splats of N points as fans about them (point i's are
+    rows i·sides … (i+1)·sides − 1), wound so that their normals agree with ``normals``.
+    Options: see ``splat_radii``."""
+    p = np.ascontiguousarray(positions, dtype=np.float64)
+    radii, u, v = splat_radii(p, normals, areas, **options)
+    sides = radii.shape[1]
+    theta = 2.0 * np.pi * np.arange(sides) / sides
+    rim = p[:, None, :] + radii[..., None] * (np.cos(theta)[None, :, None] * u[:, None, :]
+                                              + np.sin(theta)[None, :, None] * v[:, None, :])
+    centre = np.broadcast_to(p[:, None, :], rim.shape)
+    nxt = np.roll(rim, -1, axis=1)
+    # The rim runs counter-clockwise about u × v: wind each fan so its normal is the point's.
+    along = np.einsum("nc,nc->n", np.cross(u, v), np.asarray(normals, dtype=np.float64)) >= 0
+    first = np.where(along[:, None, None], rim, nxt)
+    second = np.where(along[:, None, None], nxt, rim)
+    return np.stack([centre, first, second], axis=2).reshape(-1, 3, 3)

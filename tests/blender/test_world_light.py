@@ -1,0 +1,108 @@
+"""The world's light: read from the world's nodes, shadowed at the surfels, gathered at the
+receivers. (Against a Cycles bake: tests/blender/test_reference_cases.py, the world-lit
+open scene.)"""
+
+import bpy
+import numpy as np
+import pytest
+
+from illumap_bpy_testing import diffuse_material, make_plane, requires_core
+
+from addon import lamps, pipeline
+
+ALBEDO = 0.5
+
+
+def set_world(color=(0.2, 0.4, 0.6), strength=2.0):
+    world = bpy.data.worlds.new("W")
+    if world.node_tree is None:
+        world.use_nodes = True
+    background = world.node_tree.nodes["Background"]
+    background.inputs["Color"].default_value = (*color, 1.0)
+    background.inputs["Strength"].default_value = strength
+    bpy.context.scene.world = world
+    return world
+
+
+def test_constant_background_is_colour_times_strength():
+    set_world()
+    warnings = []
+    sky = lamps.world_light(bpy.context.scene, warnings)
+    assert sky.kind == "WORLD" and not warnings
+    assert np.allclose(sky.color, [0.4, 0.8, 1.2])
+
+
+def test_black_or_absent_world_adds_no_light():
+    set_world(strength=0.0)
+    assert lamps.world_light(bpy.context.scene, []) is None
+    bpy.context.scene.world = None
+    assert lamps.world_light(bpy.context.scene, []) is None
+
+
+def test_environment_texture_gives_its_solid_angle_mean():
+    """An equirectangular image whose rows grow from the south pole up: rows near the poles
+    cover less of the sphere, so the mean is weighted by cos(latitude), not a pixel mean."""
+    world = set_world(strength=3.0)
+    w, h = 16, 8
+    image = bpy.data.images.new("Env", w, h, float_buffer=True)
+    band = np.arange(h, dtype=np.float32) ** 2
+    rows = band[:, None, None] * np.ones((1, w, 4), np.float32)
+    rows[..., 3] = 1.0
+    image.pixels.foreach_set(rows.ravel())
+    tree = world.node_tree
+    env = tree.nodes.new("ShaderNodeTexEnvironment")
+    env.image = image
+    tree.links.new(env.outputs["Color"], tree.nodes["Background"].inputs["Color"])
+    warnings = []
+    sky = lamps.world_light(bpy.context.scene, warnings)
+    latitude = ((np.arange(h) + 0.5) / h - 0.5) * np.pi
+    expected = (np.cos(latitude) * band).sum() / np.cos(latitude).sum()
+    assert not warnings
+    assert np.allclose(sky.color, 3.0 * expected, rtol=1e-6)
+    assert not np.isclose(expected, band.mean(), rtol=1e-2)  # the weights matter here
+
+
+def test_unevaluated_world_nodes_are_warned_about_and_left_out():
+    world = set_world()
+    tree = world.node_tree
+    gradient = tree.nodes.new("ShaderNodeTexGradient")
+    tree.links.new(gradient.outputs["Color"], tree.nodes["Background"].inputs["Color"])
+    warnings = []
+    assert lamps.world_light(bpy.context.scene, warnings) is None
+    assert len(warnings) == 1 and "Gradient Texture" in warnings[0] and "left out" in warnings[0]
+
+
+@requires_core
+def test_world_light_is_shadowed_at_the_surfels():
+    """A floor under a much larger roof 0.1 m above it sees almost no sky (the open share,
+    cos² of the angle to the roof's edge, is < 1e-3); the roof's top sees all of it."""
+    set_world()
+    white = diffuse_material("D", (ALBEDO,) * 3)
+    floor = make_plane("Floor", size=1.0, material=white)
+    roof = make_plane("Roof", size=10.0, location=(0, 0, 0.1), material=white)
+    job = pipeline.light(pipeline.prepare(bpy.context.evaluated_depsgraph_get(), [floor, roof],
+                                          pipeline.Settings(budget=4000, lamps=False)))
+    up = job.normals[:, 2] > 0.5
+    under = up & (job.positions[:, 2] < 0.05)
+    on_top = up & (job.positions[:, 2] > 0.05)
+    sky = ALBEDO * np.array([0.4, 0.8, 1.2])
+    assert under.sum() > 20 and on_top.sum() > 100
+    assert np.abs(job.direct[under]).max() < 0.05 * sky.max()
+    assert np.allclose(job.direct[on_top], sky)   # nothing above it: exactly the sky
+    off = pipeline.light(pipeline.prepare(bpy.context.evaluated_depsgraph_get(), [floor, roof],
+                                          pipeline.Settings(budget=4000, lamps=False,
+                                                            world_ambient=False)))
+    assert np.abs(off.direct).max() == 0.0
+
+
+@requires_core
+def test_world_light_reaches_the_meshes_through_the_gather():
+    """One upward floor under the sky, nothing else: every corner reads albedo × sky."""
+    set_world()
+    floor = make_plane("Floor", size=1.0, material=diffuse_material("D", (ALBEDO,) * 3))
+    pipeline.compute(bpy.context, [floor], pipeline.Settings(budget=500, lamps=False))
+    rgba = np.empty(len(floor.data.loops) * 4, np.float32)
+    attr = floor.data.color_attributes["illumination"]
+    attr.data.foreach_get("color", rgba)
+    values = rgba.reshape(-1, 4)[:, :3]
+    assert np.allclose(values, ALBEDO * np.array([0.4, 0.8, 1.2]), rtol=1e-5)
