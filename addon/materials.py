@@ -24,9 +24,12 @@ warning. Emission is radiance in Blender's units (strength 1, colour c ⇒ radia
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from .sampling import MeshSamples
+if TYPE_CHECKING:   # annotations only: sampling imports this module to read receivers
+    from .sampling import MeshSamples
 
 DEFAULT_ALBEDO = (0.8, 0.8, 0.8)
 MAX_ALBEDO = 0.999

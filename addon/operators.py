@@ -23,10 +23,8 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty
 
 from . import mesh_preview, preferences, preview, properties
-
-SURFEL_OBJECT_NAME = "Illumap Surfels"
-# What pipeline.prepare reads: meshes and anything that evaluates to one, and point clouds.
-_SUPPORTED_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT", "POINTCLOUD"}
+from .kinds import SUPPORTED_TYPES as _SUPPORTED_TYPES
+from .output import SURFEL_OBJECT as SURFEL_OBJECT_NAME
 
 
 def _pipeline():

@@ -7,10 +7,7 @@ The draw code is written against a ``layout`` argument so that tests can draw in
 
 import bpy
 
-
-def _core_error():
-    from . import core_error
-    return core_error()
+from .core_status import core_error
 
 
 def draw_core_missing(layout, error):
@@ -149,7 +146,7 @@ class VIEW3D_PT_illumap(_IllumapPanel, bpy.types.Panel):
     bl_idname = "VIEW3D_PT_illumap"
 
     def draw(self, context):
-        error = _core_error()
+        error = core_error()
         if error:
             draw_core_missing(self.layout, error)
         else:
@@ -161,7 +158,7 @@ class _SubPanel(_IllumapPanel):
 
     @classmethod
     def poll(cls, context):
-        return _core_error() is None and context.scene is not None
+        return core_error() is None and context.scene is not None
 
 
 class VIEW3D_PT_illumap_advanced(_SubPanel, bpy.types.Panel):

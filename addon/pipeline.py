@@ -30,13 +30,14 @@ import numpy as np
 
 from . import checks, emitters, lamps, materials, pointcloud, sampling
 from .errors import ExitCode, IllumapCancelled, IllumapError
+from .kinds import MESH_TYPES, OCCLUDER_SHAPES
+from .presets import DEFAULT_BUDGET, QUALITY_PRESETS
 
 Progress = Callable[[float, str], "bool | None"]
 
 # Rough peak memory per surfel for sampling, solver vectors and the FMM tree (bytes). Used to
 # refuse budgets that cannot fit before anything is allocated.
 BYTES_PER_SURFEL = 2048
-_MESH_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
 
 
 @dataclass
@@ -78,29 +79,12 @@ class Settings:
     lightmap_size: int = 256          # lightmap width = height, pixels
 
 
-#: Surfels over all meshes when neither a density nor a budget is given: a count, not a
-#: density, so a scene modelled in centimetres gets as many as one modelled in metres.
-DEFAULT_BUDGET = 10_000
-
-PRESETS: dict[str, dict] = {
-    "DRAFT": dict(budget=2_500, order=3, theta=0.6, visibility="exact", tol=1e-3,
-                  gather_rays=128, receiver_shadow_samples=32),
-    "MEDIUM": dict(budget=DEFAULT_BUDGET, order=4, theta=0.5, visibility="exact", tol=1e-4,
-                   gather_rays=512, receiver_shadow_samples=128),
-    # The light at the meshes is limited by the gather and the surfel count, not by the
-    # expansions: order 4 at 30k surfels reached 0.94% on the Cornell box in 4.5 s where
-    # order 6, theta 0.4 at 40k took 11 s for 0.93% (bench/reference, 8192-sample reference).
-    "HIGH": dict(budget=30_000, order=4, theta=0.5, visibility="exact", tol=1e-4,
-                 gather_rays=2048, receiver_shadow_samples=512),
-}
-
-
 def settings_from_preset(name: str, **overrides) -> Settings:
     """Settings for a preset name (DRAFT/MEDIUM/HIGH, any case) with keyword overrides."""
     key = name.upper()
-    if key not in PRESETS:
+    if key not in QUALITY_PRESETS:
         raise IllumapError(f"Unknown quality preset '{name}' (choose draft, medium or high)", ExitCode.USAGE)
-    values = dict(PRESETS[key])
+    values = dict(QUALITY_PRESETS[key])
     if overrides.get("density") is not None and overrides.get("budget") is None:
         values.pop("budget", None)    # a density asked for replaces the preset's count
     values.update({k: v for k, v in overrides.items() if v is not None})
@@ -240,7 +224,7 @@ def _split_objects(depsgraph, objects) -> tuple[list, list, list[str]]:
             continue
         if obj.type == "POINTCLOUD":
             points.append(obj)
-        elif obj.type in _MESH_TYPES:
+        elif obj.type in MESH_TYPES:
             ev = obj.evaluated_get(depsgraph)
             if obj.type == "MESH" and len(ev.data.polygons) == 0 and len(ev.data.vertices) > 0:
                 points.append(obj)  # vertex-only mesh: a point cloud
@@ -251,11 +235,6 @@ def _split_objects(depsgraph, objects) -> tuple[list, list, list[str]]:
     return meshes, points, warnings
 
 
-#: Surfels of the first pass per region of the adaptive refinement (regions are the mesh
-#: triangles split until each holds about this many): enough to see a variation inside one.
-ADAPTIVE_SURFELS_PER_REGION = 6
-#: Neighbours compared per surfel to measure how much the first pass's illumination varies.
-ADAPTIVE_NEIGHBOURS = 8
 #: Disc radius of the surfels as occluders, in units of each surfel's own radius sqrt(A/π):
 #: for lamp shadows (``make_segment_query``) and for exact visibility between surfels
 #: (``TransportOperator``'s ``coverage``), so both see the same walls. Holes in a stratified
@@ -277,13 +256,6 @@ ADAPTIVE_NEIGHBOURS = 8
 #: 1.7 keeps speckles out of lamp shadows and light out of closed rooms; the price is a few
 #: per cent less light in enclosed scenes, shrinking with density.
 SURFEL_COVERAGE = 1.7
-#: Occluder shapes a run may ask for (``Settings.occluder_shape``), each of the disc's area:
-#: discs (what the automatic mode is calibrated on), regular octagons (nearly the disc; solves
-#: with exact visibility on the bunny scan took 0.55–0.74× the discs' time) and squares (about
-#: as fast; corners reach 1.25× the disc radius).
-OCCLUDER_SHAPES = ("disc", "octagon", "quad")
-
-
 def occluder_shape(settings: Settings) -> str:
     """The occluder shape this run uses for lamp shadows and exact visibility alike: the
     settings' own, except with a target error, whose models are calibrated on discs.
@@ -384,8 +356,8 @@ def target_density(settings: Settings, mesh_area: float, point_count: int, point
     if kind == "point_cloud":
         cap = point_count
     # meshes are sampled at any count, a scan has its points
-    summary = dict(n=10 ** 9 if kind == "mesh" else max(point_count, 1), total_area=total,
-                   kind=kind)
+    summary = dict(n=accuracy.NO_SURFEL_LIMIT if kind == "mesh" else max(point_count, 1),
+                   total_area=total, kind=kind)
     try:
         if kind == "mesh":
             chosen = accuracy.choose_mesh_settings(summary, surfel_target(settings), kind=kind,
@@ -972,11 +944,6 @@ def _is_cancelled(exc: BaseException) -> bool:
     return isinstance(exc, getattr(illumap, "Cancelled", ()))
 
 
-def luminance(rgb: np.ndarray) -> np.ndarray:
-    """Rec. 709 luminance (N,) of linear RGB (N, 3)."""
-    return np.asarray(rgb, dtype=np.float64) @ np.array([0.2126, 0.7152, 0.0722])
-
-
 def next_pass(job: Job, result: "Result") -> Job | None:
     """Pass 2 of an adaptive run (main thread): resample every mesh with a density multiplier
     per region from how much pass 1's illumination varies there, same final surfel count as a
@@ -984,39 +951,22 @@ def next_pass(job: Job, result: "Result") -> Job | None:
     scene = job.refine
     if scene is None:
         return None
-    from illumap import sampling as core_sampling
+    from illumap import refinement
     from .neighbours import knn
     t0 = time.perf_counter()
     s = job.settings
     # Front faces only: an open surface's back surfels sit on its front ones.
     front = min([src.start for src in job.sources if src.kind == "BACK"] + [job.count])
-    values = luminance(result.radiosity[:front])
-    k = min(ADAPTIVE_NEIGHBOURS + 1, front)
-    idx, _ = knn(job.positions[:front], job.positions[:front], k)
-    variation = core_sampling.local_variation(values, idx[:, 1:])
-    mesh_sources = [src for src in job.sources if src.kind == "MESH"]
-    regions, located, offset = [], [], 0
-    for tm, src in zip(scene.tri_meshes, mesh_sources):
-        sl = slice(src.start, src.stop)
-        density1 = (src.stop - src.start) / tm.total_area
-        reg = core_sampling.Regions.build(tm.corners, ADAPTIVE_SURFELS_PER_REGION / density1)
-        located.append(offset + reg.locate(job.triangle[sl], job.bary[sl]))
-        regions.append(reg)
-        offset += reg.count
-    n_mesh = mesh_sources[-1].stop if mesh_sources else 0
-    # Regions too small to hold a pass-1 surfel take the variation of the nearest one.
-    centres = np.concatenate([reg.corners.mean(axis=1) for reg in regions])
-    nearest, _ = knn(job.positions[:front], centres, 1)
-    weights = core_sampling.density_multipliers(np.concatenate(located), variation[:n_mesh], offset,
-                                                max_ratio=s.adaptive_max_ratio,
-                                                fill=variation[nearest[:, 0]])
+    meshes = [(tm.corners, job.triangle[src.start:src.stop], job.bary[src.start:src.stop],
+               tm.total_area)
+              for tm, src in zip(scene.tri_meshes, (src for src in job.sources
+                                                    if src.kind == "MESH"))]
+    refined = refinement.refine(job.positions[:front], result.radiosity[:front], meshes,
+                                max_ratio=s.adaptive_max_ratio, knn=knn)
+    regions, weights, offset = refined.regions, refined.multipliers, refined.count
     # The uniform run's mesh budget, shared by weighted area: same total, moved to variation.
-    per_mesh, weighted, start = [], [], 0
-    for reg in regions:
-        w = weights[start:start + reg.count]
-        per_mesh.append(w)
-        weighted.append(float((w * reg.area).sum()))
-        start += reg.count
+    per_mesh = refined.per_mesh()
+    weighted = [float((w * reg.area).sum()) for w, reg in zip(per_mesh, regions)]
     counts = sampling.allocate(np.array(weighted), budget=int(scene.counts.sum()))
     rng = np.random.default_rng([s.seed, 2])
     samples = [sampling.sample_mesh(tm, int(n), rng, regions=reg, weights=w)
@@ -1230,5 +1180,5 @@ def compute(context, objects, settings: Settings, progress: Progress | None = No
     return result
 
 
-__all__ = ["Settings", "PRESETS", "settings_from_preset", "Job", "Result", "Source", "prepare",
+__all__ = ["Settings", "QUALITY_PRESETS", "settings_from_preset", "Job", "Result", "Source", "prepare",
            "light", "run", "write", "compute", "next_pass", "IllumapError", "IllumapCancelled", "replace"]

@@ -12,6 +12,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty
 
 from . import preview, properties
+from .core_status import core_error
 
 
 def _addon_package(package=None):
@@ -48,7 +49,6 @@ class IllumapPreferences(bpy.types.AddonPreferences):
                                        min=0.0, soft_max=4.0)
 
     def draw(self, context):
-        from . import core_error  # set by the package before this module is imported
         layout = self.layout
         error = core_error()
         if error:

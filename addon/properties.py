@@ -1,8 +1,8 @@
 """Scene settings (``scene.illumap``) and the last run's statistics.
 
-Quality presets map to the solver knobs through one table, ``PRESETS``. Choosing a preset copies
-its values into the advanced settings, so the user sees what the preset means; editing an
-advanced setting switches the preset to "Custom". The operator always reads the advanced
+Quality presets map to the solver knobs through one table, ``presets.QUALITY_PRESETS``.
+Choosing a preset copies its values into the advanced settings, so the user sees what the
+preset means; editing an advanced setting switches the preset to "Custom". The operator always reads the advanced
 settings (``settings_values``), so what is shown is what runs.
 """
 
@@ -13,22 +13,15 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
                        IntProperty, PointerProperty, StringProperty)
 
+from .presets import QUALITY_PRESETS
 from .preview import DEFAULT_DISC_SCALE
 
-# The one table of quality presets is the pipeline's ``PRESETS`` (the batch script uses it too):
-# preset name -> Settings values (density in surfels/m², FMM order, opening angle, visibility,
-# tolerance, final-gather and shadow rays per receiver). Every preset casts shadows: speed
-# never comes from leaving out what the scene needs. pipeline.py imports the native core only when it runs, so this import
-# works in the reduced UI too; should it fail, presets do nothing and the fields keep defaults.
-try:
-    from .pipeline import PRESETS as _TABLE
-except Exception:  # pragma: no cover - a broken pipeline must not hide the reduced UI
-    _TABLE = {}
-
-PRESETS = {name: {key: (value.upper() if key in ("visibility", "solver", "near_field",
-                                                  "method") else value)
-                  for key, value in values.items()}
-           for name, values in _TABLE.items()}
+#: The quality presets (``presets.QUALITY_PRESETS``) as property values: enum values in capitals.
+PRESET_PROPERTY_VALUES = {name: {key: (value.upper() if key in ("visibility", "solver",
+                                                                 "near_field", "method")
+                                       else value)
+                                 for key, value in values.items()}
+                          for name, values in QUALITY_PRESETS.items()}
 # The FMM order stops where the native core does: the core's one constant (without the core,
 # the reduced UI cannot compute, and the field has no upper bound to show).
 try:
@@ -39,7 +32,7 @@ except Exception:  # pragma: no cover - the reduced UI
 DEFAULT_PRESET = "MEDIUM"
 _DEFAULTS = dict(density=100.0, budget=10_000, order=4, theta=0.5, visibility="EXACT",
                  tol=1e-4, gather_rays=512, receiver_shadow_samples=128)
-_DEFAULTS.update(PRESETS.get(DEFAULT_PRESET, {}))
+_DEFAULTS.update(PRESET_PROPERTY_VALUES.get(DEFAULT_PRESET, {}))
 
 PRESET_ITEMS = [
     ("DRAFT", "Draft", "Few surfels, low FMM order, loose tolerance: quick look"),
@@ -93,7 +86,7 @@ _applying_preset = False
 def apply_preset(props, preset):
     """Copy the table values of ``preset`` into ``props`` (no-op for "CUSTOM")."""
     global _applying_preset
-    values = PRESETS.get(preset)
+    values = PRESET_PROPERTY_VALUES.get(preset)
     if values is None:
         return
     _applying_preset = True
@@ -127,7 +120,7 @@ def _field_update(self, _context):
         return
     self.initialized = True
     if self.preset != "CUSTOM":
-        values = PRESETS.get(self.preset, {})
+        values = PRESET_PROPERTY_VALUES.get(self.preset, {})
         if any(not _same(getattr(self, k), v) for k, v in values.items()
                if v is not None and hasattr(self, k)) \
                 or self.sampling != "BUDGET":

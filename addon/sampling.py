@@ -28,6 +28,7 @@ from illumap import sampling as core_sampling
 from illumap import surfels as core_surfels
 
 from .errors import IllumapError
+from .kinds import MESH_TYPES
 
 
 @dataclass
@@ -143,9 +144,6 @@ def read_mesh(obj, depsgraph, allow_empty: bool = False) -> TriangleMesh | None:
         obj_eval.to_mesh_clear()
 
 
-_INSTANCE_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
-
-
 def read_instances(depsgraph, instancer_names: set[str]) -> list[TriangleMesh]:
     """World-space triangles of every instance (collection instances, Geometry Nodes
     instances, particle/vertex/face instancing) whose instancer is one of ``instancer_names``.
@@ -161,7 +159,7 @@ def read_instances(depsgraph, instancer_names: set[str]) -> list[TriangleMesh]:
         if inst.parent.original.name not in instancer_names:
             continue
         ob = inst.object
-        if ob.type not in _INSTANCE_TYPES:
+        if ob.type not in MESH_TYPES:
             continue
         mesh = ob.to_mesh()
         try:

@@ -42,6 +42,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import illumap  # noqa: E402
+from illumap.accuracy import NO_SURFEL_LIMIT  # noqa: E402
 from illumap.operator import VISIBILITIES  # noqa: E402
 
 import scenes as S  # noqa: E402
@@ -66,7 +67,7 @@ AUTO_MORE_SEEDS = (3, 5)
 #: The room is swept up to 16k surfels: its automatic mode picks up to 20k at 10%.
 QUICK = dict(ref_n=dict(cornell=12000, bunny=8000, interior=12000), sizes=(500, 1000, 2000, 4000),
              direct_max=8000, direct_vis_max=dict(seed=2500, exact=4500), error_points=800,
-             high_order_max=10 ** 9, seed_max=10 ** 9)
+             high_order_max=NO_SURFEL_LIMIT, seed_max=NO_SURFEL_LIMIT)
 FULL = dict(ref_n=dict(cornell=48000, bunny=S.BUNNY_MAX, interior=48000),
             sizes=dict(cornell=(500, 1000, 2000, 4000, 8000, 12000),
                        cornell_mesh=(500, 1000, 2000, 4000, 8000, 16000),

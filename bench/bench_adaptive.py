@@ -27,6 +27,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 from illumap import accuracy  # noqa: E402
+from illumap.accuracy import calibration, models  # noqa: E402
 
 import accuracy_speed as AS  # noqa: E402
 import scenes as S  # noqa: E402
@@ -56,12 +57,12 @@ DIRECT_MAX = 6000
 
 def predicted(label, n, scale):
     """The calibrated model's error of the sweep setting ``label`` at ``n`` surfels."""
-    table = accuracy.CALIBRATION["kinds"]["mesh"]
+    table = calibration.CALIBRATION["kinds"]["mesh"]
     name = {"direct": "direct vis=exact",
             "FMM p=2 all-pairs s=16 θ=0.5": "FMM p=2 vis=exact all-pairs s=16 θ=0.5"}.get(
         label, label.replace(" θ", " vis=exact θ").replace(" vis=exact θ=0.5", " vis=exact"))
     entry = table["settings"].get(name)
-    return None if entry is None else accuracy._predicted_error(entry, table, n, None, scale)
+    return None if entry is None else models.predicted_error(entry, table, n, None, scale)
 
 
 def main(argv=None):

@@ -21,6 +21,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from illumap import accuracy  # noqa: E402
+from illumap.accuracy import calibration  # noqa: E402
 
 import calibrate  # noqa: E402  (bench/calibrate.py: the leaf variants' and sampling fits)
 import scenes as S  # noqa: E402
@@ -434,7 +435,7 @@ def sampling_section(spread):
           "| scene | N | errors (min – median – max) | ratio to the model (min – max) | "
           "factor |", "|---|---|---|---|---|"]
     for scene, data in spread["scenes"].items():
-        table = accuracy.CALIBRATION["kinds"].get(S.KIND[scene], {})
+        table = calibration.CALIBRATION["kinds"].get(S.KIND[scene], {})
         fit = calibrate.fit_sampling(data["rows"], table) if table.get("scene") == scene \
             else None
         factors = dict((n, f) for n, f in (fit or {}).get("points", []))

@@ -2,7 +2,7 @@
 """Distance of one FMM visibility setting's solution to the direct exact-visibility solution
 of the same surfels, as N grows (Cornell box): whether what the node-pair visibility model adds
 converges with N, which the automatic mode's extrapolation assumes it does not
-(``illumap.accuracy._setting_error``).
+(``illumap.accuracy.models.setting_error``).
 
     .venv/bin/python bench/fmm_against_direct.py
 """

@@ -23,7 +23,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from illumap import accuracy  # noqa: E402
+from illumap.accuracy import calibration, models  # noqa: E402
 
 import accuracy_speed as A  # noqa: E402
 import scenes as S  # noqa: E402
@@ -51,7 +51,7 @@ def run_scene(name, cfg, sizes, seeds, visibilities, log):
     ref, ref_B, ref_info = A.reference(name, cfg, log)
     kw = setting_keywords(name, visibilities)
     kind = S.KIND[name]
-    table = accuracy.CALIBRATION["kinds"][kind]
+    table = calibration.CALIBRATION["kinds"][kind]
     entry = table["settings"][SETTING]
     rows = []
     for n in sizes:
@@ -61,7 +61,7 @@ def run_scene(name, cfg, sizes, seeds, visibilities, log):
             B_ref = S.reference_at(ref, ref_B, S.subset(q, idx), ref_info["scene"])
             sol, dt = A.timed_solve(q, kw)
             err = S.relative_rms(sol.radiosity[idx], B_ref)
-            model = accuracy._predicted_error(entry, table, q.n, None, sampling=False)
+            model = models.predicted_error(entry, table, q.n, None, sampling=False)
             rows.append(dict(scene=name, kind=kind, label=SETTING, size=n, n=q.n, seed=seed,
                              error=err, model=model, ratio=err / model, time=dt,
                              iterations=sol.iterations))
@@ -83,7 +83,7 @@ def main(argv=None):
     seeds = SEEDS if args.full else SEEDS[:2]
     visibilities, _ = A.available_visibilities()
     results = dict(mode="full" if args.full else "quick", setting=SETTING, seeds=list(seeds),
-                   calibration_date=accuracy.CALIBRATION["date"], core=S.provenance(),
+                   calibration_date=calibration.CALIBRATION["date"], core=S.provenance(),
                    date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), scenes={})
     t0 = time.perf_counter()
     for name in args.scenes:

@@ -343,7 +343,7 @@ def reference_scene(name):
 
 def max_surfels(name):
     """The most surfels a scene can be sampled with (a scan has its points; meshes: no cap)."""
-    return BUNNY_MAX if name == "bunny" else 10 ** 9
+    return BUNNY_MAX if name == "bunny" else accuracy.NO_SURFEL_LIMIT
 
 
 def build(name, n, seed=0):

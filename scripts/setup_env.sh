@@ -121,7 +121,7 @@ command -v g++ >/dev/null 2>&1 || apt_install g++
 apt_install libembree-dev
 
 CORE_HASH="$(cd "$ROOT" && find core -type f \( -name '*.cpp' -o -name '*.hpp' -o -name '*.py' \
-    -o -name 'CMakeLists.txt' -o -name '*.cmake' -o -name 'pyproject.toml' \) -not -path 'core/build/*' -print0 \
+    -o -name 'CMakeLists.txt' -o -name '*.cmake' -o -name 'pyproject.toml' -o -name '*.json' \) -not -path 'core/build/*' -print0 \
     | sort -z | xargs -0 sha256sum | sha256sum | cut -d' ' -f1)"
 
 # 2. The environments.

@@ -64,7 +64,8 @@ def test_target_error_chooses_the_density():
                            pipeline.Settings(transfer=False, target_error=0.1, adaptive=False,
                                              lamp_shadows=False))
     # the model of the "mesh" kind: stratified triangle samples, as the add-on draws them
-    chosen = accuracy.choose_mesh_settings(dict(n=10 ** 9, total_area=8.0), 0.1, adaptive=False)
+    chosen = accuracy.choose_mesh_settings(dict(n=accuracy.NO_SURFEL_LIMIT, total_area=8.0), 0.1,
+                                           adaptive=False)
     info = job.stats["density"]
     assert info["kind"] == "mesh" and info["surfels"] == chosen["n"]
     assert info["discretization_scale"] == 1.0 and job.accuracy["label"] == chosen["label"]
@@ -224,7 +225,7 @@ def test_one_uniform_pass_where_the_models_predict_it_faster():
     where the models predict two passes faster than one uniform pass (or the budget caps the
     count); otherwise one pass of the uniform choice, and the stats say why."""
     from illumap import accuracy
-    summary = dict(n=10 ** 9, total_area=8.0)
+    summary = dict(n=accuracy.NO_SURFEL_LIMIT, total_area=8.0)
     target = next((t for t in (0.2, 0.18, 0.15)
                    if not accuracy.choose_mesh_settings(summary, t)["adaptive"]), None)
     assert target is not None, "two passes are predicted faster at every target from 20% to 15%"

@@ -93,7 +93,7 @@ def _solve(job, coverage, visibility="exact"):
     sol = illumap.solve(surfels, method="fmm", order=s.order, theta=s.theta,
                         leaf_size=s.leaf_size, tol=s.tol, max_iterations=s.max_iterations,
                         visibility=visibility, **kw)
-    assert pipeline.PRESETS["HIGH"]["visibility"] == "exact"
+    assert pipeline.QUALITY_PRESETS["HIGH"]["visibility"] == "exact"
     return np.asarray(sol.radiosity)
 
 

@@ -128,7 +128,6 @@ def _make_fake_pipeline():
 
     fake.Settings, fake.Job, fake.Result = Settings, Job, Result
     fake.prepare, fake.run, fake.write, fake.compute = prepare, run, write, compute
-    fake.PRESETS = {}
     return fake
 
 
@@ -143,16 +142,16 @@ def fake_pipeline(registered_addon):
     addon = registered_addon
     saved_module = sys.modules.get("addon.pipeline")
     saved_attr = addon.__dict__.get("pipeline")
-    saved_import = addon._import_core
+    saved_import = addon.core_status._import_core
     fake = _make_fake_pipeline()
     sys.modules["addon.pipeline"] = fake
     addon.pipeline = fake
-    addon._import_core = lambda: None
+    addon.core_status._import_core = lambda: None
     _reregister(addon)
     try:
         yield fake
     finally:
-        addon._import_core = saved_import
+        addon.core_status._import_core = saved_import
         if saved_module is not None:
             sys.modules["addon.pipeline"] = saved_module
         else:
@@ -213,21 +212,21 @@ def test_scene_settings_start_from_defaults_and_presets_fill_fields(registered_a
     assert props.preset == "MEDIUM"
     for name in ("DRAFT", "MEDIUM", "HIGH"):
         props.preset = name
-        for key, value in properties.PRESETS[name].items():
+        for key, value in properties.PRESET_PROPERTY_VALUES[name].items():
             got = getattr(props, key)
             assert got == pytest.approx(value, rel=1e-6) if isinstance(value, float) else got == value
         assert props.preset == name  # applying a preset does not mark it Custom
-    assert set(properties.PRESETS) == {"DRAFT", "MEDIUM", "HIGH"}
-    assert properties.PRESETS["HIGH"]["order"] > properties.PRESETS["DRAFT"]["order"]
-    assert properties.PRESETS["HIGH"]["budget"] > properties.PRESETS["DRAFT"]["budget"]
-    assert properties.PRESETS["HIGH"]["gather_rays"] > properties.PRESETS["DRAFT"]["gather_rays"]
+    assert set(properties.PRESET_PROPERTY_VALUES) == {"DRAFT", "MEDIUM", "HIGH"}
+    assert properties.PRESET_PROPERTY_VALUES["HIGH"]["order"] > properties.PRESET_PROPERTY_VALUES["DRAFT"]["order"]
+    assert properties.PRESET_PROPERTY_VALUES["HIGH"]["budget"] > properties.PRESET_PROPERTY_VALUES["DRAFT"]["budget"]
+    assert properties.PRESET_PROPERTY_VALUES["HIGH"]["gather_rays"] > properties.PRESET_PROPERTY_VALUES["DRAFT"]["gather_rays"]
     props.preset = "DRAFT"
     props.build_preview = False  # not a solver setting: stays Draft
     assert props.preset == "DRAFT"
     props.order = 7
     assert props.preset == "CUSTOM"
     props.preset = "HIGH"
-    assert props.order == properties.PRESETS["HIGH"]["order"]
+    assert props.order == properties.PRESET_PROPERTY_VALUES["HIGH"]["order"]
 
 
 def test_settings_reach_the_pipeline_settings(registered_addon):
@@ -237,7 +236,7 @@ def test_settings_reach_the_pipeline_settings(registered_addon):
     props.solver = "GMRES"
     settings = properties.make_settings(props, pipeline.Settings)
     assert isinstance(settings, pipeline.Settings)
-    draft = pipeline.PRESETS["DRAFT"]
+    draft = pipeline.QUALITY_PRESETS["DRAFT"]
     assert settings.budget == draft["budget"] and settings.density is None
     assert settings.order == draft["order"]
     assert settings.visibility == draft["visibility"] == "exact"
@@ -265,6 +264,8 @@ def test_occluder_shape_reaches_the_pipeline_settings(registered_addon):
     assert props.preset == "HIGH"
     assert {item[0].lower() for item in properties.OCCLUDER_SHAPE_ITEMS} \
         == set(pipeline.OCCLUDER_SHAPES)
+    from illumap.occluders import OCCLUDER_SHAPES   # the core's spelling of the same shapes
+    assert set(pipeline.OCCLUDER_SHAPES) == set(OCCLUDER_SHAPES)
 
 
 def test_reset_settings_operator(registered_addon):
@@ -777,8 +778,8 @@ def test_reduced_ui_when_the_core_is_missing(registered_addon):
     def missing():
         raise ModuleNotFoundError("No module named 'illumap'", name="illumap")
 
-    saved = addon._import_core
-    addon._import_core = missing
+    saved = addon.core_status._import_core
+    addon.core_status._import_core = missing
     try:
         _reregister(addon)
         assert not hasattr(bpy.types, "ILLUMAP_OT_compute_illumination_map")
@@ -805,10 +806,10 @@ def test_reduced_ui_when_the_core_is_missing(registered_addon):
         assert labels[0] == "The native module 'illumap' is not installed."
         assert "default_preset" in fake_prefs.layout.texts("prop")
         # A broken build says what failed to load.
-        addon._import_core = lambda: importlib.import_module("illumap._no_such_module")
+        addon.core_status._import_core = lambda: importlib.import_module("illumap._no_such_module")
         assert "could not be loaded" in addon.check_core()
     finally:
-        addon._import_core = saved
+        addon.core_status._import_core = saved
         _reregister(addon)
     assert addon.core_error() is None or "illumap" in addon.core_error()
 

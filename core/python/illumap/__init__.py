@@ -7,6 +7,8 @@ Public API (docs/architecture.md)::
                       visibility="none")                      # .apply(values), .stats, .symmetric
     solve(surfels, *, method=…, solver="auto"|"cg"|"gmres"|"jacobi", tol=…, max_iterations=…,
           progress=None, operator=None, target_error=None, **operator_keywords) -> Solution
+                                                              # (illumap.api: target_error
+                                                              #  → illumap.accuracy)
     Occluders(surfels, coverage=1.3, shape="disc")           # .visible(origins, targets, skip=)
     InputError(ValueError), Cancelled(Exception)
 """
@@ -16,7 +18,8 @@ from ._progress import Cancelled
 from .occluders import Occluders
 from .operator import (DEFAULT_LEAF_SIZE, DEFAULT_METHOD, DEFAULT_NEAR_FIELD, DEFAULT_ORDER,
                        DEFAULT_THETA, DEFAULT_VISIBILITY, TransportOperator)
-from .solver import DEFAULT_TOL, Solution, solve
+from .api import solve
+from .solver import DEFAULT_TOL, Solution
 from .surfels import InputError, Surfels
 
 __version__ = "0.1.0"

@@ -21,7 +21,7 @@ import numbers
 import numpy as np
 
 from ._progress import ProgressGuard
-from .operator import read_float_array, require_finite
+from .operator import OCCLUDER_SHAPES, read_float_array, require_finite
 from .surfels import InputError, Surfels
 
 try:
@@ -34,7 +34,6 @@ else:
 
 __all__ = ["Occluders", "OCCLUDER_SHAPES", "DEFAULT_ENDPOINT_OFFSET"]
 
-OCCLUDER_SHAPES = ("disc", "quad", "octagon")
 #: Share of the skipped surfel's disc radius trimmed off the start of a segment; the same
 #: default as the operator's ``endpoint_offset``.
 DEFAULT_ENDPOINT_OFFSET = 0.05

@@ -63,7 +63,9 @@ VISIBILITIES = {
     "exact": (True, True),
 }
 VISIBILITY_LEAF_MODES = ("per_pair", "per_pair_all", "fractional", "binary")
-VISIBILITY_SHAPES = ("disc", "quad", "octagon")
+#: Shapes a surfel occludes with (``visibility_shape``, ``Occluders(shape=)``), each of its
+#: disc's area.
+OCCLUDER_SHAPES = ("disc", "quad", "octagon")
 
 #: Visibility keywords and their defaults (see TransportOperator for their meaning and units).
 VISIBILITY_DEFAULTS = {
@@ -169,7 +171,7 @@ def validate_keywords(*, method=DEFAULT_METHOD, order=DEFAULT_ORDER, theta=DEFAU
     out["visibility_leaf_mode"] = _check_choice("visibility_leaf_mode",
                                                 v["visibility_leaf_mode"], VISIBILITY_LEAF_MODES)
     out["visibility_shape"] = _check_choice("visibility_shape", v["visibility_shape"],
-                                            VISIBILITY_SHAPES)
+                                            OCCLUDER_SHAPES)
     out["visibility_samples"] = _check_int("visibility_samples", v["visibility_samples"], 1, 4096)
     out["seed_k"] = _check_int("seed_k", v["seed_k"], 1)
     out["seed_leaf_points"] = _check_int("seed_leaf_points", v["seed_leaf_points"], 1)

@@ -455,8 +455,7 @@ _UNSET = object()
 
 def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float = DEFAULT_TOL,
           max_iterations=None, progress=None, operator=None, restart: int = DEFAULT_RESTART,
-          target_error: float | None = None, error_tol: float | None = None,
-          **operator_keywords) -> Solution:
+          error_tol: float | None = None, **operator_keywords) -> Solution:
     """Solve ``B = E + ρ∘K(B)`` for the radiosity B of every surfel.
 
     Parameters
@@ -492,29 +491,11 @@ def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float =
         solves (e.g. for new albedo or emission). Operator keywords may not be given with it.
     restart : int
         GMRES restart length.
-    target_error : float, optional
-        Relative RMS error wanted per surfel (e.g. 0.03). Illumap then chooses the FMM order,
-        θ, leaf size, visibility and tolerance itself (:func:`illumap.accuracy.choose_settings`)
-        and reports them with an a-posteriori error estimate in ``stats["accuracy"]``; keywords
-        given explicitly override the chosen ones. Surfel density is the caller's: see
-        ``stats["accuracy"]["settings"]["density"]`` for the density the target needs.
 
     Returns
     -------
     Solution
     """
-    if target_error is not None:
-        from . import accuracy
-        overrides = dict(operator_keywords)
-        if method is not _UNSET:
-            overrides["method"] = method
-        if solver != "auto":
-            overrides["solver"] = solver
-        if max_iterations is not None:
-            overrides["max_iterations"] = max_iterations
-        if operator is not None:
-            raise InputError("solve: target_error chooses the operator; do not pass operator=")
-        return accuracy.solve(surfels, target_error, progress=progress, **overrides)
     t_total = time.perf_counter()
     if not isinstance(surfels, Surfels):
         raise InputError(f"surfels: expected an illumap.Surfels, got {type(surfels).__name__}")
