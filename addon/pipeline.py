@@ -1063,8 +1063,11 @@ def run(job: Job, progress: Progress | None = None) -> Result:
     timings["solve"] = time.perf_counter() - t0
     warnings = list(job.warnings)
     if not sol.converged:
+        reason = (getattr(sol, "stats", None) or {}).get("warning")
         warnings.append(f"Solver did not converge in {sol.iterations} iterations "
-                        f"(residual {float(sol.residuals[-1]) if len(sol.residuals) else float('nan'):.3g})")
+                        f"(residual {float(sol.residuals[-1]) if len(sol.residuals) else float('nan'):.3g})"
+                        + (f": {reason}" if reason else "")
+                        + "; the result is written but is not the converged light")
     # The emission that lamps carried is still what those surfels send to the eye.
     radiosity = np.asarray(sol.radiosity, dtype=np.float64) + (job.emission - job.solve_emission)
     if not np.all(np.isfinite(radiosity)):

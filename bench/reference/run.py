@@ -201,6 +201,8 @@ def run_scene(name: str, pipeline, settings: list[tuple[str, dict]], sample_coun
     scene = scenes.build(name)
     print(f"{name}: {scene.vertex_count()} scored vertices in {len(scene.scored)} meshes, "
           f"{len(scene.emitters)} emitters, {len(scene.lamps)} lamps", flush=True)
+    if scene.reference_samples:
+        reference_samples = min(reference_samples, scene.reference_samples)
     ref = load_reference(scene, reference_samples)
     if ref is None:
         print(f"  baking the reference at {reference_samples} samples …", flush=True)

@@ -92,6 +92,8 @@ class ReferenceScene:
     # meshes themselves.
     scan: list[str] = field(default_factory=list)
     reference: str = ""                 # the cached reference to use ("": this scene's own)
+    reference_samples: int = 0          # samples of its reference (0: the run's); large scans
+                                        # bake fewer: the cost grows with the vertices
 
     @property
     def objects(self) -> list:
@@ -653,6 +655,7 @@ def scan_object() -> ReferenceScene:
                     f"Stanford bunny ({len(verts)} vertices) x {BUNNY_SCALE:g} as a point cloud "
                     "without normals on a mesh floor, sky + sun")
     scene.scan = ["Bunny"]
+    scene.reference_samples = 1024
     return scene
 
 

@@ -481,3 +481,18 @@ def test_batch_help_documents_exit_codes(capsys):
     for code in ExitCode:
         assert f"{int(code)} " in text
     assert "--overwrite-input" in text and "10,000" in text
+
+
+def test_a_solve_stopped_early_says_why():
+    """A solve cut short (here by its iteration limit) is written with a warning that gives
+    the solver's reason and says the light is not the converged one."""
+    from addon import pipeline
+    floor = lit_floor()
+    wall = make_plane("Wall", size=2.0, location=(0, 0, 1), material=diffuse_material("W", (0.8,) * 3))
+    wall.rotation_euler = (1.5708, 0, 0)
+    bpy.context.view_layer.update()
+    result = pipeline.compute(bpy.context, [floor, wall],
+                              pipeline.settings_from_preset("draft", tol=1e-12, max_iterations=1))
+    assert not result.converged
+    stop = [w for w in result.warnings if w.startswith("Solver did not converge")]
+    assert len(stop) == 1 and "did not reach tol" in stop[0] and "not the converged light" in stop[0]
