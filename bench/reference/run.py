@@ -210,6 +210,11 @@ def run_scene(name: str, pipeline, settings: list[tuple[str, dict]], sample_coun
     print(f"  reference: {ref['samples']} samples, bake {ref['seconds']:.1f} s "
           f"({'cached' if ref['cached'] else 'new'}, Blender {ref['blender']})", flush=True)
     rows = []
+    if scene.cycles_samples:
+        sample_counts = [c for c in sample_counts if c in scene.cycles_samples] or \
+            list(scene.cycles_samples)
+    if scene.only_settings:
+        settings = [s for s in settings if s[0] in scene.only_settings]
     for seed, samples in enumerate(sample_counts):
         values, seconds = bake.bake_outgoing(scene, samples, seed=seed)
         rows.append(_scored_row(scene, f"Cycles {samples} spp", "cycles", values,

@@ -94,6 +94,8 @@ class ReferenceScene:
     reference: str = ""                 # the cached reference to use ("": this scene's own)
     reference_samples: int = 0          # samples of its reference (0: the run's); large scans
                                         # bake fewer: the cost grows with the vertices
+    only_settings: tuple = ()           # labels of run.ILLUMAP_SETTINGS to run (empty: all)
+    cycles_samples: tuple = ()          # the Cycles sweep (empty: the run's)
 
     @property
     def objects(self) -> list:
@@ -656,6 +658,8 @@ def scan_object() -> ReferenceScene:
                     "without normals on a mesh floor, sky + sun")
     scene.scan = ["Bunny"]
     scene.reference_samples = 1024
+    scene.only_settings = ("default", "DRAFT", "HIGH", "target 0.05", "target 0.03")
+    scene.cycles_samples = (16, 64, 256)
     return scene
 
 
