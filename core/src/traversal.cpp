@@ -106,13 +106,12 @@ bool mac_holds(const OctreeNode& t, const OctreeNode& s, double theta) {
 }
 
 PairClass classify(const SurfelSoA& surf, const OctreeNode& t, const OctreeNode& s,
-                   const TraversalOptions& opt, Visibility vis) {
+                   const TraversalOptions& opt) {
     const Facing rt = facing(surf, t, s);  // receivers in t facing sources in s
     if (rt.none_pos) return PairClass::Drop;
     const Facing rs = facing(surf, s, t);  // sources in s facing receivers in t
-    if (rt.none_pos || rs.none_pos || vis == Visibility::Invalid) return PairClass::Drop;
-    const bool mac = mac_holds(t, s, opt.theta);
-    if (mac && vis == Visibility::Valid) {
+    if (rs.none_pos) return PairClass::Drop;
+    if (mac_holds(t, s, opt.theta)) {
         if (rt.all_pos && rs.all_pos) return PairClass::Accept;
         // Mixed facing. If only the receivers' test is mixed, the source straddles the
         // target's tangent plane: refine the source down to leaves and hand each of their
@@ -239,44 +238,40 @@ struct Walker {
         }
         const std::int64_t both = mutual ? 2 : 1;  // ordered pairs this visit stands for
         // The kernel alone first; visibility only where an interaction would be produced.
-        PairClass k = classify(tree.s, t, s, opt, Visibility::Valid);
+        PairClass k = classify(tree.s, t, s, opt);
         float w = 1.0f;
         std::int64_t b = -1;
-        if ((opt.model || opt.visibility) && (k == PairClass::Accept || k == PairClass::M2P ||
-                                              k == PairClass::P2L || k == PairClass::Near)) {
-            if (opt.model) {
-                const VisibilityModel& m = *opt.model;
-                const bool leaves = t.leaf() && s.leaf();
-                float frac = 1.0f;
-                // A fraction is needed only where a PARTIAL leaf pair may keep one.
-                const bool wants_fraction = leaves && m.leaf_mode() != LeafMode::Binary &&
-                                            m.leaf_mode() != LeafMode::PerPairAll;
-                VisibilityModel::DrawMemo draws(m);   // for a block of this pair
-                const VisClass c = wants_fraction ? m.classify_fraction(pr.t, pr.s, &frac, &draws)
-                                                  : m.classify(pr.t, pr.s, &draws);
-                (c == VisClass::Valid ? vv : c == VisClass::Invalid ? vi : vp)[lev] += both;
-                if (c == VisClass::Invalid) {
-                    k = PairClass::Drop;
-                } else if (c == VisClass::Partial) {
-                    if (leaves) {  // cannot be pushed down: Accept (far) or Near
-                        // PerPair: per-pair V only in the true near field; a leaf pair that
-                        // is Near only because its facing is mixed (a sphere's leaf against a
-                        // distant wall) is far apart and gets the fraction, as far leaf pairs
-                        // in M2L. PerPairAll: per-pair V (P2P) wherever a leaf pair is PARTIAL.
-                        if (m.leaf_mode() == LeafMode::PerPairAll ||
-                            (k == PairClass::Near && m.leaf_mode() == LeafMode::PerPair &&
-                             !mac_holds(t, s, opt.theta))) {
-                            k = PairClass::Near;
-                            b = store_block(pr.t, pr.s, mutual, &draws);
-                        } else {
-                            w = frac;
-                        }
+        if (opt.model && (k == PairClass::Accept || k == PairClass::M2P ||
+                          k == PairClass::P2L || k == PairClass::Near)) {
+            const VisibilityModel& m = *opt.model;
+            const bool leaves = t.leaf() && s.leaf();
+            float frac = 1.0f;
+            // A fraction is needed only where a PARTIAL leaf pair may keep one.
+            const bool wants_fraction = leaves && m.leaf_mode() != LeafMode::Binary &&
+                                        m.leaf_mode() != LeafMode::PerPairAll;
+            VisibilityModel::DrawMemo draws(m);   // for a block of this pair
+            const VisClass c = wants_fraction ? m.classify_fraction(pr.t, pr.s, &frac, &draws)
+                                              : m.classify(pr.t, pr.s, &draws);
+            (c == VisClass::Valid ? vv : c == VisClass::Invalid ? vi : vp)[lev] += both;
+            if (c == VisClass::Invalid) {
+                k = PairClass::Drop;
+            } else if (c == VisClass::Partial) {
+                if (leaves) {  // cannot be pushed down: Accept (far) or Near
+                    // PerPair: per-pair V only in the true near field; a leaf pair that
+                    // is Near only because its facing is mixed (a sphere's leaf against a
+                    // distant wall) is far apart and gets the fraction, as far leaf pairs
+                    // in M2L. PerPairAll: per-pair V (P2P) wherever a leaf pair is PARTIAL.
+                    if (m.leaf_mode() == LeafMode::PerPairAll ||
+                        (k == PairClass::Near && m.leaf_mode() == LeafMode::PerPair &&
+                         !mac_holds(t, s, opt.theta))) {
+                        k = PairClass::Near;
+                        b = store_block(pr.t, pr.s, mutual, &draws);
                     } else {
-                        k = classify(tree.s, t, s, opt, Visibility::Partial);  // -> Split
+                        w = frac;
                     }
+                } else {
+                    k = PairClass::Split;  // pushed down to the children
                 }
-            } else {
-                k = classify(tree.s, t, s, opt, (*opt.visibility)(pr.t, pr.s));
             }
         }
         switch (k) {

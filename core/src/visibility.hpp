@@ -21,12 +21,10 @@
 //                     of the same pair that follows, which then casts none of them again.
 //
 // How the traversal folds it in (the talk's Octree_Visibility; traversal.cpp's Walker::step):
-//   1. k = classify(surf, t, s, opt, Visibility::Valid)   -- the kernel alone, no query.
+//   1. k = classify(surf, t, s, opt)   -- the kernel alone, no query.
 //      DROP / SPLIT: done (a pair the kernel splits anyway needs no visibility query).
-//   2. k == ACCEPT, M2P, P2L or NEAR: c = model.classify(t, s) (or a ClassCache), then
-//      k = classify(surf, t, s, opt, Visibility(c)): INVALID -> DROP; PARTIAL -> SPLIT (pushed
-//      down to the children) unless both are leaves -> NEAR.  VisClass and traversal.hpp's
-//      enum Visibility have the same values (Valid 0, Invalid 1, Partial 2).
+//   2. k == ACCEPT, M2P, P2L or NEAR: c = model.classify(t, s): INVALID -> DROP; PARTIAL ->
+//      SPLIT (pushed down to the children) unless both are leaves.
 //   3. A NEAR pair whose class is PARTIAL gets, per leaf_mode():
 //        PerPair: block(t, s) if the MAC fails (true near field), fraction(t, s) if the MAC
 //                 holds (a far leaf pair the kernel would have accepted);
@@ -50,10 +48,8 @@
 #include <cmath>
 #include <cstdint>
 #include <memory>
-#include <mutex>
 #include <stdexcept>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 namespace illumap {
@@ -415,41 +411,6 @@ protected:
     mutable std::atomic<std::uint64_t> queries_{0}, no_facing_{0}, blocks_{0}, block_pairs_{0};
     double build_seconds_ = 0;
     std::size_t bytes_ = 0;
-};
-
-// A thread-safe memo of classify() keyed by the unordered pair, for traversals whose lists are
-// per target (non-mutual): (t, s) and (s, t) then cost one evaluation when the second comes
-// after the first. 64 shards, each a mutex and a hash map (~40 bytes per entry).
-class ClassCache {
-public:
-    explicit ClassCache(const VisibilityModel& m) : model_(m) {}
-    VisClass operator()(std::int32_t a, std::int32_t b) {
-        const std::uint32_t lo = std::uint32_t(a < b ? a : b), hi = std::uint32_t(a < b ? b : a);
-        const std::uint64_t key = std::uint64_t(lo) << 32 | hi;
-        Shard& sh = shards_[vis_mix(key) & 63];
-        {
-            std::lock_guard<std::mutex> lk(sh.m);
-            auto it = sh.map.find(key);
-            if (it != sh.map.end()) return it->second;
-        }
-        const VisClass c = model_.classify(a, b);
-        std::lock_guard<std::mutex> lk(sh.m);
-        sh.map.emplace(key, c);
-        return c;
-    }
-    std::size_t size() const {
-        std::size_t n = 0;
-        for (auto& sh : shards_) n += sh.map.size();
-        return n;
-    }
-
-private:
-    struct Shard {
-        std::mutex m;
-        std::unordered_map<std::uint64_t, VisClass> map;
-    };
-    const VisibilityModel& model_;
-    Shard shards_[64];
 };
 
 // Builds the method named in opt.method over `tree` (which must outlive the result); returns
