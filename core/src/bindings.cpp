@@ -147,6 +147,30 @@ struct PySurfelField {
     std::unique_ptr<SurfelField> field;
 };
 
+// The names of the visibility options, as the Python API spells them (ValueError otherwise).
+VisMethod parse_vis_method(const std::string& s) {
+    if (s == "none") return VisMethod::None;
+    if (s == "seed") return VisMethod::Seed;
+    if (s == "exact") return VisMethod::Exact;
+    throw nb::value_error(("visibility must be 'none', 'seed' or 'exact', not '" + s + "'").c_str());
+}
+VisibilityOptions::Shape parse_vis_shape(const std::string& s) {
+    if (s == "disc") return VisibilityOptions::Shape::Disc;
+    if (s == "quad") return VisibilityOptions::Shape::Quad;
+    if (s == "octagon") return VisibilityOptions::Shape::Octagon;
+    throw nb::value_error(
+        ("visibility shape must be 'disc', 'quad' or 'octagon', not '" + s + "'").c_str());
+}
+LeafMode parse_leaf_mode(const std::string& s) {
+    if (s == "binary") return LeafMode::Binary;
+    if (s == "fractional") return LeafMode::Fractional;
+    if (s == "per_pair") return LeafMode::PerPair;
+    if (s == "per_pair_all") return LeafMode::PerPairAll;
+    throw nb::value_error(
+        ("leaf mode must be 'binary', 'fractional', 'per_pair' or 'per_pair_all', not '" + s +
+         "'").c_str());
+}
+
 // Two (M, 3) float64 arrays of one length, every value finite.
 std::size_t paired_rays(nb::handle a, const char* an, nb::handle b, const char* bn,
                         const double*& A, const double*& B, nb::object& ka, nb::object& kb) {
@@ -200,13 +224,9 @@ NB_MODULE(_core, m) {
                  opt.theta = theta;
                  opt.leaf_size = leaf_size;
                  opt.near_field = near_field == "disc" ? NearField::Disc : NearField::Point;
-                 try {
-                     opt.vis.method = parse_vis_method(visibility);
-                     opt.vis.leaf_mode = parse_leaf_mode(visibility_leaf_mode);
-                     opt.vis.shape = parse_vis_shape(visibility_shape);
-                 } catch (std::invalid_argument& e) {
-                     throw nb::value_error(e.what());
-                 }
+                 opt.vis.method = parse_vis_method(visibility);
+                 opt.vis.leaf_mode = parse_leaf_mode(visibility_leaf_mode);
+                 opt.vis.shape = parse_vis_shape(visibility_shape);
                  if (visibility_samples < 1 || visibility_samples > 4096)
                      throw nb::value_error("visibility_samples must be in 1..4096");
                  if (!(coverage > 0.0) || !(endpoint_offset >= 0.0) || !(seed_delta > 0.0))
@@ -333,12 +353,7 @@ NB_MODULE(_core, m) {
                  if (!(coverage > 0.0) || !std::isfinite(coverage))
                      throw nb::value_error("coverage must be a finite number > 0");
                  if (threads < 0) throw nb::value_error("threads must be >= 0");
-                 VisibilityOptions::Shape sh;
-                 try {
-                     sh = parse_vis_shape(shape);
-                 } catch (std::invalid_argument& e) {
-                     throw nb::value_error(e.what());
-                 }
+                 const VisibilityOptions::Shape sh = parse_vis_shape(shape);
                  const SurfelViews sv(positions, normals, areas);
                  const double *P = sv.P, *N = sv.N, *A = sv.A;
                  const std::size_t np = sv.n;

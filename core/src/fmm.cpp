@@ -3,6 +3,8 @@
 // -> L2P + P2P (per target leaf). Every parallel loop writes only its own nodes/receivers.
 #include "fmm.hpp"
 
+#include "visibility_factory.hpp"
+
 #include <chrono>
 #include <cmath>
 #include <cstring>
