@@ -3,7 +3,7 @@
 // Shapes, dtypes and contiguity are checked here (ValueError with the array's name); the
 // Python layer checks values. Inputs that are already C-contiguous float64 are read in place.
 // The GIL is released during compute; progress callbacks re-acquire it on the calling thread.
-#include "fmm.hpp"
+#include "transport_operator.hpp"
 #include "knn.hpp"
 #include "gather.hpp"
 #include "mesh_scene.hpp"
