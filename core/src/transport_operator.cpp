@@ -18,6 +18,8 @@ double seconds_since(Clock::time_point t0) {
 // the visibility model and the near correction, without it by the lists.
 constexpr double kTreeProgressWithVisibility = 0.05;
 constexpr double kTreeProgressAlone = 0.3;
+// Receivers per chunk when the direct method's visibility correction is built.
+constexpr std::size_t kDirectVisibilityGrain = 16;
 }  // namespace
 
 TransportOperator::TransportOperator(Context& ctx, const double* positions, const double* normals,
@@ -93,7 +95,7 @@ void TransportOperator::build_direct_visibility(Context& ctx) {
     checkpoint(ctx, 0.5);
     const SurfelSoA& s = orig_;
     const std::size_t n = n_;
-    const std::size_t grain = 16;
+    const std::size_t grain = kDirectVisibilityGrain;
     const std::size_t nchunks = (n + grain - 1) / grain;
     std::vector<std::vector<SparseEntry>> found(nchunks);
     parallel_for(ctx, n, grain, [&](std::size_t b, std::size_t e) {

@@ -7,13 +7,24 @@
 
 namespace illumap {
 
+namespace {
+// Relative round-off allowed in the facing bounds.
+constexpr double kRoundOff = 1e-12;
+// The walk is shared out once the breadth-first frontier holds this many pairs per thread
+// (or, after one more level, over kFrontierOvershoot times that), in kChunksPerThread chunks
+// per thread (one Walker each).
+constexpr std::size_t kFrontierPerThread = 64;
+constexpr std::size_t kFrontierOvershoot = 4;
+constexpr std::size_t kChunksPerThread = 8;
+}  // namespace
+
 Facing facing_bound(const OctreeNode& o, const OctreeNode& q) {
     // D = c_q - c_o; r_j - r_i = D + u_j - v_i with |u_j| <= rho_q, |v_i| <= rho_o.
     const double D[3] = {q.center[0] - o.center[0], q.center[1] - o.center[1],
                          q.center[2] - o.center[2]};
     const double dist = std::sqrt(D[0] * D[0] + D[1] * D[1] + D[2] * D[2]);
     const double reach = dist + o.radius + q.radius;  // bound on |r_j - r_i|
-    const double tol = 1e-12 * reach;                 // round-off in the bounds below
+    const double tol = kRoundOff * reach;             // round-off in the bounds below
     const double* a = o.axis;
     const double aD = a[0] * D[0] + a[1] * D[1] + a[2] * D[2];
 
@@ -53,7 +64,7 @@ Facing facing_points(const SurfelSoA& s, const OctreeNode& o, const OctreeNode& 
         const double sup = std::min(q.radius, std::fabs(n[0]) * q.half[0] +
                                                   std::fabs(n[1]) * q.half[1] +
                                                   std::fabs(n[2]) * q.half[2]);
-        const double tol = 1e-12 * (std::sqrt(D[0] * D[0] + D[1] * D[1] + D[2] * D[2]) + q.radius);
+        const double tol = kRoundOff * (std::sqrt(D[0] * D[0] + D[1] * D[1] + D[2] * D[2]) + q.radius);
         if (g - sup < -tol) f.all_pos = false;
         if (g + sup > tol) f.none_pos = false;
     }
@@ -197,7 +208,9 @@ struct Walker {
         for (float v : tmp) all = all && v == 1.0f;
         if (all) return -1;
         const std::int64_t off = std::int64_t(blk.size());
-        auto q = [](float v) { return std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); };
+        auto q = [](float v) {
+            return std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * float(kVisLevels)));
+        };
         for (float v : tmp) blk.push_back(q(v));
         if (mirror)
             for (std::size_t j = 0; j < nb; ++j)
@@ -394,18 +407,18 @@ InteractionLists build_interaction_lists(Context& ctx, const Octree& tree,
     // Breadth-first expansion on the calling thread until there is enough work to share.
     Walker top(tree, opt);
     std::vector<Pair> frontier{{0, 0}}, next;
-    const std::size_t want = 64 * std::size_t(ctx.nthreads());
+    const std::size_t want = kFrontierPerThread * std::size_t(ctx.nthreads());
     while (!frontier.empty() && frontier.size() < want) {
         next.clear();
         for (const Pair& p : frontier) top.step(p, next);
         frontier.swap(next);
-        if (frontier.size() > 4 * want) break;
+        if (frontier.size() > kFrontierOvershoot * want) break;
     }
     const int nt = ctx.nthreads();
     std::vector<Walker> walkers;
     walkers.reserve(frontier.size());
     // One walker per chunk keeps outputs private to a thread without thread ids.
-    const std::size_t grain = std::max<std::size_t>(1, frontier.size() / (8 * std::size_t(nt)));
+    const std::size_t grain = std::max<std::size_t>(1, frontier.size() / (kChunksPerThread * std::size_t(nt)));
     const std::size_t nchunks = (frontier.size() + grain - 1) / grain;
     for (std::size_t c = 0; c < nchunks; ++c) walkers.emplace_back(tree, opt);
     parallel_for(ctx, nchunks, 1, [&](std::size_t b, std::size_t e) {

@@ -39,7 +39,8 @@ struct InteractionLists {
     // p2p_src: m2l_w = sampled fraction of a PARTIAL far leaf pair (1 otherwise); p2p_w = the
     // same for a P2P node pair, and p2p_blk = offset into `blocks` of its per-pair V (row-major
     // |t| x |s|, tree order) or -1 (then p2p_w applies to every pair of the entry). Blocks hold
-    // V quantised to 8 bits (round(255 V); exact and binary seed V are 0 or 1, exactly kept).
+    // V quantised to 8 bits (round(kVisLevels V), kernel.hpp; exact and binary seed V, 0 or 1,
+    // are kept exactly).
     std::vector<float> m2l_w, p2p_w;
     std::vector<std::int64_t> p2p_blk;
     std::vector<std::uint8_t> blocks;

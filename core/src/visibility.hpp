@@ -129,7 +129,7 @@ inline std::uint64_t vis_mix(std::uint64_t x) {  // splitmix64 finaliser
     return x ^ (x >> 31);
 }
 
-// i and j face each other: both cosines above 1e-6 (the near field's coplanar tolerance), so
+// i and j face each other: both cosines above kCoplanarCos (kernel.hpp), so
 // round-off between coplanar surfels (the two sides of a thin panel, random samples on one
 // plane) neither costs rays nor makes a node pair PARTIAL; the kernel is ~0 there anyway.
 // False for coincident points.
@@ -137,7 +137,7 @@ inline bool vis_facing(const SurfelSoA& s, std::uint32_t i, std::uint32_t j) {
     const double dx = s.px[j] - s.px[i], dy = s.py[j] - s.py[i], dz = s.pz[j] - s.pz[i];
     const double ci = s.nx[i] * dx + s.ny[i] * dy + s.nz[i] * dz;
     const double cj = -(s.nx[j] * dx + s.ny[j] * dy + s.nz[j] * dz);
-    const double tol = 1e-6 * std::sqrt(dx * dx + dy * dy + dz * dz);
+    const double tol = kCoplanarCos * std::sqrt(dx * dx + dy * dy + dz * dz);
     return ci > tol && cj > tol;
 }
 
