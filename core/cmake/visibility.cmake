@@ -11,6 +11,8 @@
 include_guard(GLOBAL)
 
 set(ILLUMAP_VISIBILITY_SOURCES
+  ${CMAKE_CURRENT_LIST_DIR}/../src/visibility.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/../src/visibility_factory.cpp
   ${CMAKE_CURRENT_LIST_DIR}/../src/raycast.cpp
   ${CMAKE_CURRENT_LIST_DIR}/../src/mesh_scene.cpp
   ${CMAKE_CURRENT_LIST_DIR}/../src/gather.cpp

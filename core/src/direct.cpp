@@ -44,10 +44,10 @@ void accumulate_weighted_impl(const Receiver& rc, const SourceView& v,
                               const std::uint8_t* __restrict w, double acc[3]) {
     double sum[3] = {0, 0, 0};
     accumulate_loop(rc, v, [w](std::size_t j) { return double(w[j]); }, sum);
-    constexpr double kInv255 = 1.0 / 255.0;
-    acc[0] += sum[0] * kInv255;
-    acc[1] += sum[1] * kInv255;
-    acc[2] += sum[2] * kInv255;
+    constexpr double kInvLevels = 1.0 / kVisLevels;
+    acc[0] += sum[0] * kInvLevels;
+    acc[1] += sum[1] * kInvLevels;
+    acc[2] += sum[2] * kInvLevels;
 }
 }  // namespace
 

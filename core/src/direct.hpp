@@ -30,7 +30,7 @@ struct Receiver {
 // acc[3] += sum_j F_ij x_j over all sources of v (the shared inner loop of direct and P2P).
 void accumulate_sources(const Receiver& r, const SourceView& v, double acc[3]);
 
-// acc[3] += sum_j (weights[j]/255) F_ij x_j: a per-pair visibility block's row (fmm.cpp).
+// acc[3] += sum_j (weights[j]/kVisLevels) F_ij x_j: a per-pair visibility block's row (fmm.cpp).
 void accumulate_sources_weighted(const Receiver& r, const SourceView& v,
                                  const std::uint8_t* weights, double acc[3]);
 

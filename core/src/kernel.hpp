@@ -13,6 +13,12 @@ namespace illumap {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kInvPi = 1.0 / kPi;
 constexpr double kT0 = 16.0;  // close pairs: pi r^2 / Abar <= 2 t0 (near_field.hpp)
+// |cos| below this is coplanar up to rounding (scale-free: cosines are ratios). Normals read
+// from a mesh are single precision (~6e-8), so two surfels of one plane facing opposite ways
+// (an open surface's two sides) can tilt towards each other by ~1e-6 (near_field.cpp).
+constexpr double kCoplanarCos = 1e-6;
+// Per-pair visibility blocks hold V quantised to 8 bits: round(kVisLevels V) (traversal.hpp).
+constexpr int kVisLevels = 255;
 
 enum class NearField { Disc, Point };
 

@@ -35,11 +35,8 @@ inline double polygon_weight(double t) {
     return t <= kT0 ? 1.0 : (t >= 2.0 * kT0 ? 0.0 : 2.0 - t / kT0);
 }
 
-// |cos| below this is coplanar up to rounding (scale-free: cosines are ratios). Normals read
-// from a mesh are single precision (~6e-8), so two surfels of one plane facing opposite ways
-// (an open surface's two sides) can tilt towards each other by ~1e-6; their octagons overlap
-// each other's centres, and the exact polygon rule would then see almost a whole hemisphere.
-constexpr double kCoplanarCos = 1e-6;
+// Surfels within kCoplanarCos of coplanar (kernel.hpp): their octagons overlap each other's
+// centres, and the exact polygon rule would see almost a whole hemisphere.
 
 struct CellKey {
     std::int64_t x, y, z;

@@ -497,9 +497,4 @@ void RaycastVisibility::block(std::int32_t a, std::int32_t b, float* out,
     block_pairs_.fetch_add(std::uint64_t(A.count()) * nb, std::memory_order_relaxed);
 }
 
-std::unique_ptr<VisibilityModel> make_raycast_visibility(Context& ctx, const Octree& tree,
-                                                    const VisibilityOptions& opt) {
-    return std::make_unique<RaycastVisibility>(ctx, tree, opt);
-}
-
 }  // namespace illumap

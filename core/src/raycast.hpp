@@ -41,6 +41,8 @@
 
 #include "visibility.hpp"
 
+#include <memory>
+
 namespace illumap {
 
 // The Embree scene of a set of surfels as occluders (discs, quads or octagons, per VisibilityOptions'

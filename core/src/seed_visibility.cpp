@@ -181,9 +181,4 @@ VisClass SeedVisibility::classify(std::int32_t a, std::int32_t b, DrawMemo* draw
     return VisibilityModel::classify(a, b, draws);
 }
 
-std::unique_ptr<VisibilityModel> make_seed_visibility(Context& ctx, const Octree& tree,
-                                                 const VisibilityOptions& opt) {
-    return std::make_unique<SeedVisibility>(ctx, tree, opt);
-}
-
 }  // namespace illumap

@@ -7,13 +7,24 @@
 
 namespace illumap {
 
+namespace {
+// Relative round-off allowed in the facing bounds.
+constexpr double kRoundOff = 1e-12;
+// The walk is shared out once the breadth-first frontier holds this many pairs per thread
+// (or, after one more level, over kFrontierOvershoot times that), in kChunksPerThread chunks
+// per thread (one Walker each).
+constexpr std::size_t kFrontierPerThread = 64;
+constexpr std::size_t kFrontierOvershoot = 4;
+constexpr std::size_t kChunksPerThread = 8;
+}  // namespace
+
 Facing facing_bound(const OctreeNode& o, const OctreeNode& q) {
     // D = c_q - c_o; r_j - r_i = D + u_j - v_i with |u_j| <= rho_q, |v_i| <= rho_o.
     const double D[3] = {q.center[0] - o.center[0], q.center[1] - o.center[1],
                          q.center[2] - o.center[2]};
     const double dist = std::sqrt(D[0] * D[0] + D[1] * D[1] + D[2] * D[2]);
     const double reach = dist + o.radius + q.radius;  // bound on |r_j - r_i|
-    const double tol = 1e-12 * reach;                 // round-off in the bounds below
+    const double tol = kRoundOff * reach;             // round-off in the bounds below
     const double* a = o.axis;
     const double aD = a[0] * D[0] + a[1] * D[1] + a[2] * D[2];
 
@@ -53,7 +64,7 @@ Facing facing_points(const SurfelSoA& s, const OctreeNode& o, const OctreeNode& 
         const double sup = std::min(q.radius, std::fabs(n[0]) * q.half[0] +
                                                   std::fabs(n[1]) * q.half[1] +
                                                   std::fabs(n[2]) * q.half[2]);
-        const double tol = 1e-12 * (std::sqrt(D[0] * D[0] + D[1] * D[1] + D[2] * D[2]) + q.radius);
+        const double tol = kRoundOff * (std::sqrt(D[0] * D[0] + D[1] * D[1] + D[2] * D[2]) + q.radius);
         if (g - sup < -tol) f.all_pos = false;
         if (g + sup > tol) f.none_pos = false;
     }
@@ -106,13 +117,12 @@ bool mac_holds(const OctreeNode& t, const OctreeNode& s, double theta) {
 }
 
 PairClass classify(const SurfelSoA& surf, const OctreeNode& t, const OctreeNode& s,
-                   const TraversalOptions& opt, Visibility vis) {
+                   const TraversalOptions& opt) {
     const Facing rt = facing(surf, t, s);  // receivers in t facing sources in s
     if (rt.none_pos) return PairClass::Drop;
     const Facing rs = facing(surf, s, t);  // sources in s facing receivers in t
-    if (rt.none_pos || rs.none_pos || vis == Visibility::Invalid) return PairClass::Drop;
-    const bool mac = mac_holds(t, s, opt.theta);
-    if (mac && vis == Visibility::Valid) {
+    if (rs.none_pos) return PairClass::Drop;
+    if (mac_holds(t, s, opt.theta)) {
         if (rt.all_pos && rs.all_pos) return PairClass::Accept;
         // Mixed facing. If only the receivers' test is mixed, the source straddles the
         // target's tangent plane: refine the source down to leaves and hand each of their
@@ -198,7 +208,9 @@ struct Walker {
         for (float v : tmp) all = all && v == 1.0f;
         if (all) return -1;
         const std::int64_t off = std::int64_t(blk.size());
-        auto q = [](float v) { return std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); };
+        auto q = [](float v) {
+            return std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * float(kVisLevels)));
+        };
         for (float v : tmp) blk.push_back(q(v));
         if (mirror)
             for (std::size_t j = 0; j < nb; ++j)
@@ -212,6 +224,13 @@ struct Walker {
         out.push_back({a, b});
     }
 
+    // How a pair's interaction is weighted by visibility: the whole entry by w, or per pair by
+    // the block at offset b (>= 0) of `blk`.
+    struct Weight {
+        float w = 1.0f;
+        std::int64_t b = -1;
+    };
+
     // Classifies one pair; appends its children pairs to `out` when it must be split.
     // Mutual walk (with a visibility model): only pairs t <= s are visited and each records
     // the mirrored interaction of (s, t) too. The kernel classes of (t, s) and (s, t) mirror
@@ -219,72 +238,83 @@ struct Walker {
     // radius ties broken by id), so the lists are those of the ordered walk while each node
     // pair is classified, sampled and blocked once.
     void step(Pair pr, std::vector<Pair>& out) {
+        if (pr.t == pr.s) {
+            step_self(pr, out);
+            return;
+        }
+        // The kernel alone first; visibility only where an interaction would be produced.
+        PairClass k = classify(tree.s, tree.nodes[pr.t], tree.nodes[pr.s], opt);
+        Weight wt;
+        if (opt.model && (k == PairClass::Accept || k == PairClass::M2P ||
+                          k == PairClass::P2L || k == PairClass::Near))
+            k = with_visibility(pr, k, wt);
+        record(pr, k, wt, out);
+    }
+
+    // A self pair: all ordered child pairs, or direct at a leaf.
+    void step_self(Pair pr, std::vector<Pair>& out) {
+        const OctreeNode& t = tree.nodes[pr.t];
+        if (t.leaf()) {
+            // Surfels of one leaf can hide each other (a corner, a block on a floor).
+            add_p2p(pr, 1.0f, opt.model ? store_block(pr.t, pr.t) : -1);
+            nearc[t.level]++;
+            surfel_pairs += std::int64_t(t.count()) * t.count();
+        } else {
+            split[t.level]++;
+            for (int a = 0; a < t.nchild; ++a)
+                for (int b = mutual ? a : 0; b < t.nchild; ++b)
+                    out.push_back({t.child + a, t.child + b});
+        }
+    }
+
+    // The kernel's class k of a pair that produces an interaction, corrected by the model's
+    // class of the pair: INVALID drops it, PARTIAL splits it or, for two leaves, weights it.
+    PairClass with_visibility(Pair pr, PairClass k, Weight& wt) {
+        const OctreeNode& t = tree.nodes[pr.t];
+        const OctreeNode& s = tree.nodes[pr.s];
+        const VisibilityModel& m = *opt.model;
+        const bool leaves = t.leaf() && s.leaf();
+        float frac = 1.0f;
+        // A fraction is needed only where a PARTIAL leaf pair may keep one.
+        const bool wants_fraction = leaves && m.leaf_mode() != LeafMode::Binary &&
+                                    m.leaf_mode() != LeafMode::PerPairAll;
+        VisibilityModel::DrawMemo draws(m);  // for a block of this pair
+        const VisClass c = wants_fraction ? m.classify_fraction(pr.t, pr.s, &frac, &draws)
+                                          : m.classify(pr.t, pr.s, &draws);
+        const int lev = std::max(t.level, s.level);
+        (c == VisClass::Valid ? vv : c == VisClass::Invalid ? vi : vp)[lev] += mutual ? 2 : 1;
+        if (c == VisClass::Valid) return k;
+        if (c == VisClass::Invalid) return PairClass::Drop;
+        if (!leaves) return PairClass::Split;  // PARTIAL: pushed down to the children
+        // A PARTIAL leaf pair cannot be pushed down: Accept (far) or Near. PerPair: per-pair
+        // V only in the true near field; a leaf pair that is Near only because its facing is
+        // mixed (a sphere's leaf against a distant wall) is far apart and gets the fraction,
+        // as far leaf pairs in M2L. PerPairAll: per-pair V (P2P) wherever a leaf pair is
+        // PARTIAL.
+        if (m.leaf_mode() == LeafMode::PerPairAll ||
+            (k == PairClass::Near && m.leaf_mode() == LeafMode::PerPair &&
+             !mac_holds(t, s, opt.theta))) {
+            wt.b = store_block(pr.t, pr.s, mutual, &draws);
+            return PairClass::Near;
+        }
+        wt.w = frac;
+        return k;
+    }
+
+    // Records the pair (t, s) of class k (and its mirror (s, t) in a mutual walk) in the
+    // lists and counts, or appends the children pairs to `out`.
+    void record(Pair pr, PairClass k, Weight wt, std::vector<Pair>& out) {
         const OctreeNode& t = tree.nodes[pr.t];
         const OctreeNode& s = tree.nodes[pr.s];
         const int lev = std::max(t.level, s.level);
-        const Pair mr{pr.s, pr.t};
-        if (pr.t == pr.s) {  // self pair: all ordered child pairs, or direct at a leaf
-            if (t.leaf()) {
-                // Surfels of one leaf can hide each other (a corner, a block on a floor).
-                add_p2p(pr, 1.0f, opt.model ? store_block(pr.t, pr.t) : -1);
-                nearc[lev]++;
-                surfel_pairs += std::int64_t(t.count()) * t.count();
-            } else {
-                split[lev]++;
-                for (int a = 0; a < t.nchild; ++a)
-                    for (int b = mutual ? a : 0; b < t.nchild; ++b)
-                        out.push_back({t.child + a, t.child + b});
-            }
-            return;
-        }
         const std::int64_t both = mutual ? 2 : 1;  // ordered pairs this visit stands for
-        // The kernel alone first; visibility only where an interaction would be produced.
-        PairClass k = classify(tree.s, t, s, opt, Visibility::Valid);
-        float w = 1.0f;
-        std::int64_t b = -1;
-        if ((opt.model || opt.visibility) && (k == PairClass::Accept || k == PairClass::M2P ||
-                                              k == PairClass::P2L || k == PairClass::Near)) {
-            if (opt.model) {
-                const VisibilityModel& m = *opt.model;
-                const bool leaves = t.leaf() && s.leaf();
-                float frac = 1.0f;
-                // A fraction is needed only where a PARTIAL leaf pair may keep one.
-                const bool wants_fraction = leaves && m.leaf_mode() != LeafMode::Binary &&
-                                            m.leaf_mode() != LeafMode::PerPairAll;
-                VisibilityModel::DrawMemo draws(m);   // for a block of this pair
-                const VisClass c = wants_fraction ? m.classify_fraction(pr.t, pr.s, &frac, &draws)
-                                                  : m.classify(pr.t, pr.s, &draws);
-                (c == VisClass::Valid ? vv : c == VisClass::Invalid ? vi : vp)[lev] += both;
-                if (c == VisClass::Invalid) {
-                    k = PairClass::Drop;
-                } else if (c == VisClass::Partial) {
-                    if (leaves) {  // cannot be pushed down: Accept (far) or Near
-                        // PerPair: per-pair V only in the true near field; a leaf pair that
-                        // is Near only because its facing is mixed (a sphere's leaf against a
-                        // distant wall) is far apart and gets the fraction, as far leaf pairs
-                        // in M2L. PerPairAll: per-pair V (P2P) wherever a leaf pair is PARTIAL.
-                        if (m.leaf_mode() == LeafMode::PerPairAll ||
-                            (k == PairClass::Near && m.leaf_mode() == LeafMode::PerPair &&
-                             !mac_holds(t, s, opt.theta))) {
-                            k = PairClass::Near;
-                            b = store_block(pr.t, pr.s, mutual, &draws);
-                        } else {
-                            w = frac;
-                        }
-                    } else {
-                        k = classify(tree.s, t, s, opt, Visibility::Partial);  // -> Split
-                    }
-                }
-            } else {
-                k = classify(tree.s, t, s, opt, (*opt.visibility)(pr.t, pr.s));
-            }
-        }
+        const Pair mr{pr.s, pr.t};
         switch (k) {
             case PairClass::Drop: drop[lev] += both; return;
             case PairClass::Accept:
                 acc[lev] += both;
-                add_m2l(pr, w);
-                if (mutual) add_m2l(mr, w);
+                add_m2l(pr, wt.w);
+                if (mutual) add_m2l(mr, wt.w);
                 return;
             case PairClass::M2P:
                 acc[lev] += both;
@@ -298,8 +328,9 @@ struct Walker {
                 return;
             case PairClass::Near:
                 nearc[lev] += both;
-                add_p2p(pr, w, b);
-                if (mutual) add_p2p(mr, w, b < 0 ? -1 : b + std::int64_t(t.count()) * s.count());
+                add_p2p(pr, wt.w, wt.b);
+                if (mutual)
+                    add_p2p(mr, wt.w, wt.b < 0 ? -1 : wt.b + std::int64_t(t.count()) * s.count());
                 surfel_pairs += both * std::int64_t(t.count()) * s.count();
                 return;
             case PairClass::SplitS:
@@ -310,12 +341,19 @@ struct Walker {
                 split[lev] += both;
                 for (int c = 0; c < t.nchild; ++c) push(out, t.child + c, pr.s);
                 return;
-            case PairClass::Split: break;
+            case PairClass::Split:
+                split[lev] += both;
+                split_larger(pr, out);
+                return;
         }
-        split[lev] += both;
-        // Split the source when the target is a leaf or the source is the larger one.
-        // With a visibility model radius ties go by node id, so (t, s) and (s, t) split the same
-        // node and their lists mirror each other (exact reciprocity of the sampled classes).
+    }
+
+    // Splits the source when the target is a leaf or the source is the larger one. With a
+    // visibility model radius ties go by node id, so (t, s) and (s, t) split the same node and
+    // their lists mirror each other (exact reciprocity of the sampled classes).
+    void split_larger(Pair pr, std::vector<Pair>& out) {
+        const OctreeNode& t = tree.nodes[pr.t];
+        const OctreeNode& s = tree.nodes[pr.s];
         if (!s.leaf() && (t.leaf() || s.radius > t.radius ||
                           (opt.model && s.radius == t.radius && pr.s > pr.t))) {
             for (int c = 0; c < s.nchild; ++c) push(out, pr.t, s.child + c);
@@ -369,18 +407,18 @@ InteractionLists build_interaction_lists(Context& ctx, const Octree& tree,
     // Breadth-first expansion on the calling thread until there is enough work to share.
     Walker top(tree, opt);
     std::vector<Pair> frontier{{0, 0}}, next;
-    const std::size_t want = 64 * std::size_t(ctx.nthreads());
+    const std::size_t want = kFrontierPerThread * std::size_t(ctx.nthreads());
     while (!frontier.empty() && frontier.size() < want) {
         next.clear();
         for (const Pair& p : frontier) top.step(p, next);
         frontier.swap(next);
-        if (frontier.size() > 4 * want) break;
+        if (frontier.size() > kFrontierOvershoot * want) break;
     }
     const int nt = ctx.nthreads();
     std::vector<Walker> walkers;
     walkers.reserve(frontier.size());
     // One walker per chunk keeps outputs private to a thread without thread ids.
-    const std::size_t grain = std::max<std::size_t>(1, frontier.size() / (8 * std::size_t(nt)));
+    const std::size_t grain = std::max<std::size_t>(1, frontier.size() / (kChunksPerThread * std::size_t(nt)));
     const std::size_t nchunks = (frontier.size() + grain - 1) / grain;
     for (std::size_t c = 0; c < nchunks; ++c) walkers.emplace_back(tree, opt);
     parallel_for(ctx, nchunks, 1, [&](std::size_t b, std::size_t e) {

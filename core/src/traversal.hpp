@@ -13,8 +13,6 @@
 #include "octree.hpp"
 #include "visibility.hpp"
 
-#include <functional>
-
 namespace illumap {
 
 //   M2P     target leaf against a large source node whose facing is mixed only because the
@@ -26,10 +24,6 @@ namespace illumap {
 // of that surface, which grows like N^1.5.)
 // SplitS / SplitT: split that side first (it is the one straddling the other's plane).
 enum class PairClass : std::uint8_t { Drop, Accept, Near, Split, M2P, P2L, SplitS, SplitT };
-
-// Visibility of a node pair (same values as visibility.hpp's VisClass).
-enum class Visibility : std::uint8_t { Valid, Invalid, Partial };
-using VisibilityFn = std::function<Visibility(std::int32_t target, std::int32_t source)>;
 
 struct InteractionLists {
     // CSR by target node id: sources for M2L, and (leaves only) source nodes for P2P.
@@ -45,7 +39,8 @@ struct InteractionLists {
     // p2p_src: m2l_w = sampled fraction of a PARTIAL far leaf pair (1 otherwise); p2p_w = the
     // same for a P2P node pair, and p2p_blk = offset into `blocks` of its per-pair V (row-major
     // |t| x |s|, tree order) or -1 (then p2p_w applies to every pair of the entry). Blocks hold
-    // V quantised to 8 bits (round(255 V); exact and binary seed V are 0 or 1, exactly kept).
+    // V quantised to 8 bits (round(kVisLevels V), kernel.hpp; exact and binary seed V, 0 or 1,
+    // are kept exactly).
     std::vector<float> m2l_w, p2p_w;
     std::vector<std::int64_t> p2p_blk;
     std::vector<std::uint8_t> blocks;
@@ -60,8 +55,7 @@ struct InteractionLists {
 
 struct TraversalOptions {
     double theta = 0.5;
-    const VisibilityFn* visibility = nullptr;  // nullptr: V = 1 (class only, no weights)
-    // A visibility model (takes precedence over `visibility`): classes, PARTIAL leaf pairs'
+    // A visibility model (nullptr: V = 1): classes, PARTIAL leaf pairs'
     // fractions and per-pair blocks (visibility.hpp), self leaf pairs get per-pair V too, and
     // radius ties in the split rule are broken by node id so the lists of (t, s) and (s, t)
     // mirror each other (V symmetric: diag(A) F V stays symmetric).
@@ -83,8 +77,9 @@ int point_node_class(const SurfelSoA& s, std::uint32_t i, const OctreeNode& q);
 // The multipole acceptance criterion alone (separation and strong coupling), facing aside.
 bool mac_holds(const OctreeNode& t, const OctreeNode& s, double theta);
 
+// The kernel's class of the pair (facing and the MAC), visibility aside.
 PairClass classify(const SurfelSoA& s, const OctreeNode& t, const OctreeNode& src,
-                   const TraversalOptions& opt, Visibility vis);
+                   const TraversalOptions& opt);
 
 InteractionLists build_interaction_lists(Context& ctx, const Octree& tree,
                                          const TraversalOptions& opt);

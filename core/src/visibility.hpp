@@ -1,6 +1,8 @@
-// visibility.hpp — occlusion between surfels, folded into the FMM's interaction lists.
+// visibility.hpp — the interface of occlusion between surfels, folded into the FMM's
+// interaction lists.
 //
-// One interface, two methods:
+// One interface (VisibilityModel; the sampling both methods share is in visibility.cpp), two
+// methods, built by make_visibility() (visibility_factory.hpp):
 //   "exact" (raycast.hpp)        rays against the surfels as oriented discs (Embree 3);
 //   "seed"  (seed_visibility.hpp) the talk's point_visible / Leaf_Leaf / Node_Node, scale-free.
 // Both are built once per geometry (over the octree, in tree order) and then queried, from any
@@ -21,12 +23,10 @@
 //                     of the same pair that follows, which then casts none of them again.
 //
 // How the traversal folds it in (the talk's Octree_Visibility; traversal.cpp's Walker::step):
-//   1. k = classify(surf, t, s, opt, Visibility::Valid)   -- the kernel alone, no query.
+//   1. k = classify(surf, t, s, opt)   -- the kernel alone, no query.
 //      DROP / SPLIT: done (a pair the kernel splits anyway needs no visibility query).
-//   2. k == ACCEPT, M2P, P2L or NEAR: c = model.classify(t, s) (or a ClassCache), then
-//      k = classify(surf, t, s, opt, Visibility(c)): INVALID -> DROP; PARTIAL -> SPLIT (pushed
-//      down to the children) unless both are leaves -> NEAR.  VisClass and traversal.hpp's
-//      enum Visibility have the same values (Valid 0, Invalid 1, Partial 2).
+//   2. k == ACCEPT, M2P, P2L or NEAR: c = model.classify(t, s): INVALID -> DROP; PARTIAL ->
+//      SPLIT (pushed down to the children) unless both are leaves.
 //   3. A NEAR pair whose class is PARTIAL gets, per leaf_mode():
 //        PerPair: block(t, s) if the MAC fails (true near field), fraction(t, s) if the MAC
 //                 holds (a far leaf pair the kernel would have accepted);
@@ -49,11 +49,6 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
-#include <memory>
-#include <mutex>
-#include <stdexcept>
-#include <string>
-#include <unordered_map>
 #include <vector>
 
 namespace illumap {
@@ -134,7 +129,7 @@ inline std::uint64_t vis_mix(std::uint64_t x) {  // splitmix64 finaliser
     return x ^ (x >> 31);
 }
 
-// i and j face each other: both cosines above 1e-6 (the near field's coplanar tolerance), so
+// i and j face each other: both cosines above kCoplanarCos (kernel.hpp), so
 // round-off between coplanar surfels (the two sides of a thin panel, random samples on one
 // plane) neither costs rays nor makes a node pair PARTIAL; the kernel is ~0 there anyway.
 // False for coincident points.
@@ -142,7 +137,7 @@ inline bool vis_facing(const SurfelSoA& s, std::uint32_t i, std::uint32_t j) {
     const double dx = s.px[j] - s.px[i], dy = s.py[j] - s.py[i], dz = s.pz[j] - s.pz[i];
     const double ci = s.nx[i] * dx + s.ny[i] * dy + s.nz[i] * dz;
     const double cj = -(s.nx[j] * dx + s.ny[j] * dy + s.nz[j] * dz);
-    const double tol = 1e-6 * std::sqrt(dx * dx + dy * dy + dz * dz);
+    const double tol = kCoplanarCos * std::sqrt(dx * dx + dy * dy + dz * dz);
     return ci > tol && cj > tol;
 }
 
@@ -150,10 +145,7 @@ inline bool vis_facing(const SurfelSoA& s, std::uint32_t i, std::uint32_t j) {
 
 class VisibilityModel {
 public:
-    VisibilityModel(const Octree& tree, const VisibilityOptions& opt) : tree_(tree), opt_(opt) {
-        for (auto& l : counts_)
-            for (auto& c : l) c.store(0);
-    }
+    VisibilityModel(const Octree& tree, const VisibilityOptions& opt);
     virtual ~VisibilityModel() = default;
     VisibilityModel(const VisibilityModel&) = delete;
     VisibilityModel& operator=(const VisibilityModel&) = delete;
@@ -169,9 +161,7 @@ public:
     // returns true from batched() (then classify gathers its samples first; samples are
     // capped at kMaxBatch).
     virtual void pairs_batch(const std::uint32_t* I, const std::uint32_t* J, int n,
-                             float* out) const {
-        for (int k = 0; k < n; ++k) out[k] = pair(I[k], J[k]);
-    }
+                             float* out) const;
     virtual bool batched() const { return false; }
     static constexpr int kMaxBatch = 64;
 
@@ -204,203 +194,46 @@ public:
         int n_ = 0;
     };
 
-    // Sampled classification, symmetric, thread-safe; records stats. With `draws`, the pairs
-    // it queries (one by one; not in packets) are kept there for block().
-    virtual VisClass classify(std::int32_t a, std::int32_t b, DrawMemo* draws = nullptr) const {
-        const std::int32_t lo = a < b ? a : b, hi = a < b ? b : a;
-        const OctreeNode &A = tree_.nodes[lo], &B = tree_.nodes[hi];
-        int vis = 0, n = 0;
-        if (batched()) {
-            // Gather the samples, then one packet query (coherent rays between two nodes).
-            std::uint32_t I[kMaxBatch], J[kMaxBatch];
-            float v[kMaxBatch];
-            sample_pairs(lo, hi, std::min(opt_.samples, kMaxBatch), [&](std::uint32_t i, std::uint32_t j) {
-                I[n] = i; J[n] = j; n++;
-                return true;
-            });
-            pairs_batch(I, J, n, v);
-            for (int k = 0; k < n; ++k) vis += v[k] >= 0.5f;
-        } else {
-            // Stops at the first disagreement (then PARTIAL is certain): a PARTIAL pair costs a
-            // few queries, VALID / INVALID cost `samples`. Binary leaf pairs need the full count.
-            const bool binary_leaves = A.leaf() && B.leaf() && opt_.leaf_mode == LeafMode::Binary;
-            DrawMemo local(*this);
-            DrawMemo& draw = draws ? *draws : local;
-            sample_pairs(lo, hi, opt_.samples, [&](std::uint32_t i, std::uint32_t j) {
-                n++;
-                if (draw(i, j) >= 0.5f) vis++;
-                return binary_leaves || vis == n || vis == 0;
-            });
-        }
-        VisClass c;
-        if (n == 0) {
-            no_facing_.fetch_add(1, std::memory_order_relaxed);
-            c = VisClass::Valid;
-        } else if (A.leaf() && B.leaf() && opt_.leaf_mode == LeafMode::Binary) {
-            c = 2 * vis >= n ? VisClass::Valid : VisClass::Invalid;
-        } else {
-            c = vis == n ? VisClass::Valid : (vis == 0 ? VisClass::Invalid : VisClass::Partial);
-        }
-        record(std::max(A.level, B.level), c);
-        return c;
-    }
+    // Sampled classification, symmetric, thread-safe; records stats. Without packets it
+    // stops at the first disagreement (PARTIAL is then certain), except for two leaves in
+    // LeafMode::Binary, which take a majority of all `samples`. With `draws`, the pairs it
+    // queries (one by one; not in packets) are kept there for block().
+    virtual VisClass classify(std::int32_t a, std::int32_t b, DrawMemo* draws = nullptr) const;
 
     // One pass for a pair of LEAVES that cannot be split: the class and the sampled fraction
     // together (`samples` queries, no early exit), so a PARTIAL far leaf pair costs no second
     // round of queries. In LeafMode::Binary it is classify() (fraction 1 or 0). `draws`: as
     // in classify().
     virtual VisClass classify_fraction(std::int32_t a, std::int32_t b, float* frac,
-                                       DrawMemo* draws = nullptr) const {
-        const std::int32_t lo = a < b ? a : b, hi = a < b ? b : a;
-        const OctreeNode &A = tree_.nodes[lo], &B = tree_.nodes[hi];
-        if (opt_.leaf_mode == LeafMode::Binary) {
-            const VisClass c = classify(a, b, draws);
-            *frac = c == VisClass::Invalid ? 0.0f : 1.0f;
-            return c;
-        }
-        double sum = 0;
-        int n = 0, vis = 0;
-        if (batched()) {
-            std::uint32_t I[kMaxBatch], J[kMaxBatch];
-            float v[kMaxBatch];
-            sample_pairs(lo, hi, std::min(opt_.samples, kMaxBatch), [&](std::uint32_t i, std::uint32_t j) {
-                I[n] = i; J[n] = j; n++;
-                return true;
-            });
-            pairs_batch(I, J, n, v);
-            for (int k = 0; k < n; ++k) { sum += v[k]; vis += v[k] >= 0.5f; }
-        } else {
-            DrawMemo local(*this);
-            DrawMemo& draw = draws ? *draws : local;
-            sample_pairs(lo, hi, opt_.samples, [&](std::uint32_t i, std::uint32_t j) {
-                const float v = draw(i, j);
-                n++;
-                sum += v;
-                vis += v >= 0.5f;
-                return true;
-            });
-        }
-        VisClass c;
-        if (n == 0) {
-            no_facing_.fetch_add(1, std::memory_order_relaxed);
-            c = VisClass::Valid;
-        } else {
-            c = vis == n ? VisClass::Valid : (vis == 0 ? VisClass::Invalid : VisClass::Partial);
-        }
-        *frac = n ? float(sum / n) : 1.0f;
-        record(std::max(A.level, B.level), c);
-        return c;
-    }
+                                       DrawMemo* draws = nullptr) const;
 
     // Sampled mean of V over facing pairs (1 if none faces). Symmetric, thread-safe.
-    virtual float fraction(std::int32_t a, std::int32_t b) const {
-        const std::int32_t lo = a < b ? a : b, hi = a < b ? b : a;
-        double sum = 0;
-        int n = 0;
-        DrawMemo draw(*this);
-        sample_pairs(lo, hi, opt_.samples, [&](std::uint32_t i, std::uint32_t j) {
-            n++;
-            sum += draw(i, j);
-            return true;
-        });
-        return n ? float(sum / n) : 1.0f;
-    }
+    virtual float fraction(std::int32_t a, std::int32_t b) const;
 
     // out[(i - a.begin) * |b| + (j - b.begin)] = V(i, j); pairs that do not face get 1 (the
     // kernel is zero there) without a query; pairs in `drawn` (a classify() of a and b) get
     // their kept answer without one. Thread-safe.
     virtual void block(std::int32_t a, std::int32_t b, float* out,
-                       const DrawMemo* drawn = nullptr) const {
-        const OctreeNode &A = tree_.nodes[a], &B = tree_.nodes[b];
-        const std::uint32_t nb = B.count();
-        const bool any_known = fill_drawn(a, b, drawn, out);
-        for (std::uint32_t i = A.begin; i < A.end; ++i)
-            for (std::uint32_t j = B.begin; j < B.end; ++j) {
-                float& v = out[std::size_t(i - A.begin) * nb + (j - B.begin)];
-                if (any_known && v != kUnknown) continue;
-                v = i != j && vis_facing(tree_.s, i, j) ? pair(i, j) : 1.0f;
-            }
-        blocks_.fetch_add(1, std::memory_order_relaxed);
-        block_pairs_.fetch_add(std::uint64_t(A.count()) * nb, std::memory_order_relaxed);
-    }
+                       const DrawMemo* drawn = nullptr) const;
 
     // classify() for a batch of pairs on ctx's workers, with progress and cancellation
     // (throws Cancelled). For a traversal that builds its lists level by level.
     void classify_batch(Context& ctx, const std::int32_t* a, const std::int32_t* b,
-                        std::size_t n, VisClass* out) const {
-        parallel_for(ctx, n, 64, [&](std::size_t lo, std::size_t hi) {
-            for (std::size_t k = lo; k < hi; ++k) out[k] = classify(a[k], b[k]);
-        });
-    }
+                        std::size_t n, VisClass* out) const;
 
-    VisStats stats() const {
-        VisStats st;
-        int top = 0;
-        for (int l = 0; l < kLevels; ++l)
-            if (counts_[l][0] + counts_[l][1] + counts_[l][2]) top = l + 1;
-        st.per_level.resize(top);
-        for (int l = 0; l < top; ++l)
-            for (int c = 0; c < 3; ++c) st.per_level[l][c] = counts_[l][c].load();
-        st.queries = queries_.load();
-        st.no_facing = no_facing_.load();
-        st.blocks = blocks_.load();
-        st.block_pairs = block_pairs_.load();
-        st.build_seconds = build_seconds_;
-        st.bytes = bytes_;
-        return st;
-    }
-    void reset_stats() {
-        for (auto& l : counts_)
-            for (auto& c : l) c.store(0);
-        queries_ = 0;
-        no_facing_ = 0;
-        blocks_ = 0;
-        block_pairs_ = 0;
-    }
+    VisStats stats() const;
+    void reset_stats();
+
+    // A sampled pair counts as visible when V >= kVisibleAt.
+    static constexpr float kVisibleAt = 0.5f;
 
 protected:
     // block() helpers: with draws kept for the pair (a, b), every entry of out (|a| x |b|) is
     // set to kUnknown but the drawn ones, which get their answer; returns false (out
     // untouched) when there are none.
     static constexpr float kUnknown = -1.0f;
-    bool fill_drawn(std::int32_t a, std::int32_t b, const DrawMemo* drawn, float* out) const {
-        if (!drawn || drawn->empty()) return false;
-        const OctreeNode &A = tree_.nodes[a], &B = tree_.nodes[b];
-        const std::uint32_t nb = B.count();
-        std::fill(out, out + std::size_t(A.count()) * nb, kUnknown);
-        auto inside = [](const OctreeNode& N, std::uint32_t i) { return i >= N.begin && i < N.end; };
-        drawn->for_each([&](std::uint32_t i, std::uint32_t j, float v) {
-            if (inside(A, i) && inside(B, j)) out[std::size_t(i - A.begin) * nb + (j - B.begin)] = v;
-            if (inside(A, j) && inside(B, i)) out[std::size_t(j - A.begin) * nb + (i - B.begin)] = v;
-        });
-        return true;
-    }
+    bool fill_drawn(std::int32_t a, std::int32_t b, const DrawMemo* drawn, float* out) const;
 
-    // Calls fn(i, j) (i in node lo, j in node hi, i != j, facing) for up to m sampled facing
-    // pairs, until fn returns false. Exhaustive (no sampling error) when |lo|*|hi| <= m.
-    // Deterministic per (lo, hi).
-    template <class Fn>
-    void sample_pairs(std::int32_t lo, std::int32_t hi, int m, Fn&& fn) const {
-        const OctreeNode &A = tree_.nodes[lo], &B = tree_.nodes[hi];
-        const std::uint64_t na = A.count(), nb = B.count();
-        if (na * nb <= std::uint64_t(m)) {
-            for (std::uint32_t i = A.begin; i < A.end; ++i)
-                for (std::uint32_t j = B.begin; j < B.end; ++j)
-                    if (i != j && vis_facing(tree_.s, i, j) && !fn(i, j)) return;
-            return;
-        }
-        std::uint64_t st = vis_mix(opt_.seed ^ (std::uint64_t(std::uint32_t(lo)) << 32 |
-                                                std::uint32_t(hi)));
-        int got = 0;
-        for (int t = 0; t < 4 * m && got < m; ++t) {
-            st = vis_mix(st);
-            const std::uint32_t i = A.begin + std::uint32_t((st & 0xffffffffULL) * na >> 32);
-            const std::uint32_t j = B.begin + std::uint32_t((st >> 32) * nb >> 32);
-            if (i == j || !vis_facing(tree_.s, i, j)) continue;
-            got++;
-            if (!fn(i, j)) return;
-        }
-    }
     void record(int level, VisClass c) const {
         counts_[std::min(level, kLevels - 1)][int(c)].fetch_add(1, std::memory_order_relaxed);
     }
@@ -415,82 +248,13 @@ protected:
     mutable std::atomic<std::uint64_t> queries_{0}, no_facing_{0}, blocks_{0}, block_pairs_{0};
     double build_seconds_ = 0;
     std::size_t bytes_ = 0;
-};
-
-// A thread-safe memo of classify() keyed by the unordered pair, for traversals whose lists are
-// per target (non-mutual): (t, s) and (s, t) then cost one evaluation when the second comes
-// after the first. 64 shards, each a mutex and a hash map (~40 bytes per entry).
-class ClassCache {
-public:
-    explicit ClassCache(const VisibilityModel& m) : model_(m) {}
-    VisClass operator()(std::int32_t a, std::int32_t b) {
-        const std::uint32_t lo = std::uint32_t(a < b ? a : b), hi = std::uint32_t(a < b ? b : a);
-        const std::uint64_t key = std::uint64_t(lo) << 32 | hi;
-        Shard& sh = shards_[vis_mix(key) & 63];
-        {
-            std::lock_guard<std::mutex> lk(sh.m);
-            auto it = sh.map.find(key);
-            if (it != sh.map.end()) return it->second;
-        }
-        const VisClass c = model_.classify(a, b);
-        std::lock_guard<std::mutex> lk(sh.m);
-        sh.map.emplace(key, c);
-        return c;
-    }
-    std::size_t size() const {
-        std::size_t n = 0;
-        for (auto& sh : shards_) n += sh.map.size();
-        return n;
-    }
 
 private:
-    struct Shard {
-        std::mutex m;
-        std::unordered_map<std::uint64_t, VisClass> map;
-    };
-    const VisibilityModel& model_;
-    Shard shards_[64];
+    // The samples of the node pair (lo, hi) queried in one packet (at most kMaxBatch);
+    // returns their number.
+    int sample_batch(std::int32_t lo, std::int32_t hi, float* v) const;
+    // The class from `vis` visible samples out of n (none: Valid, counted in no_facing).
+    VisClass class_of(int vis, int n) const;
 };
-
-// Builds the method named in opt.method over `tree` (which must outlive the result); returns
-// nullptr for VisMethod::None. Runs its set-up on ctx's workers with progress; throws Cancelled.
-// (make_raycast_visibility is defined in raycast.cpp, make_seed_visibility in
-// seed_visibility.cpp.)
-std::unique_ptr<VisibilityModel> make_raycast_visibility(Context& ctx, const Octree& tree,
-                                                    const VisibilityOptions& opt);
-std::unique_ptr<VisibilityModel> make_seed_visibility(Context& ctx, const Octree& tree,
-                                                 const VisibilityOptions& opt);
-
-inline std::unique_ptr<VisibilityModel> make_visibility(Context& ctx, const Octree& tree,
-                                                   const VisibilityOptions& opt) {
-    switch (opt.method) {
-        case VisMethod::Exact: return make_raycast_visibility(ctx, tree, opt);
-        case VisMethod::Seed: return make_seed_visibility(ctx, tree, opt);
-        default: return nullptr;
-    }
-}
-
-inline VisMethod parse_vis_method(const std::string& s) {
-    if (s == "none") return VisMethod::None;
-    if (s == "seed") return VisMethod::Seed;
-    if (s == "exact") return VisMethod::Exact;
-    throw std::invalid_argument("visibility must be 'none', 'seed' or 'exact', not '" + s + "'");
-}
-inline VisibilityOptions::Shape parse_vis_shape(const std::string& s) {
-    if (s == "disc") return VisibilityOptions::Shape::Disc;
-    if (s == "quad") return VisibilityOptions::Shape::Quad;
-    if (s == "octagon") return VisibilityOptions::Shape::Octagon;
-    throw std::invalid_argument("visibility shape must be 'disc', 'quad' or 'octagon', not '" +
-                                s + "'");
-}
-inline LeafMode parse_leaf_mode(const std::string& s) {
-    if (s == "binary") return LeafMode::Binary;
-    if (s == "fractional") return LeafMode::Fractional;
-    if (s == "per_pair") return LeafMode::PerPair;
-    if (s == "per_pair_all") return LeafMode::PerPairAll;
-    throw std::invalid_argument(
-        "leaf mode must be 'binary', 'fractional', 'per_pair' or 'per_pair_all', not '" + s +
-        "'");
-}
 
 }  // namespace illumap

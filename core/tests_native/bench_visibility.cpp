@@ -57,6 +57,10 @@ static Scene occluded_scene(double N) {
 int main(int argc, char** argv) {
     const double N = argc > 1 ? std::atof(argv[1]) : 1e5;
     const std::string method = argc > 2 ? argv[2] : "exact";
+    if (method != "exact" && method != "seed") {
+        std::fprintf(stderr, "method must be 'exact' or 'seed', not '%s'\n", method.c_str());
+        return 2;
+    }
     const int threads = argc > 3 ? std::atoi(argv[3]) : 0;
     const int samples = argc > 4 ? std::atoi(argv[4]) : 16;
     Scene sc = occluded_scene(N);
@@ -70,7 +74,7 @@ int main(int argc, char** argv) {
     { Scene tmp; std::swap(tmp, sc); }
 
     VisibilityOptions o;
-    o.method = parse_vis_method(method);
+    o.method = method == "seed" ? VisMethod::Seed : VisMethod::Exact;
     o.samples = samples;
     if (std::getenv("PACKETS")) o.packets = true;
     apply_env(o);

@@ -10,6 +10,7 @@
 #include "raycast.hpp"
 #include "seed_visibility.hpp"
 #include "visibility.hpp"
+#include "visibility_factory.hpp"
 
 #include <algorithm>
 #include <chrono>
