@@ -136,6 +136,7 @@ class Job:
     two_sided: np.ndarray | None = None            # (T,) bool: its mesh is an open surface
     has_points: bool = False                       # point clouds among the sources
     clouds: list = field(default_factory=list)     # PointCloud per point source, as read
+    mesh_triangle_start: np.ndarray | None = None  # first row in ``triangles`` of each mesh
     splat_point: np.ndarray | None = None          # (T,) point (over all clouds) whose splat
                                                    # each triangle is, -1: a mesh's own
     receivers: list = field(default_factory=list)  # sampling.Receivers, evaluated by ``receive``
@@ -488,6 +489,7 @@ def _prepare(depsgraph, objects, settings: Settings) -> Job:
     job.triangles = triangles
     job.two_sided = two_sided
     job.splat_point = splat_point
+    job.mesh_triangle_start = np.cumsum([0] + [len(tm.corners) for tm in tri_meshes])[:-1]
     job.occluders = occluders
     job.has_points = bool(point_parts)
     job.clouds = [PointCloud(name, full[0], look, full[3], full[4], owner)
@@ -765,10 +767,9 @@ def _merged_corners(occ, rec) -> tuple[np.ndarray, np.ndarray]:
     return rows, index.ravel()
 
 
-#: A surface pressed against a receiver hides it when a surfel of it faces the receiver
-#: (normals more opposite than this cosine) within this many of its own spacings.
+#: A surface pressed against a receiver hides it when one of its triangles faces the receiver
+#: (normals more opposite than this cosine) and contains the receiver's point.
 COVER_COS = -0.9
-COVER_REACH = 1.5
 _COVER_NEIGHBOURS = 16
 
 
@@ -776,24 +777,35 @@ def covered_receivers(job: Job, points: np.ndarray, normals: np.ndarray,
                       tolerance: float) -> np.ndarray:
     """bool (M,): receivers that another surface lies flat against, facing them (a box's
     bottom on a floor). Rays lifted off such a receiver would start beyond the covering
-    surface and see past it, so no light reaches them, as in Cycles. Found among the meshes'
-    front-face surfels: one within ``tolerance`` (m) of the receiver's plane, facing it and
-    laterally within ``COVER_REACH`` of its own spacing."""
+    surface and see past it, so no light reaches them, as in Cycles. Candidates are the
+    triangles of the meshes' front-face surfels nearest to each receiver; one covers it when
+    it faces the receiver, lies within ``tolerance`` (m) of its plane and contains its point."""
     from illumap import _core
-    rows = np.concatenate([np.arange(src.start, src.stop) for src in job.sources
-                           if src.kind == "MESH"] or [np.zeros(0, dtype=np.int64)])
-    if rows.size == 0 or len(points) == 0:
+    sources = [src for src in job.sources if src.kind == "MESH"]
+    if not sources or len(points) == 0 or job.triangles is None or job.mesh_triangle_start is None:
         return np.zeros(len(points), dtype=bool)
-    pos, nrm = job.positions[rows], job.normals[rows]
-    spacing = np.sqrt(job.areas[rows])
+    rows = np.concatenate([np.arange(src.start, src.stop) for src in sources])
+    first = np.concatenate([np.full(src.stop - src.start, job.mesh_triangle_start[i])
+                            for i, src in enumerate(sources)])
+    triangle = first + job.triangle[rows]
     k = min(_COVER_NEIGHBOURS, len(rows))
-    idx, _ = _core.knn(pos, np.ascontiguousarray(points, dtype=np.float64), k)
-    d = pos[idx] - points[:, None, :]
-    height = np.einsum("mkc,mc->mk", d, normals)
-    lateral = np.sqrt(np.maximum(np.einsum("mkc,mkc->mk", d, d) - height ** 2, 0.0))
-    facing = np.einsum("mkc,mc->mk", nrm[idx], normals) < COVER_COS
-    return (facing & (np.abs(height) < tolerance)
-            & (lateral < COVER_REACH * spacing[idx])).any(axis=1)
+    idx, _ = _core.knn(job.positions[rows], np.ascontiguousarray(points, dtype=np.float64), k)
+    tri = job.triangles[triangle[idx]]                                      # (M, k, 3, 3)
+    e1, e2 = tri[:, :, 1] - tri[:, :, 0], tri[:, :, 2] - tri[:, :, 0]
+    normal = np.cross(e1, e2)
+    normal /= np.maximum(np.linalg.norm(normal, axis=2, keepdims=True), 1e-300)
+    facing = np.einsum("mkc,mc->mk", normal, normals) < COVER_COS
+    rel = points[:, None, :] - tri[:, :, 0]
+    close = np.abs(np.einsum("mkc,mkc->mk", rel, normal)) < tolerance
+    # Barycentric coordinates of the point's projection (Ericson, Real-Time Collision Detection).
+    d00, d01, d11 = (np.einsum("mkc,mkc->mk", a, b) for a, b in ((e1, e1), (e1, e2), (e2, e2)))
+    d20, d21 = np.einsum("mkc,mkc->mk", rel, e1), np.einsum("mkc,mkc->mk", rel, e2)
+    den = d00 * d11 - d01 * d01
+    den = np.where(np.abs(den) > 0, den, np.inf)
+    v = (d11 * d20 - d01 * d21) / den
+    w = (d00 * d21 - d01 * d20) / den
+    inside = (v >= 0) & (w >= 0) & (v + w <= 1)
+    return (facing & close & inside).any(axis=1)
 
 
 def _point_receivers(job: Job) -> list[tuple]:
@@ -979,6 +991,7 @@ def next_pass(job: Job, result: "Result") -> Job | None:
     new.accuracy = job.accuracy
     new.emitters, new.triangles, new.has_points = job.emitters, job.triangles, job.has_points
     new.two_sided, new.splat_point, new.clouds = job.two_sided, job.splat_point, job.clouds
+    new.mesh_triangle_start = job.mesh_triangle_start
     new.receivers, new.occluders = job.receivers, job.occluders
     new.timings = {"pass 1: " + k_: v for k_, v in result.timings.items()} | \
         {"adaptive refinement": refine_seconds} | new.timings

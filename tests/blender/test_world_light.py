@@ -106,3 +106,30 @@ def test_world_light_reaches_the_meshes_through_the_gather():
     attr.data.foreach_get("color", rgba)
     values = rgba.reshape(-1, 4)[:, :3]
     assert np.allclose(values, ALBEDO * np.array([0.4, 0.8, 1.2]), rtol=1e-5)
+
+
+@requires_core
+def test_only_faces_pressed_together_are_covered():
+    """A box resting on a floor, lit by the sky, with few surfels (they are far apart): the
+    box's bottom and the floor under it get no light, every floor corner outside the box's
+    footprint does, however close to it."""
+    import sys
+    sys.path.insert(0, __file__.rsplit("/", 1)[0])
+    from test_reference_cases import closed_box, diffuse, plane
+    set_world()
+    floor = plane("Floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], 0.05, diffuse("F"))
+    box = closed_box("Box", (-0.25, -0.25, 0.0), (0.25, 0.25, 0.4), 0.1, diffuse("B"))
+    pipeline.compute(bpy.context, [floor, box], pipeline.Settings(budget=300, lamps=False))
+    corner_vertex = np.empty(len(floor.data.loops), np.int64)
+    floor.data.loops.foreach_get("vertex_index", corner_vertex)
+    co = np.empty(len(floor.data.vertices) * 3)
+    floor.data.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)[corner_vertex]
+    rgba = np.empty(len(floor.data.loops) * 4, np.float32)
+    floor.data.color_attributes["illumination"].data.foreach_get("color", rgba)
+    lum = rgba.reshape(-1, 4)[:, :3].mean(axis=1)
+    outside = np.abs(co[:, :2]).max(axis=1) > 0.25 + 1e-6
+    inside = np.abs(co[:, :2]).max(axis=1) < 0.25 - 1e-6
+    assert outside.sum() > 1000 and inside.sum() > 100
+    assert lum[outside].min() > 0.05 * lum[outside].max()
+    assert lum[inside].max() == 0.0

@@ -11,8 +11,8 @@ surface instead of overlapping, and so that nothing overhangs where the surface 
   by ``CORNER_SLACK`` so that the sampled outline leaves no holes at the cells' corners);
 * by the tangent plane of each neighbour q whose normal turns away from p's by more than
   ``EDGE_COS``, keeping the side of that plane that p lies on; for a point on that plane (an
-  edge's own points), the side the surface bends towards (the sign of (q − p)·n_p, which
-  does not depend on how the normals are oriented when they are oriented consistently). At a
+  edge's own points), the side its own surface lies on (where the centroid of its
+  same-surface neighbours is, whichever way the normals were oriented). At a
   box's edge the top's splats end at the side's plane and the side's at the top's; at a
   floor–wall junction the floor's splats stop at the wall instead of poking through it; a
   floor hidden under a box stays under it. Where another surface runs on through p's plane
@@ -121,12 +121,17 @@ def _clip(p, n, d, q, nq, rim) -> np.ndarray:
     # that its point is on, side·(x − q)·n_q ≥ 0.
     height = np.einsum("rkc,rkc->rk", -w, nq)                  # (p − q)·n_q
     on_plane = turn & (np.abs(height) <= JUNCTION_TOLERANCE * np.sqrt(2.0 * half))
-    # p on the plane itself (an edge's own points): the side the surface bends towards,
-    # sign((q − p)·n_p). Unless it is a junction, where the other surface lies on both sides
-    # of p's plane (a box's side on a floor that runs on under it): there nothing clips, or
-    # the side's splats would lose their half above the floor.
+    # p on the plane itself (an edge's own points): the side its own surface lies on, where
+    # the centroid of p and its same-surface neighbours is (whichever way either normal was
+    # oriented). Unless it is a junction, where the other surface lies on both sides of p's
+    # plane (a box's side on a floor that runs on under it): there nothing clips, or the
+    # side's splats would lose their half above the floor.
+    own = (~turn)[..., None]
+    centroid = (w * own).sum(axis=1) / (own.sum(axis=1) + 1.0)             # minus p
+    lean = np.einsum("rc,rkc->rk", centroid, nq) + height                 # (c − q)·n_q
+    leaning = np.abs(lean) > JUNCTION_TOLERANCE * np.sqrt(2.0 * half)
     bend = np.sign(np.einsum("rkc,rc->rk", w, n))
-    side = np.where(on_plane, bend, np.sign(height))
+    side = np.where(on_plane, np.where(leaning, np.sign(lean), 0.0), np.sign(height))
     junction = (on_plane & (bend > 0)).any(axis=1) & (on_plane & (bend < 0)).any(axis=1)
     g = np.maximum(side * height, 0.0)
     slope = side[:, None, :] * np.einsum("rmc,rkc->rmk", d, nq)
