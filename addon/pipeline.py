@@ -1112,6 +1112,7 @@ def write(context, job: Job, result: Result):
     if s.transfer:                   # 1. every target checked; nothing changes yet
         objects = context.blend_data.objects
         users = output.object_users(context.blend_data)
+        depsgraph = context.evaluated_depsgraph_get()
         problems = []
 
         def target_of(name, kinds):
@@ -1146,7 +1147,7 @@ def write(context, job: Job, result: Result):
                                 f"({len(mesh.loops)} corners, {len(rec.corner_vertex)} when "
                                 "read)")
                 continue
-            repeat = output.repeat_problem(target, context.evaluated_depsgraph_get())
+            repeat = output.repeat_problem(target, depsgraph)
             if repeat is not None:
                 warnings.append(repeat)
                 continue

@@ -365,3 +365,43 @@ def test_surfel_object_is_marked_and_rerun_reuses_it():
     pipeline.compute(bpy.context, [floor, obj], draft())   # never an input of its own
     assert bpy.data.objects["Illumap Surfels"] == obj
     assert len(bpy.data.pointclouds) == 1
+
+
+def test_interactive_finish_writes_nothing_when_a_target_went_away():
+    """The modal path: the worker finished, then the user deleted a target before the write."""
+    from addon import operators
+    floor = lit_scene()
+    other = make_plane("Other", size=1.0, location=(3, 0, 0),
+                       material=diffuse_material("G2", (0.5,) * 3))
+    job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), [floor, other], draft())
+    task = operators.ComputeTask(job, pipeline.run, run_id=operators.begin_run()).start()
+    task.wait(60)
+    assert task.state == "DONE"
+    mesh = other.data
+    bpy.data.objects.remove(other)
+    bpy.data.meshes.remove(mesh)
+    before = fingerprint()
+    reports = []
+    assert operators.finish_task(bpy.context, task, lambda kind, text: reports.append(
+        (kind, text))) == {"CANCELLED"}
+    assert any(kind == {"ERROR"} and "Object 'Other' was removed or renamed" in text
+               and "Nothing was written" in text for kind, text in reports), reports
+    assert fingerprint() == before
+
+
+def test_mesh_preview_leaves_a_users_material_of_that_name_alone():
+    from addon import mesh_preview
+    floor = lit_scene()
+    mine = diffuse_material(mesh_preview.MATERIAL_NAME, (0.1, 0.2, 0.3))
+    nodes = sorted(n.bl_idname for n in mine.node_tree.nodes)
+    pipeline.compute(bpy.context, [floor], draft())
+    assert mesh_preview.build_mesh_preview([floor]) == ["Floor"]
+    assert sorted(n.bl_idname for n in mine.node_tree.nodes) == nodes
+    assert not mine.get(mesh_preview.MARKER)
+    ng = floor.modifiers[mesh_preview.MODIFIER_NAME].node_group
+    used = [n for n in ng.nodes if n.bl_idname == "GeometryNodeSetMaterial"][0]
+    assert used.inputs["Material"].default_value != mine
+    # Built again: the same (Illumap's) material and node group, no third one.
+    mesh_preview.build_mesh_preview([floor])
+    assert len([m for m in bpy.data.materials
+                if m.name.startswith(mesh_preview.MATERIAL_NAME)]) == 2
