@@ -405,7 +405,13 @@ class Transaction:
             # Files last: each rename is atomic, and a datablock swap can still be undone.
             while self.files:
                 tmp, final = self.files[0]
-                os.replace(tmp, final)
+                try:
+                    os.replace(tmp, final)
+                except OSError as exc:
+                    from .errors import OutputError
+                    raise OutputError(f"'{final}' could not be put in place: "
+                                      f"{exc.strerror or exc}. The file's data was left as "
+                                      "it was.") from None
                 self.files.pop(0)
         except BaseException:
             self.rollback()

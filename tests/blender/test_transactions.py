@@ -405,3 +405,22 @@ def test_mesh_preview_leaves_a_users_material_of_that_name_alone():
     mesh_preview.build_mesh_preview([floor])
     assert len([m for m in bpy.data.materials
                 if m.name.startswith(mesh_preview.MATERIAL_NAME)]) == 2
+
+
+def test_failure_renaming_an_export_rolls_the_datablocks_back(tmp_path, monkeypatch):
+    """Exports are renamed into place last: a failure there still puts the datablocks back."""
+    floor = lit_scene()
+    pipeline.compute(bpy.context, [floor], draft())
+    first = colour(floor.data).copy()
+    out = tmp_path / "out"
+    out.mkdir()
+
+    def no_rename(src, dst):
+        raise OSError(30, "Read-only file system")
+    monkeypatch.setattr(output.os, "replace", no_rename)
+    save_and_compare(tmp_path, lambda: pipeline.compute(
+        bpy.context, [floor], draft(seed=5, export_exr=str(out / "i.exr"))),
+        expect=OutputError, match=r"i\.exr' could not be put in place: Read-only file system")
+    monkeypatch.undo()
+    assert os.listdir(out) == []
+    assert np.array_equal(colour(bpy.data.objects["Floor"].data), first)
