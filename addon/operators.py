@@ -440,9 +440,9 @@ class ILLUMAP_OT_compute_illumination_map(bpy.types.Operator):
             record_stats(props.stats, result, time.perf_counter() - start)
             after_write(context, props, _written_object(result))
         except Exception as error:
-            self.report({"ERROR"}, f"Illumap computed the map but could not finish: "
+            self.report({"ERROR"}, f"Illumap wrote the result but could not build its preview: "
                                    f"{error_message(error)}")
-            return {"CANCELLED"}
+            return {"FINISHED"}   # the result is in the file: its undo step must exist
         report_warnings(result, self.report)
         self.report({"INFO"}, "Illumap: " + props.stats.summary)
         return {"FINISHED"}
