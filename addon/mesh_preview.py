@@ -6,7 +6,9 @@ Illumination``: an Attribute node (GEOMETRY) reading ``illumination`` (corner or
 interpolated by the renderer like any colour attribute) into an Emission shader of strength 1,
 so Cycles and EEVEE show the light Illumap computed at the mesh's own corners, as a render
 would show it. The user's material slots are never touched: removing the modifier
-(``remove_mesh_preview``) gives the meshes back exactly as they were.
+(``remove_mesh_preview``) gives the meshes back exactly as they were. The material and the
+node group carry the custom property ``illumap_generated``: a user's own datablock that happens
+to bear one of these names is left alone.
 """
 
 from __future__ import annotations
@@ -21,11 +23,42 @@ MATERIAL_NAME = "Illumap Illumination"
 ATTRIBUTE = "illumination"
 
 
+#: Custom property on the material and node group Illumap made: a user's own datablock of
+#: the same name is never cleared or reused (a new one, with a suffix, is made beside it).
+MARKER = "illumap_generated"
+
+
+def _own(collection, name, new):
+    """Illumap's datablock ``name`` (marked, or unmarked but made by an older version: its
+    name and a use by an Illumap modifier), else a new marked one."""
+    found = collection.get(name)
+    if found is not None and (found.get(MARKER) or _used_by_preview(found)):
+        found[MARKER] = True
+        return found
+    for block in collection:
+        if block.name.startswith(name + ".") and block.get(MARKER):
+            return block
+    block = new()
+    block[MARKER] = True
+    return block
+
+
+def _used_by_preview(block) -> bool:
+    for obj in bpy.data.objects:
+        mod = obj.modifiers.get(MODIFIER_NAME) if obj.type == "MESH" else None
+        if mod is None or mod.node_group is None:
+            continue
+        if mod.node_group == block:
+            return True
+        if any(n.bl_idname == "GeometryNodeSetMaterial" and n.inputs["Material"].default_value
+               == block for n in mod.node_group.nodes):
+            return True
+    return False
+
+
 def preview_material() -> bpy.types.Material:
     """The shared material: Attribute ``illumination`` → Emission (strength 1)."""
-    mat = bpy.data.materials.get(MATERIAL_NAME)
-    if mat is None:
-        mat = bpy.data.materials.new(MATERIAL_NAME)
+    mat = _own(bpy.data.materials, MATERIAL_NAME, lambda: bpy.data.materials.new(MATERIAL_NAME))
     tree = compat.node_tree(mat)
     nodes, links = tree.nodes, tree.links
     nodes.clear()
@@ -44,9 +77,8 @@ def preview_material() -> bpy.types.Material:
 
 def node_group() -> bpy.types.NodeTree:
     """The shared node group: Set Material to ``preview_material()`` on the whole mesh."""
-    ng = bpy.data.node_groups.get(NODE_GROUP_NAME)
-    if ng is None:
-        ng = bpy.data.node_groups.new(NODE_GROUP_NAME, "GeometryNodeTree")
+    ng = _own(bpy.data.node_groups, NODE_GROUP_NAME,
+              lambda: bpy.data.node_groups.new(NODE_GROUP_NAME, "GeometryNodeTree"))
     ng.nodes.clear()
     for item in list(ng.interface.items_tree):
         ng.interface.remove(item)

@@ -22,7 +22,7 @@ import time
 import bpy
 from bpy.props import BoolProperty, EnumProperty
 
-from . import mesh_preview, preferences, preview, properties
+from . import mesh_preview, output, preferences, preview, properties
 from .kinds import SUPPORTED_TYPES as _SUPPORTED_TYPES
 from .output import SURFEL_OBJECT as SURFEL_OBJECT_NAME
 
@@ -58,11 +58,10 @@ def error_message(error):
 
 
 def surfel_objects(scene=None):
-    """Surfel objects written by Illumap (by name or by the pipeline's marker)."""
+    """Surfel objects written by Illumap (``output.is_illumap_object``: its marker, or for older
+    files the name with the surfel attributes). A user's own object of that name is not one."""
     objs = scene.objects if scene is not None else bpy.data.objects
-    return [o for o in objs
-            if o.name == SURFEL_OBJECT_NAME or o.name.startswith(SURFEL_OBJECT_NAME + ".")
-            or o.get("illumap_surfels")]
+    return [o for o in objs if output.is_illumap_object(o)]
 
 
 def input_objects(context):
@@ -343,13 +342,22 @@ def finish_task(context, task, report):
         return {"CANCELLED"}
     props = context.scene.illumap
     try:
+        # One transaction: on failure nothing of the result is in the file.
         written = _pipeline().write(context, task.job, task.result)
+    except Exception as error:
+        text = error_message(error)
+        if not text.startswith("Illumap could not write"):
+            text = f"Illumap could not write the result: {text}"
+        report({"ERROR"}, text)
+        return {"CANCELLED"}
+    try:
         obj = _written_object(task.result, written)
         record_stats(props.stats, task.result, task.seconds)
         after_write(context, props, obj)
     except Exception as error:
-        report({"ERROR"}, f"Illumap could not write the result: {error_message(error)}")
-        return {"CANCELLED"}
+        report({"ERROR"}, f"Illumap wrote the result but could not build its preview: "
+                          f"{error_message(error)}")
+        return {"FINISHED"}   # the result is in the file: its undo step must exist
     report_warnings(task.result, report)
     report({"INFO"}, "Illumap: " + props.stats.summary)
     return {"FINISHED"}
@@ -432,9 +440,9 @@ class ILLUMAP_OT_compute_illumination_map(bpy.types.Operator):
             record_stats(props.stats, result, time.perf_counter() - start)
             after_write(context, props, _written_object(result))
         except Exception as error:
-            self.report({"ERROR"}, f"Illumap computed the map but could not finish: "
+            self.report({"ERROR"}, f"Illumap wrote the result but could not build its preview: "
                                    f"{error_message(error)}")
-            return {"CANCELLED"}
+            return {"FINISHED"}   # the result is in the file: its undo step must exist
         report_warnings(result, self.report)
         self.report({"INFO"}, "Illumap: " + props.stats.summary)
         return {"FINISHED"}
@@ -452,6 +460,9 @@ class ILLUMAP_OT_compute_illumination_map(bpy.types.Operator):
             return {"CANCELLED"}
         try:
             settings = scene_settings(context)
+            # Transfer targets and export paths are checked before the scene is read (the
+            # write checks them again: the user may change the scene while the run is going).
+            output.check_targets(objects, settings)
             job = _pipeline().prepare(context.evaluated_depsgraph_get(), objects, settings)
         except Exception as error:
             self.report({"ERROR"}, f"Illumap could not prepare the scene: {error_message(error)}")
@@ -587,10 +598,16 @@ class ILLUMAP_OT_clear_results(bpy.types.Operator):
             removed += 1
         if self.transferred:
             for obj in context.selected_objects:
-                if obj.type == "MESH":
-                    attr = obj.data.attributes.get("illumination")
-                    if attr is not None:
-                        obj.data.attributes.remove(attr)
+                if obj.type not in ("MESH", "POINTCLOUD") or obj.data.library is not None:
+                    continue
+                attr = obj.data.attributes.get("illumination")
+                # Only what Illumap writes (FLOAT_COLOR); the active/render colours are kept.
+                if attr is not None and attr.data_type == "FLOAT_COLOR":
+                    names = output._colour_names(obj.data)
+                    obj.data.attributes.remove(attr)
+                    if names is not None:
+                        output._restore_colour_names(obj.data, tuple(
+                            "" if n == "illumination" else n for n in names))
         context.scene.illumap.stats.clear()
         self.report({"INFO"}, f"Illumap: removed {removed} surfel object{'s' * (removed != 1)}")
         return {"FINISHED"}

@@ -1100,10 +1100,16 @@ def run(job: Job, progress: Progress | None = None) -> Result:
 
 
 def write(context, job: Job, result: Result):
-    """Write the result into the file (main thread): surfel object, transfers, exports."""
+    """Write the result into the file (main thread): surfel object, transfers, exports, as one
+    transaction (``output.Transaction``). Every target is checked first (it still exists, is
+    not in Edit Mode, its counts match, ``output.transfer_problem``); the exports go to
+    temporary files and the datablocks are staged beside the old ones; then everything is
+    swapped in. Any failure raises IllumapError (OutputError for an export) and leaves the
+    file's data and the export paths as they were."""
     from . import output
 
     t0 = time.perf_counter()
+    s = job.settings
     # An open surface's back-face surfels sit on its front ones: their discs move a hair
     # along their own normals, behind the front disc seen from the front and in front of it
     # seen from the back, so the preview shows each side without z-fighting.
@@ -1114,45 +1120,89 @@ def write(context, job: Job, result: Result):
         for src in backs:
             sl = slice(src.start, src.stop)
             shown[sl] += (BACK_DISC_LIFT * np.sqrt(job.areas[sl] / np.pi))[:, None] * job.normals[sl]
-    obj = output.write_surfels(context, shown, job.normals, job.areas, result.radiosity,
-                               job.albedo, job.emission)
-    if job.settings.transfer:
+    warnings: list[str] = []
+    points, meshes = [], []          # (target, values) to write
+    if s.transfer:                   # 1. every target checked; nothing changes yet
+        objects = context.blend_data.objects
+        users = output.object_users(context.blend_data)
+        depsgraph = context.evaluated_depsgraph_get()
+        problems = []
+
+        def target_of(name, kinds):
+            target = objects.get(name)
+            if target is None or target.type not in kinds:
+                problems.append(f"Object '{name}' was removed or renamed while Illumap computed")
+                return None
+            problem = output.transfer_problem(target, users)
+            if problem is not None:
+                problems.append(problem)
+                return None
+            return target
         for name, values in point_values(job, result).items():
-            target = context.blend_data.objects.get(name)
-            if target is None or target.type not in ("POINTCLOUD", "MESH"):
+            target = target_of(name, ("POINTCLOUD", "MESH"))
+            if target is None:
                 continue
             if output.point_count(target) != len(values):
-                result.warnings.append(f"Point cloud '{name}': its modifiers change the number of "
-                                       "points; the illumination stays on the surfel object")
+                warnings.append(f"Point cloud '{name}': its modifiers change the number of "
+                                "points; the illumination stays on the surfel object")
                 continue
-            output.write_point_values(target, values)
+            points.append((target, values))
         for rec in job.receivers:
-            target = context.blend_data.objects.get(rec.name)
             values = result.receiver_values.get(rec.name)
-            if target is not None and target.type == "MESH" and values is not None:
-                output.write_mesh_values(target, rec, values, job.settings.transfer_domain)
-    if job.settings.export_npz:
-        output.export_npz(job.settings.export_npz, positions=job.positions, normals=job.normals,
-                          areas=job.areas, albedo=job.albedo, emission=job.emission,
-                          direct=job.direct, illumination=result.radiosity, uv=job.uv,
-                          triangle=job.triangle, bary=job.bary, material_index=job.material_index,
+            if values is None:
+                continue
+            target = target_of(rec.name, ("MESH",))
+            if target is None:
+                continue
+            mesh = target.data
+            if len(mesh.loops) != len(rec.corner_vertex) or len(mesh.vertices) != rec.vertex_count:
+                problems.append(f"Object '{rec.name}': its mesh changed while Illumap computed "
+                                f"({len(mesh.loops)} corners, {len(rec.corner_vertex)} when "
+                                "read)")
+                continue
+            repeat = output.repeat_problem(target, depsgraph)
+            if repeat is not None:
+                warnings.append(repeat)
+                continue
+            meshes.append((target, rec, values))
+        if problems:
+            more = f" (and {len(problems) - 3} more)" if len(problems) > 3 else ""
+            raise IllumapError("Illumap could not write the result: " + "; ".join(problems[:3])
+                               + more + ". Nothing was written; run again.")
+    with output.Transaction(context) as tx:
+        # 2. exports, into temporary files beside their targets
+        if s.export_npz:
+            arrays = dict(positions=job.positions, normals=job.normals, areas=job.areas,
+                          albedo=job.albedo, emission=job.emission, direct=job.direct,
+                          illumination=result.radiosity, uv=job.uv, triangle=job.triangle,
+                          bary=job.bary, material_index=job.material_index,
                           object_index=np.repeat(np.arange(len(job.sources)),
-                                                 [s.stop - s.start for s in job.sources]),
-                          object_names=np.array([s.name for s in job.sources]))
-    if job.settings.export_exr:
-        output.export_exr(job.settings.export_exr, result.radiosity)
-    if job.settings.export_lightmaps:
-        pattern = job.settings.export_lightmaps
-        if "{object}" not in pattern:
-            root, ext = os.path.splitext(pattern)
-            pattern = f"{root}_{{object}}{ext or '.exr'}"
-        for src in job.sources:
-            sl = slice(src.start, src.stop)
-            if src.kind != "MESH" or not np.isfinite(job.uv[sl]).all():
-                result.warnings.append(f"Object '{src.name}' has no UV map: no lightmap written")
-            else:
-                output.export_lightmap(pattern.replace("{object}", bpy_safe_name(src.name)),
-                                       job.uv[sl], result.radiosity[sl], job.settings.lightmap_size)
+                                                 [src.stop - src.start for src in job.sources]),
+                          object_names=np.array([src.name for src in job.sources]))
+            tx.stage_file(output._npz_name(s.export_npz),
+                          lambda tmp: output.export_npz(tmp, **arrays))
+        if s.export_exr:
+            tx.stage_file(s.export_exr, lambda tmp: output.export_exr(tmp, result.radiosity))
+        if s.export_lightmaps:
+            pattern = output.lightmap_pattern(s.export_lightmaps)
+            for src in job.sources:
+                sl = slice(src.start, src.stop)
+                if src.kind != "MESH" or not np.isfinite(job.uv[sl]).all():
+                    warnings.append(f"Object '{src.name}' has no UV map: no lightmap written")
+                else:
+                    tx.stage_file(pattern.replace("{object}", bpy_safe_name(src.name)),
+                                  lambda tmp, sl=sl: output.export_lightmap(
+                                      tmp, job.uv[sl], result.radiosity[sl], s.lightmap_size))
+        # 3. the datablocks, staged beside the old ones
+        tx.stage_surfels(shown, job.normals, job.areas, result.radiosity, job.albedo,
+                         job.emission)
+        for target, values in points:
+            tx.stage_colors(target.data, "POINT", values)
+        for target, rec, values in meshes:
+            output.stage_mesh_values(tx, target, rec, values, s.transfer_domain)
+        # 4. swapped in together
+        obj = tx.commit()
+    result.warnings.extend(warnings + tx.warnings)
     result.timings["write"] = time.perf_counter() - t0
     result.object_name = obj.name
     return obj
@@ -1186,7 +1236,13 @@ def bpy_safe_name(name: str) -> str:
 
 
 def compute(context, objects, settings: Settings, progress: Progress | None = None) -> Result:
-    """prepare → run → write on the calling (main) thread; returns the Result."""
+    """prepare → run → write on the calling (main) thread; returns the Result.
+
+    Transfer targets and export paths are checked before anything is read or solved
+    (``output.check_targets``); Illumap's own objects are never inputs."""
+    from . import output
+    objects = [o for o in objects if o is None or not output.is_illumap_object(o)]
+    output.check_targets(objects, settings)
     job = prepare(context.evaluated_depsgraph_get(), objects, settings)
     result = run(job, progress)
     second = next_pass(job, result)
