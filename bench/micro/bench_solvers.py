@@ -11,7 +11,7 @@ Jacobi at high ρ needs ~log(tol)/log(ρ·λ) sweeps; on the FMM case it is capp
 
 Usage:
     python bench/micro/bench_solvers.py [--box-n 16] [--fmm-n 12000] [--order 4] [--tol 1e-6]
-                                  [--jacobi-cap 300] [--out results.json]
+                                        [--jacobi-cap 300] [--out results.json]
 Prints a markdown table; --out also writes every measured number as JSON.
 """
 
