@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
-"""Regenerate every benchmark result, chart and docs/benchmarks.md with one command.
+"""Run every benchmark the README and docs quote, then redraw every chart, with one command.
 
-    .venv/bin/python bench/run_all.py --quick     # ~20 minutes on 2 shared cores (default)
+    .venv/bin/python bench/run_all.py --quick     # the default: quick sizes, quick Cycles sweep
     .venv/bin/python bench/run_all.py --full      # larger references, sizes and sample counts
     .venv/bin/python bench/run_all.py --charts-only
+    .venv/bin/python bench/run_all.py --dry-run   # print the steps and their commands
 
 Runs, in order and each in its own process (with a time limit): bench/accuracy_speed.py (the
 sweep), bench/leaf_size.py (leaves of 16 and 64 against 32, paired),
@@ -13,8 +14,13 @@ against the full reference), bench/calibrate.py --write (the automatic mode's mo
 on them all),
 scripts/setup_env.sh (reinstalls the package with them), bench/accuracy_speed.py --auto-only
 (the automatic mode), bench/cycles_bake.py, bench/scaling.py (results in bench/results/*.json),
-then bench/charts.py (docs/images/*.png and docs/benchmarks.md). A step that fails is reported
-and the others still run; the exit status is non-zero if any failed.
+bench/reference/run.py (Illumap against Cycles bakes on meshes as users build them, the
+README's table: bench/results/reference.json; --quick passed through, --reference-scenes to
+its --scenes), bench/reference/preview_vs_cycles.py (docs/images/cornell_vs_cycles.png),
+then bench/charts.py (docs/images/*.png and docs/benchmarks.md) and bench/reference/chart.py
+(docs/images/reference_<scene>.png). A step that fails is reported and the others still run;
+the exit status is non-zero if any failed. bench/micro/ and bench/experiments/ are not steps:
+run them by hand (bench/README.md).
 """
 import argparse
 import os
@@ -24,7 +30,8 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-STEPS = ("accuracy", "leaf", "sampling", "grid", "calibrate", "install", "auto", "cycles", "scaling")
+STEPS = ("accuracy", "leaf", "sampling", "grid", "calibrate", "install", "auto", "cycles",
+         "scaling", "reference", "preview", "charts", "reference-charts")
 
 
 def main(argv=None):
@@ -36,6 +43,9 @@ def main(argv=None):
     ap.add_argument("--skip", nargs="*", default=[], choices=STEPS)
     ap.add_argument("--timeout", type=int, default=None,
                     help="seconds per step (default 3600 quick, 7200 full)")
+    ap.add_argument("--reference-scenes", nargs="+", default=None, metavar="SCENE",
+                    help="bench/reference/run.py --scenes (default: every scene)")
+    ap.add_argument("--dry-run", action="store_true", help="print the steps, run nothing")
     args = ap.parse_args(argv)
     flag = "--full" if args.full else "--quick"
     timeout = args.timeout or (7200 if args.full else 3600)
@@ -46,6 +56,9 @@ def main(argv=None):
     # the grid steps are solved against the full sweep's reference: a quick run leaves them out
     grid = os.path.join(results, "grid_steps.json") if args.full else ""
     py = [sys.executable]
+    reference = os.path.join(HERE, "reference")
+    reference_options = (["--quick"] if not args.full else []) + (
+        ["--scenes", *args.reference_scenes] if args.reference_scenes else [])
     steps = [] if args.charts_only else [
         ("accuracy", py + [os.path.join(HERE, "accuracy_speed.py"), flag, "--out", acc]),
         ("leaf", py + [os.path.join(HERE, "leaf_size.py"), flag, "--out", leaf]),
@@ -62,14 +75,19 @@ def main(argv=None):
                          os.path.join(results, "cycles_bake.json")]),
         ("scaling", py + [os.path.join(HERE, "scaling.py"), flag, "--out",
                           os.path.join(results, "scaling.json")]),
+        ("reference", py + [os.path.join(reference, "run.py"), *reference_options]),
+        ("preview", py + [os.path.join(reference, "preview_vs_cycles.py")]),
     ]
     steps.append(("charts", py + [os.path.join(HERE, "charts.py")]))
+    steps.append(("reference-charts", py + [os.path.join(reference, "chart.py")]))
     failed = []
     for name, cmd in steps:
         if name in args.skip:
             continue
         t = time.perf_counter()
         print(f"== {name}: {' '.join(cmd)}", flush=True)
+        if args.dry_run:
+            continue
         try:
             rc = subprocess.call(cmd, cwd=ROOT, timeout=timeout)
         except subprocess.TimeoutExpired:

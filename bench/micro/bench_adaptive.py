@@ -13,7 +13,7 @@ octree cells, whose near field (per-pair visibility rays) grows.
 The target is TARGET for every run, low enough that the count caps it (two passes are then
 always taken), so both runs get the same solver tolerance.
 
-    .venv/bin/python bench/bench_adaptive.py [--counts 1500 3000 6000 12000] [--quick]
+    .venv/bin/python bench/micro/bench_adaptive.py [--counts 1500 3000 6000 12000] [--quick]
 """
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ import time
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
+HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))  # bench/
 sys.path.insert(0, HERE)
 from illumap import accuracy  # noqa: E402
 from illumap.accuracy import calibration, models  # noqa: E402

@@ -9,7 +9,7 @@ the chosen solve keywords are run on the same surfels (the automatic mode's samp
 reference (as accuracy_speed.py), time the least of three. What a default shape other than
 the disc would change, before any re-calibration.
 
-    .venv/bin/python bench/occluder_shapes.py --out bench/results/occluder_shapes.json
+    .venv/bin/python bench/experiments/occluder_shapes.py --out bench/results/occluder_shapes.json
 """
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ import json
 import os
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # bench/
 import accuracy_speed as AS  # noqa: E402
 import scenes as S  # noqa: E402
 

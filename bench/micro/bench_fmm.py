@@ -9,7 +9,7 @@ peak RSS of the process running the configuration (each configuration runs in it
 subprocess), and the FMM/direct time ratio (direct time estimated from apply_rows timing).
 All figures come from this run on this machine; compare ratios, not absolute times.
 
-    python bench/bench_fmm.py --sizes 10000 100000 1000000 --orders 2 3 4 --thetas 0.5 \
+    python bench/micro/bench_fmm.py --sizes 10000 100000 1000000 --orders 2 3 4 --thetas 0.5 \
         --out bench.json
 """
 import argparse

@@ -4,7 +4,8 @@ set of alternating rounds, least time of each), so that a ratio near a limit can
 the machine's noise. Reads the pairing from bench/results/accuracy_speed.json; writes
 bench/results/auto_pairings.json (one entry per scene, target and best).
 
-    .venv/bin/python bench/auto_pairings.py [--scene bunny] [--target 0.1] [--pairings 8]
+    .venv/bin/python bench/experiments/auto_pairings.py [--scene bunny] [--target 0.1]
+        [--pairings 8]
 
 Point-sampled scenes only (the automatic mode on a scene's own surfels: cornell, bunny,
 interior). Here (2026-12-04, core 7767883) the bunny at 10%: 1.445-1.476 over 8 pairings,
@@ -20,11 +21,11 @@ import statistics
 import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # bench/
 import accuracy_speed as AS  # noqa: E402
 import scenes as S  # noqa: E402
 
-RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
+RESULTS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "results")
 
 
 def best_point(name: str, auto: dict, key: str, points: list) -> dict:

@@ -13,9 +13,9 @@ RMS over the receivers. "none" and "seed" are compared with the same exact refer
 
 Usage::
 
-    .venv/bin/python bench/bench_visibility.py                       # N = 100k and 1M
-    .venv/bin/python bench/bench_visibility.py --sizes 100000 --rows 1000
-    .venv/bin/python bench/bench_visibility.py --methods exact none --shape quad
+    .venv/bin/python bench/micro/bench_visibility.py                       # N = 100k and 1M
+    .venv/bin/python bench/micro/bench_visibility.py --sizes 100000 --rows 1000
+    .venv/bin/python bench/micro/bench_visibility.py --methods exact none --shape quad
 
 Writes bench/results/visibility.json and prints a markdown table.
 """
@@ -34,7 +34,7 @@ import time
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
+HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))  # bench/
 RESULTS = os.path.join(HERE, "results", "visibility.json")
 
 

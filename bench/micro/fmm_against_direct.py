@@ -4,7 +4,7 @@ of the same surfels, as N grows (Cornell box): whether what the node-pair visibi
 converges with N, which the automatic mode's extrapolation assumes it does not
 (``illumap.accuracy.models.setting_error``).
 
-    .venv/bin/python bench/fmm_against_direct.py
+    .venv/bin/python bench/micro/fmm_against_direct.py
 """
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import argparse
 import os
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # bench/
 import illumap  # noqa: E402
 
 import scenes as S  # noqa: E402

@@ -10,8 +10,8 @@ Jacobi at high ρ needs ~log(tol)/log(ρ·λ) sweeps; on the FMM case it is capp
 "est." in the table; everything else is measured).
 
 Usage:
-    python bench/bench_solvers.py [--box-n 16] [--fmm-n 12000] [--order 4] [--tol 1e-6]
-                                  [--jacobi-cap 300] [--out results.json]
+    python bench/micro/bench_solvers.py [--box-n 16] [--fmm-n 12000] [--order 4] [--tol 1e-6]
+                                        [--jacobi-cap 300] [--out results.json]
 Prints a markdown table; --out also writes every measured number as JSON.
 """
 

@@ -7,7 +7,7 @@ the leaf modes "per_pair" (a partial far leaf pair keeps one sampled fraction) a
 ``--cost-only`` skips the direct reference (N² rays) and measures build, rays and blocks only,
 for sizes the direct operator cannot reach.
 
-    .venv/bin/python bench/bench_leaf_modes.py [--scenes interior,cornell] [--n 6000]
+    .venv/bin/python bench/micro/bench_leaf_modes.py [--scenes interior,cornell] [--n 6000]
         [--cost-only] [--out bench/results/leaf_modes.json]
 """
 
@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # bench/
 import illumap  # noqa: E402
 import scenes as S  # noqa: E402
 

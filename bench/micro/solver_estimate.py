@@ -11,7 +11,7 @@ non-emitting surfels) with the estimate and with the Neumann bound
 iterate. Cases: the benchmark scenes at the automatic mode's targets, and the Cornell box with
 its albedo raised to 0.95 (a closed scene where the bounces amplify most).
 
-    .venv/bin/python bench/solver_estimate.py --out bench/results/solver_estimate.json
+    .venv/bin/python bench/micro/solver_estimate.py --out bench/results/solver_estimate.json
 """
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # bench/
 import scenes as S  # noqa: E402
 
 import illumap  # noqa: E402

@@ -1,0 +1,65 @@
+"""The bench's layout (bench/README.md): the tests and the front door (bench/*.py, the steps
+bench/run_all.py runs, and bench/reference/) use only modules the front door owns; nothing of
+theirs imports a micro-benchmark (bench/micro/) or an experiment (bench/experiments/), which may
+change or go without a test noticing."""
+import ast
+import os
+
+import pytest
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
+BENCH = os.path.join(ROOT, "bench")
+SIDE = ("micro", "experiments")
+
+
+def python_files(folder, recursive=True):
+    for base, dirs, files in os.walk(folder):
+        dirs[:] = sorted(d for d in dirs if d not in ("__pycache__",)) if recursive else []
+        yield from (os.path.join(base, f) for f in sorted(files) if f.endswith(".py"))
+
+
+def side_modules():
+    """Module names of the scripts under bench/micro and bench/experiments."""
+    return {os.path.splitext(os.path.basename(p))[0]
+            for side in SIDE for p in python_files(os.path.join(BENCH, side))}
+
+
+def imports_and_paths(path):
+    """The modules a file imports and the string constants of its sys.path calls."""
+    with open(path, encoding="utf-8") as f:
+        tree = ast.parse(f.read(), path)
+    modules, strings = set(), set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            modules.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            modules.add(node.module)
+        elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+              and ast.unparse(node.func.value) == "sys.path"):
+            strings.update(n.value for n in ast.walk(node)
+                           if isinstance(n, ast.Constant) and isinstance(n.value, str))
+    return modules, strings
+
+
+def users():
+    """The tests and the front door's own code."""
+    yield from python_files(os.path.join(ROOT, "tests"))
+    yield from python_files(BENCH, recursive=False)
+    yield from python_files(os.path.join(BENCH, "reference"))
+
+
+def test_bench_has_its_micro_and_experiment_folders():
+    assert side_modules(), "bench/micro and bench/experiments hold no scripts"
+
+
+@pytest.mark.parametrize("path", list(users()), ids=lambda p: os.path.relpath(p, ROOT))
+def test_no_test_or_front_door_step_imports_a_micro_benchmark_or_experiment(path):
+    side = side_modules()
+    modules, strings = imports_and_paths(path)
+    for name in modules:
+        parts = name.split(".")
+        assert not any(s in parts for s in SIDE), f"{path} imports {name}"
+        assert parts[-1] not in side, f"{path} imports {name} (a bench/micro or experiments script)"
+    for s in strings:
+        assert not any(part in SIDE for part in s.replace("\\", "/").split("/")), (
+            f"{path} puts {s} on sys.path")
