@@ -28,7 +28,7 @@ step that the residual r already holds (no application). Its error is ρ∘K of 
 ρ_max times it; on the bunny after two CG steps 0.58% against 1.58%. The reported residual,
 bound and estimate are those of B, so they hold for the result with room to spare: on the
 benchmark scenes and the Cornell box at albedo 0.95 (1 to 6 CG steps, errors ≥ 5e-4;
-``bench/solver_estimate.py``) the result kept 0.13–0.86 of the estimate and 0.03–0.24 of the
+``bench/micro/solver_estimate.py``) the result kept 0.13–0.86 of the estimate and 0.03–0.24 of the
 bound. The estimate can be low while it is large: the first two or three iterates of a closed
 box lit by four surfels kept up to 1.54 times it, above 3% (tests/core/test_solver.py).
 

@@ -25,7 +25,7 @@ from .models import interp_log_n, setting_time
 ADAPTIVE_FIRST_SHARE = 0.5
 #: Error of an adaptive run against a uniform one of the same count, as the count is chosen:
 #: measured on the Cornell box's triangles against the 48k-surfel reference
-#: (bench/bench_adaptive.py, bench/results/adaptive.json: 1.5k, 3k and 6k surfels, exact
+#: (bench/micro/bench_adaptive.py, bench/results/adaptive.json: 1.5k, 3k and 6k surfels, exact
 #: visibility): 0.69-0.73 for the direct method, 0.69-0.81 for FMM settings, whose expansion
 #: and visibility error the second pass does not lower. It scales the discretization part of a
 #: setting's error only, and is the upper end measured for any setting: with the direct method's
@@ -33,7 +33,7 @@ ADAPTIVE_FIRST_SHARE = 0.5
 #: the benchmark's sampling.
 ADAPTIVE_ERROR_RATIO = 0.8
 #: Solve time of the second pass against a uniform pass of the same count and settings
-#: (paired, bench/bench_adaptive.py, bench/results/adaptive.json): the median over
+#: (paired, bench/micro/bench_adaptive.py, bench/results/adaptive.json): the median over
 #: five settings at each count, interpolated in log N and held beyond. A varying density packs
 #: surfels into fewer octree cells, whose near field (per-pair visibility rays) grows:
 #: 0.97-1.41 at 1.5k, 0.84-1.37 at 3k, 0.85-1.15 at 6k, 0.97-1.86 at 12k surfels.

@@ -32,7 +32,7 @@ SAFETY = 0.95
 #: this share of the target, or at the calibrated ``tol``, whichever comes first. It spares
 #: the iterations that a residual relative to the emission (a small bright light dominates
 #: it) asks for beyond what the target needs. The result then keeps 0.13-0.86 of the estimate
-#: (bench/solver_estimate.py: the benchmark scenes at their targets and the Cornell box at
+#: (bench/micro/solver_estimate.py: the benchmark scenes at their targets and the Cornell box at
 #: albedo 0.95, 1 to 6 CG steps, errors ≥ 5e-4; the solve closes with the Jacobi step its
 #: last residual holds, which multiplies the error by ρ∘K), so at most 0.2 of the target.
 SOLVER_ERROR_SHARE = 0.2

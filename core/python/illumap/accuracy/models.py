@@ -150,7 +150,7 @@ def setting_error(entry: dict, table: dict, n: float) -> float:
     discretization part keeps falling, as the kind's direct curve does; what the setting adds
     there (its expansion and visibility model: sqrt(e² − e_disc²) at that size) is held, as a
     node-pair visibility model at fixed θ and leaf size converges far slower, if at all
-    (bench/fmm_against_direct.py, Cornell box at 1927 / 4128 / 8295 surfels: the distance to
+    (bench/micro/fmm_against_direct.py, Cornell box at 1927 / 4128 / 8295 surfels: the distance to
     the direct solution of the same surfels is 1.62 / 1.44 / 1.19% with all-pairs s = 16,
     θ = 0.3, and 11.3 / 7.1 / 7.0% in the default leaf mode, while the direct solution's own
     error falls from 3.4 to 1.2%)."""
