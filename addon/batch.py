@@ -76,7 +76,7 @@ import traceback
 
 import bpy
 
-from . import checks, pipeline
+from . import checks, output, pipeline
 from .errors import (ExitCode, IllumapCancelled, IllumapError, NoLightError, OutputError,
                      exit_code_help)
 
@@ -403,43 +403,18 @@ def _flag(option: str) -> str:
     return "--" + option.replace("_", "-")
 
 
-def _npz_path(path: str) -> str:
-    """The file numpy writes for ``path`` (it adds ``.npz`` when the name lacks it)."""
-    return path if path.endswith(".npz") else path + ".npz"
-
-
 def _same_file(a: str, b: str) -> bool:
     return bool(a) and bool(b) and os.path.realpath(a) == os.path.realpath(b)
 
 
 def _writable_folder(option: str, path: str, checked: dict) -> None:
-    """Raise OutputError unless files can be created next to ``path``: its folder exists and
-    is writable, or can be created under a writable folder (a temporary file is made and
-    removed to find out; nothing else is created). ``checked`` caches the folders seen."""
+    """Raise OutputError unless files can be created next to ``path`` (``output.
+    folder_problem``). ``checked`` caches the problem of each folder seen."""
     folder = os.path.dirname(os.path.abspath(path)) or os.sep
-    ancestor = folder
-    while not os.path.lexists(ancestor):
-        parent = os.path.dirname(ancestor)
-        if parent == ancestor:
-            break
-        ancestor = parent
-    if ancestor in checked:
-        problem = checked[ancestor]
-    else:
-        problem = None
-        if not os.path.isdir(ancestor):
-            problem = f"{ancestor!r} is a file, not a folder, so nothing can be written under it"
-        else:
-            try:
-                fd, probe = tempfile.mkstemp(prefix=".illumap-probe-", dir=ancestor)
-                os.close(fd)
-                os.remove(probe)
-            except OSError as exc:
-                problem = (f"the folder {ancestor!r} is not writable "
-                           f"({exc.strerror or type(exc).__name__})")
-        checked[ancestor] = problem
-    if problem:
-        raise OutputError(f"{_flag(option)} {path!r} cannot be written: {problem}")
+    if folder not in checked:
+        checked[folder] = output.folder_problem(path)[1]
+    if checked[folder]:
+        raise OutputError(f"{_flag(option)} {path!r} cannot be written: {checked[folder]}")
 
 
 def check_outputs(args, frames: list[int], several: bool, input_path: str) -> None:
@@ -458,7 +433,7 @@ def check_outputs(args, frames: list[int], several: bool, input_path: str) -> No
             if not path:
                 continue
             if option == "export_npz":
-                path = _npz_path(path)
+                path = output.npz_path(path)
             if os.path.isdir(path):
                 raise OutputError(f"{_flag(option)} {path!r} is a folder: give a file name")
             if _same_file(path, input_path) and not args.overwrite_input:
@@ -503,9 +478,7 @@ def atomic_pattern(pattern: str):
     the final files; on success every file written there is renamed into place, on failure
     the folder is removed. A pattern with ``{object}`` in its folder part is written in
     place (no common folder to stage in)."""
-    if "{object}" not in pattern:
-        root, ext = os.path.splitext(pattern)
-        pattern = f"{root}_{{object}}{ext or '.exr'}"
+    pattern = output.lightmap_pattern(pattern)
     folder, base = os.path.split(os.path.abspath(pattern))
     if "{object}" in folder:
         yield pattern
@@ -541,7 +514,7 @@ def run_frames(args, out=None) -> int:
         outputs = {k: frame_path(getattr(args, k), frame, several)
                    for k in ("output", "render", "export_npz", "export_exr")}
         if outputs["export_npz"]:
-            outputs["export_npz"] = _npz_path(outputs["export_npz"])
+            outputs["export_npz"] = output.npz_path(outputs["export_npz"])
         wanted = [p for p in outputs.values()
                   if p and not (args.overwrite_input and _same_file(p, input_path))]
         if wanted and not args.overwrite and all(os.path.exists(p) for p in wanted):

@@ -242,7 +242,8 @@ def check_targets(objects, settings) -> None:
     check_export_paths(settings)
 
 
-def _npz_name(path: str) -> str:
+def npz_path(path: str) -> str:
+    """The file numpy writes for ``path`` (it adds ``.npz`` when the name lacks it)."""
     return path if path.endswith(".npz") else path + ".npz"
 
 
@@ -254,26 +255,34 @@ def lightmap_pattern(pattern: str) -> str:
     return pattern
 
 
-def _folder_problem(path: str) -> str | None:
-    folder = os.path.dirname(os.path.abspath(path))
-    ancestor = folder
+def folder_problem(path: str) -> tuple[str, str | None]:
+    """(the nearest existing folder above ``path``, why nothing can be written under it or
+    None): it is a file, or a temporary file cannot be made in it (which, unlike a permission
+    check, holds for root and read-only mounts too; the probe is removed)."""
+    import tempfile
+    ancestor = os.path.dirname(os.path.abspath(path)) or os.sep
     while not os.path.lexists(ancestor):
         parent = os.path.dirname(ancestor)
         if parent == ancestor:
             break
         ancestor = parent
     if not os.path.isdir(ancestor):
-        return f"'{ancestor}' is a file, not a folder"
-    if not os.access(ancestor, os.W_OK | os.X_OK):
-        return f"the folder '{ancestor}' is not writable"
-    return None
+        return ancestor, f"'{ancestor}' is a file, not a folder, so nothing can be written under it"
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".illumap-probe-", dir=ancestor)
+        os.close(fd)
+        os.remove(probe)
+    except OSError as exc:
+        return ancestor, (f"the folder '{ancestor}' is not writable "
+                          f"({exc.strerror or type(exc).__name__})")
+    return ancestor, None
 
 
 def check_export_paths(settings) -> None:
     """Refuse export paths (npz, EXR, lightmaps) that cannot be written: a folder, a path
     under a file, a folder that is not writable. Raises OutputError."""
     from .errors import OutputError
-    paths = [("Export NPZ", _npz_name(settings.export_npz) if settings.export_npz else ""),
+    paths = [("Export NPZ", npz_path(settings.export_npz) if settings.export_npz else ""),
              ("Export EXR", settings.export_exr),
              ("Export Lightmaps", lightmap_pattern(settings.export_lightmaps).replace(
                  "{object}", "object") if settings.export_lightmaps else "")]
@@ -281,7 +290,7 @@ def check_export_paths(settings) -> None:
         if not path:
             continue
         problem = ("it is a folder: give a file name" if os.path.isdir(path)
-                   else _folder_problem(path))
+                   else folder_problem(path)[1])
         if problem:
             raise OutputError(f"{label} path '{path}' cannot be written: {problem}. Nothing "
                               "was written.")

@@ -1179,7 +1179,7 @@ def write(context, job: Job, result: Result):
                           object_index=np.repeat(np.arange(len(job.sources)),
                                                  [src.stop - src.start for src in job.sources]),
                           object_names=np.array([src.name for src in job.sources]))
-            tx.stage_file(output._npz_name(s.export_npz),
+            tx.stage_file(output.npz_path(s.export_npz),
                           lambda tmp: output.export_npz(tmp, **arrays))
         if s.export_exr:
             tx.stage_file(s.export_exr, lambda tmp: output.export_exr(tmp, result.radiosity))
