@@ -208,6 +208,19 @@ def top_camera(ortho_scale=2.0, height=5.0):
     return obj
 
 
+def sky_world(color=(0.6, 0.75, 1.0), strength=1.0, scene=None):
+    """A world whose Background is the constant ``color`` × ``strength`` (a uniform sky)."""
+    scene = scene or bpy.context.scene
+    world = bpy.data.worlds.new("Sky")
+    if world.node_tree is None:
+        world.use_nodes = True
+    background = world.node_tree.nodes["Background"]
+    background.inputs["Color"].default_value = (*color, 1.0)
+    background.inputs["Strength"].default_value = strength
+    scene.world = world
+    return world
+
+
 def black_world(scene=None):
     scene = scene or bpy.context.scene
     world = bpy.data.worlds.new("Black")

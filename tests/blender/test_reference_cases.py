@@ -39,7 +39,7 @@ import bpy
 import numpy as np
 import pytest
 
-from illumap_bpy_testing import add_lamp, link, requires_core
+from illumap_bpy_testing import add_lamp, link, requires_core, sky_world
 
 from addon import pipeline
 
@@ -365,17 +365,6 @@ def test_sphere_lit_by_a_point_lamp():
     assert abs(ratio - 1.0) < bound["lit_side_ratio"]
     assert lit_rms < bound["lit_side_rms"]
     assert rms < bound["rms"]
-
-
-def sky_world(color=(0.6, 0.75, 1.0), strength=1.0):
-    """A world whose Background is a constant sky colour."""
-    world = bpy.data.worlds.new("Sky")
-    if world.node_tree is None:
-        world.use_nodes = True
-    background = world.node_tree.nodes["Background"]
-    background.inputs["Color"].default_value = (*color, 1.0)
-    background.inputs["Strength"].default_value = strength
-    bpy.context.scene.world = world
 
 
 def test_open_scene_lit_by_the_world():

@@ -16,7 +16,7 @@ import bpy
 import numpy as np
 import pytest
 
-from illumap_bpy_testing import add_lamp, link, requires_core
+from illumap_bpy_testing import add_lamp, emission_material, link, requires_core
 
 from addon import pipeline
 from test_reference_cases import (closed_box, cycles_outgoing, diffuse, one_sided_emission,
@@ -30,19 +30,6 @@ BOUNDS = {
     "sparse": dict(rms=0.12),
     "emitter": dict(rms=0.10, above=0.02),
 }
-
-
-def emission(name, strength):
-    """A plain Emission shader (both faces emit in Cycles)."""
-    mat = bpy.data.materials.new(name)
-    if mat.node_tree is None:
-        mat.use_nodes = True
-    nodes = mat.node_tree.nodes
-    nodes.clear()
-    node = nodes.new("ShaderNodeEmission")
-    node.inputs["Strength"].default_value = strength
-    mat.node_tree.links.new(node.outputs[0], nodes.new("ShaderNodeOutputMaterial").inputs["Surface"])
-    return mat
 
 
 def as_scan(meshes, normals=None):
@@ -144,7 +131,8 @@ def test_an_emitter_just_under_a_scanned_ceiling(one_sided):
     ceiling = plane("Ceiling", [(-.5, -.5, 1), (-.5, .5, 1), (.5, .5, 1), (.5, -.5, 1)], 0.05, white)
     floor = plane("Floor", [(-.5, -.5, 0), (.5, -.5, 0), (.5, .5, 0), (-.5, .5, 0)], 0.05, white)
     z = 1 - 0.001
-    material = one_sided_emission("Emit", 5.0) if one_sided else emission("Emit", 5.0)
+    material = (one_sided_emission("Emit", 5.0) if one_sided
+                else emission_material("Emit", (1.0, 1.0, 1.0), 5.0))
     emitter = plane("Emitter", [(-.15, -.15, z), (-.15, .15, z), (.15, .15, z), (.15, -.15, z)], 1.0,
                     material)
     got, ref, pos, _ = compare([ceiling, floor], [emitter])

@@ -6,7 +6,7 @@ import bpy
 import numpy as np
 import pytest
 
-from illumap_bpy_testing import diffuse_material, make_plane, requires_core
+from illumap_bpy_testing import diffuse_material, make_plane, requires_core, sky_world
 
 from addon import lamps, pipeline
 
@@ -14,14 +14,7 @@ ALBEDO = 0.5
 
 
 def set_world(color=(0.2, 0.4, 0.6), strength=2.0):
-    world = bpy.data.worlds.new("W")
-    if world.node_tree is None:
-        world.use_nodes = True
-    background = world.node_tree.nodes["Background"]
-    background.inputs["Color"].default_value = (*color, 1.0)
-    background.inputs["Strength"].default_value = strength
-    bpy.context.scene.world = world
-    return world
+    return sky_world(color, strength)
 
 
 def test_constant_background_is_colour_times_strength():
@@ -113,8 +106,6 @@ def test_only_faces_pressed_together_are_covered():
     """A box resting on a floor, lit by the sky, with few surfels (they are far apart): the
     box's bottom and the floor under it get no light, every floor corner outside the box's
     footprint does, however close to it."""
-    import sys
-    sys.path.insert(0, __file__.rsplit("/", 1)[0])
     from test_reference_cases import closed_box, diffuse, plane
     set_world()
     floor = plane("Floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], 0.05, diffuse("F"))
