@@ -134,7 +134,6 @@ class Job:
     solve_emission: np.ndarray | None = None       # emission left to surfels (not in a lamp)
     triangles: np.ndarray | None = None            # (T, 3, 3) every sampled mesh triangle, m
     two_sided: np.ndarray | None = None            # (T,) bool: its mesh is an open surface
-    has_points: bool = False                       # point clouds among the sources
     clouds: list = field(default_factory=list)     # PointCloud per point source, as read
     mesh_triangle_start: np.ndarray | None = None  # first row in ``triangles`` of each mesh
     splat_point: np.ndarray | None = None          # (T,) point (over all clouds) whose splat
@@ -268,18 +267,11 @@ def occluder_shape(settings: Settings) -> str:
     return "disc" if settings.target_error is not None else shape
 
 
-#: Lamp-shadow segments against surfels end this fraction of the scene's extent short of
-#: their target: a sample on an emitting mesh lies in the plane of that mesh's own surfels,
-#: which must not hide it (float32 occluders resolve ~1e-7 of the extent).
-SHADOW_END_TRIM = 1e-4
-
-
 def make_segment_query(positions, normals, areas, progress=None, shape="disc"):
     """The segment query lamp shadows are cast with, ``visible(origins, targets, skip,
     progress=None)``: the core's ``illumap.Occluders`` built once on the surfels (``shape``s
     of the area of discs of SURFEL_COVERAGE), or None when the installed core has none.
-    Each segment's last ``SHADOW_END_TRIM`` × the extent is left out. ``progress`` hears the
-    build."""
+    ``progress`` hears the build."""
     import illumap
     occluders = getattr(illumap, "Occluders", None)
     if occluders is None:
@@ -289,16 +281,8 @@ def make_segment_query(positions, normals, areas, progress=None, shape="disc"):
     build = None if progress is None else (lambda f, _phase="": progress(0.0, lamps.PHASE))
     occ = occluders(surfels, coverage=SURFEL_COVERAGE, shape=shape, progress=build)
 
-    extent = float(np.ptp(positions, axis=0).max()) if n else 0.0
-    trim = SHADOW_END_TRIM * extent
-
     def visible(origins, targets, skip, progress=None):
-        o = np.asarray(origins, dtype=np.float64)
-        t = np.asarray(targets, dtype=np.float64)
-        d = t - o
-        length = np.linalg.norm(d, axis=1, keepdims=True)
-        t = t - d * (np.minimum(trim, 0.5 * length) / np.maximum(length, 1e-300))
-        return occ.visible(o, np.ascontiguousarray(t), skip=skip, progress=progress)
+        return occ.visible(origins, targets, skip=skip, progress=progress)
     return visible
 
 
@@ -491,7 +475,6 @@ def _prepare(depsgraph, objects, settings: Settings) -> Job:
     job.splat_point = splat_point
     job.mesh_triangle_start = np.cumsum([0] + [len(tm.corners) for tm in tri_meshes])[:-1]
     job.occluders = occluders
-    job.has_points = bool(point_parts)
     job.clouds = [PointCloud(name, full[0], look, full[3], full[4], owner)
                   for (name, _, _), full, look, (_, owner) in zip(point_sources, clouds, looks,
                                                                    thinned)]
@@ -771,6 +754,7 @@ def _merged_corners(occ, rec) -> tuple[np.ndarray, np.ndarray]:
 #: (normals more opposite than this cosine) and contains the receiver's point.
 COVER_COS = -0.9
 _COVER_NEIGHBOURS = 16
+_COVER_CHUNK = 32768          # receivers per batch of triangle tests (~40 MB)
 
 
 def covered_receivers(job: Job, points: np.ndarray, normals: np.ndarray,
@@ -790,7 +774,16 @@ def covered_receivers(job: Job, points: np.ndarray, normals: np.ndarray,
     triangle = first + job.triangle[rows]
     k = min(_COVER_NEIGHBOURS, len(rows))
     idx, _ = _core.knn(job.positions[rows], np.ascontiguousarray(points, dtype=np.float64), k)
-    tri = job.triangles[triangle[idx]]                                      # (M, k, 3, 3)
+    candidates = triangle[idx]
+    return np.concatenate([_covered_by(job.triangles[candidates[lo:lo + _COVER_CHUNK]],
+                                       points[lo:lo + _COVER_CHUNK],
+                                       normals[lo:lo + _COVER_CHUNK], tolerance)
+                           for lo in range(0, len(points), _COVER_CHUNK)])
+
+
+def _covered_by(tri: np.ndarray, points: np.ndarray, normals: np.ndarray,
+                tolerance: float) -> np.ndarray:
+    """Whether any of each receiver's candidate triangles (M, k, 3, 3) covers it."""
     e1, e2 = tri[:, :, 1] - tri[:, :, 0], tri[:, :, 2] - tri[:, :, 0]
     normal = np.cross(e1, e2)
     normal /= np.maximum(np.linalg.norm(normal, axis=2, keepdims=True), 1e-300)
@@ -989,7 +982,7 @@ def next_pass(job: Job, result: "Result") -> Job | None:
     new = _assemble(s, samples, scene.points, scene.point_sources, scene.lamps, scene.world,
                     list(job.warnings), stats, t0, job.occluders)
     new.accuracy = job.accuracy
-    new.emitters, new.triangles, new.has_points = job.emitters, job.triangles, job.has_points
+    new.emitters, new.triangles = job.emitters, job.triangles
     new.two_sided, new.splat_point, new.clouds = job.two_sided, job.splat_point, job.clouds
     new.mesh_triangle_start = job.mesh_triangle_start
     new.receivers, new.occluders = job.receivers, job.occluders
