@@ -406,11 +406,32 @@ def _mesh(lamp: Lamp, p: np.ndarray, n: np.ndarray) -> np.ndarray:
     return out
 
 
-def _pattern(k: int, rng: np.random.Generator, count: int) -> np.ndarray:
-    """``count`` rows of k points in [0,1)²: one rank-1 lattice (well stratified in both
-    axes), shifted per row at random (Cranley-Patterson rotation)."""
+_MASK64 = (1 << 64) - 1
+
+
+def _mix64(z: np.ndarray) -> np.ndarray:
+    """SplitMix64's finaliser on uint64 arrays (wrapping arithmetic)."""
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return z ^ (z >> np.uint64(31))
+
+
+def row_shifts(seed: int, salt: int, rows: np.ndarray) -> np.ndarray:
+    """Uniform [0, 1)² shifts (len(rows), 1, 2), a fixed function of (seed, salt, row index).
+    Each surfel or receiver keeps its own samples whichever other rows are lit, so moving,
+    scaling or extending a scene does not reshuffle the noise."""
+    key = np.uint64((int(seed) * 0x9E3779B97F4A7C15 + int(salt) * 0xD1B54A32D192ED03) & _MASK64)
+    index = np.asarray(rows, dtype=np.uint64)[:, None] * np.uint64(2) + np.arange(2, dtype=np.uint64)
+    with np.errstate(over="ignore"):
+        z = _mix64(index * np.uint64(0x9E3779B97F4A7C15) + key)
+    return ((z >> np.uint64(11)).astype(np.float64) * 2.0 ** -53)[:, None, :]
+
+
+def _pattern(k: int, shifts: np.ndarray) -> np.ndarray:
+    """Rows of k points in [0,1)²: one rank-1 lattice (well stratified in both axes), shifted
+    per row by ``shifts`` (M, 1, 2) (Cranley-Patterson rotation)."""
     base = np.column_stack([(np.arange(k) + 0.5) / k, np.mod(np.arange(k) * 0.6180339887498949, 1.0)])
-    return np.mod(base[None, :, :] + rng.random((count, 1, 2)), 1.0)
+    return np.mod(base[None, :, :] + shifts, 1.0)
 
 
 def _disc(uv: np.ndarray) -> np.ndarray:
@@ -431,11 +452,12 @@ def _basis(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return u, np.cross(d, u)
 
 
-def _lamp_samples(lamp: Lamp, p: np.ndarray, n: np.ndarray, k: int, rng: np.random.Generator,
+def _lamp_samples(lamp: Lamp, p: np.ndarray, n: np.ndarray, k: int, shifts: np.ndarray,
                   far: float) -> tuple[np.ndarray, np.ndarray]:
     """Sample points (M, k, 3) on ``lamp`` seen from receivers p (M, 3) and each sample's
-    unshadowed weight (M, k) (relative contribution; only ratios matter)."""
-    uv = _pattern(k, rng, len(p))
+    unshadowed weight (M, k) (relative contribution; only ratios matter); ``shifts`` (M, 1, 2)
+    place each row's pattern (``row_shifts``)."""
+    uv = _pattern(k, shifts)
     if lamp.kind == "WORLD":
         # Cosine-distributed directions: every sample weighs the same.
         disc = _disc(uv)
@@ -505,13 +527,13 @@ def lamp_visibility(lamp: Lamp, p: np.ndarray, n: np.ndarray, rows: np.ndarray,
                     shadows: Shadows) -> np.ndarray:
     """Fraction (len(rows),) of ``lamp`` that surfels ``rows`` see (see the module docstring)."""
     k = rays_per_surfel(lamp, shadows)
-    rng = np.random.default_rng([shadows.seed, zlib.crc32(lamp.name.encode()), int(rows.size)])
+    salt = zlib.crc32(lamp.name.encode())
     out = np.empty(len(rows))
     far = 4.0 * max(shadows.extent, 1e-3)
     per = max(1, _RAY_CHUNK // k)
     for start in range(0, len(rows), per):
         r = rows[start:start + per]
-        targets, weight = _lamp_samples(lamp, p[r], n[r], k, rng, far)
+        targets, weight = _lamp_samples(lamp, p[r], n[r], k, row_shifts(shadows.seed, salt, r), far)
         origins = np.repeat(p[r], k, axis=0)
         skip = np.repeat(r.astype(np.int64), k)
         shadows.report(shadows.rays)

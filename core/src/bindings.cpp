@@ -77,7 +77,16 @@ void bind_mesh_scene(nb::module_& m) {
              nb::arg("tmax") = HUGE_VAL, nb::arg("progress") = nb::none(),
              "Closest triangle hit of unit-direction rays: (triangle int64 (-1: none), distance, front uint8).")
         .def_prop_ro("n", [](const PyMeshScene& self) { return self.scene->size(); })
-        .def_prop_ro("extent", [](const PyMeshScene& self) { return self.scene->extent(); })
+        .def_prop_ro("extent", [](const PyMeshScene& self) { return self.scene->extent(); },
+                     "Largest side of the triangles' box (m).")
+        .def_prop_ro("feature_length", [](const PyMeshScene& self) { return self.scene->frame().length; },
+                     "Size of the bulk of the triangles (m): the largest per-axis spread between the 1st "
+                     "and 99th percentiles of their corners; a far outlier does not change it.")
+        .def_prop_ro("center", [](const PyMeshScene& self) {
+                         const double* c = self.scene->frame().center;
+                         return nb::make_tuple(c[0], c[1], c[2]);
+                     },
+                     "Origin that float coordinates are stored against (m): the corners' per-axis median.")
         .def_prop_ro("build_seconds", [](const PyMeshScene& self) { return self.scene->build_seconds(); });
 }
 

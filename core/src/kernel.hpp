@@ -17,6 +17,11 @@ constexpr double kT0 = 16.0;  // close pairs: pi r^2 / Abar <= 2 t0 (near_field.
 // from a mesh are single precision (~6e-8), so two surfels of one plane facing opposite ways
 // (an open surface's two sides) can tilt towards each other by ~1e-6 (near_field.cpp).
 constexpr double kCoplanarCos = 1e-6;
+// Two surfels whose planes lie closer than this fraction of the smaller one's size (sqrt of its
+// area) are in contact: the two sides of one open surface, a box resting on a floor. Rounding
+// of positions far from the origin, or given in single precision, separates them by up to
+// ~1e-7 of the coordinates; a real gap this thin carries no light.
+constexpr double kContactHeight = 1e-3;
 // Per-pair visibility blocks hold V quantised to 8 bits: round(kVisLevels V) (traversal.hpp).
 constexpr int kVisLevels = 255;
 

@@ -2,6 +2,7 @@
 #include "mesh_scene.hpp"
 
 #include "embree_util.hpp"
+#include "local_frame.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -36,8 +37,10 @@ MeshScene::MeshScene(Context& ctx, const double* corners, std::size_t n_tri) : n
         lo[k % 3] = std::min(lo[k % 3], x);
         hi[k % 3] = std::max(hi[k % 3], x);
     }
+    frame_ = make_local_frame(3 * n_tri, [&](std::size_t i, double* p) {
+        for (int d = 0; d < 3; ++d) p[d] = corners[3 * i + d];
+    });
     for (int d = 0; d < 3; ++d) {
-        center_[d] = n_tri ? 0.5 * (lo[d] + hi[d]) : 0.0;
         lo_[d] = n_tri ? lo[d] : 0.0;
         hi_[d] = n_tri ? hi[d] : 0.0;
         extent_ = std::max(extent_, hi_[d] - lo_[d]);
@@ -71,7 +74,7 @@ MeshScene::MeshScene(Context& ctx, const double* corners, std::size_t n_tri) : n
             parallel_for(ctx, n_tri, 1 << 15, [&](std::size_t b, std::size_t e) {
                 for (std::size_t t = b; t < e; ++t) {
                     const double* c = corners + 9 * t;
-                    for (int k = 0; k < 9; ++k) v[9 * t + k] = float(c[k] - center_[k % 3]);
+                    for (int k = 0; k < 9; ++k) v[9 * t + k] = float(c[k] - frame_.center[k % 3]);
                     for (int k = 0; k < 3; ++k) ib[3 * t + k] = unsigned(3 * t + k);
                     const double e1[3] = {c[3] - c[0], c[4] - c[1], c[5] - c[2]};
                     const double e2[3] = {c[6] - c[0], c[7] - c[1], c[8] - c[2]};
@@ -110,15 +113,18 @@ bool MeshScene::clip(const double* p, const double* u, double len, double& s0, d
 
 namespace {
 
-// The Embree ray for [s0, s1] of p + t u, its origin at p + s0 u relative to the box centre.
-void fill(RTCRay& r, const double* p, const double* u, double s0, double s1, const double* c) {
-    r.org_x = float(p[0] + s0 * u[0] - c[0]);
-    r.org_y = float(p[1] + s0 * u[1] - c[1]);
-    r.org_z = float(p[2] + s0 * u[2] - c[2]);
+// The Embree ray for [s0, s1] of p + t u, its origin at p + s0 u relative to the frame's
+// origin. The first few float ulps of the origin's distance from there are skipped: a receiver
+// far from the bulk must not hit its own surface through rounding.
+void fill(RTCRay& r, const double* p, const double* u, double s0, double s1, const LocalFrame& f) {
+    const double o[3] = {p[0] + s0 * u[0], p[1] + s0 * u[1], p[2] + s0 * u[2]};
+    r.org_x = float(o[0] - f.center[0]);
+    r.org_y = float(o[1] - f.center[1]);
+    r.org_z = float(o[2] - f.center[2]);
     r.dir_x = float(u[0]);
     r.dir_y = float(u[1]);
     r.dir_z = float(u[2]);
-    r.tnear = 0.0f;
+    r.tnear = float(std::min(f.noise(o), 0.5 * (s1 - s0)));
     r.tfar = float(s1 - s0);
     r.time = 0.0f;
     r.mask = 0xffffffffu;
@@ -157,7 +163,7 @@ void MeshScene::segments(Context& ctx, const double* a, const double* b, std::si
             for (double& x : u) x /= len;
             double s0, s1;
             if (!clip(p, u, len - end_trim, s0, s1)) continue;
-            fill(rays[m], p, u, s0, s1, center_);
+            fill(rays[m], p, u, s0, s1, frame_);
             slot[m++] = k;
             if (m == kBatch) flush();
         }
@@ -174,7 +180,7 @@ bool MeshScene::occluded(const double* a, const double* b) const {
     double s0, s1;
     if (!clip(a, u, len, s0, s1)) return false;
     RTCRay r;
-    fill(r, a, u, s0, s1, center_);
+    fill(r, a, u, s0, s1, frame_);
     RTCIntersectContext ic;
     rtcInitIntersectContext(&ic);
     rtcOccluded1(impl_->scene, &ic, &r);
@@ -224,7 +230,7 @@ void MeshScene::intersect_serial(const double* o, const double* d, std::size_t n
         if (!std::isfinite(p[0] + p[1] + p[2] + u[0] + u[1] + u[2])) continue;
         double s0, s1;
         if (!clip(p, u, tmax, s0, s1)) continue;
-        fill(rays[m].ray, p, u, s0, s1, center_);
+        fill(rays[m].ray, p, u, s0, s1, frame_);
         rays[m].hit.geomID = RTC_INVALID_GEOMETRY_ID;
         rays[m].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
         start[m] = s0;

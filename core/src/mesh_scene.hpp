@@ -4,12 +4,14 @@
 // gather from the true geometry rather than from surfel discs: triangles neither overhang
 // outlines nor pass above a curved surface, so a lamp-lit sphere gets all of its light and a
 // surface 1 mm behind an emitter is hidden by it. Coordinates are stored in float relative to
-// the triangles' box centre, so precision is relative to the scene's size, not its placement.
+// the triangles' local frame (local_frame.hpp), so precision follows the size of the bulk of
+// the scene, not its placement nor a far outlier.
 //
 // Rays are given in world coordinates (double); callers move their origins off the surface
 // (the receiver's normal times an offset) before asking.
 #pragma once
 
+#include "local_frame.hpp"
 #include "parallel.hpp"
 
 #include <cstddef>
@@ -29,6 +31,7 @@ public:
 
     std::size_t size() const { return n_tri_; }
     double extent() const { return extent_; }  // largest side of the triangles' box
+    const LocalFrame& frame() const { return frame_; }
     double build_seconds() const { return build_seconds_; }
 
     // out[k] = 1 when no triangle meets segment a[k] -> b[k] with its last `end_trim` (world
@@ -58,7 +61,7 @@ private:
     std::size_t n_tri_ = 0;
     std::vector<float> normal_;  // unit normal per triangle
     std::vector<double> corners_;  // world corners per triangle (9 doubles)
-    double center_[3] = {0, 0, 0};
+    LocalFrame frame_;
     double lo_[3] = {0, 0, 0}, hi_[3] = {0, 0, 0};
     double extent_ = 0;
     double build_seconds_ = 0;

@@ -257,9 +257,12 @@ NearCorrection build_near_correction(Context& ctx, const SurfelSoA& s,
                             // pairs count as not facing even when rounding tilts them by
                             // 1e-16 (a box standing on a floor would otherwise flip between
                             // seeing a full hemisphere and nothing with the scene's scale).
+                            // Planes within kContactHeight of each other are in contact.
                             const double rr = std::sqrt(r2);
                             const double cos_i = -dot(ni, d) / rr, cos_j = dot(nj, d) / rr;
-                            if (p_ij == 0.0 || cos_i <= kCoplanarCos || cos_j <= kCoplanarCos)
+                            const double contact = kContactHeight * std::sqrt(std::min(Ai, Aj));
+                            if (p_ij == 0.0 || cos_i <= kCoplanarCos || cos_j <= kCoplanarCos ||
+                                std::max(cos_i, cos_j) * rr <= contact)
                                 continue;
                             const double f_ij = point_to_polygon(xi, ni, xj, nj, Aj);
                             const double f_ji = point_to_polygon(xj, nj, xi, ni, Ai);

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <deque>
 #include <numeric>
+#include <utility>
+#include <vector>
 
 namespace illumap {
 
@@ -62,6 +64,34 @@ void compute_bounds(const SurfelSoA& s, OctreeNode& nd) {
     nd.slab_lo = slo;
     nd.slab_hi = shi;
     nd.amax = amax;
+}
+
+// Morton keys of perm[b, e) against the points' own bounding cube, the range re-sorted by
+// them (keys and perm together). False, and nothing changed, when the points coincide.
+bool rekey(const SurfelSoA& s, std::vector<std::uint32_t>& perm, std::vector<std::uint64_t>& key,
+           std::uint32_t b, std::uint32_t e) {
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    for (std::uint32_t i = b; i < e; ++i) {
+        const std::uint32_t j = perm[i];
+        const double p[3] = {s.px[j], s.py[j], s.pz[j]};
+        for (int d = 0; d < 3; ++d) { lo[d] = std::min(lo[d], p[d]); hi[d] = std::max(hi[d], p[d]); }
+    }
+    const double ext = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+    if (!(ext > 0)) return false;
+    const double top = double((1u << kMaxLevel) - 1), scale = top / ext;
+    auto q = [&](double v, int d) { return std::uint64_t(std::min(top, std::max(0.0, (v - lo[d]) * scale))); };
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> order;
+    order.reserve(e - b);
+    for (std::uint32_t i = b; i < e; ++i) {
+        const std::uint32_t j = perm[i];
+        order.push_back({spread3(q(s.px[j], 0)) << 2 | spread3(q(s.py[j], 1)) << 1 | spread3(q(s.pz[j], 2)), j});
+    }
+    std::sort(order.begin(), order.end());
+    for (std::uint32_t i = b; i < e; ++i) {
+        key[i] = order[i - b].first;
+        perm[i] = order[i - b].second;
+    }
+    return true;
 }
 
 }  // namespace
@@ -147,7 +177,13 @@ Octree build_octree(Context& ctx, const SurfelSoA& orig, int leaf_size) {
             cuts.push_back(nd.end);
             ++bit;
         }
-        if (cuts.size() <= 2) continue;  // coincident points: stays a leaf
+        if (cuts.size() <= 2) {
+            // Keys exhausted: a far outlier made the root cube so large that this node is one
+            // finest cell. Key its points against their own box and go on splitting;
+            // coincident points stay a leaf.
+            if (rekey(orig, t.perm, skey, nd.begin, nd.end)) queue.push_front({it.id, 0});
+            continue;
+        }
         const std::int32_t first = std::int32_t(t.nodes.size());
         for (std::size_t c = 0; c + 1 < cuts.size(); ++c) {
             OctreeNode ch;

@@ -3,6 +3,7 @@
 #include "raycast.hpp"
 
 #include "embree_util.hpp"
+#include "local_frame.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -88,7 +89,8 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
     const std::size_t n = s.n;
     if (!(coverage > 0) || !std::isfinite(coverage))
         throw std::invalid_argument("coverage must be a finite number > 0");
-    // Box centre: float coordinates relative to the scene, not to the world origin.
+    // The occluders' box, for clipping segments; float coordinates are relative to the local
+    // frame (local_frame.hpp), not to the world origin.
     double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
     for (std::size_t i = 0; i < n; ++i) {
         lo[0] = std::min(lo[0], s.px[i]); hi[0] = std::max(hi[0], s.px[i]);
@@ -103,8 +105,15 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
         hi[k % 3] = std::max(hi[k % 3], triangles[k]);
     }
     const bool any = n > 0 || n_tri_ > 0;
+    const LocalFrame frame = make_local_frame(n + 3 * n_tri_, [&](std::size_t i, double* p) {
+        if (i < n) {
+            p[0] = s.px[i]; p[1] = s.py[i]; p[2] = s.pz[i];
+        } else {
+            for (int d = 0; d < 3; ++d) p[d] = triangles[3 * (i - n) + d];
+        }
+    });
     for (int d = 0; d < 3; ++d) {
-        center_[d] = any ? 0.5 * (lo[d] + hi[d]) : 0.0;
+        center_[d] = frame.center[d];
         lo_[d] = any ? lo[d] : 0.0;
         hi_[d] = any ? hi[d] : 0.0;
     }
@@ -148,11 +157,13 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
                 }
             });
             // Triangles neither overlap nor overhang: the trims only have to clear the
-            // surfel's own triangle, a hair of the scene's size (float noise is ~1e-7 of it).
-            double ext = 0;
-            for (int d = 0; d < 3; ++d) ext = std::max(ext, hi_[d] - lo_[d]);
-            const float hair = float(1e-4 * ext);
-            for (std::size_t i = 0; i < n; ++i) radius_[i] = hair;
+            // surfel's own triangle, a hair of the bulk's size, or the float noise where the
+            // surfel lies far from the bulk (local_frame.hpp).
+            const double hair = 1e-4 * frame.length;
+            for (std::size_t i = 0; i < n; ++i) {
+                const double p[3] = {s.px[i], s.py[i], s.pz[i]};
+                radius_[i] = float(std::max(hair, frame.noise(p)));
+            }
         } else if (n > 0 && shape == VisibilityOptions::Shape::Quad) {
             // Equal-area squares (side coverage * sqrt(A)) in each tangent plane; the frame is a
             // fixed function of the normal (Duff et al. 2017), so the build is deterministic.

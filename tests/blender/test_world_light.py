@@ -68,7 +68,8 @@ def test_unevaluated_world_nodes_are_warned_about_and_left_out():
 @requires_core
 def test_world_light_is_shadowed_at_the_surfels():
     """A floor under a much larger roof 0.1 m above it sees almost no sky (the open share,
-    cos² of the angle to the roof's edge, is < 1e-3); the roof's top sees all of it."""
+    cos² of the angle to the roof's edge, is < 1e-3); the roof's top sees all of it. Each
+    surfel casts 16 rays here, so a surfel near the floor's edge may see one escape (1/16)."""
     set_world()
     white = diffuse_material("D", (ALBEDO,) * 3)
     floor = make_plane("Floor", size=1.0, material=white)
@@ -80,7 +81,8 @@ def test_world_light_is_shadowed_at_the_surfels():
     on_top = up & (job.positions[:, 2] > 0.05)
     sky = ALBEDO * np.array([0.4, 0.8, 1.2])
     assert under.sum() > 20 and on_top.sum() > 100
-    assert np.abs(job.direct[under]).max() < 0.05 * sky.max()
+    assert np.abs(job.direct[under]).mean() < 0.01 * sky.max()
+    assert np.abs(job.direct[under]).max() <= 1.0001 * sky.max() / 16
     assert np.allclose(job.direct[on_top], sky)   # nothing above it: exactly the sky
     off = pipeline.light(pipeline.prepare(bpy.context.evaluated_depsgraph_get(), [floor, roof],
                                           pipeline.Settings(budget=4000, lamps=False,

@@ -302,16 +302,21 @@ class TransportOperator:
             raise InputError(f"progress: expected a callable or None, got {progress!r}")
         self.surfels = surfels
         self.occluder_triangles = _check_triangles(occluder_triangles)
+        # The kernel sees only differences of positions: the native core gets them relative to
+        # their median, so tree bounds, facing tests and rays keep their precision wherever
+        # the scene sits.
+        self.origin = np.median(surfels.positions, axis=0) if surfels.n else np.zeros(3)
         core = _require_core()
         guard = ProgressGuard(progress)
         with guard:
             self._op = core.Operator(
-                surfels.positions, surfels.normals, surfels.areas,
+                np.ascontiguousarray(surfels.positions - self.origin), surfels.normals, surfels.areas,
                 method=self.method, order=self.order, theta=self.theta,
                 leaf_size=self.leaf_size, near_field=self.near_field, threads=self.threads,
                 progress=guard.native_callback(), visibility=self.visibility,
                 occluder_triangles=(None if self.occluder_triangles is None
-                                    else self.occluder_triangles.reshape(-1, 9)),
+                                    else np.ascontiguousarray(
+                                        (self.occluder_triangles - self.origin).reshape(-1, 9))),
                 **self.visibility_options,
             )
 

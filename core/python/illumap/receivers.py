@@ -15,9 +15,10 @@ receiver x is evaluated on its own (DESIGN.md §6, the final gather of two-pass 
 
 All radiance is in Blender's units (irradiance / π for incident light), positions in metres.
 Rays start ``offset`` off the surface along the receiver's normal; the default,
-``RAY_OFFSET`` × the scene's extent, lies far below a 1 mm gap in a 10 m scene and far above
-single-precision noise (the triangles are stored relative to their box centre, so only the
-scene's size matters, not where it sits).
+``RAY_OFFSET`` × the scene's feature length (the size of the bulk of its triangles, which a
+far outlier does not change), lies far below a 1 mm gap in a 10 m scene and far above
+single-precision noise. The triangles are stored in float relative to the median of their
+corners, so neither where the scene sits nor an outlier beside it changes the result.
 
 Results are deterministic: every receiver draws its rays from its own id and the seed, so
 threads, chunking and the order of receivers do not change them.
@@ -33,7 +34,7 @@ import numpy as np
 from . import _core
 from .surfels import InputError
 
-#: Ray origins move off the surface by this fraction of the scene's extent (see above).
+#: Ray origins move off the surface by this fraction of the scene's feature length (see above).
 RAY_OFFSET = 1e-5
 #: Surfels looked up around a gather hit; those facing away from the hit surface are ignored.
 LOOKUP_NEIGHBOURS = 8
@@ -69,7 +70,9 @@ class MeshOccluders:
     """Triangles (T, 3, 3) in metres as a ray-casting scene, for receivers.
 
     ``threads`` 0 uses every hardware thread; ``progress(fraction, phase)`` returning False
-    cancels (``illumap.Cancelled``). ``offset`` (m) defaults to ``RAY_OFFSET`` × the extent.
+    cancels (``illumap.Cancelled``). ``offset`` (m) defaults to ``RAY_OFFSET`` × the feature
+    length. ``extent`` (m) is the largest side of the triangles' box, ``feature_length`` (m) the
+    size of their bulk (the largest per-axis spread between the 1st and 99th percentiles).
     """
 
     def __init__(self, corners, *, offset: float | None = None, threads: int = 0,
@@ -83,7 +86,9 @@ class MeshOccluders:
         cross = np.cross(e1, e2)
         self.normals = cross / np.maximum(np.linalg.norm(cross, axis=1, keepdims=True), 1e-300)
         self.extent = float(self._scene.extent)
-        self.offset = float(offset) if offset is not None else RAY_OFFSET * max(self.extent, 1e-30)
+        self.feature_length = float(self._scene.feature_length)
+        self.offset = (float(offset) if offset is not None
+                       else RAY_OFFSET * max(self.feature_length, 1e-30))
         if not (self.offset > 0 and np.isfinite(self.offset)):
             raise InputError(f"offset must be a finite number > 0, got {offset}")
 
