@@ -1,14 +1,27 @@
-"""Mesh preview: the illumination shown on the meshes themselves, in one click.
+"""Preview on the objects: the illumination shown on the user's own meshes and point clouds,
+in one click.
 
-``build_mesh_preview(objects)`` puts a Geometry Nodes modifier, last in each mesh's stack,
-whose Set Material node gives the evaluated mesh the shared material ``Illumap
-Illumination``: an Attribute node (GEOMETRY) reading ``illumination`` (corner or point domain,
-interpolated by the renderer like any colour attribute) into an Emission shader of strength 1,
-so Cycles and EEVEE show the light Illumap computed at the mesh's own corners, as a render
-would show it. The user's material slots are never touched: removing the modifier
-(``remove_mesh_preview``) gives the meshes back exactly as they were. The material and the
-node group carry the custom property ``illumap_generated``: a user's own datablock that happens
-to bear one of these names is left alone.
+``build_mesh_preview(objects)`` puts a Geometry Nodes modifier, last in each object's stack,
+that gives the evaluated geometry the shared material ``Illumap Illumination``: an Attribute
+node (GEOMETRY) reading ``illumination`` into an Emission shader of strength 1, so Cycles and
+EEVEE show the light Illumap computed at the object's own corners or points, as a render would
+show it.
+
+* Meshes with faces: a Set Material node (``Illumap Mesh Preview``); the renderer interpolates
+  the corner or point values across the faces like any colour attribute.
+* Point clouds and vertex-only meshes (scans): every point of the object is a display point,
+  coloured by the light evaluated at that very point, whatever number of surfels the solve
+  used (``Illumap Point Preview``: Mesh to Points for a mesh's vertices, each point's
+  ``radius`` attribute or else the modifier's Radius, then Set Material). Points render as
+  small spheres in Cycles and EEVEE; the Radius given (``point_radius``) is the median
+  distance to the 6th nearest neighbour: about 1.4 spacings, so spheres close a regularly
+  scanned surface with room to spare, and leave ~0.3% of a randomly sampled one open
+  (exp(−5.7), the chance that a disc of that radius holds no point).
+
+The user's material slots and data are never touched: removing the modifier
+(``remove_mesh_preview``) gives the objects back exactly as they were. The material and the
+node groups carry the custom property ``illumap_generated``: a user's own datablock that
+happens to bear one of these names is left alone.
 """
 
 from __future__ import annotations
@@ -17,10 +30,20 @@ import bpy
 
 from . import compat
 
+import numpy as np
+
 MODIFIER_NAME = "Illumap Mesh Preview"
 NODE_GROUP_NAME = "Illumap Mesh Preview"
+POINT_MODIFIER_NAME = "Illumap Point Preview"
+POINT_NODE_GROUP_NAME = "Illumap Point Preview"
+MODIFIER_NAMES = (MODIFIER_NAME, POINT_MODIFIER_NAME)
 MATERIAL_NAME = "Illumap Illumination"
 ATTRIBUTE = "illumination"
+#: Display radius = this × the median distance to the RADIUS_NEIGHBOUR-th nearest point.
+RADIUS_FACTOR = 1.0
+RADIUS_NEIGHBOUR = 6
+#: Points whose neighbours the radius is measured at (a fixed, evenly strided subset).
+RADIUS_PROBES = 20000
 
 
 #: Custom property on the material and node group Illumap made: a user's own datablock of
@@ -45,14 +68,15 @@ def _own(collection, name, new):
 
 def _used_by_preview(block) -> bool:
     for obj in bpy.data.objects:
-        mod = obj.modifiers.get(MODIFIER_NAME) if obj.type == "MESH" else None
-        if mod is None or mod.node_group is None:
-            continue
-        if mod.node_group == block:
-            return True
-        if any(n.bl_idname == "GeometryNodeSetMaterial" and n.inputs["Material"].default_value
-               == block for n in mod.node_group.nodes):
-            return True
+        for name in MODIFIER_NAMES:
+            mod = obj.modifiers.get(name) if obj.type in ("MESH", "POINTCLOUD") else None
+            if mod is None or mod.node_group is None:
+                continue
+            if mod.node_group == block:
+                return True
+            if any(n.bl_idname == "GeometryNodeSetMaterial" and n.inputs["Material"].default_value
+                   == block for n in mod.node_group.nodes):
+                return True
     return False
 
 
@@ -96,36 +120,133 @@ def node_group() -> bpy.types.NodeTree:
     return ng
 
 
+def point_node_group() -> bpy.types.NodeTree:
+    """The shared node group for points: a mesh's vertices as points (Mesh to Points), each
+    point's ``radius`` attribute where it has one, else the Radius input, then Set Material to
+    ``preview_material()``."""
+    ng = _own(bpy.data.node_groups, POINT_NODE_GROUP_NAME,
+              lambda: bpy.data.node_groups.new(POINT_NODE_GROUP_NAME, "GeometryNodeTree"))
+    ng.nodes.clear()
+    for item in list(ng.interface.items_tree):
+        ng.interface.remove(item)
+    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    radius = ng.interface.new_socket("Radius", in_out="INPUT", socket_type="NodeSocketFloat")
+    radius.default_value, radius.min_value = 0.01, 0.0
+    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    ng.is_modifier = True
+    nodes, links = ng.nodes, ng.links
+    group_in = nodes.new("NodeGroupInput")
+    to_points = nodes.new("GeometryNodeMeshToPoints")
+    to_points.mode = "VERTICES"
+    clouds = nodes.new("GeometryNodeSeparateComponents")
+    join = nodes.new("GeometryNodeJoinGeometry")
+    given = nodes.new("GeometryNodeInputNamedAttribute")
+    given.data_type = "FLOAT"
+    given.inputs["Name"].default_value = "radius"
+    switch = nodes.new("GeometryNodeSwitch")
+    switch.input_type = "FLOAT"
+    set_radius = nodes.new("GeometryNodeSetPointRadius")
+    set_material = nodes.new("GeometryNodeSetMaterial")
+    set_material.inputs["Material"].default_value = preview_material()
+    group_out = nodes.new("NodeGroupOutput")
+    for x, node in enumerate((group_in, to_points, join, set_radius, set_material, group_out)):
+        node.location = (250 * x - 500, 0)
+    clouds.location, given.location, switch.location = (-250, -200), (0, -250), (250, -250)
+    links.new(group_in.outputs["Geometry"], to_points.inputs["Mesh"])
+    links.new(group_in.outputs["Radius"], to_points.inputs["Radius"])
+    links.new(group_in.outputs["Geometry"], clouds.inputs["Geometry"])
+    links.new(to_points.outputs["Points"], join.inputs["Geometry"])
+    links.new(clouds.outputs["Point Cloud"], join.inputs["Geometry"])
+    links.new(given.outputs["Exists"], switch.inputs["Switch"])
+    links.new(group_in.outputs["Radius"], switch.inputs["False"])
+    links.new(given.outputs["Attribute"], switch.inputs["True"])
+    links.new(join.outputs["Geometry"], set_radius.inputs["Points"])
+    links.new(switch.outputs["Output"], set_radius.inputs["Radius"])
+    links.new(set_radius.outputs["Points"], set_material.inputs["Geometry"])
+    links.new(set_material.outputs["Geometry"], group_out.inputs["Geometry"])
+    return ng
+
+
+def is_point_source(obj) -> bool:
+    """A point cloud, or a mesh of vertices alone (a scan read as a mesh)."""
+    return obj.type == "POINTCLOUD" or (obj.type == "MESH" and len(obj.data.polygons) == 0
+                                        and len(obj.data.vertices) > 0)
+
+
+def _positions(obj) -> np.ndarray:
+    """The object's points in its own coordinates (n, 3)."""
+    data = obj.data
+    if obj.type == "POINTCLOUD":
+        attr = data.attributes["position"]
+        out = np.empty(len(attr.data) * 3)
+        attr.data.foreach_get("vector", out)
+    else:
+        out = np.empty(len(data.vertices) * 3)
+        data.vertices.foreach_get("co", out)
+    return out.reshape(-1, 3)
+
+
+def point_radius(obj) -> float:
+    """Display radius of ``obj``'s points in its own units: ``RADIUS_FACTOR`` × the median
+    distance from ``RADIUS_PROBES`` evenly strided points to their ``RADIUS_NEIGHBOUR``-th
+    nearest point."""
+    from illumap import _core  # noqa: PLC0415 - native, loaded on use
+    pos = np.ascontiguousarray(_positions(obj))
+    if len(pos) < 2:
+        return 0.01
+    k = min(RADIUS_NEIGHBOUR, len(pos) - 1) + 1
+    probes = np.ascontiguousarray(pos[::max(1, len(pos) // RADIUS_PROBES)])
+    _, dist = _core.knn(pos, probes, k)
+    far = dist[:, -1]
+    far = far[far > 0]
+    return float(RADIUS_FACTOR * np.median(far)) if len(far) else 0.01
+
+
 def has_mesh_preview(obj) -> bool:
-    """Whether ``obj`` carries the mesh preview modifier."""
-    return obj.type == "MESH" and MODIFIER_NAME in obj.modifiers
+    """Whether ``obj`` carries a preview modifier (meshes or points)."""
+    return obj.type in ("MESH", "POINTCLOUD") and any(n in obj.modifiers for n in MODIFIER_NAMES)
 
 
 def build_mesh_preview(objects) -> list[str]:
-    """Show each mesh of ``objects`` that has an ``illumination`` attribute through the preview
-    material (a modifier added last, or refreshed). Returns the names of the meshes shown."""
-    ng = None
+    """Show each mesh or point cloud of ``objects`` that has an ``illumination`` attribute
+    through the preview material (a modifier added last, or refreshed). Returns the names of
+    the objects shown."""
+    groups = {}
     shown = []
     for obj in objects:
-        if obj is None or obj.type != "MESH" or ATTRIBUTE not in obj.data.attributes:
+        if obj is None or obj.type not in ("MESH", "POINTCLOUD") or \
+                ATTRIBUTE not in obj.data.attributes:
             continue
-        ng = ng or node_group()
-        mod = obj.modifiers.get(MODIFIER_NAME)
+        points = is_point_source(obj)
+        name, other = ((POINT_MODIFIER_NAME, MODIFIER_NAME) if points
+                       else (MODIFIER_NAME, POINT_MODIFIER_NAME))
+        if name not in groups:
+            groups[name] = point_node_group() if points else node_group()
+        if other in obj.modifiers:
+            obj.modifiers.remove(obj.modifiers[other])
+        mod = obj.modifiers.get(name)
         if mod is None:
-            mod = obj.modifiers.new(MODIFIER_NAME, "NODES")
-        mod.node_group = ng
+            mod = obj.modifiers.new(name, "NODES")
+        mod.node_group = groups[name]
+        if points:
+            radius = next(item.identifier for item in mod.node_group.interface.items_tree
+                          if getattr(item, "in_out", None) == "INPUT" and item.name == "Radius")
+            compat.set_modifier_input(mod, radius, point_radius(obj))
         obj.update_tag()
         shown.append(obj.name)
     return shown
 
 
 def remove_mesh_preview(objects) -> int:
-    """Remove the mesh preview modifier from ``objects``; returns how many were removed."""
+    """Remove the preview modifiers from ``objects``; returns from how many objects."""
     removed = 0
     for obj in objects:
-        if obj is not None and obj.type == "MESH" and MODIFIER_NAME in obj.modifiers:
-            obj.modifiers.remove(obj.modifiers[MODIFIER_NAME])
-            removed += 1
+        if obj is None or obj.type not in ("MESH", "POINTCLOUD"):
+            continue
+        mods = [obj.modifiers[n] for n in MODIFIER_NAMES if n in obj.modifiers]
+        for mod in mods:
+            obj.modifiers.remove(mod)
+        removed += bool(mods)
     return removed
 
 
@@ -135,8 +256,9 @@ class suspended:
     materials), then switched back as they were."""
 
     def __init__(self, objects, view_layer) -> None:
-        self.mods = [obj.modifiers[MODIFIER_NAME] for obj in objects
-                     if obj is not None and has_mesh_preview(obj)]
+        self.mods = [obj.modifiers[name] for obj in objects
+                     if obj is not None and has_mesh_preview(obj)
+                     for name in MODIFIER_NAMES if name in obj.modifiers]
         self.view_layer = view_layer
         self.saved = []
 

@@ -163,9 +163,18 @@ def report_warnings(result, report, limit=5):
             print(f"Illumap warning: {text}")
 
 
-def after_write(context, props, surfel_object):
-    """Build the preview on a freshly written surfel object when the settings ask for it."""
+def after_write(context, props, surfel_object, result=None):
+    """Build the preview when the settings ask for it: on the point clouds themselves when
+    only point clouds were lit (every point shown, the surfel object hidden: its thinned
+    surfels would only overlap them), else the discs on a freshly written surfel object."""
     if surfel_object is None or not props.build_preview:
+        return None
+    meshes = getattr(result, "receiver_values", None)
+    points = getattr(result, "point_receiver_values", None) or {}
+    clouds = [] if meshes else [context.blend_data.objects.get(name) for name in points]
+    if props.preview_mode == "ILLUMINATION" and clouds and \
+            mesh_preview.build_mesh_preview([c for c in clouds if c is not None]):
+        surfel_object.hide_viewport = surfel_object.hide_render = True
         return None
     return preview.build_preview(context, surfel_object, mode=props.preview_mode,
                                  disc_scale=props.disc_scale)
@@ -353,7 +362,7 @@ def finish_task(context, task, report):
     try:
         obj = _written_object(task.result, written)
         record_stats(props.stats, task.result, task.seconds)
-        after_write(context, props, obj)
+        after_write(context, props, obj, task.result)
     except Exception as error:
         report({"ERROR"}, f"Illumap wrote the result but could not build its preview: "
                           f"{error_message(error)}")
@@ -438,7 +447,7 @@ class ILLUMAP_OT_compute_illumination_map(bpy.types.Operator):
             return {"CANCELLED"}
         try:
             record_stats(props.stats, result, time.perf_counter() - start)
-            after_write(context, props, _written_object(result))
+            after_write(context, props, _written_object(result), result)
         except Exception as error:
             self.report({"ERROR"}, f"Illumap wrote the result but could not build its preview: "
                                    f"{error_message(error)}")
@@ -548,11 +557,12 @@ class ILLUMAP_OT_build_preview(bpy.types.Operator):
 
 
 class ILLUMAP_OT_mesh_preview(bpy.types.Operator):
-    """Show the illumination on the meshes themselves (an emission material through a
-    modifier; the meshes' own materials are untouched), or switch that off again"""
+    """Show the illumination on the objects themselves: meshes through an emission material,
+    point clouds and scans as every one of their points (a modifier; the objects' own
+    materials and data are untouched), or switch that off again"""
 
     bl_idname = "illumap.mesh_preview"
-    bl_label = "Mesh Preview"
+    bl_label = "Object Preview"
     bl_options = {"REGISTER", "UNDO"}
 
     show: BoolProperty(name="Show", default=True, options={"SKIP_SAVE"})
@@ -561,16 +571,17 @@ class ILLUMAP_OT_mesh_preview(bpy.types.Operator):
         objects = context.selected_objects or list(context.scene.objects)
         if not self.show:
             removed = mesh_preview.remove_mesh_preview(objects)
-            self.report({"INFO"}, f"Illumap: mesh preview off on {removed} mesh"
-                                  f"{'es' * (removed != 1)}")
+            self.report({"INFO"}, f"Illumap: object preview off on {removed} object"
+                                  f"{'s' * (removed != 1)}")
             return {"FINISHED"}
         shown = mesh_preview.build_mesh_preview(objects)
         if not shown:
-            self.report({"ERROR"}, "No selected mesh has an 'illumination' attribute: compute "
-                                   "an illumination map with Transfer to Meshes first")
+            self.report({"ERROR"}, "No selected mesh or point cloud has an 'illumination' "
+                                   "attribute: compute an illumination map with Transfer to "
+                                   "Meshes first")
             return {"CANCELLED"}
-        self.report({"INFO"}, f"Illumap: mesh preview on {len(shown)} mesh"
-                              f"{'es' * (len(shown) != 1)}")
+        self.report({"INFO"}, f"Illumap: object preview on {len(shown)} object"
+                              f"{'s' * (len(shown) != 1)}")
         return {"FINISHED"}
 
 

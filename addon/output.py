@@ -91,8 +91,8 @@ STAGING_ATTRIBUTE = "illumination_illumap_new"
 #: light of each copy.
 REPEATING_MODIFIERS = {"ARRAY": "Array", "MIRROR": "Mirror", "SCREW": "Screw",
                        "PARTICLE_INSTANCE": "Particle Instance"}
-#: The modifiers Illumap itself adds to meshes (they change no geometry).
-OWN_MODIFIERS = ("Illumap Mesh Preview",)
+#: The modifiers Illumap itself adds to meshes and point clouds (they change no point or corner).
+OWN_MODIFIERS = ("Illumap Mesh Preview", "Illumap Point Preview")
 
 
 def is_illumap_object(obj) -> bool:

@@ -99,7 +99,7 @@ def draw_preview(layout, context):
     row.operator("illumap.build_preview", icon="MESH_CIRCLE")
     row.operator("illumap.clear_results", icon="TRASH", text="Clear")
     row = layout.row(align=True)
-    row.operator("illumap.mesh_preview", icon="SHADING_RENDERED", text="Mesh Preview").show = True
+    row.operator("illumap.mesh_preview", icon="SHADING_RENDERED", text="Object Preview").show = True
     row.operator("illumap.mesh_preview", icon="X", text="Off").show = False
 
 

@@ -1,0 +1,94 @@
+#!/usr/bin/env python3
+"""Building the point preview at scale: a scan of N points (a vertex-only mesh, as a PLY import
+gives, and a point cloud) with an ``illumination`` attribute, shown by
+``addon.mesh_preview.build_mesh_preview`` (every point a display point), timed with one
+depsgraph evaluation; beside it the disc preview of the same N points as surfels
+(``addon.preview.build_preview``: one instanced disc per point), timed the same way. Both in
+this process, one after the other, so the ratio is measured in one run.
+
+    .venv/bin/python bench/micro/preview_build.py [1000000 ...]
+
+Writes bench/results/preview_build.json.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+sys.path.insert(0, REPO)
+
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+from addon import mesh_preview, preview  # noqa: E402
+
+OUT = os.path.join(REPO, "bench", "results", "preview_build.json")
+
+
+def scan(n: int, kind: str) -> bpy.types.Object:
+    """n random points on a 10 m × 10 m floor, illumination rising along x."""
+    rng = np.random.default_rng(0)
+    pts = np.column_stack([rng.random((n, 2)) * 10.0, np.zeros(n)]).astype(np.float32)
+    mesh = bpy.data.meshes.new("Scan")
+    mesh.vertices.add(n)
+    mesh.vertices.foreach_set("co", pts.ravel())
+    col = np.column_stack([pts[:, 0] / 10, np.full(n, 0.5), np.full(n, 0.2), np.ones(n)])
+    for name, value in (("illumination", col), ("albedo", col), ("emission", 0 * col)):
+        mesh.color_attributes.new(name, "FLOAT_COLOR", "POINT").data.foreach_set(
+            "color", value.astype(np.float32).ravel())
+    mesh.attributes.new("normal", "FLOAT_VECTOR", "POINT").data.foreach_set(
+        "vector", np.tile(np.float32([0, 0, 1]), n))
+    mesh.attributes.new("radius", "FLOAT", "POINT").data.foreach_set(
+        "value", np.full(n, 10.0 / np.sqrt(n), np.float32))
+    obj = bpy.data.objects.new("Scan", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    if kind == "POINTCLOUD":
+        for o in bpy.context.view_layer.objects:
+            o.select_set(o == obj)
+        bpy.context.view_layer.objects.active = obj
+        bpy.ops.object.convert(target="POINTCLOUD")
+        obj = bpy.context.view_layer.objects.active
+    return obj
+
+
+def timed(build, obj) -> dict:
+    """Seconds to build the preview and to evaluate it once (the evaluated geometry read back:
+    its points, or its instances)."""
+    t0 = time.perf_counter()
+    build()
+    t1 = time.perf_counter()
+    geometry = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).evaluated_geometry()
+    shown = (len(geometry.pointcloud.points) if geometry.pointcloud is not None
+             else len(geometry.instances_pointcloud().points))
+    t2 = time.perf_counter()
+    return {"build_s": t1 - t0, "evaluate_s": t2 - t1, "total_s": t2 - t0, "shown": shown}
+
+
+def main() -> None:
+    sizes = [int(a) for a in sys.argv[1:]] or [1_000_000]
+    rows = []
+    for n in sizes:
+        for kind in ("MESH", "POINTCLOUD"):
+            bpy.ops.wm.read_factory_settings(use_empty=True)
+            obj = scan(n, kind)
+            points = timed(lambda: mesh_preview.build_mesh_preview([obj]), obj)
+            bpy.ops.wm.read_factory_settings(use_empty=True)
+            obj = scan(n, kind)
+            discs = timed(lambda: preview.build_preview(bpy.context, obj), obj)
+            row = {"points": n, "source": kind, "point_preview": points, "disc_preview": discs,
+                   "disc_over_point": discs["total_s"] / points["total_s"]}
+            rows.append(row)
+            print(f"{n:>9,} {kind:<10} point preview {points['total_s']:.2f} s "
+                  f"(build {points['build_s']:.2f}, evaluate {points['evaluate_s']:.2f}); "
+                  f"disc preview {discs['total_s']:.2f} s; shown {points['shown']:,} / {discs['shown']:,}",
+                  flush=True)
+    with open(OUT, "w") as f:
+        json.dump({"blender": bpy.app.version_string, "rows": rows}, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
