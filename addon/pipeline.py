@@ -919,11 +919,13 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     for rec, values in zip(job.receivers, values_of):
         result.receiver_values[rec.name] = values
     rest = iter(values_of[len(job.receivers):])
+    specks = 0
     for front, other in point_sets:
         values = next(rest)
-        if other is not None:   # the brighter side, as the surfels show it
-            flipped = next(rest)
-            values = np.where((flipped @ lum > values @ lum)[:, None], flipped, values)
+        if other is not None:   # the brighter side of each smooth patch
+            values = rc.brighter_sides(front.points, front.normals, values, next(rest))
+        values, replaced = rc.remove_specks(front.points, front.normals, values)
+        specks += replaced
         result.point_receiver_values[front.name] = values
     result.timings["receivers"] = time.perf_counter() - t0
     gather_noise = float(np.sqrt(noise2 / light2)) if light2 > 0 else 0.0
@@ -933,6 +935,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
                                      scan_points=int(sum(len(f.points) for f, _ in point_sets)),
                                      rays=int(rays), gather_rays=int(gather_rays),
                                      shadow_samples=int(shadow_samples), covered=int(hidden.sum()),
+                                     specks=int(specks),
                                      gather_noise=gather_noise, indirect_share=float(share))
     estimate = (result.stats.get("accuracy") or {}).get("estimate", {}).get("total")
     if estimate is not None:

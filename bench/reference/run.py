@@ -182,8 +182,12 @@ def make_reference(scene: "scenes.ReferenceScene", samples: int) -> dict:
 # --- runs -----------------------------------------------------------------------------------
 
 def _scored_row(scene, label, tool, values, reference, seconds, **extra) -> dict:
+    """Scores over the vertices the reference has a value for (``bake.baked_vertices``)."""
     names = [o.name for o in scene.scored]
-    positions = {o.name: bake.vertex_positions(o) for o in scene.scored}
+    keep = {o.name: bake.baked_vertices(o) for o in scene.scored}
+    values = {n: np.asarray(v)[keep[n]] for n, v in values.items() if n in keep}
+    reference = {n: np.asarray(v)[keep[n]] for n, v in reference.items() if n in keep}
+    positions = {o.name: bake.vertex_positions(o)[keep[o.name]] for o in scene.scored}
     row = dict(scene=scene.name, tool=tool, label=label, seconds=round(seconds, 4),
                relative_rms=score.relative_rms(score.stacked(values, names),
                                                score.stacked(reference, names)),

@@ -247,3 +247,96 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
         two_sided=sided, rays_per=per, owner_front=owner_rows(owners, "owners"),
         owner_back=owner_rows(back_owners, "back_owners"), threads=threads, progress=progress)
     return GatherResult(radiance=radiance, stderr=stderr, rays=count)
+
+
+#: Neighbours a point's light is compared with by ``remove_specks``.
+SPECK_NEIGHBOURS = 8
+#: Neighbours count as the same surface when |cos| between the normals is at least this.
+SPECK_MIN_COS = 0.5
+#: A speck lies below (1 − SPECK_RATIO) × the darkest, or above the brightest ÷ (1 −
+#: SPECK_RATIO), of its same-surface neighbours (by luminance), beyond SPECK_FLOOR × the
+#: cloud's median luminance.
+SPECK_RATIO = 0.25
+SPECK_FLOOR = 0.02
+_LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+def remove_specks(points, normals, values, *, k: int = SPECK_NEIGHBOURS) -> tuple[np.ndarray, int]:
+    """Values at scan points with isolated specks replaced: (values (P, 3), specks replaced).
+
+    A point evaluated on a splat model can come out far darker than everything around it (a
+    neighbour's splat, tilted by scan noise, shadows it) or far brighter (light through a
+    hole in the splats reaches a side that faces into the object). Light varies smoothly
+    along a surface except across shadow edges, and a point on a shadow edge has neighbours
+    on both sides of it. So a point whose luminance lies outside the range of all its
+    same-surface neighbours (``k`` nearest with |n·n'| ≥ ``SPECK_MIN_COS``, at least four of
+    them) by ``SPECK_RATIO`` is a speck and takes the value of its median neighbour; points on
+    shadow edges, gradients and extremes of smooth light keep theirs. Positions in metres,
+    values in any radiance unit.
+    """
+    p = _rows3("points", points)
+    n = _rows3("normals", normals, len(p))
+    v = _rows3("values", values, len(p))
+    if len(p) <= 4:
+        return v.copy(), 0
+    kk = int(min(k, len(p) - 1))
+    idx, _ = _core.knn(p, p, kk + 1)
+    idx = np.asarray(idx)[:, 1:]
+    lum = v @ _LUMINANCE
+    same = np.abs(np.einsum("pc,pkc->pk", n, n[idx])) >= SPECK_MIN_COS
+    neighbour = np.where(same, lum[idx], np.nan)
+    count = same.sum(axis=1)
+    with np.errstate(all="ignore"):
+        lo = np.nanmin(np.where(count[:, None] > 0, neighbour, 0.0), axis=1)
+        hi = np.nanmax(np.where(count[:, None] > 0, neighbour, 0.0), axis=1)
+    floor = SPECK_FLOOR * float(np.median(lum))
+    speck = (count >= 4) & ((lum < (1 - SPECK_RATIO) * lo - floor) |
+                            (lum > hi / (1 - SPECK_RATIO) + floor))
+    out = v.copy()
+    rows = np.flatnonzero(speck)
+    if len(rows):
+        # The same-surface neighbour of median luminance (others sort last).
+        keyed = np.where(same[rows], neighbour[rows], np.inf)
+        order = np.argsort(keyed, axis=1)
+        pick = order[np.arange(len(rows)), (count[rows] - 1) // 2]
+        out[rows] = v[idx[rows, pick]]
+    return out, int(len(rows))
+
+
+#: Neighbours that join a smooth patch: k nearest with |n·n'| at least PATCH_MIN_COS (~25°).
+PATCH_NEIGHBOURS = 8
+PATCH_MIN_COS = 0.9
+
+
+def brighter_sides(points, normals, front, back, *, k: int = PATCH_NEIGHBOURS) -> np.ndarray:
+    """The light (P, 3) of two-sided scan points: ``front`` seen along ``normals``, ``back``
+    against them, taking for each smooth patch the side that is brighter over the patch.
+
+    A scan without normals cannot tell the inside of a room from the outside of a statue, so
+    both sides are evaluated. Choosing point by point lets one stray ray decide: light seeping
+    through a hole in the splats makes the inward side of a few points brighter than their
+    shadowed outer side, which then read lit. A patch (points joined through ``k``-nearest
+    neighbours whose normals agree to ``PATCH_MIN_COS``, oriented consistently along those
+    links, where orientation carries reliably) has one outside: the side that receives more
+    light over the whole patch. A wall of a room, a face of a box, the smooth body of a
+    scanned object each decide as one; a lone point decides for itself.
+    """
+    p = _rows3("points", points)
+    n = _rows3("normals", normals, len(p))
+    f = _rows3("front", front, len(p))
+    b = _rows3("back", back, len(p))
+    if len(p) < 2:
+        return np.where(((b @ _LUMINANCE) > (f @ _LUMINANCE))[:, None], b, f)
+    kk = int(min(k, len(p) - 1))
+    idx, _ = _core.knn(p, p, kk + 1)
+    idx = np.asarray(idx, dtype=np.int64)
+    smooth = np.abs(np.einsum("pc,pkc->pk", n, n[idx])) >= PATCH_MIN_COS
+    idx = np.ascontiguousarray(np.where(smooth, idx, np.arange(len(p))[:, None]))
+    oriented, part = _core.orient_normals(p, n, idx)
+    along_front = np.einsum("pc,pc->p", np.asarray(oriented), n) > 0
+    part = np.asarray(part)
+    lum_f, lum_b = f @ _LUMINANCE, b @ _LUMINANCE
+    along = np.bincount(part, np.where(along_front, lum_f, lum_b))
+    against = np.bincount(part, np.where(along_front, lum_b, lum_f))
+    use_front = (along >= against)[part] == along_front
+    return np.where(use_front[:, None], f, b)
