@@ -20,7 +20,7 @@ void bind_operator(nb::module_& m) {
                  if (near_field != "disc" && near_field != "point")
                      throw nb::value_error("near_field must be 'disc' or 'point'");
                  if (order < 0 || order > kMaxOrder)
-                     throw nb::value_error("order must be in 0..10");
+                     throw nb::value_error(order_range_message().c_str());
                  if (!(theta > 0.0 && theta < 1.0)) throw nb::value_error("theta must be in (0, 1)");
                  if (leaf_size < 1) throw nb::value_error("leaf_size must be >= 1");
                  if (threads < 0) throw nb::value_error("threads must be >= 0");
@@ -36,8 +36,9 @@ void bind_operator(nb::module_& m) {
                  opt.vis.method = parse_vis_method(visibility);
                  opt.vis.leaf_mode = parse_leaf_mode(visibility_leaf_mode);
                  opt.vis.shape = parse_vis_shape(visibility_shape);
-                 if (visibility_samples < 1 || visibility_samples > 4096)
-                     throw nb::value_error("visibility_samples must be in 1..4096");
+                 if (visibility_samples < 1 || visibility_samples > kMaxVisibilitySamples)
+                     throw nb::value_error(("visibility_samples must be in 1.." +
+                                            std::to_string(kMaxVisibilitySamples)).c_str());
                  if (!(coverage > 0.0) || !(endpoint_offset >= 0.0) || !(seed_delta > 0.0))
                      throw nb::value_error("coverage and seed_delta must be > 0, endpoint_offset >= 0");
                  if (seed_k < 1 || seed_leaf_points < 1)

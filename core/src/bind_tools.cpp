@@ -13,7 +13,7 @@ void bind_kernel(nb::module_& m) {
               nb::object keep;
               const double* dv = view<double>(d, "d", 1, 0, n3, keep);
               if (n3 != 3) throw nb::value_error("d must have shape (3,)");
-              if (order < 0 || order > kMaxOrder) throw nb::value_error("order must be in 0..10");
+              if (order < 0 || order > kMaxOrder) throw nb::value_error(order_range_message().c_str());
               ExpansionTables tb(order);
               const std::size_t nc = tb.ncoef;
               std::int64_t* mi = new std::int64_t[3 * nc];

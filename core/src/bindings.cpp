@@ -249,6 +249,16 @@ NB_MODULE(_core, m) {
     m.doc() = "Illumap native core: FMM and direct radiosity transport operators, k-NN.";
     nb::exception<Cancelled>(m, "Cancelled");
     m.def("hardware_threads", &hardware_threads, "Number of hardware threads.");
+    // The limits this module checks itself: name -> (low, high), as illumap.limits has them.
+    nb::dict limits;
+    limits["order"] = nb::make_tuple(0, kMaxOrder);
+    limits["theta"] = nb::make_tuple(0.0, 1.0);
+    limits["leaf_size"] = nb::make_tuple(1, kMaxCount);
+    limits["threads"] = nb::make_tuple(0, kMaxCount);
+    limits["visibility_samples"] = nb::make_tuple(1, kMaxVisibilitySamples);
+    limits["seed_k"] = nb::make_tuple(1, kMaxCount);
+    limits["seed_leaf_points"] = nb::make_tuple(1, kMaxCount);
+    m.attr("LIMITS") = limits;
     bind_operator(m);
     bind_occluders(m);
     bind_mesh_scene(m);

@@ -12,7 +12,7 @@ constexpr int kSymB[6] = {0, 1, 2, 1, 2, 2};
 }  // namespace
 
 ExpansionTables::ExpansionTables(int order) : p(order) {
-    if (order < 0 || order > kMaxOrder) throw std::invalid_argument("order must be in 0..10");
+    if (order < 0 || order > kMaxOrder) throw std::invalid_argument(order_range_message());
     const int P = p + 1;
     index_table.assign(P * P * P, -1);
     for (int d = 0; d <= p; ++d)

@@ -13,9 +13,11 @@
 #include <cstdint>
 #include <vector>
 
+#include "limits.hpp"
+
 namespace illumap {
 
-constexpr int kMaxOrder = 10;
+// kMaxOrder: limits.hpp.
 
 struct ExpansionTables {
     int p = 0;
