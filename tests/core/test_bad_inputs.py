@@ -81,7 +81,7 @@ CASES = [
     ("order-negative", lambda: illumap.solve(surfels(), order=-1),
      r"order: expected an integer >= 0 and <= 10, got -1"),
     ("order-float", lambda: illumap.solve(surfels(), order=4.5),
-     r"order: expected an integer, got 4\.5"),
+     r"order: expected an integer >= 0 and <= 10, got 4\.5"),
     ("theta-one", lambda: illumap.solve(surfels(), theta=1.0),
      r"theta: expected a number in \(0, 1\), got 1\.0"),
     ("leaf-size-2^31", lambda: illumap.solve(surfels(), leaf_size=2 ** 31),
@@ -101,7 +101,7 @@ CASES = [
     ("visibility-unknown", lambda: illumap.solve(surfels(), visibility="rays"),
      r"visibility: expected one of .*got 'rays'"),
     ("coverage-nan", lambda: illumap.Occluders(surfels(), coverage=float("nan")),
-     r"coverage: expected a finite number > 0, got nan"),
+     r"coverage: expected a number in \(0, inf\), got nan"),
     ("occluder-triangles-nan", lambda: illumap.solve(
         surfels(), visibility="exact", occluder_triangles=np.full((2, 3, 3), np.nan)),
      r"occluder_triangles\[0\] is not finite"),

@@ -16,11 +16,11 @@ per segment; a sun a far target ``origin + distance · direction_to_sun`` (see
 
 from __future__ import annotations
 
-import numbers
 
 import numpy as np
 
 from ._progress import ProgressGuard
+from .limits import limit
 from .operator import OCCLUDER_SHAPES, read_float_array, require_finite
 from .surfels import InputError, Surfels
 
@@ -77,13 +77,10 @@ class Occluders:
                  threads: int = 0, progress=None):
         if not isinstance(surfels, Surfels):
             raise InputError(f"surfels: expected an illumap.Surfels, got {type(surfels).__name__}")
-        if isinstance(coverage, bool) or not isinstance(coverage, numbers.Real) \
-                or not np.isfinite(coverage) or not float(coverage) > 0.0:
-            raise InputError(f"coverage: expected a finite number > 0, got {coverage!r}")
+        limit("coverage").check(coverage, InputError)
         if not isinstance(shape, str) or shape not in OCCLUDER_SHAPES:
             raise InputError(f"shape: expected one of {list(OCCLUDER_SHAPES)}, got {shape!r}")
-        if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 0:
-            raise InputError(f"threads: expected an integer >= 0, got {threads!r}")
+        limit("threads").check(threads, InputError)
         if progress is not None and not callable(progress):
             raise InputError(f"progress: expected a callable or None, got {progress!r}")
         if _core is None:
@@ -162,10 +159,7 @@ class Occluders:
                 raise InputError(f"skip[{k}] = {skip_array[k]} is not -1 or a surfel index "
                                  f"in [0, {self.n})")
             skip = skip_array
-        if isinstance(endpoint_offset, bool) or not isinstance(endpoint_offset, numbers.Real) \
-                or not np.isfinite(endpoint_offset) or float(endpoint_offset) < 0.0:
-            raise InputError(f"endpoint_offset: expected a finite number >= 0, "
-                             f"got {endpoint_offset!r}")
+        limit("endpoint_offset").check(endpoint_offset, InputError)
         if progress is not None and not callable(progress):
             raise InputError(f"progress: expected a callable or None, got {progress!r}")
         guard = ProgressGuard(progress)

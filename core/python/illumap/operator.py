@@ -17,10 +17,10 @@ The default expansion parameters live here, in one place: :data:`DEFAULT_ORDER`,
 
 from __future__ import annotations
 
-import numbers
 
 import numpy as np
 
+from . import limits
 from .surfels import InputError, Surfels
 from ._progress import ProgressGuard
 
@@ -31,6 +31,8 @@ except ImportError as _exc:  # pragma: no cover - depends on the build
     _CORE_IMPORT_ERROR = _exc
 else:
     _CORE_IMPORT_ERROR = None
+    # The native checks and the table are one: a module built with other limits is refused.
+    limits.check_native(_core.LIMITS)
 
 __all__ = [
     "TransportOperator", "DEFAULT_METHOD", "DEFAULT_ORDER", "DEFAULT_THETA",
@@ -48,10 +50,8 @@ DEFAULT_VISIBILITY = "none"
 
 METHODS = ("fmm", "direct")
 NEAR_FIELDS = ("disc", "point")
-#: The highest FMM expansion order: the native core's limit (kMaxOrder in
-#: core/src/expansions.hpp, which the module does not expose). The add-on's FMM Order
-#: setting and its settings check use this constant.
-MAX_ORDER = 10
+#: The highest FMM expansion order (``illumap.limits``, the native core's kMaxOrder).
+MAX_ORDER = limits.limit("order").high
 
 #: Visibility modes: name -> (implemented, reciprocal). A reciprocal mode has V_ij = V_ji, which
 #: keeps diag(A)·F·V symmetric so that CG applies. Both native methods evaluate V(i, j) in the
@@ -104,18 +104,13 @@ def _check_choice(name, value, choices):
 
 
 #: The largest integer the native module takes for a count (a C ``int``).
-MAX_INT = 2 ** 31 - 1
+MAX_INT = limits.MAX_INT32
 
 
-def _check_int(name, value, low, high=MAX_INT):
-    """``value`` as an int in [low, high] (default: what a C ``int`` holds), or an
-    InputError naming ``name``; never the native module's raw type error."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise InputError(f"{name}: expected an integer, got {value!r}")
-    value = int(value)
-    if value < low or value > high:
-        raise InputError(f"{name}: expected an integer >= {low} and <= {high}, got {value}")
-    return value
+def _check(name, value, label=None):
+    """``value`` inside its limit (``illumap.limits``) as int or float, or an InputError
+    naming it; never the native module's raw type error."""
+    return limits.limit(name).check(value, InputError, label)
 
 
 def read_float_array(value, name: str) -> np.ndarray:
@@ -152,17 +147,14 @@ def validate_keywords(*, method=DEFAULT_METHOD, order=DEFAULT_ORDER, theta=DEFAU
     out = {}
     _check_triangles(occluder_triangles)
     out["method"] = _check_choice("method", method, METHODS)
-    out["order"] = _check_int("order", order, 0, MAX_ORDER)
-    if isinstance(theta, bool) or not isinstance(theta, numbers.Real) \
-            or not np.isfinite(theta) or not 0.0 < float(theta) < 1.0:
-        raise InputError(f"theta: expected a number in (0, 1), got {theta!r}")
-    out["theta"] = float(theta)
-    out["leaf_size"] = _check_int("leaf_size", leaf_size, 1)
+    out["order"] = _check("order", order)
+    out["theta"] = _check("theta", theta)
+    out["leaf_size"] = _check("leaf_size", leaf_size)
     out["near_field"] = _check_choice("near_field", near_field, NEAR_FIELDS)
     out["visibility"] = _check_choice("visibility", visibility, tuple(VISIBILITIES))
     if not VISIBILITIES[out["visibility"]][0]:
         raise InputError(f"visibility={out['visibility']!r} is not implemented")
-    out["threads"] = _check_int("threads", threads, 0)
+    out["threads"] = _check("threads", threads)
     unknown = set(visibility_keywords) - set(VISIBILITY_DEFAULTS)
     if unknown:
         raise TypeError(f"unexpected keyword(s) {sorted(unknown)}")
@@ -172,22 +164,9 @@ def validate_keywords(*, method=DEFAULT_METHOD, order=DEFAULT_ORDER, theta=DEFAU
                                                 v["visibility_leaf_mode"], VISIBILITY_LEAF_MODES)
     out["visibility_shape"] = _check_choice("visibility_shape", v["visibility_shape"],
                                             OCCLUDER_SHAPES)
-    out["visibility_samples"] = _check_int("visibility_samples", v["visibility_samples"], 1, 4096)
-    out["seed_k"] = _check_int("seed_k", v["seed_k"], 1)
-    out["seed_leaf_points"] = _check_int("seed_leaf_points", v["seed_leaf_points"], 1)
-    for name, low, high, open_low in (("coverage", 0.0, None, True),
-                                      ("endpoint_offset", 0.0, None, False),
-                                      ("seed_delta", 0.0, None, True),
-                                      ("seed_t1", 0.0, 1.0, False), ("seed_t2", 0.0, 1.0, False),
-                                      ("seed_t3", 0.0, 1.0, False)):
-        x = v[name]
-        if isinstance(x, bool) or not isinstance(x, numbers.Real) or not np.isfinite(x) \
-                or (float(x) <= low if open_low else float(x) < low) \
-                or (high is not None and float(x) > high):
-            rng = f"({low}, inf)" if open_low else (f"[{low}, {high}]" if high is not None
-                                                    else f"[{low}, inf)")
-            raise InputError(f"{name}: expected a number in {rng}, got {x!r}")
-        out[name] = float(x)
+    for name in ("visibility_samples", "seed_k", "seed_leaf_points", "coverage",
+                 "endpoint_offset", "seed_delta", "seed_t1", "seed_t2", "seed_t3"):
+        out[name] = _check(name, v[name])
     if not isinstance(v["seed_binary_pairs"], (bool, np.bool_)):
         raise InputError(f"seed_binary_pairs: expected a bool, got {v['seed_binary_pairs']!r}")
     out["seed_binary_pairs"] = bool(v["seed_binary_pairs"])

@@ -50,6 +50,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .limits import limit
 from .surfels import MAX_COORDINATE, InputError
 
 __all__ = ["Samples", "Regions", "triangle_areas", "allocate", "sample_triangles",
@@ -134,7 +135,7 @@ def allocate(areas, *, density: float | None = None, budget: int | None = None) 
         rest = budget - counts.sum()
         counts[np.argsort(-(exact - counts), kind="stable")[:rest]] += 1
         return np.maximum(counts, 1)
-    if density is None or not density > 0 or not np.isfinite(density):
+    if density is None or not limit("density").contains(density):
         raise InputError(f"Surfel density must be a positive number, got {density}")
     if density * areas.sum() > 2.0 ** 53:
         raise InputError(f"Density {density:g}/m² over {areas.sum():g} m² asks for "

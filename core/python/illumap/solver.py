@@ -80,13 +80,13 @@ Solvers
 from __future__ import annotations
 
 import math
-import numbers
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ._progress import Cancelled, ProgressGuard  # noqa: F401 (Cancelled: documented here)
+from .limits import limit as _limit
 from .operator import DEFAULT_METHOD, OPERATOR_KEYWORDS, TransportOperator, validate_keywords
 from .surfels import InputError, Surfels
 
@@ -505,21 +505,12 @@ def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float =
                         f"keywords are {list(OPERATOR_KEYWORDS)}")
     if not isinstance(solver, str) or solver not in SOLVERS:
         raise InputError(f"solver: expected one of {list(SOLVERS)}, got {solver!r}")
-    if isinstance(tol, bool) or not isinstance(tol, numbers.Real) or not (0 < tol < 1):
-        raise InputError(f"tol: expected a number in (0, 1), got {tol!r}")
-    tol = float(tol)
-    if max_iterations is not None and (isinstance(max_iterations, bool)
-                                       or not isinstance(max_iterations, numbers.Integral)
-                                       or max_iterations < 1):
-        raise InputError(f"max_iterations: expected an integer >= 1 or None, "
-                         f"got {max_iterations!r}")
+    tol = _limit("tol").check(tol, InputError)
+    if max_iterations is not None:
+        max_iterations = _limit("max_iterations").check(max_iterations, InputError)
     if error_tol is not None:
-        if (isinstance(error_tol, bool) or not isinstance(error_tol, numbers.Real)
-                or not (0 < error_tol < 1)):
-            raise InputError(f"error_tol: expected a number in (0, 1) or None, got {error_tol!r}")
-        error_tol = float(error_tol)
-    if isinstance(restart, bool) or not isinstance(restart, numbers.Integral) or restart < 1:
-        raise InputError(f"restart: expected an integer >= 1, got {restart!r}")
+        error_tol = _limit("error_tol").check(error_tol, InputError)
+    _limit("restart").check(restart, InputError)
     if progress is not None and not callable(progress):
         raise InputError(f"progress: expected a callable or None, got {progress!r}")
     if operator is not None:

@@ -23,7 +23,8 @@ NORMAL_TOLERANCE = 1e-3
 #: The largest |coordinate| taken (m). The kernels raise distances to powers up to the FMM
 #: order: a scene at 1e38 (order 10) or 1e100 (any order) overflows float64 deep in the solve
 #: ("solver iterate became non-finite"); an infinite coordinate stored by Blender reads 3.4e38.
-MAX_COORDINATE = 1e12
+from .limits import limit as _limit  # noqa: E402  (the one table of limits)
+MAX_COORDINATE = _limit("coordinate").high
 #: The surfel areas taken (m²): radii from 1e-12 m to 1e12 m. Scenes scaled by 1e-40 (order 10)
 #: or 1e-80 (any order) underflow in the same way.
 AREA_RANGE = (1e-24, 1e24)

@@ -3,10 +3,9 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from ..limits import limit
 from ..surfels import InputError, Surfels
 
 #: A surfel count that stands for "no limit": meshes can be sampled at any count (a scene
@@ -61,6 +60,8 @@ def check_target(target_error) -> float:
         t = float(target_error)
     except (TypeError, ValueError):
         raise InputError(f"target_error: expected a number, got {target_error!r}") from None
-    if not (math.isfinite(t) and 0 < t < 1):
-        raise InputError(f"target_error: expected a relative error in (0, 1), got {target_error!r}")
+    lim = limit("target_error")
+    if not lim.contains(t):
+        raise InputError(f"target_error: expected a relative error in {lim.interval()}, "
+                         f"got {target_error!r}")
     return t
