@@ -66,7 +66,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import math
 import os
 import re
 import sys
@@ -75,16 +74,28 @@ import time
 import traceback
 
 import bpy
+from illumap.limits import limit
 
-from . import checks, output, pipeline
+from . import output, pipeline
 from .errors import (ExitCode, IllumapCancelled, IllumapError, NoLightError, OutputError,
                      exit_code_help)
 
 #: The most frames one job computes (``--frames``): a farm splits longer ranges over jobs, and
 #: a typo such as 1-100000000 is refused before anything is allocated or written.
-MAX_FRAMES = 10_000
+MAX_FRAMES = limit("frames").high
 #: The largest --resolution: Blender's render size limit (RenderSettings.resolution_x).
-MAX_RESOLUTION = 65536
+MAX_RESOLUTION = limit("resolution").high
+#: Numeric options and the limits (``illumap.limits``) that bound them.
+NUMBER_OPTIONS = {"--density": "density", "--budget": "budget", "--tol": "tol",
+                  "--target-error": "target_error", "--gather-rays": "gather_rays",
+                  "--shadow-samples": "shadow_samples", "--resolution": "resolution",
+                  "--samples": "samples", "--lightmap-size": "lightmap_size", "--seed": "seed"}
+
+
+def _range(option: str) -> str:
+    """``option``'s range and unit for its help: ``1..65536 px``."""
+    lim = limit(NUMBER_OPTIONS[option])
+    return f"{lim.interval()}{' ' + lim.unit if lim.unit else ''}"
 #: The output options that name files, as argparse destinations.
 OUTPUT_OPTIONS = ("output", "render", "export_npz", "export_exr", "export_lightmaps")
 
@@ -106,20 +117,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--objects", help="comma-separated object names")
     p.add_argument("--collection", help="collection name")
     p.add_argument("--quality", default="medium", choices=["draft", "medium", "high"], type=str.lower)
-    p.add_argument("--density", type=float, help="surfels per m²")
-    p.add_argument("--budget", type=int, help="total surfel count")
+    p.add_argument("--density", type=float, help=f"surfels per m², {_range('--density')}")
+    p.add_argument("--budget", type=int, help=f"total surfel count, {_range('--budget')}")
     p.add_argument("--method", choices=["fmm", "direct"], type=str.lower)
-    p.add_argument("--tol", type=float)
+    p.add_argument("--tol", type=float, help=f"solver tolerance, {_range('--tol')}")
     p.add_argument("--target-error", type=float,
-                   help="relative RMS error wanted (e.g. 0.03): Illumap picks the surfel "
-                        "density, order, θ and tolerance, and reports an error estimate")
+                   help=f"relative RMS error wanted, {_range('--target-error')} (e.g. 0.03): "
+                        "Illumap picks the surfel density, order, θ and tolerance, and reports "
+                        "an error estimate")
     p.add_argument("--transfer", choices=["point", "corner"], type=str.lower)
     p.add_argument("--no-transfer", action="store_true")
-    p.add_argument("--gather-rays", type=int)
+    p.add_argument("--gather-rays", type=int, help=f"rays per vertex, {_range('--gather-rays')}")
     p.add_argument("--no-adaptive", action="store_true")
     p.add_argument("--no-lamps", action="store_true")
     p.add_argument("--no-lamp-shadows", action="store_true")
-    p.add_argument("--shadow-samples", type=int, default=16)
+    p.add_argument("--shadow-samples", type=int, default=16,
+                   help=f"shadow rays per surfel and lamp, {_range('--shadow-samples')}")
     p.add_argument("--occluder-shape", choices=list(pipeline.OCCLUDER_SHAPES), type=str.lower,
                    help="the surfels as occluders for exact visibility and lamp shadows "
                         "(default disc; ignored with --target-error, calibrated on discs)")
@@ -131,17 +144,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--render-preview", choices=["points", "meshes"], default="points",
                    type=str.lower, help="what --render shows: the surfels' discs, or the "
                                         "meshes with the light evaluated at their corners")
-    p.add_argument("--resolution", type=int, default=256)
-    p.add_argument("--samples", type=int, default=16)
+    p.add_argument("--resolution", type=int, default=256, help=_range("--resolution"))
+    p.add_argument("--samples", type=int, default=16, help=_range("--samples"))
     p.add_argument("--export-npz")
     p.add_argument("--export-exr")
     p.add_argument("--export-lightmaps", help="UV-space EXR per mesh; pattern with {object}")
-    p.add_argument("--lightmap-size", type=int, default=256)
+    p.add_argument("--lightmap-size", type=int, default=256, help=_range("--lightmap-size"))
     p.add_argument("--overwrite", action="store_true",
                    help="recompute frames whose outputs exist (default: skip them)")
     p.add_argument("--overwrite-input", action="store_true",
                    help="allow an output path that is the input .blend itself")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help=_range("--seed"))
     return p
 
 
@@ -247,29 +260,15 @@ def make_settings(args) -> pipeline.Settings:
                      seed=args.seed, target_error=args.target_error,
                      occluder_shape=args.occluder_shape)
     settings = pipeline.settings_from_preset(args.quality, **overrides)
-    if args.density is not None and not (math.isfinite(args.density) and args.density > 0):
-        raise UsageError("--density must be a positive number of surfels per m²")
-    if args.budget is not None and args.budget <= 0:
-        raise UsageError("--budget must be positive")
-    if args.tol is not None and not 0.0 < args.tol < 1.0:   # NaN fails too
-        raise UsageError(f"--tol must lie in (0, 1), got {args.tol}")
-    for option, value, high in (("--resolution", args.resolution, MAX_RESOLUTION),
-                                ("--samples", args.samples, checks.MAX_INT32),
-                                ("--lightmap-size", args.lightmap_size,
-                                 checks.MAX_LIGHTMAP_SIZE),
-                                ("--shadow-samples", args.shadow_samples, checks.MAX_INT32),
-                                ("--gather-rays", args.gather_rays, checks.MAX_INT32),
-                                ("--seed", args.seed, checks.MAX_SEED)):
-        low = 0 if option == "--seed" else 1
-        if value is not None and not low <= value <= high:
-            raise UsageError(f"{option} must lie in {low}..{high}, got {value}")
+    for option, name in NUMBER_OPTIONS.items():   # NaN fails too
+        value = getattr(args, option[2:].replace("-", "_"))
+        if value is not None and not limit(name).contains(value):
+            raise UsageError(f"{option} must lie in {_range(option)}, got {value}")
     if args.render_preview == "meshes" and args.no_transfer:
         raise UsageError("--render-preview meshes shows the light transferred to the meshes: "
                          "it cannot be combined with --no-transfer")
     if args.transfer and args.no_transfer:
         raise UsageError("--transfer and --no-transfer exclude each other")
-    if args.target_error is not None and not 0.0 < args.target_error < 1.0:
-        raise UsageError("--target-error must lie in (0, 1), e.g. 0.05")
     if args.target_error is not None and args.density is not None:
         raise UsageError("--density and --target-error exclude each other: the target error "
                          "chooses the density (use --budget to cap the surfel count)")

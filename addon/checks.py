@@ -7,53 +7,33 @@ real cause.
 
 from __future__ import annotations
 
-import math
-import numbers
-
 import numpy as np
+from illumap.limits import MAX_INT32, limit  # noqa: F401 (MAX_INT32: the batch command's)
 
 from .errors import ExitCode, IllumapError, NoLightError
 
-#: The largest count the native core takes (a C ``int``): rays, samples, leaf sizes...
-MAX_INT32 = 2 ** 31 - 1
+# The limits of the settings are illumap.limits' (one table for the UI, the core and here).
 #: The largest sampling seed (the core's ray seeds are unsigned 64-bit; numpy takes any).
-MAX_SEED = 2 ** 63 - 1
-#: The largest lightmap side in pixels (a 16k × 16k float RGBA lightmap is 4 GiB).
-MAX_LIGHTMAP_SIZE = 16384
+MAX_SEED = limit("seed").high
+#: The largest lightmap side in pixels.
+MAX_LIGHTMAP_SIZE = limit("lightmap_size").high
 
 
 def max_order() -> int:
-    """The highest FMM expansion order: the core's one constant (``illumap.operator``)."""
-    from illumap.operator import MAX_ORDER
-    return int(MAX_ORDER)
+    """The highest FMM expansion order (``illumap.limits``)."""
+    return int(limit("order").high)
 
 
 def _fail(message: str) -> None:
     raise IllumapError(f"Invalid setting {message}", ExitCode.USAGE)
 
 
-def _integer(name: str, value, low: int, high: int = MAX_INT32, optional: bool = False) -> None:
+def _check(name: str, value, optional: bool = False) -> None:
+    """Refuse ``value`` outside the limit ``name`` (None passes when ``optional``)."""
     if value is None and optional:
         return
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) \
-            or not low <= int(value) <= high:
-        _fail(f"{name}: expected an integer >= {low} and <= {high}, got {value!r}")
-
-
-def _number(name: str, value, low: float, high: float | None, *, open_low=True,
-            open_high=True, optional: bool = False) -> None:
-    if value is None and optional:
-        return
-    ok = (not isinstance(value, bool) and isinstance(value, numbers.Real)
-          and math.isfinite(float(value)))
-    if ok:
-        x = float(value)
-        ok = (x > low if open_low else x >= low) and \
-            (high is None or (x < high if open_high else x <= high))
-    if not ok:
-        lo = "(" if open_low else "["
-        hi = "inf)" if high is None else (f"{high:g})" if open_high else f"{high:g}]")
-        _fail(f"{name}: expected a number in {lo}{low:g}, {hi}, got {value!r}")
+    if not limit(name).contains(value):
+        _fail(limit(name).message(value))
 
 
 def _choice(name: str, value, choices) -> None:
@@ -64,32 +44,33 @@ def _choice(name: str, value, choices) -> None:
 def check_settings(settings) -> None:
     """Refuse settings (``pipeline.Settings``) that the core would reject deep in a run, or
     with a raw type error (integers of 2^31 or more, NaN tolerances, an FMM order above the
-    native limit). Raises IllumapError (``ExitCode.USAGE``) naming the setting."""
+    native limit), by the limits of ``illumap.limits``. Raises IllumapError
+    (``ExitCode.USAGE``) naming the setting."""
     s = settings
-    _number("density", s.density, 0.0, None, optional=True)
-    _integer("budget", s.budget, 1, 2 ** 62, optional=True)
+    _check("density", s.density, optional=True)
+    _check("budget", s.budget, optional=True)
     _choice("method", s.method, ("fmm", "direct"))
-    _integer("order", s.order, 0, max_order())
-    _number("theta", s.theta, 0.0, 1.0)
-    _integer("leaf_size", s.leaf_size, 1)
+    _check("order", s.order)
+    _check("theta", s.theta)
+    _check("leaf_size", s.leaf_size)
     _choice("near_field", s.near_field, ("disc", "point"))
     _choice("visibility", s.visibility, ("none", "seed", "exact"))
     _choice("solver", s.solver, ("auto", "cg", "gmres", "jacobi"))
-    _number("tol", s.tol, 0.0, 1.0)
-    _integer("max_iterations", s.max_iterations, 1)
+    _check("tol", s.tol)
+    _check("max_iterations", s.max_iterations)
     t = s.target_error
-    if t is not None and (isinstance(t, bool) or not isinstance(t, numbers.Real)
-                          or not 0.0 < float(t) < 1.0):   # NaN fails too
-        raise IllumapError(f"Target error must lie in (0, 1), got {t!r}", ExitCode.USAGE)
-    _number("adaptive_first_pass", s.adaptive_first_pass, 0.0, 1.0, open_high=False)
-    _number("adaptive_max_ratio", s.adaptive_max_ratio, 1.0, None, open_low=False)
-    _integer("shadow_samples", s.shadow_samples, 1)
-    _integer("gather_rays", s.gather_rays, 1)
-    _integer("receiver_shadow_samples", s.receiver_shadow_samples, 1)
+    if t is not None and not limit("target_error").contains(t):   # NaN fails too
+        raise IllumapError(f"Target error must lie in {limit('target_error').interval()}, "
+                           f"got {t!r}", ExitCode.USAGE)
+    _check("adaptive_first_pass", s.adaptive_first_pass)
+    _check("adaptive_max_ratio", s.adaptive_max_ratio)
+    _check("shadow_samples", s.shadow_samples)
+    _check("gather_rays", s.gather_rays)
+    _check("receiver_shadow_samples", s.receiver_shadow_samples)
     _choice("transfer_domain", s.transfer_domain, ("point", "corner"))
-    _integer("seed", s.seed, 0, MAX_SEED)
-    _integer("memory_limit", s.memory_limit, 1, 2 ** 62, optional=True)
-    _integer("lightmap_size", s.lightmap_size, 1, MAX_LIGHTMAP_SIZE)
+    _check("seed", s.seed)
+    _check("memory_limit", s.memory_limit, optional=True)
+    _check("lightmap_size", s.lightmap_size)
 
 
 def _names(items, limit: int = 3) -> str:

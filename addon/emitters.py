@@ -15,12 +15,13 @@ surfels (the exact integral costs a form factor per triangle and receiver).
 from __future__ import annotations
 
 import numpy as np
+from illumap.limits import limit
 
 from . import lamps, materials
 from .sampling import MeshSamples, TriangleMesh
 
 #: Emissive triangles integrated exactly, over all objects (the rest emit through surfels).
-MAX_LIGHT_TRIANGLES = 256
+MAX_LIGHT_TRIANGLES = limit("light_triangles").high
 
 
 def triangle_emission(tm: TriangleMesh) -> tuple[np.ndarray, np.ndarray]:

@@ -27,12 +27,13 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
+from illumap.limits import limit
 
 if TYPE_CHECKING:   # annotations only: sampling imports this module to read receivers
     from .sampling import MeshSamples
 
 DEFAULT_ALBEDO = (0.8, 0.8, 0.8)
-MAX_ALBEDO = 0.999
+MAX_ALBEDO = limit("material_albedo").high
 
 
 class Unsupported(Exception):

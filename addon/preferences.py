@@ -46,7 +46,7 @@ class IllumapPreferences(bpy.types.AddonPreferences):
                                         description="Light from the world in new scenes")
     default_build_preview: BoolProperty(name="Build Preview After Compute", default=True)
     default_disc_scale: FloatProperty(name="Disc Scale", default=preview.DEFAULT_DISC_SCALE,
-                                       min=0.0, soft_max=4.0)
+                                       **properties.field_bounds("disc_scale"))
 
     def draw(self, context):
         layout = self.layout

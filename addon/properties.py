@@ -22,13 +22,20 @@ PRESET_PROPERTY_VALUES = {name: {key: (value.upper() if key in ("visibility", "s
                                        else value)
                                  for key, value in values.items()}
                           for name, values in QUALITY_PRESETS.items()}
-# The FMM order stops where the native core does: the core's one constant (without the core,
-# the reduced UI cannot compute, and the field has no upper bound to show).
+# Every field's min/max/soft_min/soft_max comes from the one table of limits
+# (illumap.limits), which the core and the settings check use too. Without the core the
+# reduced UI cannot compute, and its fields have no bounds to show.
 try:
-    from illumap.operator import MAX_ORDER as _MAX_ORDER
-    _ORDER_LIMIT = {"max": int(_MAX_ORDER)}
+    from illumap.limits import limit as _limit
 except Exception:  # pragma: no cover - the reduced UI
-    _ORDER_LIMIT = {}
+    _limit = None
+
+
+def field_bounds(name: str) -> dict:
+    """The property keywords of the limit ``name`` (``illumap.limits.Limit.ui``)."""
+    return _limit(name).ui() if _limit is not None else {}
+
+
 DEFAULT_PRESET = "MEDIUM"
 _DEFAULTS = dict(density=100.0, budget=10_000, order=4, theta=0.5, visibility="EXACT",
                  tol=1e-4, gather_rays=512, receiver_shadow_samples=128)
@@ -190,21 +197,22 @@ class IllumapSettings(bpy.types.PropertyGroup):
     sampling: EnumProperty(name="Sampling", items=SAMPLING_ITEMS, default="BUDGET",
                            update=_field_update)
     density: FloatProperty(name="Density", description="Surfels per square metre",
-                           default=_DEFAULTS["density"], min=0.001, soft_max=1e5,
+                           default=_DEFAULTS["density"], **field_bounds("density"),
                            update=_field_update)
-    budget: IntProperty(name="Budget", default=_DEFAULTS["budget"], min=1, soft_max=1_000_000,
+    budget: IntProperty(name="Budget", default=_DEFAULTS["budget"], **field_bounds("budget"),
                         update=_field_update,
                         description="Surfels over all meshes (front faces; open surfaces add "
                                     "their back faces where these see anything): the same "
                                     "count whatever the scene's scale")
     seed: IntProperty(name="Seed", description="Sampling seed (results are reproducible)",
-                      default=0, min=0, update=_field_update)
+                      default=0, **field_bounds("seed"), update=_field_update)
     use_target_error: BoolProperty(
         name="Target Error", default=False, update=_field_update,
         description="Choose the surfel density, FMM order, opening angle and tolerance from "
                     "a target error instead of the settings below")
     target_error: FloatProperty(
-        name="Error", default=0.05, min=0.001, max=0.5, precision=3, update=_field_update,
+        name="Error", default=0.05, **field_bounds("target_error"), precision=3,
+        update=_field_update,
         description="Relative RMS error wanted in the light at the meshes (0.05 = 5%); chooses "
                     "the surfels, their solver settings and the rays per vertex")
     adaptive: BoolProperty(
@@ -215,12 +223,11 @@ class IllumapSettings(bpy.types.PropertyGroup):
     # Solver
     method: EnumProperty(name="Method", items=METHOD_ITEMS, default="FMM", update=_field_update)
     order: IntProperty(name="FMM Order", description="Expansion order p of the multipole method",
-                       default=_DEFAULTS["order"], min=1, update=_field_update,
-                       **_ORDER_LIMIT)
+                       default=_DEFAULTS["order"], **field_bounds("order"), update=_field_update)
     theta: FloatProperty(name="Opening Angle", description="Separation ratio for the far field",
-                         default=_DEFAULTS["theta"], min=0.05, max=0.95, update=_field_update)
+                         default=_DEFAULTS["theta"], **field_bounds("theta"), update=_field_update)
     leaf_size: IntProperty(name="Leaf Size", description="Surfels per octree leaf", default=32,
-                           min=1, soft_max=256, update=_field_update)
+                           **field_bounds("leaf_size"), update=_field_update)
     visibility: EnumProperty(name="Visibility", items=VISIBILITY_ITEMS,
                              default=_DEFAULTS["visibility"], update=_field_update)
     occluder_shape: EnumProperty(
@@ -228,10 +235,10 @@ class IllumapSettings(bpy.types.PropertyGroup):
         description="How each surfel blocks light, for exact visibility and lamp shadows "
                     "(with a target error: discs)")
     tol: FloatProperty(name="Tolerance", description="Relative residual at which to stop",
-                       default=_DEFAULTS["tol"], min=1e-12, max=1.0,
+                       default=_DEFAULTS["tol"], **field_bounds("tol"),
                        precision=6, update=_field_update)
-    max_iterations: IntProperty(name="Max Iterations", default=200, min=1, soft_max=10000,
-                                update=_field_update)
+    max_iterations: IntProperty(name="Max Iterations", default=200,
+                                **field_bounds("max_iterations"), update=_field_update)
     solver: EnumProperty(name="Solver", items=SOLVER_ITEMS, default="AUTO", update=_field_update)
     near_field: EnumProperty(name="Near Field", items=NEAR_FIELD_ITEMS, default="DISC",
                              update=_field_update)
@@ -243,7 +250,7 @@ class IllumapSettings(bpy.types.PropertyGroup):
         description="Shadow lamp light by casting rays from every surfel to samples on each "
                     "lamp, against the surfels themselves")
     shadow_samples: IntProperty(
-        name="Shadow Samples", default=16, min=1, soft_max=128, update=_field_update,
+        name="Shadow Samples", default=16, **field_bounds("shadow_samples"), update=_field_update,
         description="Rays per surfel for lamps with a size (radius, area, sun angle): more "
                     "give smoother penumbrae; cost grows in proportion")
     world_ambient: BoolProperty(
@@ -251,13 +258,13 @@ class IllumapSettings(bpy.types.PropertyGroup):
         description="Light from the world's Background (a colour, or an environment image's "
                     "mean), shadowed by the scene as Cycles does; a black world adds nothing")
     gather_rays: IntProperty(
-        name="Gather Rays", default=_DEFAULTS["gather_rays"], min=1, soft_max=4096,
+        name="Gather Rays", default=_DEFAULTS["gather_rays"], **field_bounds("gather_rays"),
         update=_field_update,
         description="Rays per mesh vertex or corner that gather the light reflected by the "
                     "scene: more give smoother indirect light; cost grows in proportion")
     receiver_shadow_samples: IntProperty(
-        name="Receiver Shadow Samples", default=_DEFAULTS["receiver_shadow_samples"], min=1,
-        soft_max=1024, update=_field_update,
+        name="Receiver Shadow Samples", default=_DEFAULTS["receiver_shadow_samples"],
+        **field_bounds("receiver_shadow_samples"), update=_field_update,
         description="Shadow rays per mesh vertex or corner for each lamp or light-emitting "
                     "object with a size: more give smoother penumbrae")
     # Output
@@ -277,7 +284,8 @@ class IllumapSettings(bpy.types.PropertyGroup):
                               description="Disc radius relative to the surfel's own radius "
                                           "(1: each disc has exactly its surfel's area; larger "
                                           "values close the gaps between discs)",
-                              default=DEFAULT_DISC_SCALE, min=0.0, soft_max=4.0, update=_touch)
+                              default=DEFAULT_DISC_SCALE, **field_bounds("disc_scale"),
+                              update=_touch)
 
     stats: PointerProperty(type=IllumapStats)
 
