@@ -148,3 +148,15 @@ def test_the_batch_help_states_the_ranges(capsys):
         assert limit(name).interval() in " ".join(text.split()), option
     assert batch.MAX_FRAMES == limit("frames").high
     assert batch.MAX_RESOLUTION == limit("resolution").high
+
+
+def test_the_presets_lie_inside_the_fields():
+    """A preset outside a field's range would be clamped silently when chosen."""
+    from addon.presets import QUALITY_PRESETS
+    for preset, values in QUALITY_PRESETS.items():
+        for name, value in values.items():
+            if isinstance(value, (int, float)) and not isinstance(value, bool):
+                lim = limit(name)
+                ui = lim.ui()
+                assert lim.contains(value), (preset, name, value)
+                assert ui.get("min", value) <= value <= ui.get("max", value), (preset, name)

@@ -212,3 +212,8 @@ def test_the_stability_page_takes_its_limits_from_the_limits_page():
     assert "limits.md" in page
     # An order range quoted there would be a second copy of the table's.
     assert not re.search(r"\b0\s*(…|\.\.)\s*\d+", page)
+
+
+def test_numpy_scalars_are_named_as_plain_numbers():
+    with pytest.raises(illumap.InputError, match=r"got 11$"):
+        validate_keywords(order=np.int64(11))

@@ -123,6 +123,10 @@ class Limit:
 
     def message(self, value, label: str | None = None) -> str:
         """The refusal of ``value``: ``order: expected an integer >= 0 and <= 10, got 11``."""
+        if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+            value = int(value)      # numpy scalars as plain numbers
+        elif isinstance(value, numbers.Real):
+            value = float(value)
         return f"{label or self.name}: expected {self.expected()}, got {value!r}"
 
     def check(self, value, error: type[Exception] = ValueError, label: str | None = None):

@@ -16,7 +16,6 @@ per segment; a sun a far target ``origin + distance · direction_to_sun`` (see
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from ._progress import ProgressGuard

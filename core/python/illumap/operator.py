@@ -17,7 +17,6 @@ The default expansion parameters live here, in one place: :data:`DEFAULT_ORDER`,
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from . import limits
@@ -107,10 +106,10 @@ def _check_choice(name, value, choices):
 MAX_INT = limits.MAX_INT32
 
 
-def _check(name, value, label=None):
+def _check(name, value):
     """``value`` inside its limit (``illumap.limits``) as int or float, or an InputError
     naming it; never the native module's raw type error."""
-    return limits.limit(name).check(value, InputError, label)
+    return limits.limit(name).check(value, InputError)
 
 
 def read_float_array(value, name: str) -> np.ndarray:
