@@ -29,6 +29,7 @@ from __future__ import annotations
 import bpy
 
 from . import compat
+from .kinds import RESULT_TYPES
 
 import numpy as np
 
@@ -69,7 +70,7 @@ def _own(collection, name, new):
 def _used_by_preview(block) -> bool:
     for obj in bpy.data.objects:
         for name in MODIFIER_NAMES:
-            mod = obj.modifiers.get(name) if obj.type in ("MESH", "POINTCLOUD") else None
+            mod = obj.modifiers.get(name) if obj.type in RESULT_TYPES else None
             if mod is None or mod.node_group is None:
                 continue
             if mod.node_group == block:
@@ -204,7 +205,7 @@ def point_radius(obj) -> float:
 
 def has_mesh_preview(obj) -> bool:
     """Whether ``obj`` carries a preview modifier (meshes or points)."""
-    return obj.type in ("MESH", "POINTCLOUD") and any(n in obj.modifiers for n in MODIFIER_NAMES)
+    return obj.type in RESULT_TYPES and any(n in obj.modifiers for n in MODIFIER_NAMES)
 
 
 def build_mesh_preview(objects) -> list[str]:
@@ -214,7 +215,7 @@ def build_mesh_preview(objects) -> list[str]:
     groups = {}
     shown = []
     for obj in objects:
-        if obj is None or obj.type not in ("MESH", "POINTCLOUD") or \
+        if obj is None or obj.type not in RESULT_TYPES or \
                 ATTRIBUTE not in obj.data.attributes:
             continue
         points = is_point_source(obj)
@@ -241,7 +242,7 @@ def remove_mesh_preview(objects) -> int:
     """Remove the preview modifiers from ``objects``; returns from how many objects."""
     removed = 0
     for obj in objects:
-        if obj is None or obj.type not in ("MESH", "POINTCLOUD"):
+        if obj is None or obj.type not in RESULT_TYPES:
             continue
         mods = [obj.modifiers[n] for n in MODIFIER_NAMES if n in obj.modifiers]
         for mod in mods:
