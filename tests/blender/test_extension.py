@@ -128,8 +128,7 @@ def test_installed_extension_runs_the_operator_with_defaults(extension_zip: Path
                                                             tmp_path: Path) -> None:
     """What a user does first: install the zip into a fresh Blender, enable it, select a small
     scene and press Compute with every setting at its default, the preview step included (on
-    Blender 5.2 that step once failed: Geometry Nodes modifier inputs are no longer ID
-    properties)."""
+    Blender 5.2 Geometry Nodes modifier inputs are not ID properties: addon/compat.py)."""
     user = tmp_path / "user"
     code = EXTENSION_ONLY_CORE + f"""
     import pathlib
