@@ -30,6 +30,7 @@ import bpy
 
 from . import compat
 from .kinds import RESULT_TYPES
+from .output import ATTRIBUTE, MARKER
 
 import numpy as np
 
@@ -39,17 +40,14 @@ POINT_MODIFIER_NAME = "Illumap Point Preview"
 POINT_NODE_GROUP_NAME = "Illumap Point Preview"
 MODIFIER_NAMES = (MODIFIER_NAME, POINT_MODIFIER_NAME)
 MATERIAL_NAME = "Illumap Illumination"
-ATTRIBUTE = "illumination"
+# The material and node groups Illumap made carry MARKER (as its objects do): a user's own
+# datablock of the same name is never cleared or reused (a new one, with a suffix, is made
+# beside it).
 #: Display radius = this × the median distance to the RADIUS_NEIGHBOUR-th nearest point.
 RADIUS_FACTOR = 1.0
 RADIUS_NEIGHBOUR = 6
 #: Points whose neighbours the radius is measured at (a fixed, evenly strided subset).
 RADIUS_PROBES = 20000
-
-
-#: Custom property on the material and node group Illumap made: a user's own datablock of
-#: the same name is never cleared or reused (a new one, with a suffix, is made beside it).
-MARKER = "illumap_generated"
 
 
 def _own(collection, name, new):
