@@ -1,10 +1,13 @@
-"""What a run accepts: the Blender object types it reads, and the occluder shapes it may cast
-shadows with. Pure data (no bpy, no native core)."""
+"""What a run accepts: the Blender object types it reads (and those its results land on), and
+the occluder shapes it may cast shadows with. Pure data (no bpy, no native core)."""
 
 #: Object types read as meshes (anything that evaluates to one).
 MESH_TYPES = frozenset({"MESH", "CURVE", "SURFACE", "META", "FONT"})
 #: Object types a run reads: meshes and point clouds.
 SUPPORTED_TYPES = MESH_TYPES | {"POINTCLOUD"}
+#: Object types whose own data carries Illumap's results: the ``illumination`` attribute
+#: (Transfer, the surfel object) and the preview modifiers.
+RESULT_TYPES = frozenset({"MESH", "POINTCLOUD"})
 
 #: Occluder shapes a run may ask for (``Settings.occluder_shape``), each of the disc's area:
 #: discs (what the automatic mode is calibrated on), regular octagons (nearly the disc; solves

@@ -46,6 +46,8 @@ from typing import Callable
 
 import numpy as np
 
+from illumap.refinement import LUMINANCE_WEIGHTS
+
 from .errors import IllumapCancelled, IllumapError
 
 #: A segment query: origins (M, 3), targets (M, 3), skip (M,) surfel index to ignore per ray
@@ -493,7 +495,7 @@ def _lamp_samples(lamp: Lamp, p: np.ndarray, n: np.ndarray, k: int, shifts: np.n
         cos_r = np.maximum(np.einsum("mkc,mc->mk", d, n), 0.0)
         cos_l = -np.einsum("mkc,mkc->mk", d, nrm[t])
         cos_l = np.abs(cos_l) if lamp.two_sided else np.maximum(cos_l, 0.0)
-        power = lamp.radiance[t] @ np.array([0.2126, 0.7152, 0.0722]) + 1e-12
+        power = lamp.radiance[t] @ LUMINANCE_WEIGHTS + 1e-12
         return pts, power * cos_r * cos_l / (r2 * r2)
     if lamp.kind == "AREA":
         local = _disc(uv) if lamp.shape in ("DISK", "ELLIPSE") else 2 * uv - 1

@@ -29,6 +29,8 @@ from __future__ import annotations
 import bpy
 
 from . import compat
+from .kinds import RESULT_TYPES
+from .output import ATTRIBUTE, MARKER
 
 import numpy as np
 
@@ -38,17 +40,14 @@ POINT_MODIFIER_NAME = "Illumap Point Preview"
 POINT_NODE_GROUP_NAME = "Illumap Point Preview"
 MODIFIER_NAMES = (MODIFIER_NAME, POINT_MODIFIER_NAME)
 MATERIAL_NAME = "Illumap Illumination"
-ATTRIBUTE = "illumination"
+# The material and node groups Illumap made carry MARKER (as its objects do): a user's own
+# datablock of the same name is never cleared or reused (a new one, with a suffix, is made
+# beside it).
 #: Display radius = this × the median distance to the RADIUS_NEIGHBOUR-th nearest point.
 RADIUS_FACTOR = 1.0
 RADIUS_NEIGHBOUR = 6
 #: Points whose neighbours the radius is measured at (a fixed, evenly strided subset).
 RADIUS_PROBES = 20000
-
-
-#: Custom property on the material and node group Illumap made: a user's own datablock of
-#: the same name is never cleared or reused (a new one, with a suffix, is made beside it).
-MARKER = "illumap_generated"
 
 
 def _own(collection, name, new):
@@ -69,7 +68,7 @@ def _own(collection, name, new):
 def _used_by_preview(block) -> bool:
     for obj in bpy.data.objects:
         for name in MODIFIER_NAMES:
-            mod = obj.modifiers.get(name) if obj.type in ("MESH", "POINTCLOUD") else None
+            mod = obj.modifiers.get(name) if obj.type in RESULT_TYPES else None
             if mod is None or mod.node_group is None:
                 continue
             if mod.node_group == block:
@@ -204,7 +203,7 @@ def point_radius(obj) -> float:
 
 def has_mesh_preview(obj) -> bool:
     """Whether ``obj`` carries a preview modifier (meshes or points)."""
-    return obj.type in ("MESH", "POINTCLOUD") and any(n in obj.modifiers for n in MODIFIER_NAMES)
+    return obj.type in RESULT_TYPES and any(n in obj.modifiers for n in MODIFIER_NAMES)
 
 
 def build_mesh_preview(objects) -> list[str]:
@@ -214,7 +213,7 @@ def build_mesh_preview(objects) -> list[str]:
     groups = {}
     shown = []
     for obj in objects:
-        if obj is None or obj.type not in ("MESH", "POINTCLOUD") or \
+        if obj is None or obj.type not in RESULT_TYPES or \
                 ATTRIBUTE not in obj.data.attributes:
             continue
         points = is_point_source(obj)
@@ -241,7 +240,7 @@ def remove_mesh_preview(objects) -> int:
     """Remove the preview modifiers from ``objects``; returns from how many objects."""
     removed = 0
     for obj in objects:
-        if obj is None or obj.type not in ("MESH", "POINTCLOUD"):
+        if obj is None or obj.type not in RESULT_TYPES:
             continue
         mods = [obj.modifiers[n] for n in MODIFIER_NAMES if n in obj.modifiers]
         for mod in mods:

@@ -23,8 +23,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty
 
 from . import mesh_preview, output, preferences, preview, properties
-from .kinds import SUPPORTED_TYPES as _SUPPORTED_TYPES
-from .output import SURFEL_OBJECT as SURFEL_OBJECT_NAME
+from .kinds import RESULT_TYPES as _RESULT_TYPES, SUPPORTED_TYPES as _SUPPORTED_TYPES
 
 
 def _pipeline():
@@ -609,7 +608,7 @@ class ILLUMAP_OT_clear_results(bpy.types.Operator):
             removed += 1
         if self.transferred:
             for obj in context.selected_objects:
-                if obj.type not in ("MESH", "POINTCLOUD") or obj.data.library is not None:
+                if obj.type not in _RESULT_TYPES or obj.data.library is not None:
                     continue
                 attr = obj.data.attributes.get("illumination")
                 # Only what Illumap writes (FLOAT_COLOR); the active/render colours are kept.

@@ -23,6 +23,7 @@ import os
 
 import numpy as np
 
+from .kinds import RESULT_TYPES
 from .neighbours import knn
 
 SURFEL_OBJECT = "Illumap Surfels"
@@ -222,7 +223,7 @@ def repeat_problem(obj, depsgraph=None) -> str | None:
 def transfer_targets(objects) -> list:
     """The objects of a run that Transfer writes onto: meshes and point clouds that Illumap
     did not make."""
-    return [o for o in objects if o is not None and o.type in ("MESH", "POINTCLOUD")
+    return [o for o in objects if o is not None and o.type in RESULT_TYPES
             and not is_illumap_object(o)]
 
 

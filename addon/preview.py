@@ -34,6 +34,7 @@ import math
 import bpy
 
 from . import compat
+from .kinds import RESULT_TYPES
 
 NODE_GROUP_NAME = "Illumap Disc Preview"
 MODIFIER_NAME = "Illumap Preview"
@@ -228,7 +229,7 @@ def build_preview(context, surfel_object, mode="ILLUMINATION", disc_scale=DEFAUL
     Returns the Geometry Nodes modifier. Raises ``ValueError`` for an object that cannot carry
     point attributes or lacks the attributes the preview reads.
     """
-    if surfel_object is None or surfel_object.type not in {"MESH", "POINTCLOUD"}:
+    if surfel_object is None or surfel_object.type not in RESULT_TYPES:
         kind = "nothing" if surfel_object is None else f"a {surfel_object.type.lower()} object"
         raise ValueError(f"The preview needs the surfel object (a point cloud or mesh), got {kind}")
     names = set(surfel_object.data.attributes.keys())

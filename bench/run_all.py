@@ -15,7 +15,7 @@ on them all),
 scripts/setup_env.sh (reinstalls the package with them), bench/accuracy_speed.py --auto-only
 (the automatic mode), bench/cycles_bake.py, bench/scaling.py (results in bench/results/*.json),
 bench/reference/run.py (Illumap against Cycles bakes on meshes as users build them, the
-README's table: bench/results/reference.json; --quick passed through, --reference-scenes to
+table of docs/results.md: bench/results/reference.json; --quick passed through, --reference-scenes to
 its --scenes), bench/reference/preview_vs_cycles.py (docs/images/cornell_vs_cycles.png),
 then bench/charts.py (docs/images/*.png and docs/benchmarks.md) and bench/reference/chart.py
 (docs/images/reference_<scene>.png). A step that fails is reported and the others still run;

@@ -10,6 +10,11 @@ One zip installs on every supported Blender: it carries a cp313 wheel (Blender 5
 the one that matches its Python. ``--python`` picks other interpreters (each needs the build
 requirements of scripts/requirements*.txt).
 
+What goes into the zip is an include list: ``[build] paths`` in ``blender_manifest.toml`` names
+every file (the root ``__init__.py`` and each file under ``addon/``); Blender's build tool adds the
+manifest and the wheels. The build stops when a file under ``addon/`` is missing from that list,
+so a new module cannot be left out of the zip, and nothing outside the list can get in.
+
 Steps, for each interpreter: build the ``illumap`` wheel from ``core/`` (incremental CMake build
 dir per wheel tag); if the native module links shared libraries beyond the C/C++ runtime, repair
 the wheel with auditwheel so they are bundled. Then check that ``blender_manifest.toml`` lists
@@ -30,6 +35,8 @@ import zipfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+# The folder of the add-on's modules: every file in it must be listed in the manifest's paths.
+ADDON_DIR = "addon"
 # The interpreters whose ABIs the zip carries: Python 3.13 (Blender 5.1+), 3.11 (4.2-5.0).
 DEFAULT_PYTHONS = (ROOT / ".venv" / "bin" / "python", ROOT / ".venv-blender50" / "bin" / "python")
 # Libraries every manylinux system provides; anything else must be bundled.
@@ -94,9 +101,41 @@ def build_wheel(python: Path, wheels_dir: Path) -> Path:
     return Path(shutil.copy2(wheel, wheels_dir))
 
 
+def addon_files() -> list[str]:
+    """The files the extension must carry: the root ``__init__.py`` and every file under
+    ``addon/`` (``/``-separated, relative to the repository root), leaving out Python caches and
+    dot-files."""
+    files = ["__init__.py"]
+    for path in sorted((ROOT / ADDON_DIR).rglob("*")):
+        relative = path.relative_to(ROOT)
+        if any(part == "__pycache__" or part.startswith(".") for part in relative.parts):
+            continue
+        if path.is_file() and path.suffix != ".pyc":
+            files.append(relative.as_posix())
+    return files
+
+
+def check_paths(manifest: dict) -> None:
+    """Check that the manifest's ``[build] paths`` lists exactly the add-on's files."""
+    listed = manifest.get("build", {}).get("paths")
+    if listed is None:
+        raise SystemExit("blender_manifest.toml has no [build] paths: the extension is an include "
+                         "list of the add-on's files")
+    expected = addon_files()
+    missing = sorted(set(expected) - set(listed))
+    extra = sorted(set(listed) - set(expected))
+    if missing or extra:
+        raise SystemExit("blender_manifest.toml [build] paths must list exactly __init__.py and "
+                         f"the files under {ADDON_DIR}/: add {missing}, remove {extra}")
+
+
+def read_manifest() -> dict:
+    return tomllib.loads((ROOT / "blender_manifest.toml").read_text())
+
+
 def check_manifest(wheels: list[Path]) -> dict:
     """The manifest, after checking that its ``wheels`` are exactly the ones built."""
-    manifest = tomllib.loads((ROOT / "blender_manifest.toml").read_text())
+    manifest = read_manifest()
     listed = sorted(Path(w).name for w in manifest.get("wheels", []))
     built = sorted(w.name for w in wheels)
     if listed != built:
@@ -117,6 +156,7 @@ def main() -> int:
     missing = [str(p) for p in pythons if not p.is_file()]
     if missing:
         raise SystemExit(f"no interpreter at {', '.join(missing)}: run scripts/setup_env.sh --all")
+    check_paths(read_manifest())
     wheels_dir = ROOT / "wheels"
     shutil.rmtree(wheels_dir, ignore_errors=True)
     wheels_dir.mkdir()

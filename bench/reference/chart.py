@@ -5,9 +5,9 @@ Reads ``bench/results/reference.json`` (written by ``run.py``) and draws, for ev
 the relative RMS error over all scored vertices against the wall-clock seconds of each
 Illumap setting and of Cycles' bakes at each sample count, both measured in that one run,
 with the reference's own estimated noise as a floor. Writes
-``docs/images/reference_<scene>.png`` and prints the ratios the README quotes: for each
-Illumap run, the Cycles time at equal error (interpolated log-log between the sweep's bakes)
-divided by Illumap's.
+``docs/images/reference_<scene>.png`` and prints the ratios the README and docs/results.md
+quote: for each Illumap run, the Cycles time at equal error (interpolated log-log between the
+sweep's bakes) divided by Illumap's.
 
     .venv/bin/python bench/reference/chart.py [--json bench/results/reference.json]
 """

@@ -130,7 +130,7 @@ def scan_illumination(obj):
 
 def test_interior_scan_without_normals_is_lit_inside_and_gets_its_result():
     """A room scanned as points without normals, a lamp inside. Estimated normals cannot know
-    which side is inside (they used to face away from the centroid: every wall dark), so
+    which side is inside (facing them away from the centroid turns every wall dark), so
     each point is two-sided and shows its brighter side. The light lands on the scan object
     itself, and matches the same scan given its true inward normals."""
     pos, inward = room_scan()

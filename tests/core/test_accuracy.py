@@ -728,7 +728,7 @@ def test_grid_steps_add_measured_cell_counts_that_the_step_model_can_choose(monk
     monkeypatch.setitem(calibration.CALIBRATION, "kinds", cal["kinds"])
     summary = dict(n=NO_LIMIT, total_area=1.0, kind="grid", albedo_max=0.8, albedo_mean=0.5)
     chosen = accuracy.choose_settings(summary, 0.06, kind="grid")
-    assert chosen["n"] == 1000, chosen        # was 2000: the only swept size within 5.7%
+    assert chosen["n"] == 1000, chosen   # without the grid, 2000: the only swept size within 5.7%
     monkeypatch.setitem(calibration.CALIBRATION, "kinds", calibrate.calibrate(results)["kinds"])
     assert accuracy.choose_settings(summary, 0.06, kind="grid")["n"] == 2000
 

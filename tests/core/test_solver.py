@@ -58,7 +58,9 @@ def test_solution_fields(box8):
     assert sol.residuals[-1] <= 1e-6 < sol.residuals[0]
     assert np.all(np.diff(sol.residuals) <= 1e-12)      # GMRES: non-increasing
     assert {"build", "solve", "total"} <= set(sol.timings)
-    assert all(v >= 0 for v in sol.timings.values())
+    # the phases are measured: the solve takes time, and build and solve lie within the total
+    assert sol.timings["solve"] > 0.0
+    assert sol.timings["build"] + sol.timings["solve"] <= sol.timings["total"]
     assert sol.timings["build"] == 0.0                   # prebuilt operator
     for key in ("solver", "final_residual", "final_residuals", "tol", "operator_applications"):
         assert key in sol.stats

@@ -32,6 +32,7 @@ from typing import Callable
 import numpy as np
 
 from . import _core
+from .refinement import LUMINANCE_WEIGHTS
 from .surfels import InputError
 
 #: Ray origins move off the surface by this fraction of the scene's feature length (see above).
@@ -258,7 +259,6 @@ SPECK_MIN_COS = 0.5
 #: cloud's median luminance.
 SPECK_RATIO = 0.25
 SPECK_FLOOR = 0.02
-_LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 
 def remove_specks(points, normals, values, *, k: int = SPECK_NEIGHBOURS) -> tuple[np.ndarray, int]:
@@ -282,7 +282,7 @@ def remove_specks(points, normals, values, *, k: int = SPECK_NEIGHBOURS) -> tupl
     kk = int(min(k, len(p) - 1))
     idx, _ = _core.knn(p, p, kk + 1)
     idx = np.asarray(idx)[:, 1:]
-    lum = v @ _LUMINANCE
+    lum = v @ LUMINANCE_WEIGHTS
     same = np.abs(np.einsum("pc,pkc->pk", n, n[idx])) >= SPECK_MIN_COS
     neighbour = np.where(same, lum[idx], np.nan)
     count = same.sum(axis=1)
@@ -326,7 +326,7 @@ def brighter_sides(points, normals, front, back, *, k: int = PATCH_NEIGHBOURS) -
     f = _rows3("front", front, len(p))
     b = _rows3("back", back, len(p))
     if len(p) < 2:
-        return np.where(((b @ _LUMINANCE) > (f @ _LUMINANCE))[:, None], b, f)
+        return np.where(((b @ LUMINANCE_WEIGHTS) > (f @ LUMINANCE_WEIGHTS))[:, None], b, f)
     kk = int(min(k, len(p) - 1))
     idx, _ = _core.knn(p, p, kk + 1)
     idx = np.asarray(idx, dtype=np.int64)
@@ -335,7 +335,7 @@ def brighter_sides(points, normals, front, back, *, k: int = PATCH_NEIGHBOURS) -
     oriented, part = _core.orient_normals(p, n, idx)
     along_front = np.einsum("pc,pc->p", np.asarray(oriented), n) > 0
     part = np.asarray(part)
-    lum_f, lum_b = f @ _LUMINANCE, b @ _LUMINANCE
+    lum_f, lum_b = f @ LUMINANCE_WEIGHTS, b @ LUMINANCE_WEIGHTS
     along = np.bincount(part, np.where(along_front, lum_f, lum_b))
     against = np.bincount(part, np.where(along_front, lum_b, lum_f))
     use_front = (along >= against)[part] == along_front
