@@ -98,16 +98,25 @@ def preview_material() -> bpy.types.Material:
     return mat
 
 
-def node_group() -> bpy.types.NodeTree:
-    """The shared node group: Set Material to ``preview_material()`` on the whole mesh."""
-    ng = _own(bpy.data.node_groups, NODE_GROUP_NAME,
-              lambda: bpy.data.node_groups.new(NODE_GROUP_NAME, "GeometryNodeTree"))
+def _empty_group(name: str, radius: bool = False) -> bpy.types.NodeTree:
+    """Illumap's modifier node group ``name``, emptied: Geometry in (and a Radius input), out."""
+    ng = _own(bpy.data.node_groups, name,
+              lambda: bpy.data.node_groups.new(name, "GeometryNodeTree"))
     ng.nodes.clear()
     for item in list(ng.interface.items_tree):
         ng.interface.remove(item)
     ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    if radius:
+        socket = ng.interface.new_socket("Radius", in_out="INPUT", socket_type="NodeSocketFloat")
+        socket.default_value, socket.min_value = 0.01, 0.0
     ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
     ng.is_modifier = True
+    return ng
+
+
+def node_group() -> bpy.types.NodeTree:
+    """The shared node group: Set Material to ``preview_material()`` on the whole mesh."""
+    ng = _empty_group(NODE_GROUP_NAME)
     group_in = ng.nodes.new("NodeGroupInput")
     group_in.location = (-300, 0)
     set_material = ng.nodes.new("GeometryNodeSetMaterial")
@@ -123,16 +132,7 @@ def point_node_group() -> bpy.types.NodeTree:
     """The shared node group for points: a mesh's vertices as points (Mesh to Points), each
     point's ``radius`` attribute where it has one, else the Radius input, then Set Material to
     ``preview_material()``."""
-    ng = _own(bpy.data.node_groups, POINT_NODE_GROUP_NAME,
-              lambda: bpy.data.node_groups.new(POINT_NODE_GROUP_NAME, "GeometryNodeTree"))
-    ng.nodes.clear()
-    for item in list(ng.interface.items_tree):
-        ng.interface.remove(item)
-    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-    radius = ng.interface.new_socket("Radius", in_out="INPUT", socket_type="NodeSocketFloat")
-    radius.default_value, radius.min_value = 0.01, 0.0
-    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    ng.is_modifier = True
+    ng = _empty_group(POINT_NODE_GROUP_NAME, radius=True)
     nodes, links = ng.nodes, ng.links
     group_in = nodes.new("NodeGroupInput")
     to_points = nodes.new("GeometryNodeMeshToPoints")
@@ -227,7 +227,7 @@ def build_mesh_preview(objects) -> list[str]:
         if mod is None:
             mod = obj.modifiers.new(name, "NODES")
         mod.node_group = groups[name]
-        if points:
+        if points and "radius" not in obj.data.attributes:   # else the points' own radii
             radius = next(item.identifier for item in mod.node_group.interface.items_tree
                           if getattr(item, "in_out", None) == "INPUT" and item.name == "Radius")
             compat.set_modifier_input(mod, radius, point_radius(obj))

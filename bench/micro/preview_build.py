@@ -29,8 +29,9 @@ from addon import mesh_preview, preview  # noqa: E402
 OUT = os.path.join(REPO, "bench", "results", "preview_build.json")
 
 
-def scan(n: int, kind: str) -> bpy.types.Object:
-    """n random points on a 10 m × 10 m floor, illumination rising along x."""
+def scan(n: int, kind: str, radius: bool = True) -> bpy.types.Object:
+    """n random points on a 10 m × 10 m floor, illumination rising along x; without a
+    ``radius`` attribute the point preview measures the spacing itself."""
     rng = np.random.default_rng(0)
     pts = np.column_stack([rng.random((n, 2)) * 10.0, np.zeros(n)]).astype(np.float32)
     mesh = bpy.data.meshes.new("Scan")
@@ -42,8 +43,9 @@ def scan(n: int, kind: str) -> bpy.types.Object:
             "color", value.astype(np.float32).ravel())
     mesh.attributes.new("normal", "FLOAT_VECTOR", "POINT").data.foreach_set(
         "vector", np.tile(np.float32([0, 0, 1]), n))
-    mesh.attributes.new("radius", "FLOAT", "POINT").data.foreach_set(
-        "value", np.full(n, 10.0 / np.sqrt(n), np.float32))
+    if radius:
+        mesh.attributes.new("radius", "FLOAT", "POINT").data.foreach_set(
+            "value", np.full(n, 10.0 / np.sqrt(n), np.float32))
     obj = bpy.data.objects.new("Scan", mesh)
     bpy.context.scene.collection.objects.link(obj)
     if kind == "POINTCLOUD":
@@ -73,19 +75,20 @@ def main() -> None:
     rows = []
     for n in sizes:
         for kind in ("MESH", "POINTCLOUD"):
-            bpy.ops.wm.read_factory_settings(use_empty=True)
-            obj = scan(n, kind)
-            points = timed(lambda: mesh_preview.build_mesh_preview([obj]), obj)
-            bpy.ops.wm.read_factory_settings(use_empty=True)
-            obj = scan(n, kind)
-            discs = timed(lambda: preview.build_preview(bpy.context, obj), obj)
-            row = {"points": n, "source": kind, "point_preview": points, "disc_preview": discs,
-                   "disc_over_point": discs["total_s"] / points["total_s"]}
-            rows.append(row)
-            print(f"{n:>9,} {kind:<10} point preview {points['total_s']:.2f} s "
-                  f"(build {points['build_s']:.2f}, evaluate {points['evaluate_s']:.2f}); "
-                  f"disc preview {discs['total_s']:.2f} s; shown {points['shown']:,} / {discs['shown']:,}",
-                  flush=True)
+            for radius in (True, False):
+                bpy.ops.wm.read_factory_settings(use_empty=True)
+                obj = scan(n, kind, radius)
+                points = timed(lambda: mesh_preview.build_mesh_preview([obj]), obj)
+                bpy.ops.wm.read_factory_settings(use_empty=True)
+                obj = scan(n, kind)
+                discs = timed(lambda: preview.build_preview(bpy.context, obj), obj)
+                rows.append({"points": n, "source": kind, "radius_attribute": radius,
+                             "point_preview": points, "disc_preview": discs})
+                print(f"{n:>9,} {kind:<10} radius {'given' if radius else 'spacing'}: point "
+                      f"preview {points['total_s']:.2f} s (build {points['build_s']:.2f}, "
+                      f"evaluate {points['evaluate_s']:.2f}); disc preview "
+                      f"{discs['total_s']:.2f} s; shown {points['shown']:,} / "
+                      f"{discs['shown']:,}", flush=True)
     with open(OUT, "w") as f:
         json.dump({"blender": bpy.app.version_string, "rows": rows}, f, indent=1)
 

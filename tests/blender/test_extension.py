@@ -54,16 +54,13 @@ EXTENSION_ONLY_CORE = """
 
 
 def addon_files() -> list[str]:
-    """What the extension must carry besides its manifest and wheels: the root ``__init__.py`` and
-    every file under ``addon/``, without Python caches or dot-files."""
-    files = ["__init__.py"]
-    for path in sorted((ROOT / "addon").rglob("*")):
-        relative = path.relative_to(ROOT)
-        if any(part == "__pycache__" or part.startswith(".") for part in relative.parts):
-            continue
-        if path.is_file() and path.suffix != ".pyc":
-            files.append(relative.as_posix())
-    return files
+    """The add-on files the extension must carry, as the build script lists them."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("build_extension",
+                                                  ROOT / "scripts" / "build_extension.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.addon_files()
 
 
 def test_manifest_paths_list_every_addon_file() -> None:
