@@ -883,7 +883,10 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     # alike): not from which other objects are in the batch, nor from their names.
     ids = np.concatenate([rows for rows, _ in merged]).astype(np.int64)
     values_of = []
-    try:
+
+    def incident_at(points, normals, ids):
+        """Incident radiance (M, 3) at receivers, the gather's result, the rays cast and the
+        receivers found covered (inside or under another surface: no light)."""
         shadows = None
         if all_lamps and s.lamp_shadows:
             shadows = lamps.Shadows(occ.segment_query(normals), samples=shadow_samples,
@@ -899,6 +902,10 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
         hidden = covered_receivers(job, points, normals, 2.0 * occ.offset)
         incident[hidden] = 0.0
         rays = gathered.rays + (shadows.rays if shadows is not None else 0)
+        return incident, gathered, rays, int(hidden.sum())
+
+    try:
+        incident, gathered, rays, covered = incident_at(points, normals, ids)
         for rec, lo, (_, index) in zip(batch, offsets[:-1], merged):
             rows = lo + index
             values = rec.emission + rec.albedo * incident[rows]
@@ -909,6 +916,25 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
             light2 += float(((values @ lum) ** 2).sum())
             indirect += float((rho * (gathered.radiance[rows] @ lum)).sum())
             total += float((values @ lum).sum())
+        rest = iter(values_of[len(job.receivers):])
+        scan_values, specks, creases = [], 0, 0
+        for front, other in point_sets:
+            values, outward = next(rest), front.normals
+            if other is not None:   # the outside of each smooth patch, then the creases' faces
+                back_values = next(rest)
+                side = rc.outward_sides(front.points, front.normals, values, back_values)
+                values = np.where(side[:, None], values, back_values)
+                outward = np.where(side[:, None], front.normals, -front.normals)
+                faces = rc.crease_surfaces(front.points, outward)
+                if len(faces.rows):
+                    r = faces.rows
+                    extra, _, more, _ = incident_at(faces.points, faces.normals, r)
+                    rays += more
+                    values = faces.mean(values, front.emission[r] + front.albedo[r] * extra)
+                    creases += int(len(np.unique(r)))
+            values, replaced = rc.remove_specks(front.points, outward, values)
+            specks += replaced
+            scan_values.append(values)
     except IllumapError:
         raise
     except Exception as exc:  # noqa: BLE001
@@ -918,14 +944,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
                            f"{type(exc).__name__}: {exc}", ExitCode.SOLVER) from exc
     for rec, values in zip(job.receivers, values_of):
         result.receiver_values[rec.name] = values
-    rest = iter(values_of[len(job.receivers):])
-    specks = 0
-    for front, other in point_sets:
-        values = next(rest)
-        if other is not None:   # the brighter side of each smooth patch
-            values = rc.brighter_sides(front.points, front.normals, values, next(rest))
-        values, replaced = rc.remove_specks(front.points, front.normals, values)
-        specks += replaced
+    for (front, _), values in zip(point_sets, scan_values):
         result.point_receiver_values[front.name] = values
     result.timings["receivers"] = time.perf_counter() - t0
     gather_noise = float(np.sqrt(noise2 / light2)) if light2 > 0 else 0.0
@@ -934,8 +953,8 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
                                      corners=int(sum(len(r.points) for r in job.receivers)),
                                      scan_points=int(sum(len(f.points) for f, _ in point_sets)),
                                      rays=int(rays), gather_rays=int(gather_rays),
-                                     shadow_samples=int(shadow_samples), covered=int(hidden.sum()),
-                                     specks=int(specks),
+                                     shadow_samples=int(shadow_samples), covered=covered,
+                                     specks=int(specks), crease_points=int(creases),
                                      gather_noise=gather_noise, indirect_share=float(share))
     estimate = (result.stats.get("accuracy") or {}).get("estimate", {}).get("total")
     if estimate is not None:

@@ -1,11 +1,13 @@
 """Values at scan points: isolated specks replaced, shadow edges and gradients kept
-(``remove_specks``); the outside of each smooth patch chosen as a whole (``brighter_sides``)."""
+(``remove_specks``); the outside of each smooth patch chosen as a whole (``brighter_sides``);
+the faces that meet at a crease point (``crease_surfaces``)."""
 
 import numpy as np
 import pytest
 
 import illumap
-from illumap.receivers import brighter_sides, remove_specks
+from illumap.pointcloud import pca_normals
+from illumap.receivers import Creases, brighter_sides, crease_surfaces, remove_specks
 
 pytestmark = pytest.mark.skipif(not illumap.native_available(), reason="needs the native core")
 
@@ -82,3 +84,80 @@ def test_each_smooth_patch_takes_its_brighter_side_as_a_whole():
     np.testing.assert_array_equal(out, outside)
     per_point = np.where(((back - front).sum(1) > 0)[:, None], back, front)
     assert (per_point != outside).any()          # what a point-by-point choice would give
+
+
+def grid_cube(n=11):
+    """The surface of the unit cube as a scan of a mesh's vertices: a regular n × n grid per
+    face, each edge's and corner's points once (as a shared vertex is), no normals."""
+    t = np.linspace(0.0, 1.0, n)
+    g = np.stack(np.meshgrid(t, t, t, indexing="ij"), -1).reshape(-1, 3)
+    on_surface = ((g == 0.0) | (g == 1.0)).any(axis=1)
+    return g[on_surface]
+
+
+def outward_pca(points):
+    n = pca_normals(points, 8)
+    return n * np.where(np.einsum("ij,ij->i", n, points - 0.5) < 0, -1.0, 1.0)[:, None]
+
+
+def test_a_box_edge_point_is_lit_as_the_mean_of_its_faces():
+    """On a cube scanned as its vertices, a point on an edge (its PCA normal tilted between
+    the faces) stands for the two faces: it is evaluated along each face's normal, a hair
+    inside and off that face, and not along its own tilted normal; points inside a face,
+    however near the edge, keep their own normal only. A corner, with too few neighbours on
+    each face to tell them, keeps its own normal or takes two faces, never one alone."""
+    p = grid_cube()
+    n = outward_pca(p)
+    c = crease_surfaces(p, n)
+    ones = (np.isclose(p, 0.0) | np.isclose(p, 1.0)).sum(axis=1)
+    edge = np.flatnonzero(ones == 2)
+    corner = np.flatnonzero(ones == 3)
+    face = np.flatnonzero(ones == 1)
+    assert c.own[face].all() and not np.isin(face, c.rows).any()
+    assert not c.own[edge].any()
+    for i in edge:
+        k = c.rows == i
+        assert k.sum() == 2
+        axes = [(np.isclose(p[i], 0.0) | np.isclose(p[i], 1.0))]
+        want = np.zeros((2, 3))
+        for row, a in zip(want, np.flatnonzero(axes[0])):
+            row[a] = 1.0 if p[i, a] == 1.0 else -1.0
+        got = c.normals[k]
+        assert np.allclose(np.sort(np.abs(got @ want.T).max(axis=1)), 1.0, atol=1e-9)
+        # a hair into and off each face: inside the cube's face plane by no more than the hair
+        spacing = 0.1
+        off = c.points[k] - p[i]
+        assert (np.linalg.norm(off, axis=1) < 0.1 * spacing).all()
+        assert (np.einsum("ec,ec->e", off, got) > 0).all()
+    assert all(c.own[i] != ((c.rows == i).sum() >= 2) for i in corner)
+
+
+def test_crease_means_count_each_face_once():
+    c = Creases(rows=np.array([1, 1, 2]), normals=np.zeros((3, 3)), points=np.zeros((3, 3)),
+                own=np.array([True, False, True]))
+    own = np.array([[1.0], [9.0], [3.0]])
+    extra = np.array([[2.0], [4.0], [5.0]])
+    np.testing.assert_allclose(c.mean(own, extra), [[1.0], [3.0], [4.0]])
+
+
+def test_twin_points_where_two_scans_meet_take_the_mean_of_both_faces():
+    """A floor and a wall scanned as two objects that share their junction's points: each of
+    the coincident pair cannot tell which object it came from, so both stand for both faces,
+    though the crease is concave; a point in a floor's open edge (one surface) has none."""
+    t = np.linspace(0.0, 1.0, 11)
+    u, v = (a.ravel() for a in np.meshgrid(t, t))
+    floor = np.column_stack([u, v, np.zeros_like(u)])
+    wall = np.column_stack([u, np.zeros_like(u), v])
+    p = np.concatenate([floor, wall])
+    n = np.concatenate([np.tile([0.0, 0, 1], (len(u), 1)), np.tile([0.0, 1, 0], (len(u), 1))])
+    c = crease_surfaces(p, n)
+    junction = np.flatnonzero((p[:, 1] == 0.0) & (p[:, 2] == 0.0))
+    assert len(junction) == 22
+    for i in junction:
+        got = c.normals[c.rows == i]
+        covered = sorted(int(np.argmax(np.abs(g))) for g in got)
+        assert covered in ([1], [2], [1, 2])
+        faces = set(covered) | ({int(np.argmax(np.abs(n[i])))} if c.own[i] else set())
+        assert faces == {1, 2}
+    rim = np.flatnonzero((p[:, 1] == 1.0) & (p[:, 2] == 0.0))
+    assert not np.isin(rim, c.rows).any() and c.own[rim].all()

@@ -111,3 +111,26 @@ def test_bad_splat_input_is_refused():
                                np.array([1.0, 0.0]))
     with pytest.raises(splats.InputError, match="finite"):
         splats.splat_triangles(np.array([[0, 0, np.nan]]), np.array([[0.0, 0, 1]]), np.array([1.0]))
+
+
+def test_splats_of_a_box_scanned_as_its_vertices_stay_inside_it():
+    """A cube scanned as a mesh's vertices: a regular grid per face with points right on the
+    edges, whose fitted normals pick either face. An edge point's neighbours along the edge
+    lie on its own plane, on neither side of it; they do not make the edge a junction (a
+    surface running on through the plane), so its splat still ends at the other face."""
+    t = np.linspace(0.0, 1.0, 11)
+    g = np.stack(np.meshgrid(t, t, t, indexing="ij"), -1).reshape(-1, 3)
+    p = g[((g == 0.0) | (g == 1.0)).any(axis=1)]
+    # Each point's normal is one of the faces it lies on, alternating along each edge.
+    bound = (p == 0.0) | (p == 1.0)
+    turn = np.round(p.sum(axis=1) * 10).astype(int)
+    pick = np.array([np.flatnonzero(b)[k % b.sum()] for b, k in zip(bound, turn)])
+    n = np.zeros_like(p)
+    n[np.arange(len(p)), pick] = np.where(p[np.arange(len(p)), pick] == 1.0, 1.0, -1.0)
+    # Turned (as a block standing in a room is), so that rounding puts the edge's own
+    # neighbours a hair to either side of a point's plane.
+    a = 0.3
+    turn = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
+    tri = splats.splat_triangles(p @ turn.T, n @ turn.T, np.full(len(p), 0.01)).reshape(-1, 3)
+    tri = tri @ turn
+    assert tri.min() > -1e-9 and tri.max() < 1 + 1e-9

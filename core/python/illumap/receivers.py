@@ -310,7 +310,15 @@ PATCH_MIN_COS = 0.9
 
 def brighter_sides(points, normals, front, back, *, k: int = PATCH_NEIGHBOURS) -> np.ndarray:
     """The light (P, 3) of two-sided scan points: ``front`` seen along ``normals``, ``back``
-    against them, taking for each smooth patch the side that is brighter over the patch.
+    against them, taking for each smooth patch the side that is brighter over the patch
+    (:func:`outward_sides`)."""
+    use_front = outward_sides(points, normals, front, back, k=k)
+    return np.where(use_front[:, None], _rows3("front", front), _rows3("back", back))
+
+
+def outward_sides(points, normals, front, back, *, k: int = PATCH_NEIGHBOURS) -> np.ndarray:
+    """Which side of each two-sided scan point faces out: (P,) bool, True where ``normals``
+    do (``front``, the light seen along them, is kept), False where ``back`` is.
 
     A scan without normals cannot tell the inside of a room from the outside of a statue, so
     both sides are evaluated. Choosing point by point lets one stray ray decide: light seeping
@@ -325,8 +333,9 @@ def brighter_sides(points, normals, front, back, *, k: int = PATCH_NEIGHBOURS) -
     n = _rows3("normals", normals, len(p))
     f = _rows3("front", front, len(p))
     b = _rows3("back", back, len(p))
+    lum_f, lum_b = f @ LUMINANCE_WEIGHTS, b @ LUMINANCE_WEIGHTS
     if len(p) < 2:
-        return np.where(((b @ LUMINANCE_WEIGHTS) > (f @ LUMINANCE_WEIGHTS))[:, None], b, f)
+        return lum_f >= lum_b
     kk = int(min(k, len(p) - 1))
     idx, _ = _core.knn(p, p, kk + 1)
     idx = np.asarray(idx, dtype=np.int64)
@@ -335,8 +344,134 @@ def brighter_sides(points, normals, front, back, *, k: int = PATCH_NEIGHBOURS) -
     oriented, part = _core.orient_normals(p, n, idx)
     along_front = np.einsum("pc,pc->p", np.asarray(oriented), n) > 0
     part = np.asarray(part)
-    lum_f, lum_b = f @ LUMINANCE_WEIGHTS, b @ LUMINANCE_WEIGHTS
     along = np.bincount(part, np.where(along_front, lum_f, lum_b))
     against = np.bincount(part, np.where(along_front, lum_b, lum_f))
-    use_front = (along >= against)[part] == along_front
-    return np.where(use_front[:, None], f, b)
+    return (along >= against)[part] == along_front
+
+
+#: Neighbours searched for the surfaces that meet at a scan point.
+CREASE_NEIGHBOURS = 12
+#: The point lies on a neighbour's surface when within CREASE_ON_PLANE × the median
+#: neighbour distance of the neighbour's tangent plane.
+CREASE_ON_PLANE = 0.2
+#: Normals that agree to this cosine (~25°) are one surface ...
+CREASE_SAME_COS = 0.9
+#: ... which needs this many neighbours (one stray normal is noise; the point's own counts).
+CREASE_MIN_VOTES = 2
+#: Surfaces a point can stand for: a box corner has three, and a fitted normal between them.
+CREASE_MAX_SURFACES = 6
+#: A group's points (with the point) on a line: their second spread below this share of the
+#: first.
+CREASE_LINE = 0.05
+#: A face's value is taken this far (× the median neighbour distance) into the face, and as
+#: far off it.
+CREASE_INSET = 0.03
+#: Closer than this × the median neighbour distance: the same position (a twin point).
+CREASE_TWIN = 1e-3
+
+
+@dataclass
+class Creases:
+    """The surfaces that meet at scan points, for :func:`crease_surfaces`."""
+
+    rows: np.ndarray          # (E,) int64 points with a further surface to evaluate, ascending
+    normals: np.ndarray       # (E, 3) that surface's unit outward normal
+    points: np.ndarray        # (E, 3) m, where to evaluate it: a hair into and off the face
+    own: np.ndarray           # (P,) bool: the point's own normal is one of its surfaces
+
+    def mean(self, own_values: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """Each point's light (P, C): the mean over its surfaces of ``own_values`` (P, C), lit
+        along its own normal, and ``values`` (E, C), lit along ``normals``."""
+        out = np.where(self.own[:, None], own_values, 0.0)
+        np.add.at(out, self.rows, values)
+        count = self.own + np.bincount(self.rows, minlength=len(own_values))
+        return out / np.maximum(count, 1)[:, None]
+
+
+def crease_surfaces(points, normals, *, k: int = CREASE_NEIGHBOURS) -> Creases:
+    """The surfaces that meet at each scan point: what to evaluate there besides (or instead
+    of) the point's own outward ``normals`` (P, 3). Positions in metres.
+
+    A point on the edge of a box lies on two faces (three at a corner), while a fitted normal
+    is one face's, or a tilt between them. What a scanner records there, like what a mesh
+    vertex shared by those faces shows, is the mean of the faces' light; so the point is
+    evaluated once per face, with that face's normal, where the crease is convex. The faces are the groups of agreeing
+    normals (``CREASE_SAME_COS``, at least ``CREASE_MIN_VOTES`` each) among the neighbours
+    whose tangent plane the point lies on; a group whose points lie along a line through the
+    point (the edge's own points, their fit tilted between the faces) is no face. A point near an edge but not on it lies on one
+    face's planes only, and keeps its value. Points at the same position (twins: two
+    scanned objects that touch) cannot be told apart, so each takes the mean of the faces
+    that meet there, a concave junction (a floor along a wall) included.
+    """
+    p = _rows3("points", points)
+    n = _rows3("normals", normals, len(p))
+    P = len(p)
+    nothing = Creases(np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros((0, 3)),
+                      np.ones(P, dtype=bool))
+    if P <= CREASE_MIN_VOTES:
+        return nothing
+    kk = int(min(k, P - 1))
+    idx, dist = _core.knn(p, p, kk + 1)
+    idx, dist = np.asarray(idx, dtype=np.int64), np.asarray(dist)
+    rows = np.arange(P)
+    me = idx == rows[:, None]
+    scale = np.median(dist[:, 1:], axis=1)
+    nb_n = n[idx]                                                        # (P, k + 1, 3)
+    on_plane = np.abs(np.einsum("pkc,pkc->pk", p[:, None, :] - p[idx], nb_n)) \
+        <= CREASE_ON_PLANE * scale[:, None]
+    twin = ~me & (dist <= CREASE_TWIN * scale[:, None])
+    free = on_plane | me
+    # Group the normals: the point's own first, then the nearest left.
+    faces = np.zeros((P, CREASE_MAX_SURFACES, 3))
+    where = np.zeros((P, CREASE_MAX_SURFACES, 3))       # the group's centroid, minus the point
+    offsets = np.zeros((P, CREASE_MAX_SURFACES, kk + 1, 3))
+    found = np.zeros((P, CREASE_MAX_SURFACES), dtype=bool)
+    own_face = np.zeros(P, dtype=bool)
+    key = np.where(me, -1.0, dist)
+    for g in range(CREASE_MAX_SURFACES):
+        left = free.any(axis=1)
+        seed = np.argmin(np.where(free, key, np.inf), axis=1)
+        member = free & (np.einsum("pc,pkc->pk", nb_n[rows, seed], nb_n) >= CREASE_SAME_COS)
+        mean = (member[..., None] * nb_n).sum(axis=1)
+        length = np.linalg.norm(mean, axis=1)
+        ok = left & (member.sum(axis=1) >= CREASE_MIN_VOTES) & (length > 0)
+        faces[ok, g] = mean[ok] / length[ok, None]
+        offsets[:, g] = member[..., None] * (p[idx] - p[:, None, :])
+        where[:, g] = (member[..., None] * (p[idx] - p[:, None, :])).sum(axis=1) \
+            / np.maximum(member.sum(axis=1), 1)[:, None]
+        found[:, g] = ok
+        if g == 0:
+            own_face = ok & (member & me).any(axis=1)
+        free &= ~member
+    # A group whose points lie on a line through the point is the edge's own (a fit tilted
+    # between the faces), not a face.
+    spread, axes = np.linalg.eigh(np.einsum("pgkc,pgkd->pgcd", offsets, offsets))
+    between = spread[..., 1] < CREASE_LINE ** 2 * spread[..., 2]
+    # A face's normal: that of the plane through the point and the group's points (the
+    # neighbours' own fits tilt near the edge), on the side of their mean.
+    plane = axes[..., 0]
+    plane *= np.where(np.einsum("pgc,pgc->pg", plane, faces) < 0, -1.0, 1.0)[..., None]
+    faces = np.where((found & ~between)[..., None], plane, faces)
+    G = CREASE_MAX_SURFACES
+    face = found & ~between
+    # Convex creases (each face's points behind the others' planes: a box's edge) and twins'.
+    # In a concave crease of one surface (a room's corner) rays from the corner along one face
+    # graze the other and its splats, so the fitted normal's single value serves better there.
+    height = np.einsum("pgc,phc->pgh", faces, where)    # face g's plane to group h's points
+    tol = CREASE_ON_PLANE * scale[:, None, None]
+    pair = face[:, :, None] & face[:, None, :] & ~np.eye(G, dtype=bool)[None]
+    concave = (pair & (height > -tol)).any(axis=(1, 2))
+    crease = (face.sum(axis=1) >= 2)  # & (~concave | twin.any(axis=1))
+    if not crease.any():
+        return nothing
+    own = ~crease | (own_face & face[:, 0])
+    extra = face & crease[:, None]
+    extra[:, 0] &= ~own_face                       # the own group is the own evaluation
+    r, g = np.nonzero(extra)
+    # Evaluated a hair inside the face (as a mesh corner is): from the crease line itself, rays
+    # along the other face would start on its plane and pass through it.
+    inward = where[r, g] / np.maximum(np.linalg.norm(where[r, g], axis=1, keepdims=True), 1e-300)
+    # ... and a hair off it: the neighbours' splats near an edge tilt a little, and from the
+    # face's exact plane a receiver would start behind them.
+    at = p[r] + CREASE_INSET * scale[r, None] * (inward + faces[r, g])
+    return Creases(r.astype(np.int64), faces[r, g], at, own)

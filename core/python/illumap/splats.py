@@ -130,7 +130,10 @@ def _clip(p, n, d, q, nq, rim) -> np.ndarray:
     centroid = (w * own).sum(axis=1) / (own.sum(axis=1) + 1.0)             # minus p
     lean = np.einsum("rc,rkc->rk", centroid, nq) + height                 # (c − q)·n_q
     leaning = np.abs(lean) > JUNCTION_TOLERANCE * np.sqrt(2.0 * half)
-    bend = np.sign(np.einsum("rkc,rc->rk", w, n))
+    # Which side of p's plane each neighbour lies on; one on the edge line itself lies on
+    # neither (it would make every edge look like a junction).
+    rise = np.einsum("rkc,rc->rk", w, n)
+    bend = np.where(np.abs(rise) > JUNCTION_TOLERANCE * np.sqrt(2.0 * half), np.sign(rise), 0.0)
     side = np.where(on_plane, np.where(leaning, np.sign(lean), 0.0), np.sign(height))
     junction = (on_plane & (bend > 0)).any(axis=1) & (on_plane & (bend < 0)).any(axis=1)
     g = np.maximum(side * height, 0.0)
