@@ -842,7 +842,8 @@ def _splat_owners(job: Job, back: np.ndarray) -> tuple[np.ndarray | None, np.nda
 def receive(job: Job, result: "Result", progress: Progress | None = None) -> None:
     """Evaluate the light at every receiver (DESIGN.md §6): the meshes' corners
     (``job.receivers``) into ``result.receiver_values``, and with Transfer the point clouds'
-    points (their brighter side where the orientation is unknown) into
+    points (their outward side where the orientation is unknown, a crease's points the mean of
+    the faces that meet there) into
     ``result.point_receiver_values``. Direct light from lamps and emitters with shadow rays
     from the receiver, plus the final gather of the surfels' solved light
     (``illumap.receivers``); the world's light through the gather's rays that leave the

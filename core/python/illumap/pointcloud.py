@@ -29,7 +29,8 @@ import numpy as np
 
 from .surfels import InputError
 
-__all__ = ["estimate_normals", "pca_normals", "orient_normals", "orientation_hints", "DEFAULT_K"]
+__all__ = ["estimate_normals", "pca_normals", "orient_normals", "orientation_hints",
+           "plane_through", "DEFAULT_K"]
 
 #: Neighbours for the PCA and the orientation graph.
 DEFAULT_K = 12
@@ -196,3 +197,17 @@ def _covariance_eigen(offsets: np.ndarray, keep: np.ndarray) -> tuple[np.ndarray
     mean = (w * offsets).sum(axis=1) / w.sum(axis=1)
     centred = (offsets - mean[:, None, :]) * w
     return np.linalg.eigh(np.einsum("rka,rkb->rab", centred, centred))
+
+
+#: Points (with the point) on a line: their second spread below this share of the first.
+ON_A_LINE = 0.05
+
+
+def plane_through(offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The plane through a point and its chosen neighbours: ``offsets`` (..., k, 3) are the
+    neighbours minus the point, zero rows for those left out. Returns its unit normal
+    (..., 3), sign arbitrary, and whether the points lie on a line through the point instead
+    (..., bool), where no plane is defined."""
+    spread, axes = np.linalg.eigh(np.einsum("...kc,...kd->...cd", offsets, offsets))
+    return axes[..., 0], spread[..., 1] < ON_A_LINE ** 2 * spread[..., 2]
+

@@ -32,6 +32,7 @@ from typing import Callable
 import numpy as np
 
 from . import _core
+from .pointcloud import plane_through
 from .refinement import LUMINANCE_WEIGHTS
 from .surfels import InputError
 
@@ -358,16 +359,11 @@ CREASE_ON_PLANE = 0.2
 CREASE_SAME_COS = 0.9
 #: ... which needs this many neighbours (one stray normal is noise; the point's own counts).
 CREASE_MIN_VOTES = 2
-#: Surfaces a point can stand for: a box corner has three, and a fitted normal between them.
+#: Groups of normals looked for around a point: a box corner has three faces and three edges.
 CREASE_MAX_SURFACES = 6
-#: A group's points (with the point) on a line: their second spread below this share of the
-#: first.
-CREASE_LINE = 0.05
 #: A face's value is taken this far (× the median neighbour distance) into the face, and as
 #: far off it.
 CREASE_INSET = 0.03
-#: Closer than this × the median neighbour distance: the same position (a twin point).
-CREASE_TWIN = 1e-3
 
 
 @dataclass
@@ -389,19 +385,22 @@ class Creases:
 
 
 def crease_surfaces(points, normals, *, k: int = CREASE_NEIGHBOURS) -> Creases:
-    """The surfaces that meet at each scan point: what to evaluate there besides (or instead
-    of) the point's own outward ``normals`` (P, 3). Positions in metres.
+    """The faces that meet at each scan point on a crease, to light it by instead of the
+    point's own outward ``normals`` (P, 3). Positions in metres.
 
-    A point on the edge of a box lies on two faces (three at a corner), while a fitted normal
-    is one face's, or a tilt between them. What a scanner records there, like what a mesh
-    vertex shared by those faces shows, is the mean of the faces' light; so the point is
-    evaluated once per face, with that face's normal, where the crease is convex. The faces are the groups of agreeing
-    normals (``CREASE_SAME_COS``, at least ``CREASE_MIN_VOTES`` each) among the neighbours
-    whose tangent plane the point lies on; a group whose points lie along a line through the
-    point (the edge's own points, their fit tilted between the faces) is no face. A point near an edge but not on it lies on one
-    face's planes only, and keeps its value. Points at the same position (twins: two
-    scanned objects that touch) cannot be told apart, so each takes the mean of the faces
-    that meet there, a concave junction (a floor along a wall) included.
+    A point on the edge of a box lies on two faces (three at a corner), while its fitted
+    normal is one face's, or a tilt between them. What a scanner records there, like what a
+    mesh vertex shared by those faces shows, is the mean of the faces' light; so the point is
+    evaluated once per face, with that face's normal, a hair into and off the face (as a
+    mesh corner is lit a hair inside its face): from the crease line itself, rays along one
+    face would start on the other's plane and pass through it. The faces are the groups of
+    agreeing normals (``CREASE_SAME_COS``, at least ``CREASE_MIN_VOTES`` each) among the
+    neighbours whose tangent plane the point lies on, each face's normal that of the plane
+    through the point and the group's points; a group whose points lie on a line through the
+    point (the edge's own points, their fits tilted between the faces) is no face. A point
+    near an edge but not on it lies on one face's planes only and keeps its own value.
+    Concave creases count as convex ones do; so do twins (points at the same position, where
+    two scanned objects touch), which cannot be told apart and both take the faces' mean.
     """
     p = _rows3("points", points)
     n = _rows3("normals", normals, len(p))
@@ -417,61 +416,34 @@ def crease_surfaces(points, normals, *, k: int = CREASE_NEIGHBOURS) -> Creases:
     me = idx == rows[:, None]
     scale = np.median(dist[:, 1:], axis=1)
     nb_n = n[idx]                                                        # (P, k + 1, 3)
-    on_plane = np.abs(np.einsum("pkc,pkc->pk", p[:, None, :] - p[idx], nb_n)) \
-        <= CREASE_ON_PLANE * scale[:, None]
-    twin = ~me & (dist <= CREASE_TWIN * scale[:, None])
-    free = on_plane | me
+    offsets = p[idx] - p[:, None, :]
+    free = me | (np.abs(np.einsum("pkc,pkc->pk", offsets, nb_n)) <= CREASE_ON_PLANE * scale[:, None])
     # Group the normals: the point's own first, then the nearest left.
-    faces = np.zeros((P, CREASE_MAX_SURFACES, 3))
-    where = np.zeros((P, CREASE_MAX_SURFACES, 3))       # the group's centroid, minus the point
-    offsets = np.zeros((P, CREASE_MAX_SURFACES, kk + 1, 3))
-    found = np.zeros((P, CREASE_MAX_SURFACES), dtype=bool)
-    own_face = np.zeros(P, dtype=bool)
+    G = CREASE_MAX_SURFACES
+    mean_normal = np.zeros((P, G, 3))
+    members = np.zeros((P, G, kk + 1, 3))                # each group's offsets, 0 elsewhere
+    found = np.zeros((P, G), dtype=bool)
     key = np.where(me, -1.0, dist)
-    for g in range(CREASE_MAX_SURFACES):
+    for g in range(G):
         left = free.any(axis=1)
         seed = np.argmin(np.where(free, key, np.inf), axis=1)
         member = free & (np.einsum("pc,pkc->pk", nb_n[rows, seed], nb_n) >= CREASE_SAME_COS)
-        mean = (member[..., None] * nb_n).sum(axis=1)
-        length = np.linalg.norm(mean, axis=1)
-        ok = left & (member.sum(axis=1) >= CREASE_MIN_VOTES) & (length > 0)
-        faces[ok, g] = mean[ok] / length[ok, None]
-        offsets[:, g] = member[..., None] * (p[idx] - p[:, None, :])
-        where[:, g] = (member[..., None] * (p[idx] - p[:, None, :])).sum(axis=1) \
-            / np.maximum(member.sum(axis=1), 1)[:, None]
-        found[:, g] = ok
-        if g == 0:
-            own_face = ok & (member & me).any(axis=1)
+        total = (member[..., None] * nb_n).sum(axis=1)
+        length = np.linalg.norm(total, axis=1)
+        found[:, g] = left & (member.sum(axis=1) >= CREASE_MIN_VOTES) & (length > 0)
+        mean_normal[:, g] = total / np.maximum(length, 1e-300)[:, None]
+        members[:, g] = member[..., None] * offsets
         free &= ~member
-    # A group whose points lie on a line through the point is the edge's own (a fit tilted
-    # between the faces), not a face.
-    spread, axes = np.linalg.eigh(np.einsum("pgkc,pgkd->pgcd", offsets, offsets))
-    between = spread[..., 1] < CREASE_LINE ** 2 * spread[..., 2]
-    # A face's normal: that of the plane through the point and the group's points (the
-    # neighbours' own fits tilt near the edge), on the side of their mean.
-    plane = axes[..., 0]
-    plane *= np.where(np.einsum("pgc,pgc->pg", plane, faces) < 0, -1.0, 1.0)[..., None]
-    faces = np.where((found & ~between)[..., None], plane, faces)
-    G = CREASE_MAX_SURFACES
-    face = found & ~between
-    # Convex creases (each face's points behind the others' planes: a box's edge) and twins'.
-    # In a concave crease of one surface (a room's corner) rays from the corner along one face
-    # graze the other and its splats, so the fitted normal's single value serves better there.
-    height = np.einsum("pgc,phc->pgh", faces, where)    # face g's plane to group h's points
-    tol = CREASE_ON_PLANE * scale[:, None, None]
-    pair = face[:, :, None] & face[:, None, :] & ~np.eye(G, dtype=bool)[None]
-    concave = (pair & (height > -tol)).any(axis=(1, 2))
-    crease = (face.sum(axis=1) >= 2)  # & (~concave | twin.any(axis=1))
+    faces, on_line = plane_through(members)
+    faces *= np.where(np.einsum("pgc,pgc->pg", faces, mean_normal) < 0, -1.0, 1.0)[..., None]
+    face = found & ~on_line
+    crease = face.sum(axis=1) >= 2
     if not crease.any():
         return nothing
-    own = ~crease | (own_face & face[:, 0])
-    extra = face & crease[:, None]
-    extra[:, 0] &= ~own_face                       # the own group is the own evaluation
-    r, g = np.nonzero(extra)
-    # Evaluated a hair inside the face (as a mesh corner is): from the crease line itself, rays
-    # along the other face would start on its plane and pass through it.
-    inward = where[r, g] / np.maximum(np.linalg.norm(where[r, g], axis=1, keepdims=True), 1e-300)
-    # ... and a hair off it: the neighbours' splats near an edge tilt a little, and from the
-    # face's exact plane a receiver would start behind them.
+    r, g = np.nonzero(face & crease[:, None])
+    centre = members[r, g].sum(axis=1)
+    inward = centre / np.maximum(np.linalg.norm(centre, axis=1, keepdims=True), 1e-300)
+    # A hair off the face too: near an edge the neighbours' splats tilt a little, and from
+    # the face's exact plane a receiver would start behind them.
     at = p[r] + CREASE_INSET * scale[r, None] * (inward + faces[r, g])
-    return Creases(r.astype(np.int64), faces[r, g], at, own)
+    return Creases(r.astype(np.int64), faces[r, g], at, ~crease)
