@@ -12,7 +12,10 @@ What is understood, after the active Material Output's Surface input:
   from the camera only). Each side of a surface is evaluated on its own (``side``).
 * A colour input may be a constant, an RGB node, an Image Texture (sampled at the surfel's UV,
   from the node's UV Map / Texture Coordinate input or the active UV map; sRGB byte images are
-  filtered as stored and linearised after, as Cycles does; flat projection, single images only), a Color Attribute node, an Attribute node
+  filtered as stored and linearised after, as Cycles does; flat projection, single images
+  only), a Color Attribute node (without a name: the mesh's default, i.e. render, colour
+  attribute, as Cycles reads it; never the active one, which only Solid shading shows and
+  Solid Preview sets to ``illumination``), an Attribute node
   (geometry attribute by name), or a Mix Color node (Mix / Multiply / Add with a constant
   factor) of any of these. Reroutes are followed.
 
@@ -154,7 +157,8 @@ class _Evaluator:
         if node.type == "VERTEX_COLOR" and out.name == "Color":
             col = self.samples.color(node.layer_name or None)
             if col is None:
-                raise Unsupported(f"Color Attribute '{node.layer_name or 'active'}' not on the mesh")
+                raise Unsupported(f"Color Attribute '{node.layer_name or 'render (default)'}' "
+                                  "not on the mesh")
             return col[self.rows, :3]
         if node.type == "ATTRIBUTE" and node.attribute_type == "GEOMETRY" and out.name == "Color":
             col = self.samples.color(node.attribute_name)

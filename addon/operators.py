@@ -1,4 +1,5 @@
-"""Operators: Compute Illumination Map, Build Preview, Clear Results, Reset Settings.
+"""Operators: Compute Illumination Map, Build Preview, Object Preview, Solid Preview, Clear
+Results, Reset Settings.
 
 Compute has two paths (docs/architecture.md, add-on contract):
 
@@ -22,7 +23,7 @@ import time
 import bpy
 from bpy.props import BoolProperty, EnumProperty
 
-from . import mesh_preview, output, preferences, preview, properties
+from . import mesh_preview, output, preferences, preview, properties, solid_preview
 from .kinds import RESULT_TYPES as _RESULT_TYPES, SUPPORTED_TYPES as _SUPPORTED_TYPES
 
 
@@ -177,6 +178,13 @@ def after_write(context, props, surfel_object, result=None):
         return None
     return preview.build_preview(context, surfel_object, mode=props.preview_mode,
                                  disc_scale=props.disc_scale)
+
+
+def after_run(context, result):
+    """While Solid Preview is on, the meshes the run lit show its result in Solid mode too
+    (``solid_preview.after_run``)."""
+    names = list((getattr(result, "receiver_values", None) or {}).keys())
+    return solid_preview.after_run(context, names)
 
 
 def _written_object(result, write_return=None):
@@ -361,6 +369,7 @@ def finish_task(context, task, report):
     try:
         obj = _written_object(task.result, written)
         record_stats(props.stats, task.result, task.seconds)
+        after_run(context, task.result)
         after_write(context, props, obj, task.result)
     except Exception as error:
         report({"ERROR"}, f"Illumap wrote the result but could not build its preview: "
@@ -446,6 +455,7 @@ class ILLUMAP_OT_compute_illumination_map(bpy.types.Operator):
             return {"CANCELLED"}
         try:
             record_stats(props.stats, result, time.perf_counter() - start)
+            after_run(context, result)
             after_write(context, props, _written_object(result), result)
         except Exception as error:
             self.report({"ERROR"}, f"Illumap wrote the result but could not build its preview: "
@@ -584,6 +594,35 @@ class ILLUMAP_OT_mesh_preview(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class ILLUMAP_OT_solid_preview(bpy.types.Operator):
+    """Show the illumination in Solid shading (Color: Attribute): makes 'illumination' the
+    active colour attribute of the lit meshes (never the render one) and sets the 3D
+    viewports to Attribute colours, recording what they had; Off puts it all back"""
+
+    bl_idname = "illumap.solid_preview"
+    bl_label = "Solid Preview"
+    bl_options = {"REGISTER", "UNDO"}
+
+    show: BoolProperty(name="Show", default=True, options={"SKIP_SAVE"})
+
+    def execute(self, context):
+        if not self.show:
+            restored = solid_preview.disable(context.blend_data)
+            self.report({"INFO"}, f"Illumap: solid preview off, {restored} mesh"
+                                  f"{'es' * (restored != 1)} restored")
+            return {"FINISHED"}
+        objects = context.selected_objects or list(context.scene.objects)
+        shown = solid_preview.enable(objects, context.screen)
+        if not shown:
+            self.report({"ERROR"}, "No selected mesh with faces has an 'illumination' "
+                                   "attribute (point clouds show in the Object Preview): "
+                                   "compute an illumination map with Transfer to Meshes first")
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Illumap: solid preview on {len(shown)} mesh"
+                              f"{'es' * (len(shown) != 1)}; switch the viewport to Solid")
+        return {"FINISHED"}
+
+
 class ILLUMAP_OT_clear_results(bpy.types.Operator):
     """Remove Illumap's surfel objects (and optionally the transferred attributes)"""
 
@@ -618,6 +657,7 @@ class ILLUMAP_OT_clear_results(bpy.types.Operator):
                     if names is not None:
                         output._restore_colour_names(obj.data, tuple(
                             "" if n == "illumination" else n for n in names))
+                    solid_preview.forget(obj.data)   # the active colour it had before
         context.scene.illumap.stats.clear()
         self.report({"INFO"}, f"Illumap: removed {removed} surfel object{'s' * (removed != 1)}")
         return {"FINISHED"}
@@ -636,7 +676,7 @@ class ILLUMAP_OT_reset_settings(bpy.types.Operator):
 
 
 # Registered even without the native module (they need only bpy).
-basic_classes = (ILLUMAP_OT_build_preview, ILLUMAP_OT_mesh_preview, ILLUMAP_OT_clear_results,
-                 ILLUMAP_OT_reset_settings)
+basic_classes = (ILLUMAP_OT_build_preview, ILLUMAP_OT_mesh_preview, ILLUMAP_OT_solid_preview,
+                 ILLUMAP_OT_clear_results, ILLUMAP_OT_reset_settings)
 # Registered only when the native module imports.
 core_classes = (ILLUMAP_OT_compute_illumination_map,)

@@ -7,6 +7,7 @@ The draw code is written against a ``layout`` argument so that tests can draw in
 
 import bpy
 
+from . import solid_preview
 from .core_status import core_error
 
 
@@ -101,6 +102,11 @@ def draw_preview(layout, context):
     row = layout.row(align=True)
     row.operator("illumap.mesh_preview", icon="SHADING_RENDERED", text="Object Preview").show = True
     row.operator("illumap.mesh_preview", icon="X", text="Off").show = False
+    row = layout.row(align=True)
+    on = solid_preview.is_on(context.blend_data)
+    row.operator("illumap.solid_preview", icon="SHADING_SOLID", text="Solid Preview",
+                 depress=on).show = True
+    row.operator("illumap.solid_preview", icon="X", text="Off").show = False
 
 
 def draw_stats(layout, context):

@@ -10,8 +10,9 @@
   inside of a scanned room from the outside of a scanned statue, so such points are two-sided
   (``two_sided``): the pipeline adds a surfel facing the other way at every point, and each
   point shows its brighter side. A warning says so.
-* Albedo: the active colour attribute (or one named ``Col``/``Cd``/``color``), else the first
-  material as for meshes (without UVs). Emission: from that material.
+* Albedo: the colour attribute renders use (a mesh's default colour attribute; a point
+  cloud's active one where Blender has one), or one named ``Col``/``Cd``/``color``, else the
+  first material as for meshes (without UVs). Emission: from that material.
 """
 
 from __future__ import annotations
@@ -108,7 +109,8 @@ def read_points(obj, depsgraph, warnings: list[str]) -> PointSamples:
             mesh.vertices.foreach_get("co", pos)
             pos = pos.reshape(count, 3)
             attributes = mesh.attributes
-            active = mesh.color_attributes.active_color.name if mesh.color_attributes.active_color else None
+            # The render colour attribute, as for meshes with faces (sampling.TriangleMesh).
+            active = mesh.color_attributes.default_color_name or None
             extra = _point_attrs(attributes, count)
         finally:
             obj_eval.to_mesh_clear()

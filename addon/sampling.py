@@ -44,7 +44,10 @@ class TriangleMesh:
     uv: dict[str, np.ndarray] = field(default_factory=dict)       # name → (T, 3, 2)
     colors: dict[str, np.ndarray] = field(default_factory=dict)   # name → (T, 3, 4), linear
     active_uv: str | None = None
-    active_color: str | None = None
+    #: The default (render) colour attribute: what an empty-name Color Attribute node reads in
+    #: a render. Not the active one, which only Solid shading shows (Solid Preview makes
+    #: ``illumination`` active; reading it would feed the light back in as albedo).
+    render_color: str | None = None
     materials: list = field(default_factory=list)  # bpy.types.Material | None per slot
     skipped_triangles: int = 0
     instancer: str = ""            # name of the instancing object, for instances
@@ -79,8 +82,9 @@ class MeshSamples:
         return np.einsum("nk,nkc->nc", self.bary, self.mesh.uv[key][self.triangle])
 
     def color(self, name: str | None = None) -> np.ndarray | None:
-        """Colour attribute (N, 4), linear, interpolated at the surfels; None if absent."""
-        key = name or self.mesh.active_color
+        """Colour attribute (N, 4), linear, interpolated at the surfels; None if absent. No
+        name: the default (render) colour attribute, as Cycles reads it."""
+        key = name or self.mesh.render_color
         if key not in self.mesh.colors:
             return None
         return np.einsum("nk,nkc->nc", self.bary, self.mesh.colors[key][self.triangle])
@@ -227,7 +231,7 @@ def _read_mesh_data(name: str, obj_eval, mesh, matrix_world, material_slots) -> 
         # 'color' is scene-linear for both FLOAT_COLOR and BYTE_COLOR ('color_srgb' is not).
         col = _get(attr.data, "color", count, 4, np.float64)
         colors[attr.name] = col[index]
-    active_color = mesh.color_attributes.active_color.name if mesh.color_attributes.active_color else None
+    render_color = mesh.color_attributes.default_color_name or None
     active_uv = mesh.uv_layers.active.name if mesh.uv_layers.active else None
     materials = [slot.material for slot in material_slots]
     # Open surfaces (an edge with one face) reflect on both faces, as in Cycles; the back of a
@@ -237,7 +241,7 @@ def _read_mesh_data(name: str, obj_eval, mesh, matrix_world, material_slots) -> 
     return TriangleMesh(two_sided=bool((edge_faces == 1).any()),
         name=name, corners=corners[keep], area=area[keep], normal=normal,
         corner_normals=cn[tri_l[keep]], material_index=mat_idx[keep], uv=uv, colors=colors,
-        active_uv=active_uv, active_color=active_color, materials=materials,
+        active_uv=active_uv, render_color=render_color, materials=materials,
         skipped_triangles=skipped, loops=tri_l[keep].astype(np.int64),
         vertices=tri_v[keep].astype(np.int64),
     )

@@ -5,7 +5,7 @@
                                      [--doc docs/benchmarks.md]
 
 Reads accuracy_speed.json, cycles_bake.json and scaling.json (whichever exist) and writes
-docs/images/accuracy_<scene>.png, docs/images/cornell_vs_cycles.png, docs/images/scaling.png
+docs/images/accuracy_<scene>.png, docs/images/cycles_bake.png, docs/images/scaling.png
 and docs/benchmarks.md (the charts, with a table under each: the Pareto-best setting at 10%,
 3%, 1% and 0.3% error and its speed ratio against Cycles at equal error).
 """
@@ -568,12 +568,12 @@ def main(argv=None):
     if spread:
         md += sampling_section(spread)
     if cyc:
-        cycles_chart(cyc, os.path.join(args.images, "cornell_vs_cycles.png"))
+        cycles_chart(cyc, os.path.join(args.images, "cycles_bake.png"))
         il = [p for p in cyc["points"] if p["tool"] == "illumap"]
         cy = [p for p in cyc["points"] if p["tool"] == "cycles"]
         top = max(cy, key=lambda p: (p["samples"], -p["n"])) if cy else None
         md += ["## Cornell box: Illumap against Cycles on the same vertices (one run)", "",
-               f"![Cornell box against Cycles]({rel}/cornell_vs_cycles.png)", "",
+               f"![Cornell box against Cycles]({rel}/cycles_bake.png)", "",
                f"Blender {cyc['blender']}, Cycles CPU, 64 diffuse bounces, no clamping; "
                "`bpy.ops.object.bake(type='DIFFUSE', pass_filter={'DIRECT','INDIRECT'}, "
                "target='VERTEX_COLORS')`, outgoing = albedo × baked. Illumap and Cycles are "

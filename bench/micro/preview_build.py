@@ -49,11 +49,14 @@ def scan(n: int, kind: str, radius: bool = True) -> bpy.types.Object:
     obj = bpy.data.objects.new("Scan", mesh)
     bpy.context.scene.collection.objects.link(obj)
     if kind == "POINTCLOUD":
-        for o in bpy.context.view_layer.objects:
-            o.select_set(o == obj)
-        bpy.context.view_layer.objects.active = obj
-        bpy.ops.object.convert(target="POINTCLOUD")
-        obj = bpy.context.view_layer.objects.active
+        # The selection of a just-linked object is not seen by the operator headless (it
+        # answered "No editable objects to convert" and left a mesh): name it in the context,
+        # as output._build_pointcloud does.
+        with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj],
+                                       selected_editable_objects=[obj]):
+            bpy.ops.object.convert(target="POINTCLOUD")
+        if obj.type != "POINTCLOUD":
+            raise RuntimeError("the scan could not be converted to a point cloud")
     return obj
 
 
