@@ -754,31 +754,63 @@ def _merged_corners(occ, rec) -> tuple[np.ndarray, np.ndarray]:
 #: (normals more opposite than this cosine) and contains the receiver's point.
 COVER_COS = -0.9
 _COVER_NEIGHBOURS = 16
-_COVER_CHUNK = 32768          # receivers per batch of triangle tests (~40 MB)
+_COVER_OTHERS = 64            # another mesh's surfels near a receiver, for its triangles
+_EDGE_SLACK = 1e-9            # barycentric, of a triangle's own size
+_COVER_CHUNK = 8192           # receivers per batch of triangle tests (≤ 40 MB)
 
 
-def covered_receivers(job: Job, points: np.ndarray, normals: np.ndarray,
-                      tolerance: float) -> np.ndarray:
+def covered_receivers(job: Job, points: np.ndarray, normals: np.ndarray, tolerance: float,
+                      owners: np.ndarray | None = None) -> np.ndarray:
     """bool (M,): receivers that another surface lies flat against, facing them (a box's
     bottom on a floor). Rays lifted off such a receiver would start beyond the covering
     surface and see past it, so no light reaches them, as in Cycles. Candidates are the
-    triangles of the meshes' front-face surfels nearest to each receiver; one covers it when
-    it faces the receiver, lies within ``tolerance`` (m) of its plane and contains its point."""
+    triangles of the meshes' front-face surfels nearest to each receiver, and where another
+    mesh comes as near, of more of that mesh's (``owners`` (M,): each receiver's mesh, its
+    index among the MESH sources, or -1): the receiver's own surfels crowd its
+    neighbourhood, and the floor's triangle under a box's bottom need not be among them.
+    One covers it when it faces the receiver, lies within ``tolerance`` (m) of its plane and
+    contains its point."""
     from illumap import _core
     sources = [src for src in job.sources if src.kind == "MESH"]
     if not sources or len(points) == 0 or job.triangles is None or job.mesh_triangle_start is None:
         return np.zeros(len(points), dtype=bool)
+    points = np.ascontiguousarray(points, dtype=np.float64)
     rows = np.concatenate([np.arange(src.start, src.stop) for src in sources])
-    first = np.concatenate([np.full(src.stop - src.start, job.mesh_triangle_start[i])
-                            for i, src in enumerate(sources)])
-    triangle = first + job.triangle[rows]
+    source = np.concatenate([np.full(src.stop - src.start, i) for i, src in enumerate(sources)])
+    triangle = job.mesh_triangle_start[source] + job.triangle[rows]
     k = min(_COVER_NEIGHBOURS, len(rows))
-    idx, _ = _core.knn(job.positions[rows], np.ascontiguousarray(points, dtype=np.float64), k)
-    candidates = triangle[idx]
-    return np.concatenate([_covered_by(job.triangles[candidates[lo:lo + _COVER_CHUNK]],
+    idx, dist = _core.knn(job.positions[rows], points, k)
+    covered = _covered(job.triangles, triangle[np.asarray(idx)], points, normals, tolerance)
+    if owners is None:
+        return covered
+    # Where another mesh comes as near as the receiver's own surfels reach, its triangles
+    # around the point, from more of its surfels (a point at a triangle's corner lies in
+    # triangles that hold few of the nearest).
+    reach = np.asarray(dist)[:, -1]
+    for i in np.unique(owners[owners >= 0]):
+        rest = np.flatnonzero(source != i)
+        if len(rest) == 0:
+            continue
+        mine = np.flatnonzero((owners == i) & ~covered)
+        _, gap = _core.knn(job.positions[rows[rest]], points[mine], 1)
+        mine = mine[np.asarray(gap)[:, 0] <= reach[mine]]
+        if len(mine) == 0:
+            continue
+        got, _ = _core.knn(job.positions[rows[rest]], points[mine],
+                           min(_COVER_OTHERS, len(rest)))
+        covered[mine] = _covered(job.triangles, triangle[rest[np.asarray(got)]], points[mine],
+                                 normals[mine], tolerance)
+    return covered
+
+
+def _covered(triangles: np.ndarray, candidates: np.ndarray, points: np.ndarray,
+             normals: np.ndarray, tolerance: float) -> np.ndarray:
+    """``_covered_by`` over ``candidates`` (M, k) rows of ``triangles``, in chunks."""
+    return np.concatenate([_covered_by(triangles[candidates[lo:lo + _COVER_CHUNK]],
                                        points[lo:lo + _COVER_CHUNK],
                                        normals[lo:lo + _COVER_CHUNK], tolerance)
-                           for lo in range(0, len(points), _COVER_CHUNK)])
+                           for lo in range(0, len(points), _COVER_CHUNK)]) \
+        if len(points) else np.zeros(0, dtype=bool)
 
 
 def _covered_by(tri: np.ndarray, points: np.ndarray, normals: np.ndarray,
@@ -797,7 +829,8 @@ def _covered_by(tri: np.ndarray, points: np.ndarray, normals: np.ndarray,
     den = np.where(np.abs(den) > 0, den, np.inf)
     v = (d11 * d20 - d01 * d21) / den
     w = (d00 * d21 - d01 * d20) / den
-    inside = (v >= 0) & (w >= 0) & (v + w <= 1)
+    # A point on a shared edge is inside one of the two triangles, whatever the rounding.
+    inside = (v >= -_EDGE_SLACK) & (w >= -_EDGE_SLACK) & (v + w <= 1 + _EDGE_SLACK)
     return (facing & close & inside).any(axis=1)
 
 
@@ -885,7 +918,13 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     ids = np.concatenate([rows for rows, _ in merged]).astype(np.int64)
     values_of = []
 
-    def incident_at(points, normals, ids):
+    # Each batch row's mesh among the MESH sources (-1: a point cloud's point).
+    mesh_index = {src.name: i for i, src in enumerate(x for x in job.sources if x.kind == "MESH")}
+    owners_of = np.concatenate([
+        np.full(len(rows), mesh_index.get(rec.name, -1) if i < len(job.receivers) else -1)
+        for i, (rec, (rows, _)) in enumerate(zip(batch, merged))]).astype(np.int64)
+
+    def incident_at(points, normals, ids, owners_=None):
         """Incident radiance (M, 3) at receivers, the gather's result, the rays cast and the
         receivers found covered (inside or under another surface: no light)."""
         shadows = None
@@ -900,13 +939,13 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
                              progress=None if progress is None else
                              (lambda f, _p="": progress(f, "gather")))
         incident = direct + gathered.radiance
-        hidden = covered_receivers(job, points, normals, 2.0 * occ.offset)
+        hidden = covered_receivers(job, points, normals, 2.0 * occ.offset, owners_)
         incident[hidden] = 0.0
         rays = gathered.rays + (shadows.rays if shadows is not None else 0)
         return incident, gathered, rays, int(hidden.sum())
 
     try:
-        incident, gathered, rays, covered = incident_at(points, normals, ids)
+        incident, gathered, rays, covered = incident_at(points, normals, ids, owners_of)
         for rec, lo, (_, index) in zip(batch, offsets[:-1], merged):
             rows = lo + index
             values = rec.emission + rec.albedo * incident[rows]

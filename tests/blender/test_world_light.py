@@ -126,3 +126,31 @@ def test_only_faces_pressed_together_are_covered():
     assert outside.sum() > 1000 and inside.sum() > 100
     assert lum[outside].min() > 0.05 * lum[outside].max()
     assert lum[inside].max() == 0.0
+
+
+@requires_core
+def test_a_box_bottom_on_a_coarser_floor_is_covered_everywhere():
+    """A box (0.1 m cells) on a floor of 0.2 m cells whose grid lines its bottom's vertices
+    lie on, lit by the sky: every corner of the box's bottom is covered, also those at the
+    corners of the floor's triangles (few of the nearest surfels, which are mostly the box's
+    own, lie in those triangles). Uncovered, such a corner looks down past the floor at the
+    sky below and reads lit."""
+    from test_reference_cases import closed_box, diffuse, plane
+    set_world()
+    floor = plane("Floor", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], 0.2, diffuse("F"))
+    box = closed_box("Box", (-0.4, -0.6, 0.0), (0.6, 0.4, 0.8), 0.1, diffuse("B"))
+    pipeline.compute(bpy.context, [floor, box], pipeline.Settings(lamps=False))
+    mesh = box.data
+    normal = np.empty(len(mesh.polygons) * 3)
+    mesh.polygons.foreach_get("normal", normal)
+    loop_start = np.empty(len(mesh.polygons), np.int64)
+    mesh.polygons.foreach_get("loop_start", loop_start)
+    loop_total = np.empty(len(mesh.polygons), np.int64)
+    mesh.polygons.foreach_get("loop_total", loop_total)
+    down = np.repeat(normal.reshape(-1, 3)[:, 2] < -0.9, loop_total)
+    rgba = np.empty(len(mesh.loops) * 4, np.float32)
+    mesh.color_attributes["illumination"].data.foreach_get("color", rgba)
+    values = rgba.reshape(-1, 4)[:, :3]
+    assert down.sum() == 400
+    assert values[down].max() == 0.0
+    assert values[~down].min() > 0.0
