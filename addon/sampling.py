@@ -264,6 +264,7 @@ class Receivers:
     albedo: np.ndarray             # (L, 3) front-face albedo per corner
     emission: np.ndarray           # (L, 3) front-face emission per corner (radiance)
     vertex_count: int
+    inward: np.ndarray | None = None   # (L, 3) m, from each corner to its triangle's centroid
 
     def per_vertex(self, corner_values: np.ndarray) -> np.ndarray:
         """Mean of the corner values (L, C) of each vertex (V, C); 0 for unused vertices."""
@@ -306,7 +307,8 @@ def read_receivers(obj, warnings: list[str]) -> Receivers | None:
     # centroid), as a bake does: at a box's edge the point then lies on the inner side of the
     # adjacent wall, whose light its rays must meet rather than pass behind.
     corner = tm.corners[tri, slot]
-    positions = corner + RECEIVER_INSET * (tm.corners[tri].mean(axis=1) - corner)
+    inward = tm.corners[tri].mean(axis=1) - corner
+    positions = corner + RECEIVER_INSET * inward
     normals = tm.corner_normals[tri, slot]
     samples = MeshSamples(mesh=tm, positions=positions, normals=normals, areas=np.ones(nl),
                           triangle=tri, bary=bary, material_index=tm.material_index[tri])
@@ -317,7 +319,7 @@ def read_receivers(obj, warnings: list[str]) -> Receivers | None:
     return Receivers(name=obj.name, corner_vertex=corner_vertex,
                      points=np.ascontiguousarray(positions),
                      normals=np.ascontiguousarray(normals), albedo=albedo,
-                     emission=emission, vertex_count=nv)
+                     emission=emission, vertex_count=nv, inward=np.ascontiguousarray(inward))
 
 
 def allocate(areas: np.ndarray, *, density: float | None = None,

@@ -38,6 +38,9 @@ from .surfels import InputError
 
 #: Ray origins move off the surface by this fraction of the scene's feature length (see above).
 RAY_OFFSET = 1e-5
+#: The share of a point's distance from the scene's centre that its rays skip (2^-18, as
+#: ``LocalFrame::noise`` in core/src/local_frame.hpp).
+ROUNDING_SKIP = 2.0 ** -18
 #: Surfels looked up around a gather hit; those facing away from the hit surface are ignored.
 LOOKUP_NEIGHBOURS = 8
 #: A surfel counts for a hit when its normal is within acos(this) of the hit triangle's.
@@ -98,6 +101,15 @@ class MeshOccluders:
     def n(self) -> int:
         """Number of triangles."""
         return int(self._scene.n)
+
+    def rounding(self, points) -> np.ndarray:
+        """(M,) m: how close to ``points`` (M, 3) a hit goes unseen. Rays skip the first few
+        dozen float ulps of their origin's distance from the scene's centre (the triangles
+        are stored in float against it), so that a receiver far out does not hit its own
+        surface; a point that a neighbouring surface is nearer than this sees past it."""
+        p = _rows3("points", points)
+        centre = np.asarray(self._scene.center, dtype=np.float64)
+        return np.abs(p - centre).max(axis=1) * ROUNDING_SKIP
 
     def visible(self, origins, targets, *, end_trim: float = 0.0,
                 progress: Progress | None = None) -> np.ndarray:
