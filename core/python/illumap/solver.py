@@ -141,6 +141,9 @@ class Solution:
     converged: bool
     timings: dict = field(default_factory=dict)
     stats: dict = field(default_factory=dict)
+    #: The operator the solve applied, with ``keep_operator=True`` (else None): to estimate
+    #: its error afterwards without building it again.
+    operator: object = field(default=None, repr=False, compare=False)
 
     @property
     def residual(self) -> float:
@@ -455,7 +458,8 @@ _UNSET = object()
 
 def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float = DEFAULT_TOL,
           max_iterations=None, progress=None, operator=None, restart: int = DEFAULT_RESTART,
-          error_tol: float | None = None, **operator_keywords) -> Solution:
+          error_tol: float | None = None, keep_operator: bool = False,
+          **operator_keywords) -> Solution:
     """Solve ``B = E + ρ∘K(B)`` for the radiosity B of every surfel.
 
     Parameters
@@ -491,6 +495,9 @@ def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float =
         solves (e.g. for new albedo or emission). Operator keywords may not be given with it.
     restart : int
         GMRES restart length.
+    keep_operator : bool
+        Return the operator applied as ``Solution.operator`` (it holds its memory until
+        dropped), e.g. to estimate the solution's error with it.
 
     Returns
     -------
@@ -625,4 +632,5 @@ def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float =
             stats["warning"] = warning
         guard.check(1.0, "solve")
         timings["total"] = time.perf_counter() - t_total
-        return Solution(B, mon.iterations, np.asarray(mon.history), converged, timings, stats)
+        return Solution(B, mon.iterations, np.asarray(mon.history), converged, timings, stats,
+                        operator if keep_operator else None)
