@@ -144,6 +144,7 @@ def record_stats(stats, result, seconds):
         stats.chosen_settings = f"{chosen['label']}, tol {chosen['tol']:.0e}" + (
             f" or solver error ≤ {chosen['error_tol']:.1%}" if chosen.get("error_tol") else "")
     stats.estimated_error = float((accuracy.get("estimate") or {}).get("total") or 0.0)
+    stats.estimated_error_at_meshes = float((extra.get("receivers") or {}).get("estimate") or 0.0)
     stats.valid = True
     stats.summary = (f"{stats.surfels} surfels, {stats.iterations} iterations, "
                      f"residual {stats.residual:.2e}, {stats.total_seconds:.2f} s")

@@ -124,8 +124,12 @@ def draw_stats(layout, context):
                        f"(predicted {stats.predicted_error:.3f})")
     if stats.chosen_settings:
         col.label(text=f"Chosen: {stats.chosen_settings}")
+    if stats.estimated_error_at_meshes > 0:
+        # What a user compares: the light on their objects (the surfels' part shrinks by the
+        # indirect share there).
+        col.label(text=f"Estimated error at the objects: {stats.estimated_error_at_meshes:.1%}")
     if stats.estimated_error > 0:
-        col.label(text=f"Estimated error: {stats.estimated_error:.3f}")
+        col.label(text=f"Estimated error of the surfels: {stats.estimated_error:.1%}")
     if stats.first_pass_surfels > 0:
         col.label(text=f"Adaptive pass 1: {stats.first_pass_surfels:,} surfels, "
                        f"{stats.first_pass_iterations} iterations")

@@ -165,7 +165,11 @@ class IllumapStats(bpy.types.PropertyGroup):
         description="Solver settings the error model chose for the target error ('': none)")
     estimated_error: FloatProperty(
         name="Estimated Error", default=0.0, precision=4,
-        description="A-posteriori estimate of the relative RMS error (0: none)")
+        description="A-posteriori estimate of the surfels' relative RMS error (0: none)")
+    estimated_error_at_meshes: FloatProperty(
+        name="Estimated Error at the Meshes", default=0.0, precision=4,
+        description="What the surfels' estimated error and the gather's noise make of the "
+                    "relative RMS error of the light written to the objects (0: none)")
 
     def clear(self):
         self.valid = False
@@ -184,6 +188,7 @@ class IllumapStats(bpy.types.PropertyGroup):
         self.occluder_shape = ""
         self.chosen_settings = ""
         self.estimated_error = 0.0
+        self.estimated_error_at_meshes = 0.0
 
 
 class IllumapSettings(bpy.types.PropertyGroup):

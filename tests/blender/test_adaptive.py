@@ -218,6 +218,25 @@ def test_adaptive_pass_one_solves_with_the_final_counts_settings():
     assert stats.chosen_settings.endswith(
         f"or solver error ≤ {info['settings']['error_tol']:.1%}")
     assert stats.estimated_error == pytest.approx(info["estimate"]["total"], rel=1e-5)
+    assert stats.estimated_error_at_meshes == 0.0          # without Transfer: no receivers
+
+
+def test_the_estimate_at_the_objects_is_what_the_panel_shows_first():
+    """With Transfer, the light on the objects has its own estimate (the surfels' error by
+    the indirect share, with the gather's noise), recorded for the panel beside the
+    surfels'."""
+    objects = spot_scene()
+    result = pipeline.compute(bpy.context, objects, pipeline.Settings(target_error=0.1))
+    from addon import operators
+    stats = bpy.context.scene.illumap.stats
+    operators.record_stats(stats, result, 1.0)
+    surfels = result.stats["accuracy"]["estimate"]["total"]
+    at_objects = result.stats["receivers"]["estimate"]
+    share = result.stats["receivers"]["indirect_share"]
+    noise = result.stats["receivers"]["gather_noise"]
+    assert 0 < at_objects == pytest.approx(np.hypot(noise, share * surfels), rel=1e-9)
+    assert stats.estimated_error == pytest.approx(surfels, rel=1e-5)
+    assert stats.estimated_error_at_meshes == pytest.approx(at_objects, rel=1e-5)
 
 
 def test_one_uniform_pass_where_the_models_predict_it_faster():
