@@ -200,6 +200,7 @@ typedef double V4 __attribute__((vector_size(32)));
 inline __attribute__((always_inline)) void m2l4_body(const ExpansionTables& tb,
                                                      const double R[4][3],
                                                      const double* const M[4],
+                                                     const double* w4,
                                                      double* __restrict L, double* work) {
     const int nc = tb.ncoef;
     // Lane-interleaved copies: Dv[6 n + s], Mv[9 m + e], a[n] (g's Taylor coefficients),
@@ -209,7 +210,12 @@ inline __attribute__((always_inline)) void m2l4_body(const ExpansionTables& tb,
     V4* __restrict Mv = Dv + 6 * nc;                   // 9 nc
     V4* __restrict a = Mv + 9 * nc;                    // nc
     const double *M0 = M[0], *M1 = M[1], *M2 = M[2], *M3 = M[3];
-    for (int i = 0; i < 9 * nc; ++i) Mv[i] = V4{M0[i], M1[i], M2[i], M3[i]};
+    if (w4) {
+        const V4 w = {w4[0], w4[1], w4[2], w4[3]};
+        for (int i = 0; i < 9 * nc; ++i) Mv[i] = V4{M0[i], M1[i], M2[i], M3[i]} * w;
+    } else {
+        for (int i = 0; i < 9 * nc; ++i) Mv[i] = V4{M0[i], M1[i], M2[i], M3[i]};
+    }
     // Kernel derivatives for the four lanes together (same recurrence as kernel_derivatives).
     V4 dx[3];
     for (int d = 0; d < 3; ++d) dx[d] = V4{R[0][d], R[1][d], R[2][d], R[3][d]};
@@ -269,8 +275,8 @@ inline __attribute__((always_inline)) void m2l4_body(const ExpansionTables& tb,
 // clone (AVX2 + FMA) contract with fused multiply-adds.
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "avx2", "default")))
 void m2l4(const ExpansionTables& tb, const double R[4][3], const double* const M[4],
-          double* __restrict L, double* work) {
-    m2l4_body(tb, R, M, L, work);
+          double* __restrict L, double* work, const double* w4) {
+    m2l4_body(tb, R, M, w4, L, work);
 }
 
 void p2l(const ExpansionTables& tb, const double R[3], const double s9[9], double* L,
