@@ -455,6 +455,39 @@ def sampling_section(spread):
     return md + [""]
 
 
+
+def cpu_slope(points, key):
+    """Least-squares log-log slope of points' `key` against N over N >= 100k (None if < 2)."""
+    ok = [p for p in points if p.get(key) and p["n"] >= 100_000]
+    if len(ok) < 2:
+        return None
+    return float(np.polyfit(np.log([p["n"] for p in ok]), np.log([p[key] for p in ok]), 1)[0])
+
+
+def scaling_exact_section(ex):
+    """The scaling section's paired before/after runs of one case (scaling_exact_1m.json)."""
+    f2 = lambda x: "–" if x is None else f"{x:.2f}"  # noqa: E731
+    md = [f"### {ex['case']} from 100k to 1M, paired runs", "", ex["note"], "",
+          f"Command: `{ex['command']}`.", "",
+          "| run | core | N | build | build CPU | total | total CPU | iterations | peak RSS |",
+          "|---|---|---|---|---|---|---|---|---|"]
+    for r in ex["runs"]:
+        for p in r["points"]:
+            md.append(f"| {r['label']} ({r['date']}) | `{r['core_commit']}` | {p['n']} | "
+                      f"{fmt_time(p['build'])} | {fmt_time(p['build_cpu'])} | "
+                      f"{fmt_time(p['total'])} | {fmt_time(p['total_cpu'])} | "
+                      f"{p['iterations']} | {p['peak_rss'] / 2 ** 20:.0f} MiB |")
+    md += ["", "| run | time slope | build slope | solve slope | total CPU slope | "
+           "build CPU slope |", "|---|---|---|---|---|---|"]
+    for r in ex["runs"]:
+        s = r["slopes"]
+        md.append(f"| {r['label']} ({r['date']}) | {f2(s['time'])} | {f2(s['build'])} | "
+                  f"{f2(s['solve'])} | {f2(cpu_slope(r['points'], 'total_cpu'))} | "
+                  f"{f2(cpu_slope(r['points'], 'build_cpu'))} |")
+    md += [""] + [ex["findings"], ""] if ex.get("findings") else [""]
+    return md
+
+
 def main(argv=None):
     here = os.path.dirname(os.path.abspath(__file__))
     root = os.path.dirname(here)
@@ -618,6 +651,9 @@ def main(argv=None):
                           f"{fmt_time(p['total'])} | {p['iterations']} | "
                           f"{p['peak_rss'] / 2 ** 20:.0f} MiB | {run} |")
         md += [""]
+        ex = load(os.path.join(args.results, "scaling_exact_1m.json"))
+        if ex:
+            md += scaling_exact_section(ex)
     md += ["## Data", "",
            "The Stanford Bunny: Stanford 3D Scanning Repository, Stanford University Computer "
            "Graphics Laboratory (Greg Turk and Marc Levoy, 1994); used here only as benchmark "

@@ -16,7 +16,13 @@ to 1e-4), with the build and solve phases recorded apart. FMM: order p=3, theta=
 * ``cornell``, direct O(N^2), no visibility: up to --direct-max.
 
 A case stops at its first size that fails or times out. Slopes are fitted by least squares on
-log N / log t over the sizes >= 100k that ran (all sizes if fewer than two).
+log N / log t over the sizes >= 100k that ran (all sizes if fewer than two). Each point also
+records the process's CPU seconds (``build_cpu``, ``total_cpu``: all threads), steadier than
+wall time when other jobs share the cores. ``--sizes`` replaces the mode's sizes for the
+selected cases, e.g. the exact-visibility slope from 100k to 1M alone:
+
+    .venv/bin/python bench/scaling.py --only cornell/fmm/exact --sizes 100000 300000 1000000 \
+        --out bench/results/scaling_exact_1m.json
 
     .venv/bin/python bench/scaling.py --quick --out bench/results/scaling.json
 """
@@ -59,15 +65,19 @@ n, scene, method, order, theta, tol, vis = (int(sys.argv[1]), sys.argv[2], sys.a
 s = S.build(scene, n, seed=1)
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 kw = {} if vis == "none" else dict(visibility=vis, **S.exact_keywords(scene))
+c = time.process_time()
 t = time.perf_counter()
 op = illumap.TransportOperator(s, method=method, order=order, theta=theta, **kw)
 t_build = time.perf_counter() - t
+c_build = time.process_time() - c
 sol = illumap.solve(s, operator=op, tol=tol)
 t_total = time.perf_counter() - t
+c_total = time.process_time() - c
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 st = op.stats
 print(json.dumps(dict(n=s.n, scene=scene, method=method, visibility=vis, build=t_build,
-                      total=t_total, solve=t_total - t_build, iterations=sol.iterations,
+                      total=t_total, solve=t_total - t_build, build_cpu=c_build,
+                      total_cpu=c_total, iterations=sol.iterations,
                       applications=sol.stats.get("operator_applications"),
                       converged=bool(sol.converged), peak_rss=peak * 1024,
                       rss_before_build=base * 1024, operator_bytes=st.get("bytes"),
@@ -116,6 +126,8 @@ def main(argv=None):
     ap.add_argument("--timeout", type=int, default=600, help="seconds per size")
     ap.add_argument("--only", nargs="*", default=None,
                     help="case keys scene/method/visibility to run (default: all)")
+    ap.add_argument("--sizes", nargs="*", type=int, default=None,
+                    help="sizes N to run for the selected cases instead of the mode's")
     ap.add_argument("--out", default="bench/results/scaling.json")
     args = ap.parse_args(argv)
     cfg = dict(FULL if args.full else QUICK)
@@ -125,7 +137,7 @@ def main(argv=None):
     for scene, method, vis, sizes in cfg["cases"]:
         if args.only is not None and case_key(scene, method, vis) not in args.only:
             continue
-        for n in sizes:
+        for n in (args.sizes or sizes):
             r = run_one(scene, n, method, vis, args.timeout)
             r.update(commit=prov["commit"], core_module_built=prov["core_module_built"],
                      date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()))
@@ -134,7 +146,8 @@ def main(argv=None):
                 print(f"{case_key(scene, method, vis)} N={n}: {r['error']}", flush=True)
                 break
             print(f"{case_key(scene, method, vis):24s} N={r['n']:8d} total={r['total']:8.2f}s "
-                  f"build={r['build']:7.2f}s it={r['iterations']} "
+                  f"build={r['build']:7.2f}s (CPU {r['total_cpu']:.1f} / {r['build_cpu']:.1f} s) "
+                  f"it={r['iterations']} "
                   f"peak={r['peak_rss'] / 2**20:8.1f} MiB", flush=True)
     fits = {}
     for scene, method, vis, _ in cfg["cases"]:

@@ -30,6 +30,41 @@ void bind_kernel(nb::module_& m) {
           nb::arg("d"), nb::arg("order"),
           "Testing aid: multi-indices n (|n| <= order) and D^n T(d), components "
           "(xx, xy, xz, yy, yz, zz), for T(d) = d d^T / |d|^4.");
+    m.def("_m2l4_check",
+          [](nb::handle R, nb::handle M, nb::handle w, int order) {
+              if (order < 0 || order > kMaxOrder) throw nb::value_error(order_range_message().c_str());
+              ExpansionTables tb(order);
+              const std::size_t W = 9 * std::size_t(tb.ncoef);
+              std::size_t nr, nm, nw;
+              nb::object k1, k2, k3;
+              const double* Rv = view<double>(R, "R", 2, 3, nr, k1);
+              const double* Mv = view<double>(M, "M", 2, W, nm, k2);
+              const double* wv = view<double>(w, "w", 1, 0, nw, k3);
+              if (nr != 4 || nm != 4 || nw != 4)
+                  throw nb::value_error("R, M and w must hold four sources");
+              double R4[4][3];
+              const double* M4[4];
+              for (int q = 0; q < 4; ++q) {
+                  for (int d = 0; d < 3; ++d) R4[q][d] = Rv[3 * q + d];
+                  M4[q] = Mv + q * W;
+              }
+              double *L4, *Ls;
+              auto a = new_array(W / 9, 9, &L4);
+              auto b = new_array(W / 9, 9, &Ls);
+              std::fill(L4, L4 + W, 0.0);
+              std::fill(Ls, Ls + W, 0.0);
+              std::vector<double> work(expansion_work_size(tb)), scaled(W);
+              m2l4(tb, R4, M4, L4, work.data(), wv);
+              for (int q = 0; q < 4; ++q) {
+                  for (std::size_t c = 0; c < W; ++c) scaled[c] = wv[q] * M4[q][c];
+                  m2l(tb, R4[q], scaled.data(), Ls, work.data());
+              }
+              return nb::make_tuple(a, b);
+          },
+          nb::arg("R"), nb::arg("M"), nb::arg("w"), nb::arg("order"),
+          "Testing aid: the local expansion (ncoef x 9) of four weighted sources (R: 4 x 3 "
+          "target-minus-source offsets, M: 4 x 9 ncoef multipoles, w: 4 weights) by m2l4 and by "
+          "the sum of four m2l.");
 }
 
 void bind_point_tools(nb::module_& m) {

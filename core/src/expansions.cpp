@@ -2,6 +2,7 @@
 #include "expansions.hpp"
 
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 
 namespace illumap {
@@ -191,39 +192,48 @@ void m2l(const ExpansionTables& tb, const double R[3], const double* __restrict 
     }
 }
 
-__attribute__((target_clones("avx2", "default")))
-void m2l4(const ExpansionTables& tb, const double R[4][3], const double* const M[4],
-          double* __restrict L, double* work) {
+namespace {
+// Four lanes of doubles (GCC vector extension): one lane per source in m2l4. Element access
+// and arithmetic are lane-wise; each clone of m2l4 below compiles them for its own ISA.
+typedef double V4 __attribute__((vector_size(32)));
+
+inline __attribute__((always_inline)) void m2l4_body(const ExpansionTables& tb,
+                                                     const double R[4][3],
+                                                     const double* const M[4],
+                                                     const double* w4,
+                                                     double* __restrict L, double* work) {
     const int nc = tb.ncoef;
-    // Lane-interleaved copies: D[(6 n + s) * 4 + q], Mv[(9 m + e) * 4 + q].
-    double* __restrict Dv = work;                     // 24 nc
-    double* __restrict Mv = work + 24 * nc;           // 36 nc
-    double* scratch = work + 60 * nc;                 // 4 nc
-    double* __restrict a = scratch;                   // 4 nc: g Taylor coefficients, by lane
-    for (int q = 0; q < 4; ++q)
-        for (int i = 0; i < 9 * nc; ++i) Mv[4 * i + q] = M[q][i];
-    // Kernel derivatives for the four lanes together (same recurrence as kernel_derivatives).
-    double dx[3][4], inv_r2[4];
-    for (int q = 0; q < 4; ++q) {
-        for (int d = 0; d < 3; ++d) dx[d][q] = R[q][d];
-        inv_r2[q] = 1.0 / (R[q][0] * R[q][0] + R[q][1] * R[q][1] + R[q][2] * R[q][2]);
-        a[q] = inv_r2[q] * inv_r2[q];
+    // Lane-interleaved copies: Dv[6 n + s], Mv[9 m + e], a[n] (g's Taylor coefficients),
+    // each a vector of the four sources. work is 8-byte aligned: align it to 32.
+    const std::uintptr_t base = (reinterpret_cast<std::uintptr_t>(work) + 31) & ~std::uintptr_t(31);
+    V4* __restrict Dv = reinterpret_cast<V4*>(base);  // 6 nc
+    V4* __restrict Mv = Dv + 6 * nc;                   // 9 nc
+    V4* __restrict a = Mv + 9 * nc;                    // nc
+    const double *M0 = M[0], *M1 = M[1], *M2 = M[2], *M3 = M[3];
+    if (w4) {
+        const V4 w = {w4[0], w4[1], w4[2], w4[3]};
+        for (int i = 0; i < 9 * nc; ++i) Mv[i] = V4{M0[i], M1[i], M2[i], M3[i]} * w;
+    } else {
+        for (int i = 0; i < 9 * nc; ++i) Mv[i] = V4{M0[i], M1[i], M2[i], M3[i]};
     }
+    // Kernel derivatives for the four lanes together (same recurrence as kernel_derivatives).
+    V4 dx[3];
+    for (int d = 0; d < 3; ++d) dx[d] = V4{R[0][d], R[1][d], R[2][d], R[3][d]};
+    const V4 inv_r2 = 1.0 / (dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]);
+    a[0] = inv_r2 * inv_r2;
     for (int c = 1; c < nc; ++c) {
         const double nn = tb.degree[c];
         const double c1 = -(2.0 * nn + 2.0) / nn, c2 = -(nn + 2.0) / nn;
-        double s1[4] = {0, 0, 0, 0}, s2[4] = {0, 0, 0, 0};
+        V4 s1 = {0, 0, 0, 0}, s2 = {0, 0, 0, 0};
         for (int j = 0; j < 3; ++j) {
             const int q1 = tb.minus1[c][j];
-            if (q1 >= 0)
-                for (int q = 0; q < 4; ++q) s1[q] += dx[j][q] * a[4 * q1 + q];
+            if (q1 >= 0) s1 += dx[j] * a[q1];
         }
         for (int sidx : {0, 3, 5}) {
             const int q2 = tb.minus2[c][sidx];
-            if (q2 >= 0)
-                for (int q = 0; q < 4; ++q) s2[q] += a[4 * q2 + q];
+            if (q2 >= 0) s2 += a[q2];
         }
-        for (int q = 0; q < 4; ++q) a[4 * c + q] = (c1 * s1[q] + c2 * s2[q]) * inv_r2[q];
+        a[c] = (c1 * s1 + c2 * s2) * inv_r2;
     }
     for (int c = 0; c < nc; ++c) {
         const auto& m1 = tb.minus1[c];
@@ -231,39 +241,42 @@ void m2l4(const ExpansionTables& tb, const double R[4][3], const double* const M
         const double f = tb.factorial[c];
         for (int sidx = 0; sidx < 6; ++sidx) {
             const int A = kSymA[sidx], B = kSymB[sidx];
-            double t[4];
-            for (int q = 0; q < 4; ++q) t[q] = dx[A][q] * dx[B][q] * a[4 * c + q];
-            if (m1[B] >= 0)
-                for (int q = 0; q < 4; ++q) t[q] += dx[A][q] * a[4 * m1[B] + q];
-            if (m1[A] >= 0)
-                for (int q = 0; q < 4; ++q) t[q] += dx[B][q] * a[4 * m1[A] + q];
-            if (m2[sidx] >= 0)
-                for (int q = 0; q < 4; ++q) t[q] += a[4 * m2[sidx] + q];
-            for (int q = 0; q < 4; ++q) Dv[4 * (6 * c + sidx) + q] = f * t[q];
+            V4 t = dx[A] * dx[B] * a[c];
+            if (m1[B] >= 0) t += dx[A] * a[m1[B]];
+            if (m1[A] >= 0) t += dx[B] * a[m1[A]];
+            if (m2[sidx] >= 0) t += a[m2[sidx]];
+            Dv[6 * c + sidx] = f * t;
         }
     }
     const std::int32_t* Mi = tb.m2l_m.data();
     const std::int32_t* Ni = tb.m2l_n.data();
     for (int k = 0; k < nc; ++k) {
-        double acc[9][4] = {};
+        V4 acc[9];
+        for (V4& x : acc) x = V4{0, 0, 0, 0};
         for (std::int32_t t = tb.m2l_koff[k]; t < tb.m2l_koff[k + 1]; ++t) {
-            const double* d = Dv + 24 * Ni[t];
-            const double* m = Mv + 36 * Mi[t];
-            for (int q = 0; q < 4; ++q) {
-                const double d00 = d[q], d01 = d[4 + q], d02 = d[8 + q], d11 = d[12 + q],
-                             d12 = d[16 + q], d22 = d[20 + q];
-                for (int ch = 0; ch < 3; ++ch) {
-                    const double a = m[4 * ch + q], b = m[4 * (3 + ch) + q],
-                                 c = m[4 * (6 + ch) + q];
-                    acc[ch][q] += d00 * a + d01 * b + d02 * c;
-                    acc[3 + ch][q] += d01 * a + d11 * b + d12 * c;
-                    acc[6 + ch][q] += d02 * a + d12 * b + d22 * c;
-                }
+            const V4* d = Dv + 6 * Ni[t];
+            const V4* m = Mv + 9 * Mi[t];
+            const V4 d00 = d[0], d01 = d[1], d02 = d[2], d11 = d[3], d12 = d[4], d22 = d[5];
+            for (int ch = 0; ch < 3; ++ch) {
+                const V4 x = m[ch], y = m[3 + ch], z = m[6 + ch];
+                acc[ch] += d00 * x + d01 * y + d02 * z;
+                acc[3 + ch] += d01 * x + d11 * y + d12 * z;
+                acc[6 + ch] += d02 * x + d12 * y + d22 * z;
             }
         }
         double* l = L + 9 * k;
         for (int e = 0; e < 9; ++e) l[e] += (acc[e][0] + acc[e][1]) + (acc[e][2] + acc[e][3]);
     }
+}
+}  // namespace
+
+// SIMD across the four sources. The x86-64-v4 clone (AVX-512 encodings: 32 vector registers,
+// so the nine accumulators, six derivatives and three moments stay in registers) and the v3
+// clone (AVX2 + FMA) contract with fused multiply-adds.
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "avx2", "default")))
+void m2l4(const ExpansionTables& tb, const double R[4][3], const double* const M[4],
+          double* __restrict L, double* work, const double* w4) {
+    m2l4_body(tb, R, M, w4, L, work);
 }
 
 void p2l(const ExpansionTables& tb, const double R[3], const double s9[9], double* L,

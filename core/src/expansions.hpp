@@ -62,9 +62,10 @@ void m2m(const ExpansionTables& tb, const double delta[3], const double* Mchild,
 void m2l(const ExpansionTables& tb, const double R[3], const double* M, double* L, double* work);
 void l2l(const ExpansionTables& tb, const double delta[3], const double* Lparent, double* Lchild,
          double* work);
-// M2L from four sources at once (SIMD across sources): L += sum_q M2L(R[q], M[q]).
+// M2L from four sources at once (SIMD across sources): L += sum_q M2L(R[q], w4[q] M[q])
+// (w4 == nullptr: every weight 1).
 void m2l4(const ExpansionTables& tb, const double R[4][3], const double* const M[4], double* L,
-          double* work);
+          double* work, const double* w4 = nullptr);
 // P2L: one source point (s9 = n A x, [b*3 + channel]) at offset R = c_t - r_j from the
 // target centre, added to the target's local expansion.
 void p2l(const ExpansionTables& tb, const double R[3], const double s9[9], double* L,

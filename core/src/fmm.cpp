@@ -192,43 +192,63 @@ void Fmm::far_field(Context& ctx, const Values& v) {
 
 // M2L into the local expansion L of node tn. Sources whose values are all zero add nothing
 // and are left out (K(E) has values at the emitters only). Four sources at a time (m2l4, SIMD
-// across sources; a weighted PARTIAL far leaf pair as a scaled copy of its multipole: M2L is
-// linear in it); a last group of two or three is padded with zero multipoles, a single
-// source goes alone. `buf`: far_buffer_size() doubles, the last W_ of them zero.
+// across sources; a weighted PARTIAL far leaf pair scales its multipole by its weight in
+// m2l4's lane copy: M2L is linear in it); a last group of two or three is padded with zero
+// multipoles, a single source goes alone (scaled into buf). The next group's multipoles are
+// prefetched while one group is contracted: leaf targets read their sources' multipoles
+// from all over the store. `buf`: far_buffer_size() doubles, the last W_ of them zero.
 void Fmm::m2l_into(std::int32_t tn, const Values& v, double* L, double* work,
                    double* buf) const {
     const OctreeNode& nt = T_.nodes[tn];
-    double* scaled = buf;  // four scaled copies, one per lane
     const double* zero = buf + 4 * W_;
     const bool weighted = !IL_.m2l_w.empty();
-    double R4[4][3];
+    const std::int64_t k0 = IL_.m2l_off[tn], k1 = IL_.m2l_off[tn + 1];
+    auto prefetch = [&](std::int64_t k) {  // the multipoles of the next four live sources
+        for (int c = 0; c < 4 && k < k1; ++k) {
+            const std::int32_t sn = IL_.m2l_src[k];
+            if (!v.live[sn]) continue;
+            const char* p = reinterpret_cast<const char*>(multipole(sn));
+            for (std::size_t b = 0; b < W_ * sizeof(double); b += 64) __builtin_prefetch(p + b);
+            ++c;
+        }
+    };
+    double R4[4][3], w4[4];
     const double* M4[4];
+    bool any_weight = false;
     int q = 0;
-    for (std::int64_t k = IL_.m2l_off[tn]; k < IL_.m2l_off[tn + 1]; ++k) {
+    std::int64_t k = k0;
+    prefetch(k);
+    while (k < k1) {
         const std::int32_t sn = IL_.m2l_src[k];
+        const double w = weighted ? double(IL_.m2l_w[k]) : 1.0;
+        ++k;
         if (!v.live[sn]) continue;
         const OctreeNode& ns = T_.nodes[sn];
         for (int d = 0; d < 3; ++d) R4[q][d] = nt.center[d] - ns.center[d];
         M4[q] = multipole(sn);
-        if (weighted && IL_.m2l_w[k] != 1.0f) {
-            const double w = IL_.m2l_w[k];
-            double* Mw = scaled + std::size_t(q) * W_;
-            for (std::size_t c = 0; c < W_; ++c) Mw[c] = w * M4[q][c];
-            M4[q] = Mw;
-        }
+        w4[q] = w;
+        any_weight = any_weight || w != 1.0;
         if (++q == 4) {
-            m2l4(tables_, R4, M4, L, work);
+            prefetch(k);
+            m2l4(tables_, R4, M4, L, work, any_weight ? w4 : nullptr);
             q = 0;
+            any_weight = false;
         }
     }
     if (q == 1) {
-        m2l(tables_, R4[0], M4[0], L, work);
+        const double* M = M4[0];
+        if (w4[0] != 1.0) {
+            for (std::size_t c = 0; c < W_; ++c) buf[c] = w4[0] * M[c];
+            M = buf;
+        }
+        m2l(tables_, R4[0], M, L, work);
     } else if (q > 1) {
         for (int r = q; r < 4; ++r) {
             for (int d = 0; d < 3; ++d) R4[r][d] = R4[0][d];
             M4[r] = zero;
+            w4[r] = 1.0;
         }
-        m2l4(tables_, R4, M4, L, work);
+        m2l4(tables_, R4, M4, L, work, any_weight ? w4 : nullptr);
     }
 }
 

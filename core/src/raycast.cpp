@@ -504,8 +504,7 @@ void RaycastVisibility::block(std::int32_t a, std::int32_t b, float* out,
         }
     batch.flush();
     count_queries(batch.cast());
-    blocks_.fetch_add(1, std::memory_order_relaxed);
-    block_pairs_.fetch_add(std::uint64_t(A.count()) * nb, std::memory_order_relaxed);
+    count_block(std::uint64_t(A.count()) * nb);
 }
 
 }  // namespace illumap

@@ -43,8 +43,7 @@ void sample_pairs(const Octree& tree, std::uint64_t seed, std::int32_t lo, std::
 
 VisibilityModel::VisibilityModel(const Octree& tree, const VisibilityOptions& opt)
     : tree_(tree), opt_(opt) {
-    for (auto& l : counts_)
-        for (auto& c : l) c.store(0);
+    reset_stats();
 }
 
 void VisibilityModel::pairs_batch(const std::uint32_t* I, const std::uint32_t* J, int n,
@@ -67,7 +66,7 @@ int VisibilityModel::sample_batch(std::int32_t lo, std::int32_t hi, float* v) co
 
 VisClass VisibilityModel::class_of(int vis, int n) const {
     if (n == 0) {
-        no_facing_.fetch_add(1, std::memory_order_relaxed);
+        count_no_facing();
         return VisClass::Valid;
     }
     return vis == n ? VisClass::Valid : (vis == 0 ? VisClass::Invalid : VisClass::Partial);
@@ -158,8 +157,7 @@ void VisibilityModel::block(std::int32_t a, std::int32_t b, float* out,
             if (any_known && v != kUnknown) continue;
             v = i != j && vis_facing(tree_.s, i, j) ? pair(i, j) : 1.0f;
         }
-    blocks_.fetch_add(1, std::memory_order_relaxed);
-    block_pairs_.fetch_add(std::uint64_t(A.count()) * nb, std::memory_order_relaxed);
+    count_block(std::uint64_t(A.count()) * nb);
 }
 
 void VisibilityModel::classify_batch(Context& ctx, const std::int32_t* a, const std::int32_t* b,
@@ -171,28 +169,33 @@ void VisibilityModel::classify_batch(Context& ctx, const std::int32_t* a, const 
 
 VisStats VisibilityModel::stats() const {
     VisStats st;
+    std::array<std::array<std::uint64_t, 3>, kLevels> counts{};
+    for (const Shard& sh : shards_) {
+        for (int l = 0; l < kLevels; ++l)
+            for (int c = 0; c < 3; ++c) counts[l][c] += sh.counts[l][c].load();
+        st.queries += sh.queries.load();
+        st.no_facing += sh.no_facing.load();
+        st.blocks += sh.blocks.load();
+        st.block_pairs += sh.block_pairs.load();
+    }
     int top = 0;
     for (int l = 0; l < kLevels; ++l)
-        if (counts_[l][0] + counts_[l][1] + counts_[l][2]) top = l + 1;
-    st.per_level.resize(top);
-    for (int l = 0; l < top; ++l)
-        for (int c = 0; c < 3; ++c) st.per_level[l][c] = counts_[l][c].load();
-    st.queries = queries_.load();
-    st.no_facing = no_facing_.load();
-    st.blocks = blocks_.load();
-    st.block_pairs = block_pairs_.load();
+        if (counts[l][0] + counts[l][1] + counts[l][2]) top = l + 1;
+    st.per_level.assign(counts.begin(), counts.begin() + top);
     st.build_seconds = build_seconds_;
     st.bytes = bytes_;
     return st;
 }
 
 void VisibilityModel::reset_stats() {
-    for (auto& l : counts_)
-        for (auto& c : l) c.store(0);
-    queries_ = 0;
-    no_facing_ = 0;
-    blocks_ = 0;
-    block_pairs_ = 0;
+    for (Shard& sh : shards_) {
+        for (auto& l : sh.counts)
+            for (auto& c : l) c.store(0);
+        sh.queries = 0;
+        sh.no_facing = 0;
+        sh.blocks = 0;
+        sh.block_pairs = 0;
+    }
 }
 
 bool VisibilityModel::fill_drawn(std::int32_t a, std::int32_t b, const DrawMemo* drawn,

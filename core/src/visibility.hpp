@@ -235,17 +235,36 @@ protected:
     bool fill_drawn(std::int32_t a, std::int32_t b, const DrawMemo* drawn, float* out) const;
 
     void record(int level, VisClass c) const {
-        counts_[std::min(level, kLevels - 1)][int(c)].fetch_add(1, std::memory_order_relaxed);
+        shard().counts[std::min(level, kLevels - 1)][int(c)].fetch_add(1, std::memory_order_relaxed);
     }
     void count_queries(std::uint64_t n) const {
-        queries_.fetch_add(n, std::memory_order_relaxed);
+        shard().queries.fetch_add(n, std::memory_order_relaxed);
+    }
+    void count_no_facing() const { shard().no_facing.fetch_add(1, std::memory_order_relaxed); }
+    void count_block(std::uint64_t pairs) const {
+        Shard& sh = shard();
+        sh.blocks.fetch_add(1, std::memory_order_relaxed);
+        sh.block_pairs.fetch_add(pairs, std::memory_order_relaxed);
     }
 
     static constexpr int kLevels = 64;
     const Octree& tree_;
     VisibilityOptions opt_;
-    mutable std::array<std::array<std::atomic<std::uint64_t>, 3>, kLevels> counts_;
-    mutable std::atomic<std::uint64_t> queries_{0}, no_facing_{0}, blocks_{0}, block_pairs_{0};
+    // The statistics, counted once per ray or class from every thread: one shard per thread
+    // (by a thread's first use; more threads than shards share them), each on its own cache
+    // lines. A single shared counter cost a contended atomic per ray (most of pair()'s own
+    // time on two cores); stats() sums the shards.
+    static constexpr int kShards = 16;
+    struct alignas(64) Shard {
+        std::array<std::array<std::atomic<std::uint64_t>, 3>, kLevels> counts;
+        std::atomic<std::uint64_t> queries{0}, no_facing{0}, blocks{0}, block_pairs{0};
+    };
+    Shard& shard() const {
+        static std::atomic<unsigned> next{0};
+        thread_local const unsigned mine = next.fetch_add(1, std::memory_order_relaxed);
+        return shards_[mine % kShards];
+    }
+    mutable std::array<Shard, kShards> shards_;
     double build_seconds_ = 0;
     std::size_t bytes_ = 0;
 

@@ -76,3 +76,18 @@ def test_bad_arguments():
         _core._kernel_derivatives(np.zeros(4), 2)
     with pytest.raises(ValueError):
         _core._kernel_derivatives(np.ones(3), 11)
+
+
+@pytest.mark.parametrize("order", range(0, 11))
+def test_m2l4_equals_four_weighted_m2l(order):
+    """The FMM's four-source M2L (SIMD lanes, in-register transposition, the weights of
+    partial far leaf pairs applied in its lane copy) against four single M2L on scaled
+    copies, at every order (the multipole length 9 * ncoef is not always a multiple of 4)."""
+    ncoef = (order + 1) * (order + 2) * (order + 3) // 6
+    rng = np.random.default_rng(order)
+    R = rng.uniform(-1, 1, (4, 3)) + np.array([3.0, -1.0, 2.0])
+    M = rng.uniform(-1, 1, (4, 9 * ncoef))
+    for w in ([1.0, 1.0, 1.0, 1.0], [0.25, 1.0, 0.6, 0.0]):
+        L4, Ls = _core._m2l4_check(R, M, np.array(w), order)
+        assert L4.shape == (ncoef, 9)
+        np.testing.assert_allclose(L4, Ls, rtol=1e-12, atol=1e-13 * np.abs(Ls).max())

@@ -320,6 +320,19 @@ def test_fmm_lists_mirror_each_other(vis, mode):
     assert abs(a - b) <= 1e-6 * abs(a), (a, b)
 
 
+@pytest.mark.parametrize("vis", VIS)
+def test_fmm_with_visibility_is_bit_identical_for_any_thread_count(vis):
+    """The walk is shared out by thread count, but each target's lists are sorted by source
+    afterwards, so the lists and every sum over them are the same for any number of threads."""
+    s, lab = cornell(40)
+    assert s.n > 10000
+    x = np.random.default_rng(2).random((s.n, 3))
+    ys = [illumap.TransportOperator(s, method="fmm", order=3, visibility=vis,
+                                    threads=t).apply(x) for t in (1, 2, 3)]
+    np.testing.assert_array_equal(ys[0], ys[1])
+    np.testing.assert_array_equal(ys[0], ys[2])
+
+
 def test_auto_picks_cg_when_symmetric_and_gmres_otherwise():
     s, lab = cornell(6)
     op = illumap.TransportOperator(s, method="fmm", visibility="exact")
