@@ -776,7 +776,7 @@ def _merged_corners(occ, rec) -> tuple[np.ndarray, np.ndarray]:
 #: (normals more opposite than this cosine) and contains the receiver's point.
 COVER_COS = -0.9
 _COVER_NEIGHBOURS = 16
-_COVER_OTHERS = 64            # another mesh's surfels near a receiver, for its triangles
+_COVER_OTHERS = 32            # other meshes' triangles near a receiver that could cover it
 _EDGE_SLACK = 1e-9            # barycentric, of a triangle's own size
 _COVER_CHUNK = 8192           # receivers per batch of triangle tests (≤ 40 MB)
 
@@ -786,12 +786,12 @@ def covered_receivers(job: Job, points: np.ndarray, normals: np.ndarray, toleran
     """bool (M,): receivers that another surface lies flat against, facing them (a box's
     bottom on a floor). Rays lifted off such a receiver would start beyond the covering
     surface and see past it, so no light reaches them, as in Cycles. Candidates are the
-    triangles of the meshes' front-face surfels nearest to each receiver, and where another
-    mesh comes as near, of more of that mesh's (``owners`` (M,): each receiver's mesh, its
-    index among the MESH sources, or -1): the receiver's own surfels crowd its
-    neighbourhood, and the floor's triangle under a box's bottom need not be among them.
-    One covers it when it faces the receiver, lies within ``tolerance`` (m) of its plane and
-    contains its point."""
+    triangles of the meshes' front-face surfels nearest to each receiver, and, where the
+    nearest triangle of another mesh lies flat against it, that mesh's nearest triangles by
+    centroid (``owners`` (M,): each receiver's mesh, its index among the MESH sources, or
+    -1): a box's own surfels crowd its bottom's neighbourhood, and a sparse floor's
+    triangles hold fewer than one surfel each. One covers it when it faces the receiver,
+    lies within ``tolerance`` (m) of its plane and contains its point."""
     from illumap import _core
     sources = [src for src in job.sources if src.kind == "MESH"]
     if not sources or len(points) == 0 or job.triangles is None or job.mesh_triangle_start is None:
@@ -801,28 +801,42 @@ def covered_receivers(job: Job, points: np.ndarray, normals: np.ndarray, toleran
     source = np.concatenate([np.full(src.stop - src.start, i) for i, src in enumerate(sources)])
     triangle = job.mesh_triangle_start[source] + job.triangle[rows]
     k = min(_COVER_NEIGHBOURS, len(rows))
-    idx, dist = _core.knn(job.positions[rows], points, k)
+    idx, _ = _core.knn(job.positions[rows], points, k)
     covered = _covered(job.triangles, triangle[np.asarray(idx)], points, normals, tolerance)
     if owners is None:
         return covered
-    # Where another mesh comes as near as the receiver's own surfels reach, its triangles
-    # around the point, from more of its surfels (a point at a triangle's corner lies in
-    # triangles that hold few of the nearest).
-    reach = np.asarray(dist)[:, -1]
+    # Where the nearest triangle of another mesh lies flat against the point: that mesh's
+    # nearest triangles by centroid, with or without surfels.
+    ends = np.append(job.mesh_triangle_start, _mesh_triangle_end(job))
+    mesh_of = np.repeat(np.arange(len(sources)), np.diff(ends))
+    centroids = job.triangles[:ends[-1]].mean(axis=1)
     for i in np.unique(owners[owners >= 0]):
-        rest = np.flatnonzero(source != i)
-        if len(rest) == 0:
-            continue
+        others = np.flatnonzero(mesh_of != i)
         mine = np.flatnonzero((owners == i) & ~covered)
-        _, gap = _core.knn(job.positions[rows[rest]], points[mine], 1)
-        mine = mine[np.asarray(gap)[:, 0] <= reach[mine]]
+        if len(mine) == 0 or len(others) == 0:
+            continue
+        tree = np.ascontiguousarray(centroids[others])
+        nearest, _ = _core.knn(tree, points[mine], 1)
+        first = job.triangles[others[np.asarray(nearest)[:, 0]]]
+        face = np.cross(first[:, 1] - first[:, 0], first[:, 2] - first[:, 0])
+        face /= np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-300)
+        flat = (np.abs(np.einsum("mc,mc->m", points[mine] - first[:, 0], face)) < tolerance) & \
+            (np.einsum("mc,mc->m", face, normals[mine]) < COVER_COS)
+        mine = mine[flat]
         if len(mine) == 0:
             continue
-        got, _ = _core.knn(job.positions[rows[rest]], points[mine],
-                           min(_COVER_OTHERS, len(rest)))
-        covered[mine] = _covered(job.triangles, triangle[rest[np.asarray(got)]], points[mine],
+        got, _ = _core.knn(tree, points[mine], min(_COVER_OTHERS, len(others)))
+        covered[mine] = _covered(job.triangles, others[np.asarray(got)], points[mine],
                                  normals[mine], tolerance)
     return covered
+
+
+def _mesh_triangle_end(job: Job) -> int:
+    """Where the meshes' triangles end in ``job.triangles`` (the clouds' splats follow)."""
+    if job.splat_point is None:
+        return len(job.triangles)
+    splats = np.flatnonzero(job.splat_point >= 0)
+    return int(splats[0]) if len(splats) else len(job.triangles)
 
 
 def _covered(triangles: np.ndarray, candidates: np.ndarray, points: np.ndarray,

@@ -129,17 +129,19 @@ def test_only_faces_pressed_together_are_covered():
 
 
 @requires_core
-def test_a_box_bottom_on_a_coarser_floor_is_covered_everywhere():
+@pytest.mark.parametrize("budget", [None, 1500], ids=["default", "sparse"])
+def test_a_box_bottom_on_a_coarser_floor_is_covered_everywhere(budget):
     """A box (0.1 m cells) on a floor of 0.2 m cells whose grid lines its bottom's vertices
     lie on, lit by the sky: every corner of the box's bottom is covered, also those at the
     corners of the floor's triangles (few of the nearest surfels, which are mostly the box's
-    own, lie in those triangles). Uncovered, such a corner looks down past the floor at the
-    sky below and reads lit."""
+    own, lie in those triangles; with few surfels, most of the floor's triangles hold
+    none). Uncovered, such a corner looks down past the floor at the sky below and reads
+    lit."""
     from test_reference_cases import closed_box, diffuse, plane
     set_world()
     floor = plane("Floor", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], 0.2, diffuse("F"))
     box = closed_box("Box", (-0.4, -0.6, 0.0), (0.6, 0.4, 0.8), 0.1, diffuse("B"))
-    pipeline.compute(bpy.context, [floor, box], pipeline.Settings(lamps=False))
+    pipeline.compute(bpy.context, [floor, box], pipeline.Settings(lamps=False, budget=budget))
     mesh = box.data
     normal = np.empty(len(mesh.polygons) * 3)
     mesh.polygons.foreach_get("normal", normal)
