@@ -222,7 +222,7 @@ def frame_path(path: str | None, frame: int, several: bool) -> str | None:
 
 
 def _usable(obj) -> bool:
-    if obj.name == "Illumap Surfels":
+    if obj.name == output.SURFEL_OBJECT:
         return False
     if obj.type == "EMPTY":
         return obj.instance_type == "COLLECTION" and obj.instance_collection is not None
@@ -540,7 +540,7 @@ def run_frames(args, out=None) -> int:
             raise OutputError(f"Writing the exports of frame {frame} failed: {exc}") from None
         result.timings["total"] = time.perf_counter() - t0
         _report(frame, result, out)
-        surfels = bpy.data.objects.get(result.object_name or "Illumap Surfels")
+        surfels = bpy.data.objects.get(result.object_name or output.SURFEL_OBJECT)
         add_preview(context, surfels)  # the saved file opens with the preview in place
         if outputs["output"]:
             try:

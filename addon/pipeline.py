@@ -940,7 +940,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     owners, back_owners = _splat_owners(job, back)
     all_lamps = list(job.lamps) + list(job.emitters)
     gather_rays, shadow_samples = receiver_rays(s)
-    lum = np.array([0.2126, 0.7152, 0.0722])
+    lum = _luminance_weights()
     noise2 = light2 = indirect = total = 0.0
     # Every object's receivers in one batch (the gather tabulates the surfels' light once),
     # corners that see the same light evaluated once.
@@ -1300,13 +1300,19 @@ def write(context, job: Job, result: Result):
     return obj
 
 
+def _luminance_weights() -> np.ndarray:
+    """Rec. 709 luminance of linear RGB, as the core weighs light (one definition)."""
+    from illumap.refinement import LUMINANCE_WEIGHTS
+    return np.asarray(LUMINANCE_WEIGHTS, dtype=np.float64)
+
+
 def point_values(job: Job, result: Result) -> dict[str, np.ndarray]:
     """Outgoing radiance (n, 3) per point of each point-cloud source, in its own order: as
     evaluated at the point (``receive``), else the point's surfel, for two-sided points the
     brighter of its two sides."""
     out = {}
     backs = {src.name: src for src in job.sources if src.kind == "BACK"}
-    lum = np.array([0.2126, 0.7152, 0.0722])
+    lum = _luminance_weights()
     for src in job.sources:
         if src.kind != "POINTS":
             continue

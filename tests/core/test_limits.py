@@ -11,7 +11,7 @@ import pytest
 
 import illumap
 from illumap import _core, limits, sampling, surfels as surfels_module
-from illumap.limits import MAX_INT32, limit
+from illumap.limits import limit
 from illumap.operator import MAX_ORDER, validate_keywords
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -176,7 +176,6 @@ def test_the_native_order_message():
 def test_module_constants_are_the_table():
     assert surfels_module.MAX_COORDINATE == limit("coordinate").high == -limit("coordinate").low
     assert surfels_module.AREA_RANGE == (limit("area").low, limit("area").high)
-    assert illumap.operator.MAX_INT == MAX_INT32
 
 
 # --- the UI's bounds ----------------------------------------------------------------------

@@ -102,10 +102,6 @@ def _check_choice(name, value, choices):
     return value
 
 
-#: The largest integer the native module takes for a count (a C ``int``).
-MAX_INT = limits.MAX_INT32
-
-
 def _check(name, value):
     """``value`` inside its limit (``illumap.limits``) as int or float, or an InputError
     naming it; never the native module's raw type error."""
