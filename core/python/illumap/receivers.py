@@ -382,10 +382,10 @@ CREASE_INSET = 0.03
 class Creases:
     """The surfaces that meet at scan points, for :func:`crease_surfaces`."""
 
-    rows: np.ndarray          # (E,) int64 points with a further surface to evaluate, ascending
+    rows: np.ndarray          # (E,) int64 points with a face to evaluate, ascending
     normals: np.ndarray       # (E, 3) that surface's unit outward normal
     points: np.ndarray        # (E, 3) m, where to evaluate it: a hair into and off the face
-    own: np.ndarray           # (P,) bool: the point's own normal is one of its surfaces
+    own: np.ndarray           # (P,) bool: the point is lit by its own normal (not a crease)
 
     def mean(self, own_values: np.ndarray, values: np.ndarray) -> np.ndarray:
         """Each point's light (P, C): the mean over its surfaces of ``own_values`` (P, C), lit
@@ -424,22 +424,43 @@ def crease_surfaces(points, normals, *, k: int = CREASE_NEIGHBOURS) -> Creases:
     kk = int(min(k, P - 1))
     idx, dist = _core.knn(p, p, kk + 1)
     idx, dist = np.asarray(idx, dtype=np.int64), np.asarray(dist)
-    rows = np.arange(P)
+    crease = np.zeros(P, dtype=bool)
+    found = []
+    for lo in range(0, P, _CREASE_CHUNK):
+        rows = np.arange(lo, min(lo + _CREASE_CHUNK, P))
+        found.append(_crease_faces(p, n, rows, idx[rows], dist[rows], crease))
+    r = np.concatenate([f[0] for f in found])
+    if len(r) == 0:
+        return nothing
+    return Creases(r, np.concatenate([f[1] for f in found]),
+                   np.concatenate([f[2] for f in found]), ~crease)
+
+
+#: Points grouped at once by ``crease_surfaces`` (~60 MB of neighbour offsets at k = 12).
+_CREASE_CHUNK = 32768
+
+
+def _crease_faces(p, n, rows, idx, dist, crease) -> tuple:
+    """``crease_surfaces`` for the points ``rows`` (their ``idx``, ``dist``: k + 1 nearest,
+    themselves included): marks ``crease[rows]`` and returns (point, face normal, where to
+    evaluate) per face of a crease point."""
     me = idx == rows[:, None]
     scale = np.median(dist[:, 1:], axis=1)
-    nb_n = n[idx]                                                        # (P, k + 1, 3)
-    offsets = p[idx] - p[:, None, :]
+    nb_n = n[idx]                                                        # (R, k + 1, 3)
+    offsets = p[idx] - p[rows, None, :]
     free = me | (np.abs(np.einsum("pkc,pkc->pk", offsets, nb_n)) <= CREASE_ON_PLANE * scale[:, None])
     # Group the normals: the point's own first, then the nearest left.
     G = CREASE_MAX_SURFACES
-    mean_normal = np.zeros((P, G, 3))
-    members = np.zeros((P, G, kk + 1, 3))                # each group's offsets, 0 elsewhere
-    found = np.zeros((P, G), dtype=bool)
+    R = len(rows)
+    local = np.arange(R)
+    mean_normal = np.zeros((R, G, 3))
+    members = np.zeros((R, G, idx.shape[1], 3))          # each group's offsets, 0 elsewhere
+    found = np.zeros((R, G), dtype=bool)
     key = np.where(me, -1.0, dist)
     for g in range(G):
         left = free.any(axis=1)
         seed = np.argmin(np.where(free, key, np.inf), axis=1)
-        member = free & (np.einsum("pc,pkc->pk", nb_n[rows, seed], nb_n) >= CREASE_SAME_COS)
+        member = free & (np.einsum("pc,pkc->pk", nb_n[local, seed], nb_n) >= CREASE_SAME_COS)
         total = (member[..., None] * nb_n).sum(axis=1)
         length = np.linalg.norm(total, axis=1)
         found[:, g] = left & (member.sum(axis=1) >= CREASE_MIN_VOTES) & (length > 0)
@@ -449,13 +470,12 @@ def crease_surfaces(points, normals, *, k: int = CREASE_NEIGHBOURS) -> Creases:
     faces, on_line = plane_through(members)
     faces *= np.where(np.einsum("pgc,pgc->pg", faces, mean_normal) < 0, -1.0, 1.0)[..., None]
     face = found & ~on_line
-    crease = face.sum(axis=1) >= 2
-    if not crease.any():
-        return nothing
-    r, g = np.nonzero(face & crease[:, None])
+    mine = face.sum(axis=1) >= 2
+    crease[rows] = mine
+    r, g = np.nonzero(face & mine[:, None])
     centre = members[r, g].sum(axis=1)
     inward = centre / np.maximum(np.linalg.norm(centre, axis=1, keepdims=True), 1e-300)
     # A hair off the face too: near an edge the neighbours' splats tilt a little, and from
     # the face's exact plane a receiver would start behind them.
-    at = p[r] + CREASE_INSET * scale[r, None] * (inward + faces[r, g])
-    return Creases(r.astype(np.int64), faces[r, g], at, ~crease)
+    at = p[rows[r]] + CREASE_INSET * scale[r, None] * (inward + faces[r, g])
+    return rows[r].astype(np.int64), faces[r, g], at
