@@ -76,7 +76,7 @@ import traceback
 import bpy
 from illumap.limits import limit
 
-from . import output, pipeline
+from . import output, pipeline, solid_preview
 from .errors import (ExitCode, IllumapCancelled, IllumapError, NoLightError, OutputError,
                      exit_code_help)
 
@@ -542,6 +542,8 @@ def run_frames(args, out=None) -> int:
         _report(frame, result, out)
         surfels = bpy.data.objects.get(result.object_name or output.SURFEL_OBJECT)
         add_preview(context, surfels)  # the saved file opens with the preview in place
+        # While the file's Solid Preview is on, the meshes this frame lit show it too.
+        solid_preview.after_run(context, list(result.receiver_values.keys()))
         if outputs["output"]:
             try:
                 with atomic_path(outputs["output"]) as tmp:

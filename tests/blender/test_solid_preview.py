@@ -226,3 +226,22 @@ def test_the_material_reader_takes_the_render_colour_attribute():
                                    np.tile([1 / 3] * 3, (4, 1)), np.zeros(4, np.int64))
     np.testing.assert_allclose(samples.color()[rows, :3], np.tile([0.1, 0.2, 0.5], (4, 1)),
                                atol=0.01)    # Paint (bytes), not illumination (0.9, 0.1, 0.1)
+
+
+@requires_core
+def test_a_batch_run_joins_newly_lit_meshes_while_it_is_on():
+    """A file saved with Solid Preview on and lit again by a batch job: the meshes the job
+    lights for the first time show their light in Solid mode too, as after the button."""
+    from addon import batch
+    shown = _painted("Shown", location=(5, 0, 0))
+    assert solid_preview.enable([shown], bpy.context.screen) == ["Shown"]
+    floor = make_plane("Floor", size=2.0, material=diffuse_material("F", (0.5,) * 3))
+    make_plane("Light", size=0.5, location=(0, 0, 1.0), flip=True,
+               material=emission_material("E", (5.0, 5.0, 5.0), 1.0))
+    select_only(floor, bpy.data.objects["Light"])
+    assert batch.main(["--objects", "Floor,Light", "--budget", "400", "--method", "direct"]) == 0
+    assert _names(floor)[0] == "illumination"
+    assert floor.data[solid_preview.RECORD] == ""
+    solid_preview.disable(bpy.data)
+    assert (floor.data.color_attributes.active_color_name or "") == ""
+    assert _names(shown) == ("Paint", "Paint")
