@@ -144,7 +144,7 @@ def record_stats(stats, result, seconds):
         stats.chosen_settings = f"{chosen['label']}, tol {chosen['tol']:.0e}" + (
             f" or solver error ≤ {chosen['error_tol']:.1%}" if chosen.get("error_tol") else "")
     stats.estimated_error = float((accuracy.get("estimate") or {}).get("total") or 0.0)
-    stats.estimated_error_at_meshes = float((extra.get("receivers") or {}).get("estimate") or 0.0)
+    stats.estimated_error_at_objects = float((extra.get("receivers") or {}).get("estimate") or 0.0)
     stats.valid = True
     stats.summary = (f"{stats.surfels} surfels, {stats.iterations} iterations, "
                      f"residual {stats.residual:.2e}, {stats.total_seconds:.2f} s")
@@ -162,6 +162,11 @@ def report_warnings(result, report, limit=5):
         report({"WARNING"}, f"Illumap: {len(warnings) - limit} more warnings (see the console)")
         for text in warnings[limit:]:
             print(f"Illumap warning: {text}")
+
+
+def _count(n: int, noun: str) -> str:
+    """"1 mesh", "2 meshes", "0 objects": for reports."""
+    return f"{n} {noun}{'' if n == 1 else 'es' if noun.endswith(('s', 'sh', 'ch', 'x')) else 's'}"
 
 
 def after_write(context, props, surfel_object, result=None):
@@ -581,8 +586,7 @@ class ILLUMAP_OT_mesh_preview(bpy.types.Operator):
         objects = context.selected_objects or list(context.scene.objects)
         if not self.show:
             removed = mesh_preview.remove_mesh_preview(objects)
-            self.report({"INFO"}, f"Illumap: object preview off on {removed} object"
-                                  f"{'s' * (removed != 1)}")
+            self.report({"INFO"}, f"Illumap: object preview off on {_count(removed, 'object')}")
             return {"FINISHED"}
         shown = mesh_preview.build_mesh_preview(objects)
         if not shown:
@@ -590,8 +594,7 @@ class ILLUMAP_OT_mesh_preview(bpy.types.Operator):
                                    "attribute: compute an illumination map with Transfer to "
                                    "Meshes first")
             return {"CANCELLED"}
-        self.report({"INFO"}, f"Illumap: object preview on {len(shown)} object"
-                              f"{'s' * (len(shown) != 1)}")
+        self.report({"INFO"}, f"Illumap: object preview on {_count(len(shown), 'object')}")
         return {"FINISHED"}
 
 
@@ -609,8 +612,8 @@ class ILLUMAP_OT_solid_preview(bpy.types.Operator):
     def execute(self, context):
         if not self.show:
             restored = solid_preview.disable(context.blend_data)
-            self.report({"INFO"}, f"Illumap: solid preview off, {restored} mesh"
-                                  f"{'es' * (restored != 1)} restored")
+            self.report({"INFO"}, f"Illumap: solid preview off, {_count(restored, 'mesh')} "
+                                  "restored")
             return {"FINISHED"}
         objects = context.selected_objects or list(context.scene.objects)
         shown = solid_preview.enable(objects, context.screen)
@@ -619,8 +622,8 @@ class ILLUMAP_OT_solid_preview(bpy.types.Operator):
                                    "attribute (point clouds show in the Object Preview): "
                                    "compute an illumination map with Transfer to Meshes first")
             return {"CANCELLED"}
-        self.report({"INFO"}, f"Illumap: solid preview on {len(shown)} mesh"
-                              f"{'es' * (len(shown) != 1)}; switch the viewport to Solid")
+        self.report({"INFO"}, f"Illumap: solid preview on {_count(len(shown), 'mesh')}; "
+                              "switch the viewport to Solid")
         return {"FINISHED"}
 
 
@@ -660,7 +663,7 @@ class ILLUMAP_OT_clear_results(bpy.types.Operator):
                             "" if n == "illumination" else n for n in names))
                     solid_preview.forget(obj.data)   # the active colour it had before
         context.scene.illumap.stats.clear()
-        self.report({"INFO"}, f"Illumap: removed {removed} surfel object{'s' * (removed != 1)}")
+        self.report({"INFO"}, f"Illumap: removed {_count(removed, 'surfel object')}")
         return {"FINISHED"}
 
 

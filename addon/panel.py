@@ -124,10 +124,10 @@ def draw_stats(layout, context):
                        f"(predicted {stats.predicted_error:.3f})")
     if stats.chosen_settings:
         col.label(text=f"Chosen: {stats.chosen_settings}")
-    if stats.estimated_error_at_meshes > 0:
+    if stats.estimated_error_at_objects > 0:
         # What a user compares: the light on their objects (the surfels' part shrinks by the
         # indirect share there).
-        col.label(text=f"Estimated error at the objects: {stats.estimated_error_at_meshes:.1%}")
+        col.label(text=f"Estimated error at the objects: {stats.estimated_error_at_objects:.1%}")
     if stats.estimated_error > 0:
         col.label(text=f"Estimated error of the surfels: {stats.estimated_error:.1%}")
     if stats.first_pass_surfels > 0:

@@ -957,11 +957,10 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
 
     # Each batch row's mesh among the MESH sources (-1: a point cloud's point).
     mesh_index = {src.name: i for i, src in enumerate(x for x in job.sources if x.kind == "MESH")}
-    owners_of = np.concatenate([
-        np.full(len(rows), mesh_index.get(rec.name, -1) if i < len(job.receivers) else -1)
-        for i, (rec, (rows, _)) in enumerate(zip(batch, merged))]).astype(np.int64)
+    batch_meshes = np.concatenate([np.full(len(rows), mesh_index.get(rec.name, -1), np.int64)
+                                   for rec, (rows, _) in zip(batch, merged)])
 
-    def incident_at(points, normals, ids, owners_=None):
+    def incident_at(points, normals, ids, meshes=None):
         """Incident radiance (M, 3) at receivers, the gather's result, the rays cast and the
         receivers found covered (inside or under another surface: no light)."""
         shadows = None
@@ -976,13 +975,13 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
                              progress=None if progress is None else
                              (lambda f, _p="": progress(f, "gather")))
         incident = direct + gathered.radiance
-        hidden = covered_receivers(job, points, normals, 2.0 * occ.offset, owners_)
+        hidden = covered_receivers(job, points, normals, 2.0 * occ.offset, meshes)
         incident[hidden] = 0.0
         rays = gathered.rays + (shadows.rays if shadows is not None else 0)
         return incident, gathered, rays, int(hidden.sum())
 
     try:
-        incident, gathered, rays, covered = incident_at(points, normals, ids, owners_of)
+        incident, gathered, rays, covered = incident_at(points, normals, ids, batch_meshes)
         for rec, lo, (_, index) in zip(batch, offsets[:-1], merged):
             rows = lo + index
             values = rec.emission + rec.albedo * incident[rows]

@@ -166,8 +166,8 @@ class IllumapStats(bpy.types.PropertyGroup):
     estimated_error: FloatProperty(
         name="Estimated Error", default=0.0, precision=4,
         description="A-posteriori estimate of the surfels' relative RMS error (0: none)")
-    estimated_error_at_meshes: FloatProperty(
-        name="Estimated Error at the Meshes", default=0.0, precision=4,
+    estimated_error_at_objects: FloatProperty(
+        name="Estimated Error at the Objects", default=0.0, precision=4,
         description="What the surfels' estimated error and the gather's noise make of the "
                     "relative RMS error of the light written to the objects (0: none)")
 
@@ -188,7 +188,7 @@ class IllumapStats(bpy.types.PropertyGroup):
         self.occluder_shape = ""
         self.chosen_settings = ""
         self.estimated_error = 0.0
-        self.estimated_error_at_meshes = 0.0
+        self.estimated_error_at_objects = 0.0
 
 
 class IllumapSettings(bpy.types.PropertyGroup):

@@ -218,7 +218,7 @@ def test_adaptive_pass_one_solves_with_the_final_counts_settings():
     assert stats.chosen_settings.endswith(
         f"or solver error ≤ {info['settings']['error_tol']:.1%}")
     assert stats.estimated_error == pytest.approx(info["estimate"]["total"], rel=1e-5)
-    assert stats.estimated_error_at_meshes == 0.0          # without Transfer: no receivers
+    assert stats.estimated_error_at_objects == 0.0          # without Transfer: no receivers
 
 
 def test_the_estimate_at_the_objects_is_what_the_panel_shows_first():
@@ -236,7 +236,7 @@ def test_the_estimate_at_the_objects_is_what_the_panel_shows_first():
     noise = result.stats["receivers"]["gather_noise"]
     assert 0 < at_objects == pytest.approx(np.hypot(noise, share * surfels), rel=1e-9)
     assert stats.estimated_error == pytest.approx(surfels, rel=1e-5)
-    assert stats.estimated_error_at_meshes == pytest.approx(at_objects, rel=1e-5)
+    assert stats.estimated_error_at_objects == pytest.approx(at_objects, rel=1e-5)
 
 
 def test_one_uniform_pass_where_the_models_predict_it_faster():

@@ -1,5 +1,5 @@
 """Values at scan points: isolated specks replaced, shadow edges and gradients kept
-(``remove_specks``); the outside of each smooth patch chosen as a whole (``brighter_sides``);
+(``remove_specks``); the outside of each smooth patch chosen as a whole (``outward_sides``);
 the faces that meet at a crease point (``crease_surfaces``)."""
 
 import numpy as np
@@ -7,7 +7,7 @@ import pytest
 
 import illumap
 from illumap.pointcloud import pca_normals
-from illumap.receivers import Creases, brighter_sides, crease_surfaces, remove_specks
+from illumap.receivers import Creases, crease_surfaces, outward_sides, remove_specks
 
 pytestmark = pytest.mark.skipif(not illumap.native_available(), reason="needs the native core")
 
@@ -80,7 +80,7 @@ def test_each_smooth_patch_takes_its_brighter_side_as_a_whole():
     inside[leak] = 0.9                           # brighter inside at 3% of the points
     front = np.where(outward[:, None], outside, inside)
     back = np.where(outward[:, None], inside, outside)
-    out = brighter_sides(pts, nrm, front, back)
+    out = np.where(outward_sides(pts, nrm, front, back)[:, None], front, back)
     np.testing.assert_array_equal(out, outside)
     per_point = np.where(((back - front).sum(1) > 0)[:, None], back, front)
     assert (per_point != outside).any()          # what a point-by-point choice would give

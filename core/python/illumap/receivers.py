@@ -321,14 +321,6 @@ PATCH_NEIGHBOURS = 8
 PATCH_MIN_COS = 0.9
 
 
-def brighter_sides(points, normals, front, back, *, k: int = PATCH_NEIGHBOURS) -> np.ndarray:
-    """The light (P, 3) of two-sided scan points: ``front`` seen along ``normals``, ``back``
-    against them, taking for each smooth patch the side that is brighter over the patch
-    (:func:`outward_sides`)."""
-    use_front = outward_sides(points, normals, front, back, k=k)
-    return np.where(use_front[:, None], _rows3("front", front), _rows3("back", back))
-
-
 def outward_sides(points, normals, front, back, *, k: int = PATCH_NEIGHBOURS) -> np.ndarray:
     """Which side of each two-sided scan point faces out: (P,) bool, True where ``normals``
     do (``front``, the light seen along them, is kept), False where ``back`` is.
