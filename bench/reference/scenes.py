@@ -300,8 +300,18 @@ def uv_sphere(name: str, centre, radius: float, material, segments: int = 32, ri
     bm = bmesh.new()
     bmesh.ops.create_uvsphere(bm, u_segments=segments, v_segments=rings, radius=radius)
     bmesh.ops.translate(bm, verts=bm.verts, vec=tuple(centre))
-    bm.to_mesh(mesh)
+    verts = [v.co[:] for v in bm.verts]
+    # The primitive's faces come out in an order that differs from one call to the next (its
+    # vertices do not): each face from its lowest vertex, the faces sorted, so that the same
+    # scene samples the same surfels every time it is built.
+    faces = []
+    for f in bm.faces:
+        ids = [v.index for v in f.verts]
+        k = ids.index(min(ids))
+        faces.append(ids[k:] + ids[:k])
     bm.free()
+    mesh.from_pydata(verts, [], sorted(faces))
+    mesh.update()
     mesh.materials.append(material)
     obj = bpy.data.objects.new(name, mesh)
     bpy.context.scene.collection.objects.link(obj)
