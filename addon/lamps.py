@@ -101,6 +101,9 @@ class Shadows:
     seconds: float = 0.0
     progress: Callable[[float, str], "bool | None"] | None = None
     total: int = 0               # rays planned over all lamps (set by incident_radiance)
+    # Each point's samples follow from its id (default: its row), so a subset of points can
+    # be evaluated with the patterns they would have had among all of them.
+    ids: np.ndarray | None = None
 
     def report(self, done: float) -> None:
         """Tell ``progress`` that ``done`` of the planned rays were cast; raise
@@ -296,12 +299,18 @@ def _spot_attenuation(lamp: Lamp, p: np.ndarray, d: np.ndarray, dist2: np.ndarra
     dist = np.sqrt(np.maximum(dist2, 1e-300))
     if lamp.radius <= 0:
         return factor(-(d @ lamp.direction) / dist)
+    # Every point of the disc lies within atan(radius / dist) of its centre's direction: only
+    # where that reaches the blend band do the samples differ.
+    centre = np.arccos(np.clip(-(d @ lamp.direction) / dist, -1.0, 1.0))
+    spread = np.arctan2(lamp.radius, dist) + 1e-9
+    full, off = np.arccos(min(1.0, t0 + smooth)), np.arccos(t0)
+    out = (centre + spread <= full).astype(np.float64)
+    edge = np.flatnonzero((centre + spread > full) & (centre - spread < off))
     k = SPOT_CONE_SAMPLES
     disc = _disc(np.column_stack([(np.arange(k) + 0.5) / k,
                                   np.mod(np.arange(k) * 0.6180339887498949, 1.0)]))
-    out = np.empty(len(p))
-    for start in range(0, len(p), _CHUNK):
-        r = slice(start, start + _CHUNK)
+    for start in range(0, len(edge), _CHUNK):
+        r = edge[start:start + _CHUNK]
         u, v = _basis(d[r] / dist[r, None])
         q = lamp.position + lamp.radius * (disc[None, :, :1] * u[:, None] + disc[None, :, 1:] * v[:, None])
         to_p = q - p[r, None, :]
@@ -535,7 +544,8 @@ def lamp_visibility(lamp: Lamp, p: np.ndarray, n: np.ndarray, rows: np.ndarray,
     per = max(1, _RAY_CHUNK // k)
     for start in range(0, len(rows), per):
         r = rows[start:start + per]
-        targets, weight = _lamp_samples(lamp, p[r], n[r], k, row_shifts(shadows.seed, salt, r), far)
+        ids = r if shadows.ids is None else shadows.ids[r]
+        targets, weight = _lamp_samples(lamp, p[r], n[r], k, row_shifts(shadows.seed, salt, ids), far)
         origins = np.repeat(p[r], k, axis=0)
         skip = np.repeat(r.astype(np.int64), k)
         shadows.report(shadows.rays)
@@ -563,15 +573,17 @@ def _lit(value: np.ndarray) -> np.ndarray:
 
 
 def incident_radiance(lamps: list[Lamp], positions: np.ndarray, normals: np.ndarray, *,
-                      shadows: Shadows | None = None) -> np.ndarray:
+                      shadows: Shadows | None = None, world_apart: bool = False):
     """Incident radiance H (N, 3) at surfels from ``lamps`` (a 'WORLD' lamp among them is the
-    uniform sky: H = its radiance × the share of the hemisphere that sees it).
+    uniform sky: H = its radiance × the share of the hemisphere that sees it). With
+    ``world_apart``, (H of the other lamps, H of the world) instead.
 
     ``shadows`` (optional) shadows each lamp by ray casting; see the module docstring.
     """
     p = np.asarray(positions, dtype=np.float64)
     n = np.asarray(normals, dtype=np.float64)
     h = np.zeros((len(p), 3))
+    h_world = np.zeros((len(p), 3)) if world_apart else h
     scalars = []
     for lamp in lamps:
         if lamp.kind == "SUN":
@@ -596,7 +608,8 @@ def incident_radiance(lamps: list[Lamp], positions: np.ndarray, normals: np.ndar
             if lit.size:
                 vis = lamp_visibility(lamp, p, n, lit, shadows)
                 scalar[lit] *= vis[:, None] if scalar.ndim == 2 else vis
-        h += scalar if scalar.ndim == 2 else scalar[:, None] * lamp.color[None, :]
+        (h_world if lamp.kind == "WORLD" else h)[:] += (
+            scalar if scalar.ndim == 2 else scalar[:, None] * lamp.color[None, :])
     if shadows is not None:
         shadows.report(shadows.rays)
-    return h
+    return (h, h_world) if world_apart else h

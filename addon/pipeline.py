@@ -132,6 +132,7 @@ class Job:
     accuracy: dict | None = None
     emitters: list = field(default_factory=list)   # lamps.Lamp 'MESH' records (emitters.py)
     solve_emission: np.ndarray | None = None       # emission left to surfels (not in a lamp)
+    direct_lamps: np.ndarray | None = None         # the part of ``direct`` from lamps and emitters
     triangles: np.ndarray | None = None            # (T, 3, 3) every sampled mesh triangle, m
     two_sided: np.ndarray | None = None            # (T,) bool: its mesh is an open surface
     clouds: list = field(default_factory=list)     # PointCloud per point source, as read
@@ -713,7 +714,8 @@ def light(job: Job, progress: Progress | None = None) -> Job:
             raise IllumapCancelled("Cancelled")
         if all_lamps and s.lamp_shadows:
             shadows = _shadows(job, nrm, s.shadow_samples, progress)
-        incident = lamps.incident_radiance(all_lamps, pos, nrm, shadows=shadows)
+        incident, from_world = lamps.incident_radiance(all_lamps, pos, nrm, shadows=shadows,
+                                                       world_apart=True)
     except IllumapError:
         raise
     except Exception as exc:  # noqa: BLE001 - a failing ray query is reported, not raised raw
@@ -725,7 +727,8 @@ def light(job: Job, progress: Progress | None = None) -> Job:
         job.stats["shadow_rays"] = int(shadows.rays)
         job.stats["shadow_occluders"] = ("triangles" if triangles_occlude(job)
                                          else f"{occluder_shape(s)}s")
-    job.direct = np.ascontiguousarray(job.albedo * incident)
+    job.direct_lamps = np.ascontiguousarray(job.albedo * incident)
+    job.direct = np.ascontiguousarray(job.direct_lamps + job.albedo * from_world)
     job.timings["direct light"] = time.perf_counter() - t0
     return job
 
@@ -908,6 +911,97 @@ def _splat_owners(job: Job, back: np.ndarray) -> tuple[np.ndarray | None, np.nda
     return owner_front, owner_back
 
 
+#: Shadow rays per lattice point and sized lamp: a hit interpolates three lattice points and
+#: a receiver averages hundreds of hits, so the lattice's own noise averages out.
+LATTICE_SHADOW_SAMPLES = 4
+
+
+def _lamp_direct(job: Job) -> np.ndarray | None:
+    """The surfels' reflected direct light from lamps and emitters alone (not the world's,
+    which a gather finds through its rays that leave the scene), or None when unknown."""
+    if job.direct_lamps is not None:
+        return job.direct_lamps
+    return job.direct if job.world is None else None
+
+
+def _regather_straddling(job: Job, result: "Result", occ, sent: np.ndarray, back: np.ndarray,
+                         owners, back_owners, rays: int) -> int:
+    """Evaluate the surfels whose disc reaches through another surface
+    (``illumap.receivers.straddling_surfels``: a floor's along a wall, a crease's in a scan)
+    as receivers are: their direct light plus a gather of the other surfels' light. Their
+    solved values scatter by tens of percent where the light is smooth, and a receiver at the
+    line where the surfaces meet sees them at close range. Updates ``sent`` and
+    ``result.radiosity`` in place; returns how many were evaluated."""
+    from illumap import receivers as rc
+    direct = _lamp_direct(job)
+    if direct is None:
+        return 0
+    bad = rc.straddling_surfels(job.positions, job.normals, job.areas)
+    rows = np.flatnonzero(bad)
+    if not rows.size or bad.all():
+        return 0
+
+    def good_field(side, owner_rows):
+        """The field of this side's surfels that are not re-evaluated, and splat owners
+        (rows of the whole side's field) as rows of it."""
+        good = side & ~bad
+        if not good.any():
+            return None, None if owner_rows is None else np.full_like(owner_rows, -1)
+        remap = np.full(int(side.sum()), -1, dtype=np.int64)
+        remap[good[side]] = np.arange(int(good.sum()))
+        own = (None if owner_rows is None
+               else np.where(owner_rows >= 0, remap[np.maximum(owner_rows, 0)], -1))
+        return rc.SurfelField(job.positions[good], job.normals[good], sent[good]), own
+
+    front_field, own_front = good_field(~back, owners)
+    back_field_, own_back = good_field(back, back_owners) if back.any() else (None, None)
+    if front_field is None:
+        return 0
+    g = rc.gather(occ, front_field, job.positions[rows], job.normals[rows], rays=rays,
+                  seed=job.settings.seed, ids=rows.astype(np.int64),
+                  background=None if job.world is None else job.world.color,
+                  back_field=back_field_, two_sided=job.two_sided, owners=own_front,
+                  back_owners=own_back)
+    sent[rows] = job.solve_emission[rows] + direct[rows] + job.albedo[rows] * g.radiance
+    result.radiosity[rows] = sent[rows] + job.emission[rows] - job.solve_emission[rows]
+    return int(rows.size)
+
+
+def _exact_direct(job: Job, occ, sent: np.ndarray, front: np.ndarray, field_,
+                  owners) -> tuple:
+    """The gather's ``ExactPart`` for the front field (None without lamp light) and the
+    number of lattice points shadow rays were cast from: the
+    reflected direct light of the lamps and emitters at the points where the gather tabulates
+    the surfels' light, beside the surfels' light less their own direct part. A hit then sees
+    a lamp's shadow edge as sharp as that lattice, not blurred over the surfels' spacing:
+    what lights a receiver beside a contact or a shadow. Shadow rays are cast only where the
+    surfels' direct light changes sharply (``sharpness``, blended in by it); elsewhere their
+    average is as good. The world's light stays with the surfels: its shadow rays would need many samples
+    per point."""
+    from illumap import receivers as rc
+    if job.direct_lamps is None or not np.any(job.direct_lamps[front]):
+        return None, 0
+    s = job.settings
+    all_lamps = list(job.lamps) + list(job.emitters)
+    (points, normals), _ = rc.gather_lattices(occ, field_, two_sided=job.two_sided, owners=owners)
+    if not len(points):
+        return None, 0
+    pos, nrm, direct = job.positions[front], job.normals[front], job.direct_lamps[front]
+    weight = rc.sharpness(pos, direct, points)
+    values = rc.SurfelField(pos, nrm, direct).at(points, normals, occ)
+    sharp = np.flatnonzero(weight > 0)
+    if sharp.size:
+        p_, n_ = points[sharp], normals[sharp]
+        albedo = rc.SurfelField(pos, nrm, job.albedo[front]).at(p_, n_, occ)
+        shadows = (lamps.Shadows(occ.segment_query(n_), samples=LATTICE_SHADOW_SAMPLES,
+                                 seed=s.seed, extent=occ.extent, ids=sharp)
+                   if all_lamps and s.lamp_shadows else None)
+        exact = albedo * lamps.incident_radiance(all_lamps, p_, n_, shadows=shadows)
+        values[sharp] += weight[sharp, None] * (exact - values[sharp])
+    return rc.ExactPart(rest=rc.SurfelField(pos, nrm, (sent - job.direct_lamps)[front]),
+                        values=values), int(sharp.size)
+
+
 def receive(job: Job, result: "Result", progress: Progress | None = None) -> None:
     """Evaluate the light at every receiver (DESIGN.md §6): the meshes' corners
     (``job.receivers``) into ``result.receiver_values``, and with Transfer the point clouds'
@@ -934,12 +1028,16 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     for src in job.sources:
         if src.kind == "BACK":
             back[src.start:src.stop] = True
+    owners, back_owners = _splat_owners(job, back)
+    gather_rays, shadow_samples = receiver_rays(s)
+    background = None if job.world is None else job.world.color
+    straddling = _regather_straddling(job, result, occ, sent, back, owners, back_owners,
+                                      gather_rays)
     field_ = rc.SurfelField(job.positions[~back], job.normals[~back], sent[~back])
     back_field = (rc.SurfelField(job.positions[back], job.normals[back], sent[back])
                   if back.any() else None)
-    owners, back_owners = _splat_owners(job, back)
+    exact, lattice_lit = _exact_direct(job, occ, sent, ~back, field_, owners)
     all_lamps = list(job.lamps) + list(job.emitters)
-    gather_rays, shadow_samples = receiver_rays(s)
     lum = _luminance_weights()
     noise2 = light2 = indirect = total = 0.0
     # Every object's receivers in one batch (the gather tabulates the surfels' light once),
@@ -969,9 +1067,9 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
                                     seed=s.seed, extent=occ.extent)
         direct = lamps.incident_radiance(all_lamps, points, normals, shadows=shadows)
         gathered = rc.gather(occ, field_, points, normals, rays=gather_rays, seed=s.seed, ids=ids,
-                             background=None if job.world is None else job.world.color,
+                             background=background,
                              back_field=back_field, two_sided=job.two_sided, owners=owners,
-                             back_owners=back_owners,
+                             back_owners=back_owners, exact=exact,
                              progress=None if progress is None else
                              (lambda f, _p="": progress(f, "gather")))
         incident = direct + gathered.radiance
@@ -1031,6 +1129,9 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
                                      rays=int(rays), gather_rays=int(gather_rays),
                                      shadow_samples=int(shadow_samples), covered=covered,
                                      specks=int(specks), crease_points=int(creases),
+                                     straddling=straddling,
+                                     lattice_points=0 if exact is None else len(exact.values),
+                                     lattice_shadowed=lattice_lit,
                                      gather_noise=gather_noise, indirect_share=float(share))
     estimate = (result.stats.get("accuracy") or {}).get("estimate", {}).get("total")
     if estimate is not None:

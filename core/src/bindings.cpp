@@ -158,7 +158,9 @@ void bind_gather(nb::module_& m) {
           [](PyMeshScene& scene, PySurfelField& front, nb::handle back, nb::handle positions,
              nb::handle normals, nb::handle ids, int rays, std::uint64_t seed, double offset,
              nb::handle background, nb::handle two_sided, nb::handle rays_per,
-             nb::handle owner_front, nb::handle owner_back, int threads, nb::handle progress) {
+             nb::handle owner_front, nb::handle owner_back, nb::handle front_rest,
+             nb::handle front_lattice, nb::handle back_rest, nb::handle back_lattice, int threads,
+             nb::handle progress) {
               const double *P, *N;
               nb::object k1, k2, k3, k4;
               const std::size_t m = paired_rays(positions, "positions", normals, "normals", P, N, k1, k2);
@@ -212,6 +214,33 @@ void bind_gather(nb::module_& m) {
               };
               const std::vector<std::int64_t> own_front = owners(owner_front, "owner_front", front.field.get());
               const std::vector<std::int64_t> own_back = owners(owner_back, "owner_back", back_field);
+              // Exact parts: a rest field and one value per lattice point, both or neither.
+              GatherLattice lat_front, lat_back;
+              const bool any_exact = !front_lattice.is_none() || !back_lattice.is_none();
+              if (any_exact)
+                  gather_lattices(*scene.scene, *front.field, back_field,
+                                  sided.empty() ? nullptr : sided.data(),
+                                  own_front.empty() ? nullptr : own_front.data(),
+                                  own_back.empty() ? nullptr : own_back.data(), lat_front, lat_back);
+              nb::object kf, kb;
+              auto exact = [&](nb::handle rest, nb::handle lattice, const char* name,
+                               std::size_t expected, nb::object& keep) {
+                  ExactPart e;
+                  if (rest.is_none() != lattice.is_none())
+                      throw nb::value_error((std::string(name) + ": give the rest field and the lattice values together").c_str());
+                  if (lattice.is_none()) return e;
+                  std::size_t nl;
+                  e.lattice = view<double>(lattice, name, 2, 3, nl, keep);
+                  if (nl != expected)
+                      throw nb::value_error((std::string(name) + " must have " + std::to_string(expected) +
+                                             " rows (gather_lattices), got " + std::to_string(nl)).c_str());
+                  e.rest = nb::cast<PySurfelField&>(rest).field.get();
+                  return e;
+              };
+              const ExactPart ex_front = exact(front_rest, front_lattice, "front_lattice", lat_front.size(), kf);
+              if (!back_lattice.is_none() && !back_field)
+                  throw nb::value_error("back_lattice needs a back field");
+              const ExactPart ex_back = exact(back_rest, back_lattice, "back_lattice", lat_back.size(), kb);
               GatherOptions opt;
               opt.rays = rays;
               opt.seed = seed;
@@ -226,7 +255,8 @@ void bind_gather(nb::module_& m) {
                   gather(ctx, *scene.scene, *front.field, back_field, P, N, I, m, opt, out, err,
                          sided.empty() ? nullptr : sided.data(), per.empty() ? nullptr : per.data(),
                          own_front.empty() ? nullptr : own_front.data(),
-                         own_back.empty() ? nullptr : own_back.data());
+                         own_back.empty() ? nullptr : own_back.data(),
+                         ex_front.lattice ? &ex_front : nullptr, ex_back.lattice ? &ex_back : nullptr);
               });
               return nb::make_tuple(a1, a2);
           },
@@ -235,9 +265,49 @@ void bind_gather(nb::module_& m) {
           nb::arg("offset"), nb::arg("background"), nb::arg("two_sided").none() = nb::none(),
           nb::arg("rays_per").none() = nb::none(),
           nb::arg("owner_front").none() = nb::none(), nb::arg("owner_back").none() = nb::none(),
+          nb::arg("front_rest").none() = nb::none(), nb::arg("front_lattice").none() = nb::none(),
+          nb::arg("back_rest").none() = nb::none(), nb::arg("back_lattice").none() = nb::none(),
           nb::arg("threads") = 0,
           nb::arg("progress") = nb::none(),
           "Final gather: (mean radiance (M, 3), standard error of its luminance (M,)).");
+
+    m.def("gather_lattices",
+          [](PyMeshScene& scene, PySurfelField& front, nb::handle back, nb::handle two_sided,
+             nb::handle owner_front, nb::handle owner_back) {
+              const std::size_t T = scene.scene->size();
+              auto rows = [&](nb::handle h, const char* name, nb::object& keep) -> const std::int64_t* {
+                  if (h.is_none()) return nullptr;
+                  std::size_t n;
+                  const std::int64_t* v = view<std::int64_t>(h, name, 1, 0, n, keep);
+                  if (n != T) throw nb::value_error((std::string(name) + " must have one entry per triangle").c_str());
+                  return v;
+              };
+              nb::object k1, k2, k3;
+              const std::int64_t* S = rows(two_sided, "two_sided", k1);
+              std::vector<std::uint8_t> sided;
+              if (S) sided.assign(S, S + T);
+              const std::int64_t* OF = rows(owner_front, "owner_front", k2);
+              const std::int64_t* OB = rows(owner_back, "owner_back", k3);
+              const SurfelField* back_field = back.is_none() ? nullptr : nb::cast<PySurfelField&>(back).field.get();
+              GatherLattice f, b;
+              {
+                  nb::gil_scoped_release nogil;
+                  gather_lattices(*scene.scene, *front.field, back_field, S ? sided.data() : nullptr,
+                                  OF, OB, f, b);
+              }
+              auto out = [](const std::vector<double>& v) {
+                  double* p;
+                  auto a = new_array(v.size() / 3, 3, &p);
+                  std::copy(v.begin(), v.end(), p);
+                  return a;
+              };
+              return nb::make_tuple(out(f.points), out(f.normals), out(b.points), out(b.normals));
+          },
+          nb::arg("scene"), nb::arg("front"), nb::arg("back").none() = nb::none(), nb::kw_only(),
+          nb::arg("two_sided").none() = nb::none(), nb::arg("owner_front").none() = nb::none(),
+          nb::arg("owner_back").none() = nb::none(),
+          "The gather's lattice points and normals: (front points, front normals, back points, "
+          "back normals), each (L, 3).");
 }
 
 }  // namespace illumap::bindings

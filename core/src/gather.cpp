@@ -169,15 +169,39 @@ void lattice_point(const double* c, std::size_t i, std::size_t j, std::size_t nn
     }
 }
 
-FieldTable field_table(Context& ctx, const MeshScene& scene, const SurfelField& field,
-                       double sign, double lift, const std::uint8_t* only = nullptr) {
+// Which triangles' lattices a gather looks up (empty: all): not splats, which carry their own
+// surfel, nor back faces that are black.
+struct LatticeMasks {
+    std::vector<std::uint8_t> front, back;
+};
+
+LatticeMasks lattice_masks(std::size_t T, bool has_back, const std::uint8_t* two_sided,
+                           const std::int64_t* owner_front, const std::int64_t* owner_back) {
+    LatticeMasks mk;
+    if (owner_front) {
+        mk.front.resize(T);
+        for (std::size_t t = 0; t < T; ++t) mk.front[t] = owner_front[t] < 0;
+    }
+    if (has_back && (two_sided || owner_back)) {
+        mk.back.resize(T);
+        for (std::size_t t = 0; t < T; ++t)
+            mk.back[t] = (!two_sided || two_sided[t]) && (!owner_back || owner_back[t] < 0);
+    }
+    return mk;
+}
+
+// The lattice alone: n_t = ceil(longest edge / reach) per used triangle, none on the others.
+FieldTable lattice_layout(const MeshScene& scene, double reach, const std::uint8_t* only) {
     const std::size_t T = scene.size();
     FieldTable tab;
     tab.start.assign(T + 1, 0);
     tab.sub_start.assign(T + 1, 0);
-    tab.n.assign(T, 1);
-    const double reach = std::max(field.reach(), 1e-300);
+    tab.n.assign(T, 0);
+    reach = std::max(reach, 1e-300);
     for (std::size_t t = 0; t < T; ++t) {
+        tab.start[t + 1] = tab.start[t];
+        tab.sub_start[t + 1] = tab.sub_start[t];
+        if (only && !only[t]) continue;   // never looked up
         const double* c = scene.triangle_corners(t);
         double longest = 0;
         for (int e = 0; e < 3; ++e) {
@@ -186,27 +210,39 @@ FieldTable field_table(Context& ctx, const MeshScene& scene, const SurfelField& 
             const double dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
             longest = std::max(longest, std::sqrt(dx * dx + dy * dy + dz * dz));
         }
-        const double want = only && !only[t] ? 1.0 : std::ceil(longest / reach);
-        tab.n[t] = std::uint32_t(std::min(std::max(want, 1.0), 4096.0));
-        tab.start[t + 1] = tab.start[t] + FieldTable::count(tab.n[t]);
-        tab.sub_start[t + 1] = tab.sub_start[t] + std::size_t(tab.n[t]) * tab.n[t];
+        tab.n[t] = std::uint32_t(std::min(std::max(std::ceil(longest / reach), 1.0), 4096.0));
+        tab.start[t + 1] += FieldTable::count(tab.n[t]);
+        tab.sub_start[t + 1] += std::size_t(tab.n[t]) * tab.n[t];
     }
+    return tab;
+}
+
+// The field (plus `exact`, 3 per lattice point, where given) at every lattice point of `tab`,
+// and which sub-triangles are clean.
+void fill_table(Context& ctx, const MeshScene& scene, const SurfelField& field, double sign,
+                double lift, const double* exact, FieldTable& tab) {
+    const std::size_t T = scene.size();
     tab.values.assign(3 * tab.start[T], 0.0);
     tab.clean.assign(tab.sub_start[T], 0);
     parallel_for(ctx, T, 64, [&](std::size_t lo, std::size_t hi) {
         KdTree::Best best{std::size_t(field.k())};
         for (std::size_t t = lo; t < hi; ++t) {
-            if (only && !only[t]) continue;   // never looked up: zeros, not clean
+            const std::size_t nn = tab.n[t];
+            if (nn == 0) continue;
             const double* c = scene.triangle_corners(t);
             const float* tn = scene.triangle_normal(t);
             const double nt[3] = {sign * tn[0], sign * tn[1], sign * tn[2]};
-            const std::size_t nn = tab.n[t];
             double* out = &tab.values[3 * tab.start[t]];
             for (std::size_t i = 0; i <= nn; ++i)
                 for (std::size_t j = 0; i + j <= nn; ++j) {
                     double q[3];
                     lattice_point(c, i, j, nn, q);
-                    field.at(q, nt, best, out + 3 * (FieldTable::row(i, nn) + j), &scene, lift);
+                    double* o = out + 3 * (FieldTable::row(i, nn) + j);
+                    field.at(q, nt, best, o, &scene, lift);
+                    if (exact) {
+                        const double* e = exact + 3 * (tab.start[t] + FieldTable::row(i, nn) + j);
+                        for (int d = 0; d < 3; ++d) o[d] += e[d];
+                    }
                 }
             // Lattice points lifted off the surface: does a triangle stand between them?
             auto lifted = [&](std::size_t i, std::size_t j, double q[3]) {
@@ -231,7 +267,25 @@ FieldTable field_table(Context& ctx, const MeshScene& scene, const SurfelField& 
                 }
         }
     });
-    return tab;
+}
+
+void lattice_points_of(const MeshScene& scene, const FieldTable& tab, double sign,
+                       std::vector<double>& points, std::vector<double>& normals) {
+    const std::size_t T = scene.size();
+    points.assign(3 * tab.start[T], 0.0);
+    normals.assign(3 * tab.start[T], 0.0);
+    for (std::size_t t = 0; t < T; ++t) {
+        const std::size_t nn = tab.n[t];
+        if (nn == 0) continue;
+        const double* c = scene.triangle_corners(t);
+        const float* tn = scene.triangle_normal(t);
+        for (std::size_t i = 0; i <= nn; ++i)
+            for (std::size_t j = 0; i + j <= nn; ++j) {
+                const std::size_t k = tab.start[t] + FieldTable::row(i, nn) + j;
+                lattice_point(c, i, j, nn, &points[3 * k]);
+                for (int d = 0; d < 3; ++d) normals[3 * k + d] = sign * tn[d];
+            }
+    }
 }
 
 }  // namespace
@@ -240,31 +294,27 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
             const double* positions, const double* normals, const std::int64_t* ids, std::size_t m,
             const GatherOptions& opt, double* out, double* stderr_out,
             const std::uint8_t* two_sided, const std::int32_t* rays_per,
-            const std::int64_t* owner_front, const std::int64_t* owner_back) {
+            const std::int64_t* owner_front, const std::int64_t* owner_back,
+            const ExactPart* front_exact, const ExactPart* back_exact) {
     std::size_t K_max = std::size_t(std::max(1, opt.rays));
     if (rays_per)
         for (std::size_t i = 0; i < m; ++i)
             K_max = std::max(K_max, std::size_t(std::max(1, rays_per[i])));
     const std::size_t K_grain = std::size_t(std::max(1, opt.rays));
     ctx.set_phase("gather: field", 0.0, 0.1);
-    // Tabulated only where a hit looks the field up: not on splats, which carry their own.
-    const std::size_t T = scene.size();
-    std::vector<std::uint8_t> need_front, need_back;
-    if (owner_front) {
-        need_front.resize(T);
-        for (std::size_t t = 0; t < T; ++t) need_front[t] = owner_front[t] < 0;
-    }
-    if (back && (two_sided || owner_back)) {
-        need_back.resize(T);
-        for (std::size_t t = 0; t < T; ++t)
-            need_back[t] = (!two_sided || two_sided[t]) && (!owner_back || owner_back[t] < 0);
-    }
-    const FieldTable front_tab = field_table(ctx, scene, front, 1.0, opt.offset,
-                                             need_front.empty() ? nullptr : need_front.data());
-    const FieldTable back_tab =
-        back ? field_table(ctx, scene, *back, -1.0, opt.offset,
-                           need_back.empty() ? nullptr : need_back.data())
-             : FieldTable{};
+    const LatticeMasks mk = lattice_masks(scene.size(), back != nullptr, two_sided, owner_front, owner_back);
+    // With an exact part, the lattice takes its values plus the rest's field; hits off the
+    // lattice (sub-triangles that are not clean) still look up the whole field.
+    auto table = [&](const SurfelField& field, const ExactPart* exact, double sign,
+                     const std::vector<std::uint8_t>& only) {
+        FieldTable tab = lattice_layout(scene, field.reach(), only.empty() ? nullptr : only.data());
+        const bool split = exact && exact->rest && exact->lattice;
+        fill_table(ctx, scene, split ? *exact->rest : field, sign, opt.offset,
+                   split ? exact->lattice : nullptr, tab);
+        return tab;
+    };
+    const FieldTable front_tab = table(front, front_exact, 1.0, mk.front);
+    const FieldTable back_tab = back ? table(*back, back_exact, -1.0, mk.back) : FieldTable{};
     ctx.set_phase("gather", 0.1, 0.9);
     parallel_for(ctx, m, std::max<std::size_t>(1, 4096 / K_grain), [&](std::size_t lo, std::size_t hi) {
         std::vector<double> org(3 * K_max), dir(3 * K_max), dist(K_max);
@@ -317,6 +367,25 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
             stderr_out[i] = std::sqrt(var / double(K));
         }
     });
+}
+
+}  // namespace illumap
+
+namespace illumap {
+
+void gather_lattices(const MeshScene& scene, const SurfelField& front, const SurfelField* back,
+                     const std::uint8_t* two_sided, const std::int64_t* owner_front,
+                     const std::int64_t* owner_back, GatherLattice& front_out,
+                     GatherLattice& back_out) {
+    const LatticeMasks mk = lattice_masks(scene.size(), back != nullptr, two_sided, owner_front, owner_back);
+    const FieldTable f = lattice_layout(scene, front.reach(), mk.front.empty() ? nullptr : mk.front.data());
+    lattice_points_of(scene, f, 1.0, front_out.points, front_out.normals);
+    back_out.points.clear();
+    back_out.normals.clear();
+    if (back) {
+        const FieldTable b = lattice_layout(scene, back->reach(), mk.back.empty() ? nullptr : mk.back.data());
+        lattice_points_of(scene, b, -1.0, back_out.points, back_out.normals);
+    }
 }
 
 }  // namespace illumap

@@ -57,6 +57,26 @@ struct GatherOptions {
     double background[3] = {0, 0, 0};     // radiance of rays that leave the scene
 };
 
+// A part of a field known exactly at the gather's lattice points (direct light, evaluated with
+// shadow rays there): the table then holds `rest` looked up plus `lattice` (3 per lattice
+// point, in gather_lattices' order), so that sharp light is not blurred by the surfels' spacing.
+struct ExactPart {
+    const SurfelField* rest = nullptr;
+    const double* lattice = nullptr;
+};
+
+// The points (and their surface normals, the side's) of the lattices a gather with the same
+// arguments tabulates the front and back fields on, each moved a hair towards its
+// triangle's centroid. n x 3 row-major each.
+struct GatherLattice {
+    std::vector<double> points, normals;
+    std::size_t size() const { return points.size() / 3; }
+};
+void gather_lattices(const MeshScene& scene, const SurfelField& front, const SurfelField* back,
+                     const std::uint8_t* two_sided, const std::int64_t* owner_front,
+                     const std::int64_t* owner_back, GatherLattice& front_out,
+                     GatherLattice& back_out);
+
 // out: m x 3 mean radiance; stderr_out: m, standard error of the mean's luminance.
 // two_sided (one flag per triangle, may be null: all): which triangles' back faces take the
 // back field; the others' back faces are black.
@@ -68,6 +88,7 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
             const double* positions, const double* normals, const std::int64_t* ids, std::size_t m,
             const GatherOptions& opt, double* out, double* stderr_out,
             const std::uint8_t* two_sided = nullptr, const std::int32_t* rays_per = nullptr,
-            const std::int64_t* owner_front = nullptr, const std::int64_t* owner_back = nullptr);
+            const std::int64_t* owner_front = nullptr, const std::int64_t* owner_back = nullptr,
+            const ExactPart* front_exact = nullptr, const ExactPart* back_exact = nullptr);
 
 }  // namespace illumap

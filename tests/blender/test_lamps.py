@@ -179,3 +179,61 @@ def test_a_sized_spot_softens_its_cone_edge():
     tiny = lamps._spot_attenuation(lamps.Lamp(**{**spot.__dict__, "radius": 1e-6}), p, d,
                                    np.einsum("ij,ij->i", d, d))
     np.testing.assert_allclose(tiny, sharp, atol=1e-9)
+
+
+def test_a_sized_spot_samples_only_near_its_cone_edge():
+    """Points whose whole view of the spot's disc lies inside the full cone, or outside it,
+    get exactly 1 or 0 without sampling, the same numbers as sampling every point."""
+    import numpy as np
+    from addon import lamps
+    rng = np.random.default_rng(3)
+    for blend in (0.0, 0.3):
+        spot = lamps.Lamp("S", "SPOT", np.ones(3), np.array([0.2, -0.1, 3.0]),
+                          np.array([0.0, 0.0, -1.0]), radius=0.25,
+                          spot_size=np.radians(70.0), spot_blend=blend)
+        p = np.column_stack([rng.uniform(-4, 4, 4000), rng.uniform(-4, 4, 4000), np.zeros(4000)])
+        d = spot.position - p
+        d2 = np.einsum("ij,ij->i", d, d)
+        got = lamps._spot_attenuation(spot, p, d, d2)
+        edge = (got > 0) & (got < 1)
+        assert edge.any() and (got == 1).any() and (got == 0).any()
+        everywhere = np.array([lamps._spot_attenuation(spot, p[i:i + 1], d[i:i + 1], d2[i:i + 1])[0]
+                               if e else got[i] for i, e in enumerate(edge)])
+        np.testing.assert_array_equal(got, everywhere)
+        # The points given 0 or 1 outright: sampling them gives the same.
+        k = np.flatnonzero(~edge)[::97]
+        disc = spot.radius * lamps._disc(np.column_stack([(np.arange(32) + 0.5) / 32,
+                                                          np.mod(np.arange(32) * 0.6180339887498949, 1)]))
+        for i in k:
+            u, v = lamps._basis(d[i:i + 1] / np.sqrt(d2[i]))
+            q = spot.position + disc[:, :1] * u + disc[:, 1:] * v
+            t = -((q - p[i]) @ spot.direction) / np.linalg.norm(q - p[i], axis=1)
+            t0 = np.cos(spot.spot_size / 2)
+            inside = t > t0 + (1 - t0) * blend if blend > 0 else t > t0
+            assert inside.all() if got[i] == 1 else not (t > t0).any()
+
+
+def test_shadow_samples_follow_each_points_id():
+    """A subset of points given their ids casts the same shadow samples as among all."""
+    import numpy as np
+    from addon import lamps
+    area = lamps.Lamp("A", "AREA", np.ones(3), np.array([0.0, 0.0, 2.0]), np.array([0.0, 0.0, -1.0]),
+                      polygon=np.array([[-.5, -.5, 2], [.5, -.5, 2], [.5, .5, 2], [-.5, .5, 2]], float),
+                      area=1.0, shape="SQUARE", axes=np.array([[0.5, 0, 0], [0, 0.5, 0]]))
+
+    def half_blocked(origins, targets, skip, progress=None):    # a wall at x = 0.1 up to z = 1
+        t = (0.1 - origins[:, 0]) / np.where(targets[:, 0] != origins[:, 0],
+                                             targets[:, 0] - origins[:, 0], np.inf)
+        z = origins[:, 2] + t * (targets[:, 2] - origins[:, 2])
+        return ~((t > 0) & (t < 1) & (z < 1.0))
+
+    p = np.column_stack([np.linspace(-1, 0, 50), np.zeros(50), np.zeros(50)])
+    n = np.tile([0.0, 0.0, 1.0], (50, 1))
+    everyone = lamps.incident_radiance([area], p, n, shadows=lamps.Shadows(half_blocked, samples=8))
+    some = np.arange(5, 50, 7)
+    alone = lamps.incident_radiance([area], p[some], n[some],
+                                    shadows=lamps.Shadows(half_blocked, samples=8, ids=some))
+    np.testing.assert_array_equal(alone, everyone[some])
+    shuffled = lamps.incident_radiance([area], p[some], n[some],
+                                       shadows=lamps.Shadows(half_blocked, samples=8))
+    assert not np.array_equal(shuffled, everyone[some])

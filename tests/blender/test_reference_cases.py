@@ -52,7 +52,9 @@ BOUNDS = {
     "box_on_floor": dict(rms=0.10, contact_rms=0.10, hidden_floor=0.02),
     "room_corner": dict(rms=0.10, corner_edges_rms=0.10),
     "thin_plate": dict(rms=0.05, lit_side_rms=0.05, unlit_side=0.02),
-    "floor_strip": dict(rms=0.10, by_the_wall_rms=0.10),
+    # Surfels whose discs reach through the wall scattered the light along it: 3.4% by the
+    # wall and 2.5% on the meeting line before they were evaluated as receivers (1.3%, 0.8%).
+    "floor_strip": dict(rms=0.10, by_the_wall_rms=0.025, meeting_line_rms=0.02),
     "lit_sphere": dict(rms=0.05, lit_side_rms=0.05, lit_side_ratio=0.05),
     "world_lit": dict(rms=0.05, contact_rms=0.05, hidden_floor=0.02),
 }
@@ -332,12 +334,16 @@ def test_floor_strip_against_a_wall():
     by_wall = np.zeros(len(pos), bool)
     n_strip = len(strip.data.vertices)
     by_wall[:n_strip] = pos[:n_strip, 1] > 0.3
+    # Where floor and wall meet, each vertex sees the other surface's light at close range.
+    line = np.flatnonzero(np.abs(pos[:, 1] - 0.4) < 1e-6)
     rms, near_rms = relative_rms(got, ref), relative_rms(got[by_wall], ref[by_wall])
-    report("floor strip by a wall", rms=rms, by_the_wall_rms=near_rms,
+    line_rms = relative_rms(got[line], ref[line])
+    report("floor strip by a wall", rms=rms, by_the_wall_rms=near_rms, meeting_line_rms=line_rms,
            strip_ratio=got[:n_strip].mean() / ref[:n_strip].mean(),
            wall_ratio=got[n_strip:].mean() / ref[n_strip:].mean())
-    assert by_wall.sum() >= 40
+    assert by_wall.sum() >= 40 and len(line) >= 60
     assert near_rms < bound["by_the_wall_rms"]
+    assert line_rms < bound["meeting_line_rms"]
     assert rms < bound["rms"]
 
 

@@ -238,3 +238,97 @@ def test_gather_takes_a_ray_count_per_receiver():
         np.testing.assert_array_equal(mixed.radiance[rows], alone.radiance)
     with pytest.raises(illumap.InputError, match="counts"):
         rc.gather(occ, field, p, nrm, rays=np.zeros(len(p), dtype=int))
+
+
+def test_gather_lattices_lie_on_their_triangles_facing_their_side():
+    floor = grid_square(0.0, 4, facing_down=False)
+    occ = rc.MeshOccluders(floor)
+    field = surfels_on(floor)
+    (fp, fn), (bp, bn) = rc.gather_lattices(occ, field, back_field=field)
+    assert len(fp) >= 3 * len(floor) and len(bp) == len(fp)
+    np.testing.assert_allclose(fp[:, 2], 0.0, atol=1e-12)
+    assert (np.abs(fp[:, :2]) <= 0.5 + 1e-12).all()
+    np.testing.assert_array_equal(fn, np.tile([0.0, 0.0, 1.0], (len(fn), 1)))
+    np.testing.assert_array_equal(bn, -fn)
+    # Black back faces and splats that carry their own surfel are not tabulated.
+    (_, _), (bp2, _) = rc.gather_lattices(occ, field, back_field=field,
+                                          two_sided=np.zeros(len(floor), bool))
+    assert len(bp2) == 0
+    owners = np.full(len(floor), -1)
+    owners[:2] = 0
+    (fp3, _), _ = rc.gather_lattices(occ, field, owners=owners)
+    assert len(fp3) < len(fp)
+
+
+def test_an_exact_part_adds_to_the_rest_of_the_field():
+    square = grid_square(1.0, 8)
+    occ = rc.MeshOccluders(square)
+    ones, zeros = surfels_on(square, value=1.0), surfels_on(square, value=0.0)
+    (points, _), _ = rc.gather_lattices(occ, ones)
+    p, n = np.array([[0.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 1.0]])
+    whole = rc.gather(occ, ones, p, n, rays=1024)
+    split = rc.gather(occ, ones, p, n, rays=1024,
+                      exact=rc.ExactPart(rest=zeros, values=np.ones((len(points), 3))))
+    np.testing.assert_allclose(split.radiance, whole.radiance, rtol=1e-12)
+    with pytest.raises(ValueError, match="front_lattice must have"):
+        rc.gather(occ, ones, p, n, rays=8, exact=rc.ExactPart(rest=zeros, values=np.ones((3, 3))))
+
+
+def test_an_exact_part_keeps_a_shadow_edge_as_sharp_as_the_lattice():
+    # A floor lit for x > 0 only, seen from just above the edge: the value is the share of the
+    # receiver's rays that land on the lit half. Sparse surfels blur the edge over their
+    # spacing; the same light given exactly at the lattice points does not.
+    floor = 8.0 * grid_square(0.0, 16, facing_down=False)
+    occ = rc.MeshOccluders(floor)
+    w = np.array([[0.6, 0.2, 0.2], [0.2, 0.6, 0.2], [0.2, 0.2, 0.6], [1 / 3, 1 / 3, 1 / 3]])
+    pos = np.einsum("kc,tcd->tkd", w, floor).reshape(-1, 3)
+    nrm = np.tile([0.0, 0.0, 1.0], (len(pos), 1))
+    lit = lambda q: np.repeat((q[:, :1] > 0).astype(float), 3, axis=1)  # noqa: E731
+    field = rc.SurfelField(pos, nrm, lit(pos))
+    (points, _), _ = rc.gather_lattices(occ, field)
+    exact = rc.ExactPart(rest=rc.SurfelField(pos, nrm, np.zeros_like(pos)), values=lit(points))
+    p = np.array([[0.04, 0.0, 0.1], [-0.04, 0.0, 0.1]])
+    n = np.array([[0.0, 0.0, -1.0]] * 2)
+    rays = 4096
+    d = rc.cosine_directions(n, rays, np.arange(2))
+    t = -p[:, None, 2] / d[..., 2]
+    x, y = p[:, None, 0] + t * d[..., 0], p[:, None, 1] + t * d[..., 1]
+    on_floor = (np.abs(x) < 4) & (np.abs(y) < 4)
+    expected = ((x > 0) & on_floor).mean(axis=1)
+    blurred = rc.gather(occ, field, p, n, rays=rays).radiance[:, 0]
+    sharp = rc.gather(occ, field, p, n, rays=rays, exact=exact).radiance[:, 0]
+    print("expected", expected, "surfels alone", blurred, "with the exact part", sharp)
+    np.testing.assert_allclose(sharp, expected, atol=0.02)
+    assert (np.abs(blurred - expected) > 2 * np.abs(sharp - expected)).all()
+
+
+def test_straddling_surfels_are_those_whose_disc_reaches_through_another_surface():
+    # A floor and a wall meeting along y = 0: surfels on a 0.1 m grid, disc radius 0.056 m.
+    s = 0.1
+    u = (np.arange(20) + 0.5) * s
+    fx, fy = np.meshgrid(u, np.arange(10) * s + 0.02, indexing="ij")     # 2 cm off the wall
+    floor = np.column_stack([fx.ravel(), -fy.ravel(), np.zeros(fx.size)])
+    wx, wz = np.meshgrid(u, np.arange(10) * s + 0.07, indexing="ij")     # 7 cm off the floor
+    wall = np.column_stack([wx.ravel(), np.zeros(wx.size), wz.ravel()])
+    p = np.concatenate([floor, wall])
+    n = np.concatenate([np.tile([0.0, 0.0, 1.0], (len(floor), 1)),
+                        np.tile([0.0, -1.0, 0.0], (len(wall), 1))])
+    a = np.full(len(p), s * s)
+    hit = rc.straddling_surfels(p, n, a)
+    radius = np.sqrt(s * s / np.pi)
+    expect = np.concatenate([fy.ravel() < radius, np.zeros(len(wall), bool)])
+    np.testing.assert_array_equal(hit, expect)
+    assert hit[:len(floor)].sum() == 20              # the first floor row only
+    # Larger discs reach through: the wall's first row too.
+    assert rc.straddling_surfels(p, n, np.full(len(p), 4 * s * s))[len(floor):].sum() == 20
+    # A flat floor, and a box's bottom facing a floor, are not another surface's edge.
+    flat = rc.straddling_surfels(floor, np.tile([0.0, 0.0, 1.0], (len(floor), 1)), a[:len(floor)])
+    assert not flat.any()
+    lid = floor + [0.0, 0.0, 0.01]
+    both = rc.straddling_surfels(np.concatenate([floor, lid]),
+                                 np.concatenate([np.tile([0.0, 0.0, 1.0], (len(floor), 1)),
+                                                 np.tile([0.0, 0.0, -1.0], (len(floor), 1))]),
+                                 np.full(2 * len(floor), s * s))
+    assert not both.any()
+    with pytest.raises(illumap.InputError, match="areas"):
+        rc.straddling_surfels(p, n, a[:3])

@@ -11,7 +11,12 @@ receiver x is evaluated on its own (DESIGN.md §6, the final gather of two-pass 
   from x against the true triangles (``MeshOccluders.segment_query``);
 * ``G`` — indirect incident radiance: ``gather`` casts cosine-distributed rays from x against
   the triangles and looks up the solved reflected radiance B' of the surfels at each hit
-  (``SurfelField``); rays that leave the scene see the background radiance.
+  (``SurfelField``); rays that leave the scene see the background radiance. The field is
+  tabulated on a lattice of each triangle; a part known exactly at its points (lamp light,
+  cast there with shadow rays where it changes sharply: ``gather_lattices``, ``ExactPart``,
+  ``sharpness``) keeps shadow edges as sharp as the lattice. Surfels whose disc reaches
+  through another surface (``straddling_surfels``) have unreliable solved values; the
+  caller evaluates them as receivers before building the field.
 
 All radiance is in Blender's units (irradiance / π for incident light), positions in metres.
 Rays start ``offset`` off the surface along the receiver's normal; the default,
@@ -194,6 +199,107 @@ def cosine_directions(normals, count: int, ids, seed: int = 0) -> np.ndarray:
 
 
 @dataclass
+class ExactPart:
+    """A part of the light the gather finds at its hits that is known exactly at the points
+    where it tabulates its field (``gather_lattices``): typically the reflected direct light
+    of lamps, evaluated there with shadow rays. The gather then interpolates ``values`` (L, 3)
+    plus ``rest`` (the surfels' light less that part) instead of the whole field, so that a
+    lamp's shadow edge on a hit surface is as sharp as the lattice, not blurred over the
+    surfels' spacing."""
+
+    rest: SurfelField
+    values: np.ndarray
+
+
+#: ``straddling_surfels`` looks for another surface among this many nearest surfels.
+STRADDLE_NEIGHBOURS = 8
+#: Surfaces meet when |cos| between their normals is below this (60° or more apart).
+STRADDLE_MAX_COS = 0.5
+
+
+def straddling_surfels(positions, normals, areas, *, k: int = STRADDLE_NEIGHBOURS) -> np.ndarray:
+    """Which surfels' discs reach through another surface: one of the ``k`` nearest surfels
+    lies on a plane at least 60° from theirs that passes within their disc's radius
+    sqrt(A / π) of their centre. Where two surfaces meet (a floor along a wall, a box's edge,
+    a scan's crease) such a disc overlaps its neighbours across the line, and the solve's
+    close-pair rule, exact for a point beside a disc, counts the other surface's light
+    through several overlapping discs: their solved values scatter by tens of percent where
+    the light itself is smooth. Returns (N,) bool; positions and areas in m and m²."""
+    p = _rows3("positions", positions)
+    n = _rows3("normals", normals, len(p))
+    a = np.asarray(areas, dtype=np.float64).reshape(-1)
+    if len(a) != len(p):
+        raise InputError(f"areas must have {len(p)} entries, got {len(a)}")
+    if len(p) < 2:
+        return np.zeros(len(p), dtype=bool)
+    kk = min(int(k), len(p) - 1)
+    idx, _ = _core.knn(p, p, kk + 1)
+    idx = np.asarray(idx)[:, 1:]
+    other = np.abs(np.einsum("ic,ikc->ik", n, n[idx])) < STRADDLE_MAX_COS
+    height = np.abs(np.einsum("ikc,ikc->ik", n[idx], p[:, None, :] - p[idx]))
+    return (other & (height < np.sqrt(np.maximum(a, 0.0) / np.pi)[:, None])).any(axis=1)
+
+
+#: ``sharpness`` looks at this many surfels around a point, as ``SurfelField`` does.
+SHARP_NEIGHBOURS = LOOKUP_NEIGHBOURS
+#: Light changes sharply around a point when its neighbours' luminance spreads over more than
+#: this share of their brightest (sharpness 1), not at all below SHARP_SPREAD_FROM (0); the
+#: ramp between keeps results continuous in the input.
+SHARP_SPREAD = 0.6
+SHARP_SPREAD_FROM = 0.3
+
+
+def sharpness(positions, values, points, *, k: int = SHARP_NEIGHBOURS) -> np.ndarray:
+    """How sharply the surfels' ``values`` (N, 3) change around each of ``points`` (L, 3),
+    in [0, 1]: from the spread of the luminance of the ``k`` surfels nearest each, as a share
+    of the brightest (0 up to ``SHARP_SPREAD_FROM``, 1 from ``SHARP_SPREAD``). Where it is 0
+    the surfels' inverse-distance average is as good as an exact value. Returns (L,)."""
+    p = _rows3("positions", positions)
+    v = _rows3("values", values, len(p))
+    q = _rows3("points", points)
+    if not len(q) or not len(p):
+        return np.zeros(len(q))
+    idx, _ = _core.knn(p, q, min(int(k), len(p)))
+    lum = (v @ LUMINANCE_WEIGHTS)[np.asarray(idx)]
+    hi, lo = lum.max(axis=1), lum.min(axis=1)
+    share = (hi - lo) / np.where(hi > 0, hi, 1.0)
+    return np.clip((share - SHARP_SPREAD_FROM) / (SHARP_SPREAD - SHARP_SPREAD_FROM), 0.0, 1.0)
+
+
+def gather_lattices(occluders: MeshOccluders, field: SurfelField, *,
+                    back_field: SurfelField | None = None, two_sided=None, owners=None,
+                    back_owners=None) -> tuple[tuple[np.ndarray, np.ndarray],
+                                               tuple[np.ndarray, np.ndarray]]:
+    """The points (L, 3) and surface normals (L, 3) at which ``gather`` with the same
+    arguments tabulates ``field`` and ``back_field``: ((front points, front normals), (back
+    points, back normals)), each point a hair inside its triangle; about as many as the
+    surfels. Values for an ``ExactPart`` are given in this order."""
+    fp, fn, bp, bn = _core.gather_lattices(
+        occluders._scene, field._field, None if back_field is None else back_field._field,
+        two_sided=_sided(occluders, two_sided), owner_front=_owner_rows(occluders, owners, "owners"),
+        owner_back=_owner_rows(occluders, back_owners, "back_owners"))
+    return (fp, fn), (bp, bn)
+
+
+def _sided(occluders: MeshOccluders, two_sided):
+    if two_sided is None:
+        return None
+    sided = np.ascontiguousarray(two_sided, dtype=bool).astype(np.int64).reshape(-1)
+    if len(sided) != occluders.n:
+        raise InputError(f"two_sided must have {occluders.n} entries, got {len(sided)}")
+    return sided
+
+
+def _owner_rows(occluders: MeshOccluders, value, name: str):
+    if value is None:
+        return None
+    o = np.ascontiguousarray(value, dtype=np.int64).reshape(-1)
+    if len(o) != occluders.n:
+        raise InputError(f"{name} must have {occluders.n} entries, got {len(o)}")
+    return o
+
+
+@dataclass
 class GatherResult:
     """Indirect incident radiance at receivers and what it cost."""
 
@@ -205,7 +311,8 @@ class GatherResult:
 def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, rays,
            ids: np.ndarray | None = None, seed: int = 0, background=None,
            back_field: SurfelField | None = None, two_sided=None, owners=None,
-           back_owners=None, threads: int = 0,
+           back_owners=None, exact: ExactPart | None = None,
+           back_exact: ExactPart | None = None, threads: int = 0,
            progress: Progress | None = None) -> GatherResult:
     """Indirect incident radiance at receivers (``positions``, unit ``normals``, (M, 3)).
 
@@ -217,7 +324,8 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
     triangles' back faces take ``back_field`` (None: all); the others' are black.
     ``owners`` / ``back_owners`` (T,) int name, per triangle, the surfel of ``field`` /
     ``back_field`` it stands for (a point's splat, ``illumap.splats``) or -1: a hit on it takes
-    that surfel's value instead of a lookup.
+    that surfel's value instead of a lookup. ``exact`` / ``back_exact`` give a part of
+    the field / back field known at ``gather_lattices``' points (``ExactPart``).
     ``ids`` (M,) name the receivers for
     their random streams (default: their rows). Runs natively on ``threads`` (0: all), the GIL
     released; ``progress`` returning False cancels (``illumap.Cancelled``).
@@ -242,24 +350,21 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
     bg = np.zeros(3) if background is None else np.ascontiguousarray(background, dtype=np.float64).reshape(3)
     if not np.isfinite(bg).all() or (bg < 0).any():
         raise InputError(f"background must be 3 finite values >= 0, got {bg}")
-    sided = None
-    if two_sided is not None:
-        sided = np.ascontiguousarray(two_sided, dtype=bool).astype(np.int64).reshape(-1)
-        if len(sided) != occluders.n:
-            raise InputError(f"two_sided must have {occluders.n} entries, got {len(sided)}")
-    def owner_rows(value, name):
-        if value is None:
-            return None
-        o = np.ascontiguousarray(value, dtype=np.int64).reshape(-1)
-        if len(o) != occluders.n:
-            raise InputError(f"{name} must have {occluders.n} entries, got {len(o)}")
-        return o
+    def exact_rows(part, name):
+        if part is None:
+            return None, None
+        return part.rest._field, np.ascontiguousarray(part.values, dtype=np.float64)
 
+    front_rest, front_lattice = exact_rows(exact, "exact")
+    back_rest, back_lattice = exact_rows(back_exact, "back_exact")
     radiance, stderr = _core.gather(
         occluders._scene, field._field, None if back_field is None else back_field._field,
         p, n, ids, rays=int(rays), seed=int(seed), offset=occluders.offset, background=bg,
-        two_sided=sided, rays_per=per, owner_front=owner_rows(owners, "owners"),
-        owner_back=owner_rows(back_owners, "back_owners"), threads=threads, progress=progress)
+        two_sided=_sided(occluders, two_sided), rays_per=per,
+        owner_front=_owner_rows(occluders, owners, "owners"),
+        owner_back=_owner_rows(occluders, back_owners, "back_owners"), front_rest=front_rest,
+        front_lattice=front_lattice, back_rest=back_rest, back_lattice=back_lattice,
+        threads=threads, progress=progress)
     return GatherResult(radiance=radiance, stderr=stderr, rays=count)
 
 
