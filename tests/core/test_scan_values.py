@@ -161,3 +161,49 @@ def test_twin_points_where_two_scans_meet_take_the_mean_of_both_faces():
         assert faces == {1, 2}
     rim = np.flatnonzero((p[:, 1] == 1.0) & (p[:, 2] == 0.0))
     assert not np.isin(rim, c.rows).any() and c.own[rim].all()
+
+
+def corner_scan(s=0.1, n=6, drop_side_b=True):
+    """Points near the convex corner (0, 0, 0) of a box occupying x, y, z <= 0: its top face
+    (+z), side A (+x) and side B (+y) on an s-grid, each edge's points with their fitted
+    normal halfway between its two faces, the corner's a third of each. Side B's own points
+    near the corner left out where ``drop_side_b``: only its edges with the others remain."""
+    t = -s * np.arange(n)
+    pts, nrm = [], []
+    faces = {"top": (2, np.array([0, 0, 1.0])), "a": (0, np.array([1.0, 0, 0])),
+             "b": (1, np.array([0, 1.0, 0]))}
+    for name, (axis, normal) in faces.items():
+        u, v = np.meshgrid(t, t, indexing="ij")
+        grid = np.zeros((u.size, 3))
+        others = [a for a in range(3) if a != axis]
+        grid[:, others[0]], grid[:, others[1]] = u.ravel(), v.ravel()
+        inside = (grid[:, others[0]] < 0) & (grid[:, others[1]] < 0)
+        if name == "b" and drop_side_b:
+            inside &= (grid[:, others[0]] < -2.5 * s) | (grid[:, others[1]] < -2.5 * s)
+        pts.append(grid[inside])
+        nrm.append(np.tile(normal, (inside.sum(), 1)))
+    for a, b in ((0, 1), (0, 2), (1, 2)):
+        line = np.zeros((n - 1, 3))
+        rest = 3 - a - b
+        line[:, rest] = t[1:]
+        pts.append(line)
+        nn = np.zeros(3)
+        nn[a] = nn[b] = 1 / np.sqrt(2)
+        nrm.append(np.tile(nn, (n - 1, 1)))
+    pts.append(np.zeros((1, 3)))
+    nrm.append(np.full((1, 3), 1 / np.sqrt(3)))
+    return np.concatenate(pts), np.concatenate(nrm)
+
+
+def test_a_box_corner_takes_all_three_faces_even_where_one_is_seen_only_by_its_edges():
+    p, n = corner_scan()
+    corner = len(p) - 1
+    c = crease_surfaces(p, n)
+    k = c.rows == corner
+    got = np.sort(np.round(np.abs(c.normals[k] @ np.eye(3)).max(axis=1), 6))
+    assert k.sum() == 3 and np.allclose(got, 1.0)
+    np.testing.assert_allclose(np.sort(np.argmax(np.abs(c.normals[k]), axis=1)), [0, 1, 2])
+    # Each face is evaluated a hair into it and off it, never behind another face.
+    off = c.points[k] - p[corner]
+    assert (np.einsum("ec,ec->e", off, c.normals[k]) > 0).all()
+    assert (off <= 1e-12).sum(axis=1).min() >= 2

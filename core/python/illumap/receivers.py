@@ -567,12 +567,58 @@ def _crease_faces(p, n, rows, idx, dist, crease) -> tuple:
     faces, on_line = plane_through(members)
     faces *= np.where(np.einsum("pgc,pgc->pg", faces, mean_normal) < 0, -1.0, 1.0)[..., None]
     face = found & ~on_line
-    mine = face.sum(axis=1) >= 2
+    er, en, eat = _corner_faces(p, rows, face.any(axis=1), face, faces, found & on_line,
+                                mean_normal, members, scale)
+    mine = face.sum(axis=1) + np.bincount(er, minlength=len(rows)) >= 2
     crease[rows] = mine
+    keep = mine[er]
+    er, en, eat = er[keep], en[keep], eat[keep]
     r, g = np.nonzero(face & mine[:, None])
     centre = members[r, g].sum(axis=1)
     inward = centre / np.maximum(np.linalg.norm(centre, axis=1, keepdims=True), 1e-300)
     # A hair off the face too: near an edge the neighbours' splats tilt a little, and from
     # the face's exact plane a receiver would start behind them.
     at = p[rows[r]] + CREASE_INSET * scale[r, None] * (inward + faces[r, g])
-    return rows[r].astype(np.int64), faces[r, g], at
+    out = np.concatenate([rows[r], rows[er]]).astype(np.int64)
+    order = np.argsort(out, kind="stable")
+    return out[order], np.concatenate([faces[r, g], en])[order], np.concatenate([at, eat])[order]
+
+
+def _corner_faces(p, rows, mine, face, faces, line, line_normal, members, scale) -> tuple:
+    """Faces of an edge or corner that ``_crease_faces`` missed (looked for at the rows
+    ``mine``): a face's own points may all lie beyond the nearest neighbours, but the edge
+    it shares with a face found there does not (a group of points on a line through the point, their fitted normals halfway
+    between the two faces). The missing face's normal is the found one's mirrored about
+    that edge's normal. Returns (row index into ``rows``, normal, where to evaluate)."""
+    R, G = face.shape
+    out_r, out_n, out_at = [], [], []
+    known = np.where(face[..., None], faces, 0.0)                      # (R, G, 3)
+    for l in range(G):
+        for f in range(G):
+            c = np.einsum("rc,rc->r", line_normal[:, l], faces[:, f])
+            ok = mine & line[:, l] & face[:, f] & (c > 0.5) & (c < CREASE_SAME_COS)
+            if not ok.any():
+                continue
+            other = 2.0 * c[:, None] * line_normal[:, l] - faces[:, f]
+            other /= np.maximum(np.linalg.norm(other, axis=1, keepdims=True), 1e-300)
+            new = ok & (np.einsum("rgc,rc->rg", known, other).max(axis=1) < CREASE_SAME_COS)
+            i = np.flatnonzero(new)
+            if not i.size:
+                continue
+            # Into the new face: along the edge, and behind the found face's plane where the
+            # faces meet convexly (in front of it where concavely).
+            along = members[i, l].sum(axis=1)
+            along /= np.maximum(np.linalg.norm(along, axis=1, keepdims=True), 1e-300)
+            convex = np.einsum("rkc,rc->r", members[i, f], other[i]) < 0
+            inward = along + np.where(convex, -1.0, 1.0)[:, None] * faces[i, f]
+            inward -= np.einsum("rc,rc->r", inward, other[i])[:, None] * other[i]
+            inward /= np.maximum(np.linalg.norm(inward, axis=1, keepdims=True), 1e-300)
+            out_r.append(i)
+            out_n.append(other[i])
+            out_at.append(p[rows[i]] + CREASE_INSET * scale[i, None] * (inward + other[i]))
+            # The inferred face counts for the next groups' check.
+            slot = np.argmin(np.abs(known[i]).sum(axis=2), axis=1)
+            known[i, slot] = other[i]
+    if not out_r:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros((0, 3))
+    return np.concatenate(out_r), np.concatenate(out_n), np.concatenate(out_at)
