@@ -473,6 +473,8 @@ CREASE_MAX_SURFACES = 6
 #: A face's value is taken this far (× the median neighbour distance) into the face, and as
 #: far off it.
 CREASE_INSET = 0.03
+#: An edge lies in a face when the sine of the angle between them is below this (~10°).
+CREASE_EDGE_SIN = 0.17
 
 
 @dataclass
@@ -575,7 +577,22 @@ def _crease_faces(p, n, rows, idx, dist, crease) -> tuple:
     er, en, eat = er[keep], en[keep], eat[keep]
     r, g = np.nonzero(face & mine[:, None])
     centre = members[r, g].sum(axis=1)
-    inward = centre / np.maximum(np.linalg.norm(centre, axis=1, keepdims=True), 1e-300)
+    length = np.linalg.norm(centre, axis=1)
+    inward = centre / np.maximum(length, 1e-300)[:, None]
+    # A face whose points lie all around the point (twins where scans meet, a room's corner)
+    # gives no direction. Where the corner's faces are known in full (one was found through
+    # its edge), into it is away from the others: behind their planes at a convex crease (the
+    # neighbours lie behind the point's own normal), in front of them at a concave one.
+    short = np.flatnonzero((length < 0.5 * scale[r]) & np.isin(r, er))
+    if short.size:
+        others = np.zeros((len(rows), 3))
+        np.add.at(others, np.concatenate([r, er]), np.concatenate([faces[r, g], en]))
+        side = np.where(np.einsum("pkc,pc->p", offsets, n[rows]) > 0, 1.0, -1.0)
+        rs = r[short]
+        v = side[rs, None] * (others[rs] - faces[rs, g[short]])
+        v -= np.einsum("ec,ec->e", v, faces[rs, g[short]])[:, None] * faces[rs, g[short]]
+        norm = np.linalg.norm(v, axis=1, keepdims=True)
+        inward[short] = np.where(norm > 1e-12, v / np.maximum(norm, 1e-300), inward[short])
     # A hair off the face too: near an edge the neighbours' splats tilt a little, and from
     # the face's exact plane a receiver would start behind them.
     at = p[rows[r]] + CREASE_INSET * scale[r, None] * (inward + faces[r, g])
@@ -601,14 +618,21 @@ def _corner_faces(p, rows, mine, face, faces, line, line_normal, members, scale)
                 continue
             other = 2.0 * c[:, None] * line_normal[:, l] - faces[:, f]
             other /= np.maximum(np.linalg.norm(other, axis=1, keepdims=True), 1e-300)
+            # The edge: its points' offsets, all on one side of the point (not twins at it),
+            # and in both faces' planes.
+            edge = members[:, l].sum(axis=1)
+            length = np.linalg.norm(edge, axis=1)
+            along = edge / np.maximum(length, 1e-300)[:, None]
+            ok &= length > 0.5 * scale
+            ok &= (np.abs(np.einsum("rc,rc->r", along, other)) < CREASE_EDGE_SIN) & \
+                  (np.abs(np.einsum("rc,rc->r", along, faces[:, f])) < CREASE_EDGE_SIN)
             new = ok & (np.einsum("rgc,rc->rg", known, other).max(axis=1) < CREASE_SAME_COS)
             i = np.flatnonzero(new)
             if not i.size:
                 continue
             # Into the new face: along the edge, and behind the found face's plane where the
             # faces meet convexly (in front of it where concavely).
-            along = members[i, l].sum(axis=1)
-            along /= np.maximum(np.linalg.norm(along, axis=1, keepdims=True), 1e-300)
+            along = along[i]
             convex = np.einsum("rkc,rc->r", members[i, f], other[i]) < 0
             inward = along + np.where(convex, -1.0, 1.0)[:, None] * faces[i, f]
             inward -= np.einsum("rc,rc->r", inward, other[i])[:, None] * other[i]
