@@ -141,3 +141,28 @@ def test_splats_of_a_box_scanned_as_its_vertices_stay_inside_it():
     tri = splats.splat_triangles(p @ turn.T, n @ turn.T, np.full(len(p), 0.01)).reshape(-1, 3)
     tri = tri @ turn
     assert tri.min() > -OVERLAP_SLACK and tri.max() < 1 + OVERLAP_SLACK
+
+
+def test_splats_beside_an_edge_lie_in_their_own_surface():
+    """A wall standing on a floor, both scanned on a 0.1 m grid with fitted normals: the wall
+    points next to the floor fit a plane tilted towards it (the floor's points are among
+    their neighbours), but their splats lie in the wall's plane, so a point a hair in front of
+    the wall's foot is not behind them."""
+    from illumap.pointcloud import pca_normals
+    s = 0.1
+    t = np.arange(11) * s
+    wx, wz = np.meshgrid(t, t[1:], indexing="ij")
+    wall = np.column_stack([wx.ravel(), np.zeros(wx.size), wz.ravel()])
+    fx, fy = np.meshgrid(t, -t, indexing="ij")
+    floor = np.column_stack([fx.ravel(), fy.ravel(), np.zeros(fx.size)])
+    p = np.concatenate([wall, floor])
+    n = pca_normals(p, 8)
+    n *= np.where(n @ np.array([0.0, -1.0, 1.0]) < 0, -1.0, 1.0)[:, None]
+    first_row = np.flatnonzero(np.isclose(p[:, 2], s) & (p[:, 1] == 0) & (p[:, 0] > 0) & (p[:, 0] < 1))
+    assert (np.abs(n[first_row, 2]) > 0.02).any()            # the fitted normals do tilt
+    tri = splats.splat_triangles(p, n, np.full(len(p), s * s))
+    sides = len(tri) // len(p)
+    mine = tri.reshape(len(p), sides, 3, 3)[first_row]
+    assert np.abs(mine[..., 1]).max() < 1e-9                # in the wall's plane y = 0
+    np.testing.assert_allclose(splats.settled_normals(p, n)[first_row], [[0.0, -1.0, 0.0]] * len(first_row),
+                               atol=1e-9)
