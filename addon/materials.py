@@ -227,6 +227,13 @@ class _Evaluator:
             return a1 + a2, e1 + e2
         if kind == "MIX_SHADER":
             fac = min(max(self.scalar(node.inputs[0]), 0.0), 1.0)
+            # The shader a factor of exactly 0 or 1 leaves out is not read: the idioms that
+            # hide an emitter from the camera mix it with what Illumap has no use for (a
+            # Transparent BSDF, a Holdout).
+            if fac == 0.0:
+                return self.shader(node.inputs[1])
+            if fac == 1.0:
+                return self.shader(node.inputs[2])
             a1, e1 = self.shader(node.inputs[1])
             a2, e2 = self.shader(node.inputs[2])
             return (1 - fac) * a1 + fac * a2, (1 - fac) * e1 + fac * e2

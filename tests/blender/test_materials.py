@@ -196,6 +196,28 @@ def test_backfacing_mix_is_one_sided_emission_of_the_front_shader():
     assert np.all(job.albedo == 0) and not job.warnings
 
 
+def test_is_camera_ray_mix_hides_an_emitter_but_keeps_its_light():
+    """Light Path ▸ Is Camera Ray into a Mix Shader (emission first, a transparent BSDF
+    second): the camera sees through the emitter, every other ray sees the emission, as in
+    Cycles. Illumap's light is never a camera ray: the emission, no warning."""
+    mat, nodes, links, out = new_material("Hidden")
+    emission = nodes.new("ShaderNodeEmission")
+    emission.inputs["Color"].default_value = (0.5, 1.0, 1.0, 1)
+    emission.inputs["Strength"].default_value = 4.0
+    clear = nodes.new("ShaderNodeBsdfTransparent")
+    path = nodes.new("ShaderNodeLightPath")
+    mix = nodes.new("ShaderNodeMixShader")
+    links.new(path.outputs["Is Camera Ray"], mix.inputs["Fac"])
+    links.new(emission.outputs[0], mix.inputs[1])
+    links.new(clear.outputs[0], mix.inputs[2])
+    links.new(mix.outputs[0], out.inputs["Surface"])
+    job = prepare(make_plane("P", material=mat))
+    assert np.allclose(job.emission, (2.0, 4.0, 4.0), atol=1e-6) and not job.warnings
+    # Another Light Path output is not understood: said, not guessed.
+    links.new(path.outputs["Is Shadow Ray"], mix.inputs["Fac"])
+    assert prepare(make_plane("Q", material=mat)).warnings
+
+
 def test_same_seed_same_surfels():
     obj = make_plane("P", material=diffuse_material("D", (0.5,) * 3))
     a, b = prepare(obj), prepare(obj)
