@@ -73,3 +73,13 @@ class OutputError(IllumapError):
     """An output path cannot be written (batch ``--output``, ``--render``, ``--export-*``)."""
 
     exit_code = ExitCode.OUTPUT
+
+
+def core_cancelled(exc: BaseException) -> bool:
+    """Whether ``exc`` is the core's ``Cancelled`` (from a progress callable that returned
+    False)."""
+    try:
+        import illumap
+    except ImportError:
+        return False
+    return isinstance(exc, getattr(illumap, "Cancelled", ()))

@@ -1,4 +1,4 @@
-"""The light evaluated at the meshes' own corners (pipeline.receive): emission semantics as in
+"""The light evaluated at the meshes' own corners (addon/receive.py): emission semantics as in
 Cycles, open surfaces lit on both faces, results that do not depend on the run.
 
 Analytic values: a Lambertian emitter of radiance L that fills a receiver's hemisphere gives

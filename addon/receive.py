@@ -1,0 +1,452 @@
+"""The light at the receivers (DESIGN.md §6): what a user sees, evaluated at the point that
+shows it. ``receive`` runs on the worker after the solve (no bpy): the meshes' corners and the
+point clouds' points get the lamps' direct light with shadow rays from the receiver, plus the
+final gather of the surfels' solved light (``illumap.receivers``) against the scene's
+triangles (``mesh_occluders``). Before the gather, the surfels whose disc reaches through
+another surface are evaluated as receivers too (``_regather_straddling``), and the gather's
+table takes the lamps' light cast at its own points where it changes sharply
+(``_exact_direct``). Receivers that another surface lies flat against get no light
+(``covered_receivers``).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from typing import TYPE_CHECKING, Callable
+
+import numpy as np
+
+from . import lamps, sampling
+from .errors import ExitCode, IllumapCancelled, IllumapError, core_cancelled
+
+if TYPE_CHECKING:
+    from .pipeline import Job, Result, Settings
+
+Progress = Callable[[float, str], "bool | None"]
+
+
+def receiver_rays(settings: Settings) -> tuple[int, int]:
+    """(gather rays, shadow samples) per receiver: the settings', or with a target error
+    enough that their noise stays well inside it (512 / 128 down to 2%, 2048 / 512 below)."""
+    t = settings.target_error
+    if t is None:
+        return int(settings.gather_rays), int(settings.receiver_shadow_samples)
+    return (512, 128) if t >= 0.02 else (2048, 512)
+
+
+def mesh_occluders(job: Job, progress: Progress | None = None):
+    """The sampled triangles as a ray-casting scene (``illumap.receivers.MeshOccluders``),
+    built once per job; None without mesh triangles. No bpy."""
+    if job.occluders is None and job.triangles is not None and len(job.triangles):
+        from illumap.receivers import MeshOccluders
+        build = None if progress is None else (lambda f, _phase="": progress(0.0, lamps.PHASE))
+        job.occluders = MeshOccluders(job.triangles, progress=build)
+    return job.occluders
+
+
+#: A corner lies this many times the ray engine's rounding (``MeshOccluders.rounding``) inside
+#: its triangle, at least RECEIVER_INSET and at most RECEIVER_INSET_MAX of the way to its
+#: centroid.
+ROUNDING_CLEARANCE = 4.0
+RECEIVER_INSET_MAX = 0.05
+
+
+def _clear_of_rounding(occ, rec):
+    """``rec`` with each corner moved far enough inside its triangle that its rays meet a
+    wall standing on its edge: at a room's corner the adjacent wall is as near as the corner
+    is inside its face, and rays skip the first ``occ.rounding`` of their way (more, the
+    farther the scene reaches from its centre: 20 m out a corner 3e-5 inside saw past the
+    wall and read 20% dark)."""
+    if rec.inward is None or len(rec.points) == 0:
+        return rec
+    reach = np.linalg.norm(rec.inward, axis=1)
+    share = np.clip(ROUNDING_CLEARANCE * occ.rounding(rec.points) / np.maximum(reach, 1e-300),
+                    sampling.RECEIVER_INSET, RECEIVER_INSET_MAX)
+    points = rec.points + (share - sampling.RECEIVER_INSET)[:, None] * rec.inward
+    return replace(rec, points=points)
+
+
+def _merged_corners(occ, rec) -> tuple[np.ndarray, np.ndarray]:
+    """Which corners of ``rec`` share one evaluation: corners of one vertex with one normal
+    (a flat grid's four) see the same light unless a wall stands on the vertex between them,
+    so each joins the first such corner when a ray between their points (lifted off the
+    surface) is free. Returns (the rows to evaluate, each corner's row among them)."""
+    key = np.column_stack([rec.corner_vertex, np.round(rec.normals * 1e5).astype(np.int64)])
+    _, first, group = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    group = group.ravel()
+    lead = first[group]
+    others = np.flatnonzero(lead != np.arange(len(lead)))
+    joined = np.arange(len(lead))
+    if others.size:
+        lift = occ.offset * rec.normals
+        free = occ.visible(rec.points[lead[others]] + lift[lead[others]],
+                           rec.points[others] + lift[others]) > 0
+        joined[others[free]] = lead[others[free]]
+    rows, index = np.unique(joined, return_inverse=True)
+    return rows, index.ravel()
+
+
+#: A surface pressed against a receiver hides it when one of its triangles faces the receiver
+#: (normals more opposite than this cosine) and contains the receiver's point.
+COVER_COS = -0.9
+_COVER_NEIGHBOURS = 16
+_COVER_OTHERS = 32            # other meshes' triangles near a receiver that could cover it
+_EDGE_SLACK = 1e-9            # barycentric, of a triangle's own size
+_COVER_CHUNK = 8192           # receivers per batch of triangle tests (≤ 40 MB)
+
+
+def covered_receivers(job: Job, points: np.ndarray, normals: np.ndarray, tolerance: float,
+                      owners: np.ndarray | None = None) -> np.ndarray:
+    """bool (M,): receivers that another surface lies flat against, facing them (a box's
+    bottom on a floor). Rays lifted off such a receiver would start beyond the covering
+    surface and see past it, so no light reaches them, as in Cycles. Candidates are the
+    triangles of the meshes' front-face surfels nearest to each receiver, and, where the
+    nearest triangle of another mesh lies flat against it, that mesh's nearest triangles by
+    centroid (``owners`` (M,): each receiver's mesh, its index among the MESH sources, or
+    -1): a box's own surfels crowd its bottom's neighbourhood, and a sparse floor's
+    triangles hold fewer than one surfel each. One covers it when it faces the receiver,
+    lies within ``tolerance`` (m) of its plane and contains its point."""
+    from illumap import _core
+    sources = [src for src in job.sources if src.kind == "MESH"]
+    if not sources or len(points) == 0 or job.triangles is None or job.mesh_triangle_start is None:
+        return np.zeros(len(points), dtype=bool)
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    rows = np.concatenate([np.arange(src.start, src.stop) for src in sources])
+    source = np.concatenate([np.full(src.stop - src.start, i) for i, src in enumerate(sources)])
+    triangle = job.mesh_triangle_start[source] + job.triangle[rows]
+    k = min(_COVER_NEIGHBOURS, len(rows))
+    idx, _ = _core.knn(job.positions[rows], points, k)
+    covered = _covered(job.triangles, triangle[np.asarray(idx)], points, normals, tolerance)
+    if owners is None:
+        return covered
+    # Where the nearest triangle of another mesh lies flat against the point: that mesh's
+    # nearest triangles by centroid, with or without surfels.
+    ends = np.append(job.mesh_triangle_start, _mesh_triangle_end(job))
+    mesh_of = np.repeat(np.arange(len(sources)), np.diff(ends))
+    centroids = job.triangles[:ends[-1]].mean(axis=1)
+    for i in np.unique(owners[owners >= 0]):
+        others = np.flatnonzero(mesh_of != i)
+        mine = np.flatnonzero((owners == i) & ~covered)
+        if len(mine) == 0 or len(others) == 0:
+            continue
+        tree = np.ascontiguousarray(centroids[others])
+        nearest, _ = _core.knn(tree, points[mine], 1)
+        first = job.triangles[others[np.asarray(nearest)[:, 0]]]
+        face = np.cross(first[:, 1] - first[:, 0], first[:, 2] - first[:, 0])
+        face /= np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-300)
+        flat = (np.abs(np.einsum("mc,mc->m", points[mine] - first[:, 0], face)) < tolerance) & \
+            (np.einsum("mc,mc->m", face, normals[mine]) < COVER_COS)
+        mine = mine[flat]
+        if len(mine) == 0:
+            continue
+        got, _ = _core.knn(tree, points[mine], min(_COVER_OTHERS, len(others)))
+        covered[mine] = _covered(job.triangles, others[np.asarray(got)], points[mine],
+                                 normals[mine], tolerance)
+    return covered
+
+
+def _mesh_triangle_end(job: Job) -> int:
+    """Where the meshes' triangles end in ``job.triangles`` (the clouds' splats follow)."""
+    if job.splat_point is None:
+        return len(job.triangles)
+    splats = np.flatnonzero(job.splat_point >= 0)
+    return int(splats[0]) if len(splats) else len(job.triangles)
+
+
+def _covered(triangles: np.ndarray, candidates: np.ndarray, points: np.ndarray,
+             normals: np.ndarray, tolerance: float) -> np.ndarray:
+    """``_covered_by`` over ``candidates`` (M, k) rows of ``triangles``, in chunks."""
+    return np.concatenate([_covered_by(triangles[candidates[lo:lo + _COVER_CHUNK]],
+                                       points[lo:lo + _COVER_CHUNK],
+                                       normals[lo:lo + _COVER_CHUNK], tolerance)
+                           for lo in range(0, len(points), _COVER_CHUNK)]) \
+        if len(points) else np.zeros(0, dtype=bool)
+
+
+def _covered_by(tri: np.ndarray, points: np.ndarray, normals: np.ndarray,
+                tolerance: float) -> np.ndarray:
+    """Whether any of each receiver's candidate triangles (M, k, 3, 3) covers it."""
+    e1, e2 = tri[:, :, 1] - tri[:, :, 0], tri[:, :, 2] - tri[:, :, 0]
+    normal = np.cross(e1, e2)
+    normal /= np.maximum(np.linalg.norm(normal, axis=2, keepdims=True), 1e-300)
+    facing = np.einsum("mkc,mc->mk", normal, normals) < COVER_COS
+    rel = points[:, None, :] - tri[:, :, 0]
+    close = np.abs(np.einsum("mkc,mkc->mk", rel, normal)) < tolerance
+    # Barycentric coordinates of the point's projection (Ericson, Real-Time Collision Detection).
+    d00, d01, d11 = (np.einsum("mkc,mkc->mk", a, b) for a, b in ((e1, e1), (e1, e2), (e2, e2)))
+    d20, d21 = np.einsum("mkc,mkc->mk", rel, e1), np.einsum("mkc,mkc->mk", rel, e2)
+    den = d00 * d11 - d01 * d01
+    den = np.where(np.abs(den) > 0, den, np.inf)
+    v = (d11 * d20 - d01 * d21) / den
+    w = (d00 * d21 - d01 * d20) / den
+    # A point on a shared edge is inside one of the two triangles, whatever the rounding.
+    inside = (v >= -_EDGE_SLACK) & (w >= -_EDGE_SLACK) & (v + w <= 1 + _EDGE_SLACK)
+    return (facing & close & inside).any(axis=1)
+
+
+def _point_receivers(job: Job) -> list[tuple]:
+    """Receivers at every point of each point cloud (``(receivers, back)``; ``back`` the same
+    points facing the other way for clouds of unknown orientation, else None), in the order
+    of their sources."""
+    backs = {src.name for src in job.sources if src.kind == "BACK"}
+    out = []
+    for cloud in job.clouds:
+        n = len(cloud.positions)
+        make = lambda normals, c=cloud, n=n: sampling.Receivers(  # noqa: E731
+            c.name, np.arange(n, dtype=np.int64), c.positions, normals, c.albedo, c.emission, n)
+        out.append((make(cloud.normals), make(-cloud.normals) if cloud.name in backs else None))
+    return out
+
+
+def _splat_owners(job: Job, back: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Per triangle of ``job.triangles``: the row in the front field (surfels not in
+    ``back``) and in the back field of the surfel that stands for the point whose splat it
+    is, or -1 (mesh triangles)."""
+    if job.splat_point is None or (job.splat_point < 0).all():
+        return None, None
+    front_row = np.cumsum(~back) - 1
+    back_row = np.cumsum(back) - 1
+    sources = {(src.name, src.kind): src for src in job.sources}
+    owner_front = np.full(len(job.splat_point), -1, dtype=np.int64)
+    owner_back = np.full(len(job.splat_point), -1, dtype=np.int64)
+    offset = 0
+    for cloud in job.clouds:
+        n = len(cloud.positions)
+        mine = (job.splat_point >= offset) & (job.splat_point < offset + n)
+        surfel = cloud.surfel[job.splat_point[mine] - offset]
+        owner_front[mine] = front_row[sources[(cloud.name, "POINTS")].start + surfel]
+        twin = sources.get((cloud.name, "BACK"))
+        if twin is not None:
+            owner_back[mine] = back_row[twin.start + surfel]
+        offset += n
+    return owner_front, owner_back
+
+
+#: Shadow rays per lattice point and sized lamp: a hit interpolates three lattice points and
+#: a receiver averages hundreds of hits, so the lattice's own noise averages out.
+LATTICE_SHADOW_SAMPLES = 4
+
+
+def _lamp_direct(job: Job) -> np.ndarray | None:
+    """The surfels' reflected direct light from lamps and emitters alone (not the world's,
+    which a gather finds through its rays that leave the scene), or None when unknown."""
+    if job.direct_lamps is not None:
+        return job.direct_lamps
+    return job.direct if job.world is None else None
+
+
+def _regather_straddling(job: Job, result: "Result", occ, sent: np.ndarray, back: np.ndarray,
+                         owners, back_owners, rays: int) -> int:
+    """Evaluate the surfels whose disc reaches through another surface
+    (``illumap.receivers.straddling_surfels``: a floor's along a wall, a crease's in a scan)
+    as receivers are: their direct light plus a gather of the other surfels' light. Their
+    solved values scatter by tens of percent where the light is smooth, and a receiver at the
+    line where the surfaces meet sees them at close range. Updates ``sent`` and
+    ``result.radiosity`` in place; returns how many were evaluated."""
+    from illumap import receivers as rc
+    direct = _lamp_direct(job)
+    if direct is None:
+        return 0
+    bad = rc.straddling_surfels(job.positions, job.normals, job.areas)
+    rows = np.flatnonzero(bad)
+    if not rows.size or bad.all():
+        return 0
+
+    def good_field(side, owner_rows):
+        """The field of this side's surfels that are not re-evaluated, and splat owners
+        (rows of the whole side's field) as rows of it."""
+        good = side & ~bad
+        if not good.any():
+            return None, None if owner_rows is None else np.full_like(owner_rows, -1)
+        remap = np.full(int(side.sum()), -1, dtype=np.int64)
+        remap[good[side]] = np.arange(int(good.sum()))
+        own = (None if owner_rows is None
+               else np.where(owner_rows >= 0, remap[np.maximum(owner_rows, 0)], -1))
+        return rc.SurfelField(job.positions[good], job.normals[good], sent[good]), own
+
+    front_field, own_front = good_field(~back, owners)
+    back_field_, own_back = good_field(back, back_owners) if back.any() else (None, None)
+    if front_field is None:
+        return 0
+    g = rc.gather(occ, front_field, job.positions[rows], job.normals[rows], rays=rays,
+                  seed=job.settings.seed, ids=rows.astype(np.int64),
+                  background=None if job.world is None else job.world.color,
+                  back_field=back_field_, two_sided=job.two_sided, owners=own_front,
+                  back_owners=own_back)
+    sent[rows] = job.solve_emission[rows] + direct[rows] + job.albedo[rows] * g.radiance
+    result.radiosity[rows] = sent[rows] + job.emission[rows] - job.solve_emission[rows]
+    return int(rows.size)
+
+
+def _exact_direct(job: Job, occ, sent: np.ndarray, front: np.ndarray, field_,
+                  owners) -> tuple:
+    """The gather's ``ExactPart`` for the front field (None without lamp light) and the
+    number of lattice points shadow rays were cast from: the
+    reflected direct light of the lamps and emitters at the points where the gather tabulates
+    the surfels' light, beside the surfels' light less their own direct part. A hit then sees
+    a lamp's shadow edge as sharp as that lattice, not blurred over the surfels' spacing:
+    what lights a receiver beside a contact or a shadow. Shadow rays are cast only where the
+    surfels' direct light changes sharply (``sharpness``, blended in by it); elsewhere their
+    average is as good. The world's light stays with the surfels: its shadow rays would need many samples
+    per point."""
+    from illumap import receivers as rc
+    if job.direct_lamps is None or not np.any(job.direct_lamps[front]):
+        return None, 0
+    s = job.settings
+    all_lamps = list(job.lamps) + list(job.emitters)
+    (points, normals), _ = rc.gather_lattices(occ, field_, two_sided=job.two_sided, owners=owners)
+    if not len(points):
+        return None, 0
+    pos, nrm, direct = job.positions[front], job.normals[front], job.direct_lamps[front]
+    weight = rc.sharpness(pos, direct, points)
+    values = rc.SurfelField(pos, nrm, direct).at(points, normals, occ)
+    sharp = np.flatnonzero(weight > 0)
+    if sharp.size:
+        p_, n_ = points[sharp], normals[sharp]
+        albedo = rc.SurfelField(pos, nrm, job.albedo[front]).at(p_, n_, occ)
+        shadows = (lamps.Shadows(occ.segment_query(n_), samples=LATTICE_SHADOW_SAMPLES,
+                                 seed=s.seed, extent=occ.extent, ids=sharp)
+                   if all_lamps and s.lamp_shadows else None)
+        exact = albedo * lamps.incident_radiance(all_lamps, p_, n_, shadows=shadows)
+        values[sharp] += weight[sharp, None] * (exact - values[sharp])
+    return rc.ExactPart(rest=rc.SurfelField(pos, nrm, (sent - job.direct_lamps)[front]),
+                        values=values), int(sharp.size)
+
+
+def receive(job: Job, result: "Result", progress: Progress | None = None) -> None:
+    """Evaluate the light at every receiver (DESIGN.md §6): the meshes' corners
+    (``job.receivers``) into ``result.receiver_values``, and with Transfer the point clouds'
+    points (their outward side where the orientation is unknown, a crease's points the mean of
+    the faces that meet there) into
+    ``result.point_receiver_values``. Direct light from lamps and emitters with shadow rays
+    from the receiver, plus the final gather of the surfels' solved light
+    (``illumap.receivers``); the world's light through the gather's rays that leave the
+    scene. No bpy; runs on the worker after the solve. Raises IllumapCancelled when
+    cancelled."""
+    point_sets = _point_receivers(job) if job.settings.transfer else []
+    if not job.receivers and not point_sets:
+        return
+    from illumap import receivers as rc
+    t0 = time.perf_counter()
+    s = job.settings
+    occ = mesh_occluders(job, progress)
+    if occ is None:
+        return
+    # What the surfels send on: their solved radiance (with the emission left to them); the
+    # open surfaces' and two-sided points' back faces are a field of their own.
+    sent = result.radiosity - job.emission + job.solve_emission
+    back = np.zeros(job.count, dtype=bool)
+    for src in job.sources:
+        if src.kind == "BACK":
+            back[src.start:src.stop] = True
+    owners, back_owners = _splat_owners(job, back)
+    gather_rays, shadow_samples = receiver_rays(s)
+    background = None if job.world is None else job.world.color
+    straddling = _regather_straddling(job, result, occ, sent, back, owners, back_owners,
+                                      gather_rays)
+    field_ = rc.SurfelField(job.positions[~back], job.normals[~back], sent[~back])
+    back_field = (rc.SurfelField(job.positions[back], job.normals[back], sent[back])
+                  if back.any() else None)
+    exact, lattice_lit = _exact_direct(job, occ, sent, ~back, field_, owners)
+    all_lamps = list(job.lamps) + list(job.emitters)
+    from illumap.refinement import LUMINANCE_WEIGHTS
+    lum = np.asarray(LUMINANCE_WEIGHTS, dtype=np.float64)
+    noise2 = light2 = indirect = total = 0.0
+    # Every object's receivers in one batch (the gather tabulates the surfels' light once),
+    # corners that see the same light evaluated once.
+    batch = [_clear_of_rounding(occ, rec) for rec in job.receivers] + \
+        [r for pair in point_sets for r in pair if r is not None]
+    merged = [_merged_corners(occ, rec) for rec in batch]
+    points = np.concatenate([rec.points[rows] for rec, (rows, _) in zip(batch, merged)])
+    normals = np.concatenate([rec.normals[rows] for rec, (rows, _) in zip(batch, merged)])
+    offsets = np.cumsum([0] + [len(rows) for rows, _ in merged])
+    # Each receiver's rays follow from its index in its object alone (both sides of a point
+    # alike): not from which other objects are in the batch, nor from their names.
+    ids = np.concatenate([rows for rows, _ in merged]).astype(np.int64)
+    values_of = []
+
+    # Each batch row's mesh among the MESH sources (-1: a point cloud's point).
+    mesh_index = {src.name: i for i, src in enumerate(x for x in job.sources if x.kind == "MESH")}
+    batch_meshes = np.concatenate([np.full(len(rows), mesh_index.get(rec.name, -1), np.int64)
+                                   for rec, (rows, _) in zip(batch, merged)])
+
+    def incident_at(points, normals, ids, meshes=None):
+        """Incident radiance (M, 3) at receivers, the gather's result, the rays cast and the
+        receivers found covered (inside or under another surface: no light)."""
+        shadows = None
+        if all_lamps and s.lamp_shadows:
+            shadows = lamps.Shadows(occ.segment_query(normals), samples=shadow_samples,
+                                    seed=s.seed, extent=occ.extent)
+        direct = lamps.incident_radiance(all_lamps, points, normals, shadows=shadows)
+        gathered = rc.gather(occ, field_, points, normals, rays=gather_rays, seed=s.seed, ids=ids,
+                             background=background,
+                             back_field=back_field, two_sided=job.two_sided, owners=owners,
+                             back_owners=back_owners, exact=exact,
+                             progress=None if progress is None else
+                             (lambda f, _p="": progress(f, "gather")))
+        incident = direct + gathered.radiance
+        hidden = covered_receivers(job, points, normals, 2.0 * occ.offset, meshes)
+        incident[hidden] = 0.0
+        rays = gathered.rays + (shadows.rays if shadows is not None else 0)
+        return incident, gathered, rays, int(hidden.sum())
+
+    try:
+        incident, gathered, rays, covered = incident_at(points, normals, ids, batch_meshes)
+        for rec, lo, (_, index) in zip(batch, offsets[:-1], merged):
+            rows = lo + index
+            values = rec.emission + rec.albedo * incident[rows]
+            values_of.append(values)
+            # What the estimate needs: the gather's noise and the indirect share, by luminance.
+            rho = rec.albedo @ lum
+            noise2 += float(((rho * gathered.stderr[rows]) ** 2).sum())
+            light2 += float(((values @ lum) ** 2).sum())
+            indirect += float((rho * (gathered.radiance[rows] @ lum)).sum())
+            total += float((values @ lum).sum())
+        rest = iter(values_of[len(job.receivers):])
+        scan_values, specks, creases = [], 0, 0
+        for front, other in point_sets:
+            values, outward = next(rest), front.normals
+            if other is not None:   # the outside of each smooth patch, then the creases' faces
+                back_values = next(rest)
+                side = rc.outward_sides(front.points, front.normals, values, back_values)
+                values = np.where(side[:, None], values, back_values)
+                outward = np.where(side[:, None], front.normals, -front.normals)
+                faces = rc.crease_surfaces(front.points, outward)
+                if len(faces.rows):
+                    r = faces.rows
+                    extra, _, more, _ = incident_at(faces.points, faces.normals, r)
+                    rays += more
+                    values = faces.mean(values, front.emission[r] + front.albedo[r] * extra)
+                    creases += int(len(np.unique(r)))
+            values, replaced = rc.remove_specks(front.points, outward, values)
+            specks += replaced
+            scan_values.append(values)
+    except IllumapError:
+        raise
+    except Exception as exc:  # noqa: BLE001
+        if core_cancelled(exc):
+            raise IllumapCancelled("Cancelled") from None
+        raise IllumapError(f"Evaluating the light at the receivers failed: "
+                           f"{type(exc).__name__}: {exc}", ExitCode.SOLVER) from exc
+    for rec, values in zip(job.receivers, values_of):
+        result.receiver_values[rec.name] = values
+    for (front, _), values in zip(point_sets, scan_values):
+        result.point_receiver_values[front.name] = values
+    result.timings["receivers"] = time.perf_counter() - t0
+    gather_noise = float(np.sqrt(noise2 / light2)) if light2 > 0 else 0.0
+    share = indirect / total if total > 0 else 0.0
+    result.stats["receivers"] = dict(points=int(len(points)),
+                                     corners=int(sum(len(r.points) for r in job.receivers)),
+                                     scan_points=int(sum(len(f.points) for f, _ in point_sets)),
+                                     rays=int(rays), gather_rays=int(gather_rays),
+                                     shadow_samples=int(shadow_samples), covered=covered,
+                                     specks=int(specks), crease_points=int(creases),
+                                     straddling=straddling,
+                                     lattice_points=0 if exact is None else len(exact.values),
+                                     lattice_shadowed=lattice_lit,
+                                     gather_noise=gather_noise, indirect_share=float(share))
+    estimate = (result.stats.get("accuracy") or {}).get("estimate", {}).get("total")
+    if estimate is not None:
+        # The surfels' own error reaches a receiver through its indirect share only.
+        result.stats["receivers"]["estimate"] = float(np.hypot(gather_noise, share * estimate))
