@@ -233,11 +233,21 @@ def straddling_surfels(positions, normals, areas, *, k: int = STRADDLE_NEIGHBOUR
     if len(p) < 2:
         return np.zeros(len(p), dtype=bool)
     kk = min(int(k), len(p) - 1)
-    idx, _ = _core.knn(p, p, kk + 1)
-    idx = np.asarray(idx)[:, 1:]
-    other = np.abs(np.einsum("ic,ikc->ik", n, n[idx])) < STRADDLE_MAX_COS
-    height = np.abs(np.einsum("ikc,ikc->ik", n[idx], p[:, None, :] - p[idx]))
-    return (other & (height < np.sqrt(np.maximum(a, 0.0) / np.pi)[:, None])).any(axis=1)
+    radius = np.sqrt(np.maximum(a, 0.0) / np.pi)
+    neighbours = np.asarray(_core.knn(p, p, kk + 1)[0])[:, 1:]
+    out = np.zeros(len(p), dtype=bool)
+    for lo in range(0, len(p), _STRADDLE_CHUNK):   # bounded memory at millions of surfels
+        r = slice(lo, min(lo + _STRADDLE_CHUNK, len(p)))
+        idx = neighbours[r]
+        nb = n[idx]
+        other = np.abs(np.einsum("ic,ikc->ik", n[r], nb)) < STRADDLE_MAX_COS
+        height = np.abs(np.einsum("ikc,ikc->ik", nb, p[r, None, :] - p[idx]))
+        out[r] = (other & (height < radius[r, None])).any(axis=1)
+    return out
+
+
+#: Surfels examined at once by ``straddling_surfels``.
+_STRADDLE_CHUNK = 65536
 
 
 #: ``sharpness`` looks at this many surfels around a point, as ``SurfelField`` does.
