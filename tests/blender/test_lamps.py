@@ -237,3 +237,38 @@ def test_shadow_samples_follow_each_points_id():
     shuffled = lamps.incident_radiance([area], p[some], n[some],
                                        shadows=lamps.Shadows(half_blocked, samples=8))
     assert not np.array_equal(shuffled, everyone[some])
+
+
+def test_a_probe_settles_the_points_that_see_all_or_none_of_a_lamp():
+    """With many shadow rays per point, PROBE_SAMPLES rays first: points whose probe rays all
+    agree keep that answer (exactly 1 or 0); the penumbra's points cast the full count and get
+    the same value as without the probe."""
+    import numpy as np
+    from addon import lamps
+    area = lamps.Lamp("A", "AREA", np.ones(3), np.array([1.0, 0.0, 2.0]), np.array([0.0, 0.0, -1.0]),
+                      polygon=np.array([[.5, -.5, 2], [1.5, -.5, 2], [1.5, .5, 2], [.5, .5, 2]], float),
+                      area=1.0, shape="SQUARE", axes=np.array([[0.5, 0, 0], [0, 0.5, 0]]))
+
+    def wall(origins, targets, skip, progress=None):              # x = 0 up to z = 1.5
+        dx = targets[:, 0] - origins[:, 0]
+        t = -origins[:, 0] / np.where(dx != 0, dx, np.inf)
+        z = origins[:, 2] + t * (targets[:, 2] - origins[:, 2])
+        return ~((t > 0) & (t < 1) & (z < 1.5))
+
+    p = np.column_stack([np.linspace(-3, 3, 61), np.zeros(61), np.zeros(61)])
+    n = np.tile([0.0, 0.0, 1.0], (61, 1))
+    k = 128
+    probed = lamps.Shadows(wall, samples=k)
+    got = lamps.lamp_visibility(area, p, n, np.arange(61), probed)
+    lamps_probe, lamps.PROBE_SAMPLES = lamps.PROBE_SAMPLES, 10 ** 9
+    try:
+        full = lamps.Shadows(wall, samples=k)
+        want = lamps.lamp_visibility(area, p, n, np.arange(61), full)
+    finally:
+        lamps.PROBE_SAMPLES = lamps_probe
+    penumbra = (want > 0) & (want < 1)
+    assert penumbra.sum() >= 5 and (want == 0).any() and (want == 1).any()
+    np.testing.assert_array_equal(got[penumbra], want[penumbra])
+    np.testing.assert_array_equal(got[~penumbra], want[~penumbra])
+    assert full.rays == 61 * k
+    assert probed.rays == 61 * lamps.PROBE_SAMPLES + penumbra.sum() * k
