@@ -228,24 +228,18 @@ def _splat_owners(job: Job, back: np.ndarray) -> tuple[np.ndarray | None, np.nda
 LATTICE_SHADOW_SAMPLES = 4
 
 
-def _lamp_direct(job: Job) -> np.ndarray | None:
-    """The surfels' reflected direct light from lamps and emitters alone (not the world's,
-    which a gather finds through its rays that leave the scene), or None when unknown."""
-    if job.direct_lamps is not None:
-        return job.direct_lamps
-    return job.direct if job.world is None else None
-
-
 def _regather_straddling(job: Job, result: "Result", occ, sent: np.ndarray, back: np.ndarray,
-                         owners, back_owners, rays: int) -> int:
+                         owners, back_owners, rays: int, background) -> int:
     """Evaluate the surfels whose disc reaches through another surface
     (``illumap.receivers.straddling_surfels``: a floor's along a wall, a crease's in a scan)
     as receivers are: their direct light plus a gather of the other surfels' light. Their
     solved values scatter by tens of percent where the light is smooth, and a receiver at the
-    line where the surfaces meet sees them at close range. Updates ``sent`` and
-    ``result.radiosity`` in place; returns how many were evaluated."""
+    line where the surfaces meet sees them at close range. Their direct light is the lamps'
+    and emitters' (``job.direct_lamps``); the world's comes through the gather's rays that
+    leave the scene (``background``). Updates ``sent`` and ``result.radiosity`` in place;
+    returns how many were evaluated."""
     from illumap import receivers as rc
-    direct = _lamp_direct(job)
+    direct = job.direct_lamps
     if direct is None:
         return 0
     bad = rc.straddling_surfels(job.positions, job.normals, job.areas)
@@ -271,8 +265,7 @@ def _regather_straddling(job: Job, result: "Result", occ, sent: np.ndarray, back
         return 0
     g = rc.gather(occ, front_field, job.positions[rows], job.normals[rows], rays=rays,
                   seed=job.settings.seed, ids=rows.astype(np.int64),
-                  background=None if job.world is None else job.world.color,
-                  back_field=back_field_, two_sided=job.two_sided, owners=own_front,
+                  background=background, back_field=back_field_, two_sided=job.two_sided, owners=own_front,
                   back_owners=own_back)
     sent[rows] = job.solve_emission[rows] + direct[rows] + job.albedo[rows] * g.radiance
     result.radiosity[rows] = sent[rows] + job.emission[rows] - job.solve_emission[rows]
@@ -282,14 +275,14 @@ def _regather_straddling(job: Job, result: "Result", occ, sent: np.ndarray, back
 def _exact_direct(job: Job, occ, sent: np.ndarray, front: np.ndarray, field_,
                   owners) -> tuple:
     """The gather's ``ExactPart`` for the front field (None without lamp light) and the
-    number of lattice points shadow rays were cast from: the
-    reflected direct light of the lamps and emitters at the points where the gather tabulates
-    the surfels' light, beside the surfels' light less their own direct part. A hit then sees
-    a lamp's shadow edge as sharp as that lattice, not blurred over the surfels' spacing:
-    what lights a receiver beside a contact or a shadow. Shadow rays are cast only where the
-    surfels' direct light changes sharply (``sharpness``, blended in by it); elsewhere their
-    average is as good. The world's light stays with the surfels: its shadow rays would need many samples
-    per point."""
+    number of lattice points shadow rays were cast from: the reflected direct light of the
+    lamps and emitters at the points where the gather tabulates the surfels' light, beside
+    the surfels' light less their own direct part. A hit then sees a lamp's shadow edge as
+    sharp as that lattice, not blurred over the surfels' spacing: what lights a receiver
+    beside a contact or a shadow. Shadow rays are cast only where the surfels' direct light
+    changes sharply (``sharpness``, blended in by it); elsewhere their average is as good.
+    The world's light stays with the surfels: its shadow rays would need many samples per
+    point."""
     from illumap import receivers as rc
     if job.direct_lamps is None or not np.any(job.direct_lamps[front]):
         return None, 0
@@ -344,7 +337,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     gather_rays, shadow_samples = receiver_rays(s)
     background = None if job.world is None else job.world.color
     straddling = _regather_straddling(job, result, occ, sent, back, owners, back_owners,
-                                      gather_rays)
+                                      gather_rays, background)
     field_ = rc.SurfelField(job.positions[~back], job.normals[~back], sent[~back])
     back_field = (rc.SurfelField(job.positions[back], job.normals[back], sent[back])
                   if back.any() else None)

@@ -369,10 +369,6 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
     });
 }
 
-}  // namespace illumap
-
-namespace illumap {
-
 void gather_lattices(const MeshScene& scene, const SurfelField& front, const SurfelField* back,
                      const std::uint8_t* two_sided, const std::int64_t* owner_front,
                      const std::int64_t* owner_back, GatherLattice& front_out,

@@ -274,6 +274,26 @@ def test_an_exact_part_adds_to_the_rest_of_the_field():
         rc.gather(occ, ones, p, n, rays=8, exact=rc.ExactPart(rest=zeros, values=np.ones((3, 3))))
 
 
+def test_a_back_exact_part_adds_to_the_back_field():
+    # A two-sided square seen from behind: the back field's light, split or whole, alike.
+    square = grid_square(1.0, 8, facing_down=False)              # faces away from the receiver
+    occ = rc.MeshOccluders(square)
+    front = surfels_on(square, value=0.0)
+    back_ones = surfels_on(square[:, ::-1], value=1.0)           # the back side's own surfels
+    back_zeros = surfels_on(square[:, ::-1], value=0.0)
+    _, (points, normals) = rc.gather_lattices(occ, front, back_field=back_ones)
+    assert len(points) and np.allclose(normals, [0.0, 0.0, -1.0])
+    p, n = np.array([[0.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 1.0]])
+    whole = rc.gather(occ, front, p, n, rays=1024, back_field=back_ones)
+    split = rc.gather(occ, front, p, n, rays=1024, back_field=back_ones,
+                      back_exact=rc.ExactPart(rest=back_zeros, values=np.ones((len(points), 3))))
+    np.testing.assert_allclose(whole.radiance, SQUARE_FORM_FACTOR, rtol=0.01)
+    np.testing.assert_allclose(split.radiance, whole.radiance, rtol=1e-12)
+    with pytest.raises(ValueError, match="back_lattice must have"):
+        rc.gather(occ, front, p, n, rays=8, back_field=back_ones,
+                  back_exact=rc.ExactPart(rest=back_zeros, values=np.ones((3, 3))))
+
+
 def test_an_exact_part_keeps_a_shadow_edge_as_sharp_as_the_lattice():
     # A floor lit for x > 0 only, seen from just above the edge: the value is the share of the
     # receiver's rays that land on the lit half. Sparse surfels blur the edge over their

@@ -211,3 +211,31 @@ def plane_through(offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     spread, axes = np.linalg.eigh(np.einsum("...kc,...kd->...cd", offsets, offsets))
     return axes[..., 0], spread[..., 1] < ON_A_LINE ** 2 * spread[..., 2]
 
+
+#: ``settled_normals`` fits each point's plane through this many nearest points ...
+SETTLE_NEIGHBOURS = 8
+#: ... of those whose normal is within acos(this) of its own (either orientation) ...
+SETTLE_COS = 0.9
+#: ... when at least this many are (itself included); else it keeps its normal.
+SETTLE_MIN_POINTS = 4
+
+
+def settled_normals(positions, normals) -> np.ndarray:
+    """Each point's normal refitted as the plane through it and those of its
+    ``SETTLE_NEIGHBOURS`` nearest points on the same surface (normals within acos
+    ``SETTLE_COS``), oriented as given. A fit over all neighbours tilts beside an edge, where
+    the other surface's points are among them (a block's side 6° downwards next to the floor
+    it stands on): its splat, in that plane, then stands off the true surface by a tenth of
+    the spacing at its far end and shadows the points along the edge. Returns (N, 3)."""
+    from . import _core
+    p = np.ascontiguousarray(positions, dtype=np.float64)
+    n = np.ascontiguousarray(normals, dtype=np.float64)
+    if len(p) < SETTLE_MIN_POINTS:
+        return n
+    idx, _ = _core.knn(p, p, min(SETTLE_NEIGHBOURS + 1, len(p)))
+    idx = np.asarray(idx)
+    same = np.abs(np.einsum("ic,ikc->ik", n, n[idx])) > SETTLE_COS
+    plane, on_line = plane_through((p[idx] - p[:, None, :]) * same[..., None])
+    plane *= np.where(np.einsum("ic,ic->i", plane, n) < 0, -1.0, 1.0)[:, None]
+    fit = ~on_line & (same.sum(axis=1) >= SETTLE_MIN_POINTS)
+    return np.where(fit[:, None], plane, n)

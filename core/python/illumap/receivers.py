@@ -360,13 +360,13 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
     bg = np.zeros(3) if background is None else np.ascontiguousarray(background, dtype=np.float64).reshape(3)
     if not np.isfinite(bg).all() or (bg < 0).any():
         raise InputError(f"background must be 3 finite values >= 0, got {bg}")
-    def exact_rows(part, name):
+    def exact_rows(part):
         if part is None:
             return None, None
         return part.rest._field, np.ascontiguousarray(part.values, dtype=np.float64)
 
-    front_rest, front_lattice = exact_rows(exact, "exact")
-    back_rest, back_lattice = exact_rows(back_exact, "back_exact")
+    front_rest, front_lattice = exact_rows(exact)
+    back_rest, back_lattice = exact_rows(back_exact)
     radiance, stderr = _core.gather(
         occluders._scene, field._field, None if back_field is None else back_field._field,
         p, n, ids, rays=int(rays), seed=int(seed), offset=occluders.offset, background=bg,
@@ -614,10 +614,11 @@ def _crease_faces(p, n, rows, idx, dist, crease) -> tuple:
 def _corner_faces(p, rows, mine, face, faces, line, line_normal, members, scale) -> tuple:
     """Faces of an edge or corner that ``_crease_faces`` missed (looked for at the rows
     ``mine``): a face's own points may all lie beyond the nearest neighbours, but the edge
-    it shares with a face found there does not (a group of points on a line through the point, their fitted normals halfway
-    between the two faces). The missing face's normal is the found one's mirrored about
-    that edge's normal. Returns (row index into ``rows``, normal, where to evaluate)."""
-    R, G = face.shape
+    it shares with a face found there does not (a group of points on a line through the
+    point, their fitted normals halfway between the two faces). The missing face's normal
+    is the found one's mirrored about that edge's normal. Returns (row index into ``rows``,
+    normal, where to evaluate)."""
+    G = face.shape[1]
     out_r, out_n, out_at = [], [], []
     known = np.where(face[..., None], faces, 0.0)                      # (R, G, 3)
     for l in range(G):

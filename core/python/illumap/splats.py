@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _core
-from .pointcloud import plane_through
+from .pointcloud import settled_normals
 from .surfels import InputError
 
 #: Radius of the unclipped splat in units of the point's own radius sqrt(A/π): large enough
@@ -151,38 +151,10 @@ def _clip(p, n, d, q, nq, rim) -> np.ndarray:
     return np.where(supported, radius, np.minimum(radius, rim))
 
 
-#: ``settled_normals`` fits each point's plane through this many nearest points ...
-SETTLE_NEIGHBOURS = 8
-#: ... of those whose normal is within acos(this) of its own (either orientation) ...
-SETTLE_COS = 0.9
-#: ... when at least this many are (itself included); else it keeps its normal.
-SETTLE_MIN_POINTS = 4
-
-
-def settled_normals(positions, normals) -> np.ndarray:
-    """Each point's normal refitted as the plane through it and those of its
-    ``SETTLE_NEIGHBOURS`` nearest points on the same surface (normals within acos
-    ``SETTLE_COS``), oriented as given. A fit over all neighbours tilts beside an edge, where
-    the other surface's points are among them (a block's side 6° downwards next to the floor
-    it stands on): its splat, in that plane, then stands off the true surface by a tenth of
-    the spacing at its far end and shadows the points along the edge. Returns (N, 3)."""
-    p = np.ascontiguousarray(positions, dtype=np.float64)
-    n = np.ascontiguousarray(normals, dtype=np.float64)
-    if len(p) < SETTLE_MIN_POINTS:
-        return n
-    idx, _ = _core.knn(p, p, min(SETTLE_NEIGHBOURS + 1, len(p)))
-    idx = np.asarray(idx)
-    same = np.abs(np.einsum("ic,ikc->ik", n, n[idx])) > SETTLE_COS
-    plane, on_line = plane_through((p[idx] - p[:, None, :]) * same[..., None])
-    plane *= np.where(np.einsum("ic,ic->i", plane, n) < 0, -1.0, 1.0)[:, None]
-    fit = ~on_line & (same.sum(axis=1) >= SETTLE_MIN_POINTS)
-    return np.where(fit[:, None], plane, n)
-
-
 def splat_triangles(positions, normals, areas, **options) -> np.ndarray:
     """(N × sides, 3, 3) triangles, the splats of N points as fans about them (point i's are
     rows i·sides … (i+1)·sides − 1), each in the plane of its point's surface
-    (``settled_normals``), wound so that their normals agree with ``normals``.
+    (``pointcloud.settled_normals``), wound so that their normals agree with ``normals``.
     Options: see ``splat_radii``."""
     p = np.ascontiguousarray(positions, dtype=np.float64)
     normals = settled_normals(p, normals)
