@@ -7,7 +7,12 @@ to 1e-4), with the build and solve phases recorded apart. FMM: order p=3, theta=
 
 * ``cornell`` (bench/scenes.py, the box with its two blocks, grid surfels), FMM, no
   visibility: 10k up to 4M surfels (--full).
-* ``cornell``, FMM, exact visibility: up to 1M.
+* ``cornell``, FMM, exact visibility against the box's own mesh (``exact-mesh``: 10,368
+  triangles, ``scenes.cornell_surface``, given as ``occluder_triangles`` as the add-on gives a
+  mesh scene's triangles): up to 1M (2M with --full).
+* ``cornell``, FMM, exact visibility against occluder discs made from the surfels (``exact``:
+  what the core does for points without a surface, e.g. ``illumap.solve(visibility="exact")``
+  with no triangles): up to 1M.
 * ``interior`` (``illumap.scenes.box_room``: random surfels, a box, a sphere and a tilted
   panel), FMM, no visibility: up to 1M. Its curved and tilted surfaces put a growing share of
   pairs in the near field (the far field cannot carry the ``max(0, cos)`` clamp where a
@@ -42,11 +47,15 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
 QUICK = dict(cases=[("cornell", "fmm", "none", (10_000, 30_000, 100_000, 300_000, 1_000_000)),
+                    ("cornell", "fmm", "exact-mesh",
+                     (10_000, 30_000, 100_000, 300_000, 1_000_000)),
                     ("cornell", "fmm", "exact", (10_000, 30_000, 100_000, 300_000)),
                     ("interior", "fmm", "none", (10_000, 30_000, 100_000, 300_000)),
                     ("cornell", "direct", "none", (10_000, 30_000))])
 FULL = dict(cases=[("cornell", "fmm", "none",
                     (10_000, 30_000, 100_000, 300_000, 1_000_000, 2_000_000, 4_000_000)),
+                   ("cornell", "fmm", "exact-mesh",
+                    (10_000, 30_000, 100_000, 300_000, 1_000_000, 2_000_000)),
                    ("cornell", "fmm", "exact", (10_000, 30_000, 100_000, 300_000, 1_000_000,
                                                 2_000_000)),
                    ("interior", "fmm", "none", (10_000, 30_000, 100_000, 300_000, 1_000_000)),
@@ -64,7 +73,12 @@ n, scene, method, order, theta, tol, vis = (int(sys.argv[1]), sys.argv[2], sys.a
                                             float(sys.argv[6]), sys.argv[8])
 s = S.build(scene, n, seed=1)
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-kw = {} if vis == "none" else dict(visibility=vis, **S.exact_keywords(scene))
+if vis == "none":
+    kw = {}
+elif vis == "exact-mesh":
+    kw = dict(visibility="exact", occluder_triangles=S.cornell_surface())
+else:
+    kw = dict(visibility=vis, **S.exact_keywords(scene))
 c = time.process_time()
 t = time.perf_counter()
 op = illumap.TransportOperator(s, method=method, order=order, theta=theta, **kw)

@@ -203,6 +203,28 @@ def cornell(n, blocks=True):
     return illumap.Surfels(*(np.concatenate(x) for x in (P, N, A, R, E)))
 
 
+#: Cells per side of each Cornell quad in ``cornell_surface``'s default mesh: 16 quads of 18 x 18
+#: cells, 10,368 triangles, about the reference bench's Cornell box (5,100 vertices).
+CORNELL_MESH_CELLS = 18
+
+
+def cornell_surface(cells=CORNELL_MESH_CELLS, blocks=True):
+    """The Cornell box (``cornell_geometry``) as the triangle mesh a user would model:
+    (T, 3, 3) corners, m, every quad split into ``cells`` x ``cells`` squares of two triangles.
+    The scaling bench gives it as ``occluder_triangles``, as the add-on gives a mesh scene's
+    triangles to exact visibility."""
+    s = np.arange(cells + 1) / cells
+    out = []
+    for q in cornell_geometry(blocks):
+        o, u, v = q["origin"], q["u"], q["v"]
+        grid = o + s[:, None, None] * u + s[None, :, None] * v     # (cells+1, cells+1, 3)
+        a, b = grid[:-1, :-1], grid[1:, :-1]
+        c, d = grid[1:, 1:], grid[:-1, 1:]
+        out += [np.stack([a, b, c], axis=2).reshape(-1, 3, 3),
+                np.stack([a, c, d], axis=2).reshape(-1, 3, 3)]
+    return np.concatenate(out)
+
+
 def cornell_triangles(blocks=True):
     """The Cornell box (``cornell_geometry``) as a triangle soup for mesh sampling:
     corners (T, 3, 3), albedo (T, 3), emission (T, 3), and ``keep(positions) -> bool``, false

@@ -6,6 +6,9 @@ unit radiosity, divided by pi). Bounds are those documented in core/tests_native
 (h = local spacing in units of the scene: 1/n for n x n surfels on a unit square).
 """
 
+import os
+import sys
+
 import numpy as np
 import pytest
 
@@ -118,6 +121,66 @@ def test_half_blocked_matches_view_factor_of_unblocked_part(vis, method):
     # documented bound (tests_native/README.md): relative error <= 1.25 h
     assert abs(T / ref - 1) <= 1.25 * h, (T, ref, T / ref - 1)
     assert 0.4 < ref / full < 0.6
+
+
+# --- 2b. the same half, blocked by triangles (the scene's own surface) ---------------------------
+
+def square_triangles(x0, x1, y0, y1, z, cells=1):
+    """The square [x0, x1] x [y0, y1] in the plane z as a mesh of cells x cells squares of two
+    triangles each, (T, 3, 3)."""
+    xs, ys = np.linspace(x0, x1, cells + 1), np.linspace(y0, y1, cells + 1)
+    tris = []
+    for a in range(cells):
+        for b in range(cells):
+            p = [(xs[a], ys[b], z), (xs[a + 1], ys[b], z), (xs[a + 1], ys[b + 1], z),
+                 (xs[a], ys[b + 1], z)]
+            tris += [[p[0], p[1], p[2]], [p[0], p[2], p[3]]]
+    return np.array(tris, float)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_triangle_occluders_block_exactly_the_pairs_they_cover(method):
+    n = 16
+    h = 1.0 / n
+    s, lab = squares(n)
+    ref, full = ideal_half_blocked(s, lab)
+    # The edge at x = 0.01 lies between the crossing points of the pairs (multiples of h / 2),
+    # so no segment grazes it; x < 0.01 blocks the same pairs as the ideal x < 0.
+    T = {}
+    for cells in (1, 8):
+        op = illumap.TransportOperator(s, method=method, visibility="exact",
+                                       occluder_triangles=square_triangles(-1.5, 0.01, -1.5, 1.5,
+                                                                           0.5, cells))
+        T[cells] = transfer(op, s, lab == 0, lab == 1)
+    # direct: every pair by its own ray; FMM: sampled classes and fractions, the bound of
+    # the disc occluders above
+    assert abs(T[1] / ref - 1) <= (1e-9 if method == "direct" else 1.25 * h), (T[1], ref)
+    assert T[8] == pytest.approx(T[1], rel=1e-12)   # the surface counts, not its triangles
+    away = illumap.TransportOperator(s, method=method, visibility="exact",
+                                     occluder_triangles=square_triangles(2, 3, 2, 3, 0.5))
+    T_away = transfer(away, s, lab == 0, lab == 1)
+    T_none = transfer(illumap.TransportOperator(s, method=method), s, lab == 0, lab == 1)
+    assert T_away == pytest.approx(T_none, rel=1e-9)
+    assert T_none == pytest.approx(full, rel=1e-9 if method == "direct" else 1e-2)
+    assert 0.4 < ref / full < 0.6
+
+
+def test_the_cornell_box_meshed_finely_or_coarsely_occludes_alike():
+    """The scaling bench's mesh occluders (bench/scenes.py ``cornell_surface``): the box's 16
+    quads as 32 triangles or as 10,368 give the same solution; the blocks cast shadows."""
+    sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "bench"))
+    import scenes as S
+    s = S.build("cornell", 10_000, seed=1)
+    B = {}
+    for cells in (1, S.CORNELL_MESH_CELLS):
+        tri = S.cornell_surface(cells)
+        assert len(tri) == 32 * cells ** 2
+        B[cells] = np.asarray(illumap.solve(s, method="fmm", visibility="exact",
+                                            occluder_triangles=tri, tol=1e-8).radiosity)
+    np.testing.assert_allclose(B[S.CORNELL_MESH_CELLS], B[1], rtol=0, atol=1e-12 * B[1].max())
+    open_B = np.asarray(illumap.solve(s, method="fmm", tol=1e-8).radiosity)
+    floor = np.abs(s.positions[:, 2]) < 1e-9
+    assert (B[1][floor] < open_B[floor] - 0.05 * open_B[floor]).sum() > 0.05 * floor.sum()
 
 
 # --- 3. thin single-sided wall between two rooms ----------------------------------------------------
