@@ -1,8 +1,12 @@
 """Generate Illumap's sample scenes (deterministic; run again to rebuild them).
 
-    .venv/bin/python sample_blends/make_samples.py            # bpy module
+    .venv-blender50/bin/python sample_blends/make_samples.py  # bpy module, as shipped
     blender -b --factory-startup --python sample_blends/make_samples.py
     .venv/bin/python sample_blends/make_samples.py -- /some/folder   # write elsewhere
+
+The shipped files are written by the oldest Blender the tests run (bpy 5.0.1), so that it
+opens them without "File written by newer Blender binary, expect loss of data!" (a file from
+5.2 also left "Not freed memory blocks" in 5.0); newer versions read older files as usual.
 
 Writes next to this script:
 

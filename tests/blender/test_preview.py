@@ -226,6 +226,14 @@ def test_make_samples_writes_small_cornell_and_two_rooms(registered_addon, tmp_p
     assert bpy.data.objects["Light"].select_get()
 
 
+@pytest.mark.parametrize("name", ["cornell_box.blend", "two_rooms.blend"])
+def test_the_samples_open_in_every_tested_blender_as_files_of_its_own_age_or_older(name):
+    """A file from a newer Blender opens with "expect loss of data!" (make_samples.py)."""
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(SAMPLES, name))
+    assert tuple(bpy.data.version) <= tuple(bpy.app.version_file), (
+        tuple(bpy.data.version), bpy.app.version_file)
+
+
 @requires_core
 def test_cornell_box_preview_renders_red_left_green_right(registered_addon):
     """The thin slice: sample scene → Compute → preview discs → Cycles render."""
