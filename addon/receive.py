@@ -307,6 +307,46 @@ def _exact_direct(job: Job, occ, sent: np.ndarray, front: np.ndarray, field_,
                         values=values), int(sharp.size)
 
 
+#: A scan of unknown orientation is first lit on both sides with this share of the gather's
+#: rays (at least SIDE_PROBE_MIN_RAYS): most patches' outside is plain from that
+#: (``illumap.receivers.ScanPatches.sides``), and only the other patches take the full gather
+#: on both sides.
+SIDE_PROBE_SHARE = 1 / 16
+SIDE_PROBE_MIN_RAYS = 8
+
+
+def _rows_of(rec, rows: np.ndarray, normals: np.ndarray | None = None):
+    """The receivers ``rows`` of ``rec`` (with other ``normals``)."""
+    return replace(rec, corner_vertex=rec.corner_vertex[rows], points=rec.points[rows],
+                   normals=rec.normals[rows] if normals is None else normals,
+                   albedo=rec.albedo[rows], emission=rec.emission[rows],
+                   inward=None if rec.inward is None else rec.inward[rows])
+
+
+def _probe_sides(front, back, incident_at, gather_rays: int, lum: np.ndarray) -> tuple:
+    """Which side of each point of a cloud of unknown orientation faces out, from a probe
+    gather of both sides (``front`` and ``back``: the same points, opposite normals).
+    Returns (``ScanPatches``, side (P,) bool: True where the front normal faces out,
+    settled (P,) bool: whose patch the probe decided, rays cast); a gather too short to
+    probe decides nothing."""
+    from illumap import receivers as rc
+    n = len(front.points)
+    patches = rc.ScanPatches(front.points, front.normals)
+    rays = max(SIDE_PROBE_MIN_RAYS, int(gather_rays * SIDE_PROBE_SHARE))
+    if n == 0 or 2 * rays >= gather_rays:
+        return patches, np.ones(n, dtype=bool), np.zeros(n, dtype=bool), 0
+    ids = np.arange(n, dtype=np.int64)
+    incident, gathered, cast, _ = incident_at(
+        np.concatenate([front.points, back.points]), np.concatenate([front.normals, back.normals]),
+        np.concatenate([ids, ids]), rays=rays)
+    lit_front = front.emission + front.albedo * incident[:n]
+    lit_back = back.emission + back.albedo * incident[n:]
+    noise_front = (front.albedo @ lum) * gathered.stderr[:n]
+    noise_back = (back.albedo @ lum) * gathered.stderr[n:]
+    side, settled = patches.sides(lit_front, lit_back, noise_front, noise_back)
+    return patches, side, settled, cast
+
+
 def receive(job: Job, result: "Result", progress: Progress | None = None) -> None:
     """Evaluate the light at every receiver (DESIGN.md §6): the meshes' corners
     (``job.receivers``) into ``result.receiver_values``, and with Transfer the point clouds'
@@ -346,33 +386,15 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     from illumap.refinement import LUMINANCE_WEIGHTS
     lum = np.asarray(LUMINANCE_WEIGHTS, dtype=np.float64)
     noise2 = light2 = indirect = total = 0.0
-    # Every object's receivers in one batch (the gather tabulates the surfels' light once),
-    # corners that see the same light evaluated once.
-    batch = [_clear_of_rounding(occ, rec) for rec in job.receivers] + \
-        [r for pair in point_sets for r in pair if r is not None]
-    merged = [_merged_corners(occ, rec) for rec in batch]
-    points = np.concatenate([rec.points[rows] for rec, (rows, _) in zip(batch, merged)])
-    normals = np.concatenate([rec.normals[rows] for rec, (rows, _) in zip(batch, merged)])
-    offsets = np.cumsum([0] + [len(rows) for rows, _ in merged])
-    # Each receiver's rays follow from its index in its object alone (both sides of a point
-    # alike): not from which other objects are in the batch, nor from their names.
-    ids = np.concatenate([rows for rows, _ in merged]).astype(np.int64)
-    values_of = []
-
-    # Each batch row's mesh among the MESH sources (-1: a point cloud's point).
-    mesh_index = {src.name: i for i, src in enumerate(x for x in job.sources if x.kind == "MESH")}
-    batch_meshes = np.concatenate([np.full(len(rows), mesh_index.get(rec.name, -1), np.int64)
-                                   for rec, (rows, _) in zip(batch, merged)])
-
-    def incident_at(points, normals, ids, meshes=None):
+    def incident_at(points, normals, ids, meshes=None, rays=gather_rays):
         """Incident radiance (M, 3) at receivers, the gather's result, the rays cast and the
         receivers found covered (inside or under another surface: no light)."""
         shadows = None
         if all_lamps and s.lamp_shadows:
             shadows = lamps.Shadows(occ.segment_query(normals), samples=shadow_samples,
-                                    seed=s.seed, extent=occ.extent)
+                                    seed=s.seed, extent=occ.extent, ids=ids)
         direct = lamps.incident_radiance(all_lamps, points, normals, shadows=shadows)
-        gathered = rc.gather(occ, field_, points, normals, rays=gather_rays, seed=s.seed, ids=ids,
+        gathered = rc.gather(occ, field_, points, normals, rays=rays, seed=s.seed, ids=ids,
                              background=background,
                              back_field=back_field, two_sided=job.two_sided, owners=owners,
                              back_owners=back_owners, exact=exact,
@@ -381,11 +403,49 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
         incident = direct + gathered.radiance
         hidden = covered_receivers(job, points, normals, 2.0 * occ.offset, meshes)
         incident[hidden] = 0.0
-        rays = gathered.rays + (shadows.rays if shadows is not None else 0)
-        return incident, gathered, rays, int(hidden.sum())
+        cast = gathered.rays + (shadows.rays if shadows is not None else 0)
+        return incident, gathered, cast, int(hidden.sum())
 
     try:
-        incident, gathered, rays, covered = incident_at(points, normals, ids, batch_meshes)
+        # Every object's receivers in one batch (the gather tabulates the surfels' light
+        # once), corners that see the same light evaluated once. A point cloud of unknown
+        # orientation brings the side of each point that a probe found facing out, and both
+        # sides of the points whose patch the probe left open.
+        batch = [_clear_of_rounding(occ, rec) for rec in job.receivers]
+        batch_ids: list[np.ndarray | None] = [None] * len(batch)   # None: the rows themselves
+        rays, scan_parts = 0, []
+        for front, other in point_sets:
+            if other is None:
+                scan_parts.append(None)
+                batch.append(front)
+                batch_ids.append(None)
+                continue
+            patches, side, settled, cast = _probe_sides(front, other, incident_at, gather_rays,
+                                                        lum)
+            rays += cast
+            done, both = np.flatnonzero(settled), np.flatnonzero(~settled)
+            outward = np.where(side[:, None], front.normals, -front.normals)
+            scan_parts.append((patches, side, settled, done, both))
+            batch += [_rows_of(front, done, outward[done]), _rows_of(front, both),
+                      _rows_of(other, both)]
+            batch_ids += [done, both, both]
+        merged = [_merged_corners(occ, rec) for rec in batch]
+        points = np.concatenate([rec.points[rows] for rec, (rows, _) in zip(batch, merged)])
+        normals = np.concatenate([rec.normals[rows] for rec, (rows, _) in zip(batch, merged)])
+        offsets = np.cumsum([0] + [len(rows) for rows, _ in merged])
+        # Each receiver's rays follow from its index in its object alone (both sides of a
+        # point alike): not from which other objects are in the batch, nor from their names.
+        ids = np.concatenate([rows if own is None else own[rows]
+                              for own, (rows, _) in zip(batch_ids, merged)]).astype(np.int64)
+        # Each batch row's mesh among the MESH sources (-1: a point cloud's point).
+        mesh_index = {src.name: i for i, src in
+                      enumerate(x for x in job.sources if x.kind == "MESH")}
+        batch_meshes = np.concatenate([np.full(len(rows), mesh_index.get(rec.name, -1), np.int64)
+                                       for rec, (rows, _) in zip(batch, merged)])
+
+        incident, gathered, cast, covered = incident_at(points, normals, ids, batch_meshes)
+        rays += cast
+        values_of = []
         for rec, lo, (_, index) in zip(batch, offsets[:-1], merged):
             rows = lo + index
             values = rec.emission + rec.albedo * incident[rows]
@@ -398,12 +458,21 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
             total += float((values @ lum).sum())
         rest = iter(values_of[len(job.receivers):])
         scan_values, specks, creases = [], 0, 0
-        for front, other in point_sets:
-            values, outward = next(rest), front.normals
-            if other is not None:   # the outside of each smooth patch, then the creases' faces
-                back_values = next(rest)
-                side = rc.outward_sides(front.points, front.normals, values, back_values)
-                values = np.where(side[:, None], values, back_values)
+        for (front, other), part in zip(point_sets, scan_parts):
+            if other is None:
+                values, outward = next(rest), front.normals
+            else:   # the outside of each smooth patch, then the creases' faces
+                patches, side, settled, done, both = part
+                chosen, along, against = next(rest), next(rest), next(rest)
+                # The open patches decide on their full values, as a whole (the probe's
+                # values stand in elsewhere: no open patch reads them).
+                front_full = np.zeros((len(side), 3))
+                back_full = np.zeros((len(side), 3))
+                front_full[both], back_full[both] = along, against
+                side = np.where(settled, side, patches.sides(front_full, back_full)[0])
+                values = np.empty((len(side), 3))
+                values[done] = chosen
+                values[both] = np.where(side[both, None], along, against)
                 outward = np.where(side[:, None], front.normals, -front.normals)
                 faces = rc.crease_surfaces(front.points, outward)
                 if len(faces.rows):

@@ -169,3 +169,27 @@ def test_a_closed_box_scanned_inside_out():
            crease_ratio=got[crease].mean() / ref[crease].mean())
     assert got.min() > 0 and abs(got.mean() / ref.mean() - 1) < 0.08
     assert rms < 0.10
+
+
+def test_the_side_probe_changes_no_value_and_saves_rays(monkeypatch):
+    """A box standing on a floor, scanned without normals: the probe of both sides settles
+    the patches whose outside is plain, and only the others are lit on both sides in full.
+    Every value is the one both sides in full give, for fewer rays."""
+    from addon import receive
+    white = diffuse("W")
+    floor = plane("Floor", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], 0.2, white)
+    box = closed_box("Box", (-0.5, -0.5, 0.0), (0.5, 0.5, 1.0), 0.2, white)
+    add_lamp("POINT", location=(1.0, -1.5, 2.0), energy=300.0, shadow_soft_size=0.2)
+    scan = as_scan([floor, box])
+    for mesh in (floor, box):
+        mesh.hide_set(True)
+        mesh.hide_render = True
+    got, rays, probe = {}, {}, receive.SIDE_PROBE_SHARE
+    for share in (probe, 1.0):   # 1.0: no probe, both sides in full
+        monkeypatch.setattr(receive, "SIDE_PROBE_SHARE", share)
+        result = pipeline.compute(bpy.context, [scan], pipeline.Settings())
+        got[share], rays[share] = scan_values(scan), result.stats["receivers"]["rays"]
+    probed, full = got[probe], got[1.0]
+    assert full.max() > 0 and (full == 0).mean() < 0.5
+    np.testing.assert_array_equal(probed, full)
+    assert rays[probe] < 0.75 * rays[1.0], rays

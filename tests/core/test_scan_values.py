@@ -7,7 +7,8 @@ import pytest
 
 import illumap
 from illumap.pointcloud import pca_normals
-from illumap.receivers import Creases, crease_surfaces, outward_sides, remove_specks
+from illumap.receivers import (Creases, ScanPatches, crease_surfaces, outward_sides,
+                               remove_specks)
 
 pytestmark = pytest.mark.skipif(not illumap.native_available(), reason="needs the native core")
 
@@ -84,6 +85,27 @@ def test_each_smooth_patch_takes_its_brighter_side_as_a_whole():
     np.testing.assert_array_equal(out, outside)
     per_point = np.where(((back - front).sum(1) > 0)[:, None], back, front)
     assert (per_point != outside).any()          # what a point-by-point choice would give
+
+
+def test_a_probe_settles_a_patch_only_where_its_sides_differ_beyond_their_noise():
+    """Two flat patches far apart: one lit on one side only, one lit alike on both sides.
+    The first is settled from values with a small standard error, not from the same values
+    with a large one; the second never is, and its side is what outward_sides gives."""
+    rng = np.random.default_rng(5)
+    uv = rng.random((200, 2))
+    pts = np.vstack([np.insert(uv, 2, 0.0, axis=1), np.insert(uv, 2, 0.0, axis=1) + [10, 0, 0]])
+    nrm = np.tile([0.0, 0.0, 1.0], (400, 1))
+    front = np.full((400, 3), 0.6)
+    back = np.where((np.arange(400) < 200)[:, None], 0.02, 0.6 + 1e-3) * np.ones((1, 3))
+    patches = ScanPatches(pts, nrm)
+    assert len(np.unique(patches.part)) == 2
+    small, large = np.full(400, 0.01), np.full(400, 2.0)
+    side, settled = patches.sides(front, back, small, small)
+    np.testing.assert_array_equal(settled, np.arange(400) < 200)
+    np.testing.assert_array_equal(side[:200], True)
+    np.testing.assert_array_equal(side, outward_sides(pts, nrm, front, back))
+    assert not patches.sides(front, back, large, large)[1].any()
+    assert not patches.sides(front, back)[1].any()   # no noise given: nothing settled
 
 
 def grid_cube(n=11):

@@ -443,30 +443,63 @@ def outward_sides(points, normals, front, back, *, k: int = PATCH_NEIGHBOURS) ->
     A scan without normals cannot tell the inside of a room from the outside of a statue, so
     both sides are evaluated. Choosing point by point lets one stray ray decide: light seeping
     through a hole in the splats makes the inward side of a few points brighter than their
-    shadowed outer side, which then read lit. A patch (points joined through ``k``-nearest
-    neighbours whose normals agree to ``PATCH_MIN_COS``, oriented consistently along those
-    links, where orientation carries reliably) has one outside: the side that receives more
-    light over the whole patch. A wall of a room, a face of a box, the smooth body of a
-    scanned object each decide as one; a lone point decides for itself.
+    shadowed outer side, which then read lit. A patch (``ScanPatches``) has one outside: the
+    side that receives more light over the whole patch. A wall of a room, a face of a box,
+    the smooth body of a scanned object each decide as one; a lone point decides for itself.
     """
-    p = _rows3("points", points)
-    n = _rows3("normals", normals, len(p))
-    f = _rows3("front", front, len(p))
-    b = _rows3("back", back, len(p))
-    lum_f, lum_b = f @ LUMINANCE_WEIGHTS, b @ LUMINANCE_WEIGHTS
-    if len(p) < 2:
-        return lum_f >= lum_b
-    kk = int(min(k, len(p) - 1))
-    idx, _ = _core.knn(p, p, kk + 1)
-    idx = np.asarray(idx, dtype=np.int64)
-    smooth = np.abs(np.einsum("pc,pkc->pk", n, n[idx])) >= PATCH_MIN_COS
-    idx = np.ascontiguousarray(np.where(smooth, idx, np.arange(len(p))[:, None]))
-    oriented, part = _core.orient_normals(p, n, idx)
-    along_front = np.einsum("pc,pc->p", np.asarray(oriented), n) > 0
-    part = np.asarray(part)
-    along = np.bincount(part, np.where(along_front, lum_f, lum_b))
-    against = np.bincount(part, np.where(along_front, lum_b, lum_f))
-    return (along >= against)[part] == along_front
+    return ScanPatches(points, normals, k=k).sides(front, back)[0]
+
+
+#: A patch's side is settled by a probe when the light of its two sides differs by this
+#: many standard errors of the probe's gather ...
+SIDE_SETTLED_SIGMAS = 4.0
+#: ... and by this share of the two together (a gather that found no spread can still be off).
+SIDE_SETTLED_SHARE = 0.05
+
+
+class ScanPatches:
+    """The smooth patches of a scan's points: points joined through ``k``-nearest neighbours
+    whose normals agree to ``PATCH_MIN_COS``, oriented consistently along those links (where
+    orientation carries reliably). Each patch has one outside (``outward_sides``)."""
+
+    def __init__(self, points, normals, *, k: int = PATCH_NEIGHBOURS):
+        p = _rows3("points", points)
+        n = _rows3("normals", normals, len(p))
+        if len(p) < 2:
+            self.part = np.zeros(len(p), dtype=np.int64)
+            self.along_front = np.ones(len(p), dtype=bool)
+            return
+        kk = int(min(k, len(p) - 1))
+        idx, _ = _core.knn(p, p, kk + 1)
+        idx = np.asarray(idx, dtype=np.int64)
+        smooth = np.abs(np.einsum("pc,pkc->pk", n, n[idx])) >= PATCH_MIN_COS
+        idx = np.ascontiguousarray(np.where(smooth, idx, np.arange(len(p))[:, None]))
+        oriented, part = _core.orient_normals(p, n, idx)
+        #: (P,) bool: the patch's common orientation runs along the point's normal
+        self.along_front = np.einsum("pc,pc->p", np.asarray(oriented), n) > 0
+        #: (P,) int: the patch of each point
+        self.part = np.asarray(part, dtype=np.int64)
+
+    def sides(self, front, back, front_noise=None, back_noise=None) -> tuple[np.ndarray, np.ndarray]:
+        """(side, settled), (P,) bool each. ``side``: True where the point's normal faces out
+        (see ``outward_sides``), from the radiance ``front`` and ``back`` (P, 3) seen along
+        and against the normals. ``settled``: where the patch's two sides differ by
+        ``SIDE_SETTLED_SIGMAS`` standard errors and ``SIDE_SETTLED_SHARE`` of their sum, given
+        each value's standard error ``front_noise``, ``back_noise`` (P,) in luminance; all
+        False without them."""
+        lum_f = _rows3("front", front, len(self.part)) @ LUMINANCE_WEIGHTS
+        lum_b = _rows3("back", back, len(self.part)) @ LUMINANCE_WEIGHTS
+        along = np.bincount(self.part, np.where(self.along_front, lum_f, lum_b))
+        against = np.bincount(self.part, np.where(self.along_front, lum_b, lum_f))
+        side = (along >= against)[self.part] == self.along_front
+        if front_noise is None or back_noise is None:
+            return side, np.zeros(len(side), dtype=bool)
+        var = np.bincount(self.part, np.asarray(front_noise, dtype=np.float64) ** 2
+                          + np.asarray(back_noise, dtype=np.float64) ** 2)
+        gap = np.abs(along - against)
+        settled = (gap > SIDE_SETTLED_SIGMAS * np.sqrt(var)) & \
+            (gap > SIDE_SETTLED_SHARE * (along + against))
+        return side, settled[self.part]
 
 
 #: Neighbours searched for the surfaces that meet at a scan point.
