@@ -213,16 +213,18 @@ def cornell_surface(cells=CORNELL_MESH_CELLS, blocks=True):
     (T, 3, 3) corners, m, every quad split into ``cells`` x ``cells`` squares of two triangles.
     The scaling bench gives it as ``occluder_triangles``, as the add-on gives a mesh scene's
     triangles to exact visibility."""
+    return np.concatenate([_quad_triangles(q, cells) for q in cornell_geometry(blocks)])
+
+
+def _quad_triangles(q, cells):
+    """Quad ``q`` (``cornell_geometry``) as cells x cells squares of two triangles each,
+    (2 cells², 3, 3): first every square's (o, o+u, o+u+v) half, then its (o, o+u+v, o+v)."""
     s = np.arange(cells + 1) / cells
-    out = []
-    for q in cornell_geometry(blocks):
-        o, u, v = q["origin"], q["u"], q["v"]
-        grid = o + s[:, None, None] * u + s[None, :, None] * v     # (cells+1, cells+1, 3)
-        a, b = grid[:-1, :-1], grid[1:, :-1]
-        c, d = grid[1:, 1:], grid[:-1, 1:]
-        out += [np.stack([a, b, c], axis=2).reshape(-1, 3, 3),
-                np.stack([a, c, d], axis=2).reshape(-1, 3, 3)]
-    return np.concatenate(out)
+    grid = q["origin"] + s[:, None, None] * q["u"] + s[None, :, None] * q["v"]
+    a, b = grid[:-1, :-1], grid[1:, :-1]
+    c, d = grid[1:, 1:], grid[:-1, 1:]
+    return np.concatenate([np.stack([a, b, c], axis=2).reshape(-1, 3, 3),
+                           np.stack([a, c, d], axis=2).reshape(-1, 3, 3)])
 
 
 def cornell_triangles(blocks=True):
@@ -230,20 +232,17 @@ def cornell_triangles(blocks=True):
     corners (T, 3, 3), albedo (T, 3), emission (T, 3), and ``keep(positions) -> bool``, false
     for points of the floor under a block or of the ceiling behind the light (no surfel of
     ``cornell(n)`` lies there either)."""
-    corners, albedo, emission = [], [], []
-    for q in cornell_geometry(blocks):
-        o, u, v = q["origin"], q["u"], q["v"]
-        for tri in ((o, o + u, o + u + v), (o, o + u + v, o + v)):
-            corners.append(tri)
-            albedo.append(q["albedo"])
-            emission.append(q["emission"])
+    quads = cornell_geometry(blocks)
+    corners = np.concatenate([_quad_triangles(q, 1) for q in quads])
+    albedo = np.repeat([q["albedo"] for q in quads], 2, axis=0)
+    emission = np.repeat([q["emission"] for q in quads], 2, axis=0)
 
     def keep(p):
         under = (np.abs(p[:, 2]) < 1e-9) & _inside_footprints(p[:, :2]) if blocks else False
         behind = ((np.abs(p[:, 2] - BOX) < 1e-9) & (np.abs(p[:, 0] - BOX / 2) < LIGHT_HALF[0])
                   & (np.abs(p[:, 1] - BOX / 2) < LIGHT_HALF[1]))
         return ~(under | behind)
-    return np.array(corners), np.array(albedo), np.array(emission), keep
+    return corners, albedo, emission, keep
 
 
 def cornell_sampled(n, seed=0):

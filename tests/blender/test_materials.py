@@ -176,21 +176,32 @@ def test_mix_color_multiply_of_rgb_node():
     assert np.allclose(job.albedo, (0.2, 0.4, 0.5), atol=1e-6) and not job.warnings
 
 
+def emission_mixed(name, color, strength, other, other_inputs, factor_node, factor_output):
+    """A material mixing an Emission (first) with an ``other`` shader (second, its inputs set
+    from ``other_inputs``) by ``factor_output`` of a ``factor_node``; returns the material,
+    the factor node and the Mix Shader."""
+    mat, nodes, links, out = new_material(name)
+    emission = nodes.new("ShaderNodeEmission")
+    emission.inputs["Color"].default_value = (*color, 1)
+    emission.inputs["Strength"].default_value = strength
+    second = nodes.new(other)
+    for key, value in other_inputs.items():
+        second.inputs[key].default_value = value
+    factor = nodes.new(factor_node)
+    mix = nodes.new("ShaderNodeMixShader")
+    links.new(factor.outputs[factor_output], mix.inputs["Fac"])
+    links.new(emission.outputs[0], mix.inputs[1])
+    links.new(second.outputs[0], mix.inputs[2])
+    links.new(mix.outputs[0], out.inputs["Surface"])
+    return mat, factor, mix
+
+
 def test_backfacing_mix_is_one_sided_emission_of_the_front_shader():
     """Geometry ▸ Backfacing into a Mix Shader (emission first, black second): what users build
     for a one-sided light. Surfels are front faces: the emission, no warning."""
-    mat, nodes, links, out = new_material("OneSided")
-    emission = nodes.new("ShaderNodeEmission")
-    emission.inputs["Color"].default_value = (1.0, 0.5, 0.25, 1)
-    emission.inputs["Strength"].default_value = 8.0
-    black = nodes.new("ShaderNodeBsdfDiffuse")
-    black.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1)
-    geometry = nodes.new("ShaderNodeNewGeometry")
-    mix = nodes.new("ShaderNodeMixShader")
-    links.new(geometry.outputs["Backfacing"], mix.inputs["Fac"])
-    links.new(emission.outputs[0], mix.inputs[1])
-    links.new(black.outputs[0], mix.inputs[2])
-    links.new(mix.outputs[0], out.inputs["Surface"])
+    black = {"Color": (0.0, 0.0, 0.0, 1)}
+    mat, _, _ = emission_mixed("OneSided", (1.0, 0.5, 0.25), 8.0, "ShaderNodeBsdfDiffuse", black,
+                               "ShaderNodeNewGeometry", "Backfacing")
     job = prepare(make_plane("P", material=mat))
     assert np.allclose(job.emission, (8.0, 4.0, 2.0), atol=1e-6)
     assert np.all(job.albedo == 0) and not job.warnings
@@ -200,21 +211,12 @@ def test_is_camera_ray_mix_hides_an_emitter_but_keeps_its_light():
     """Light Path ▸ Is Camera Ray into a Mix Shader (emission first, a transparent BSDF
     second): the camera sees through the emitter, every other ray sees the emission, as in
     Cycles. Illumap's light is never a camera ray: the emission, no warning."""
-    mat, nodes, links, out = new_material("Hidden")
-    emission = nodes.new("ShaderNodeEmission")
-    emission.inputs["Color"].default_value = (0.5, 1.0, 1.0, 1)
-    emission.inputs["Strength"].default_value = 4.0
-    clear = nodes.new("ShaderNodeBsdfTransparent")
-    path = nodes.new("ShaderNodeLightPath")
-    mix = nodes.new("ShaderNodeMixShader")
-    links.new(path.outputs["Is Camera Ray"], mix.inputs["Fac"])
-    links.new(emission.outputs[0], mix.inputs[1])
-    links.new(clear.outputs[0], mix.inputs[2])
-    links.new(mix.outputs[0], out.inputs["Surface"])
+    mat, path, mix = emission_mixed("Hidden", (0.5, 1.0, 1.0), 4.0, "ShaderNodeBsdfTransparent",
+                                    {}, "ShaderNodeLightPath", "Is Camera Ray")
     job = prepare(make_plane("P", material=mat))
     assert np.allclose(job.emission, (2.0, 4.0, 4.0), atol=1e-6) and not job.warnings
     # Another Light Path output is not understood: said, not guessed.
-    links.new(path.outputs["Is Shadow Ray"], mix.inputs["Fac"])
+    mat.node_tree.links.new(path.outputs["Is Shadow Ray"], mix.inputs["Fac"])
     assert prepare(make_plane("Q", material=mat)).warnings
 
 
