@@ -1,8 +1,10 @@
-// bind_tools.cpp — illumap._core._kernel_derivatives, knn and orient_normals.
+// bind_tools.cpp — illumap._core._kernel_derivatives, knn, the point clouds' normals
+// (plane fits, orient_normals) and splat_radii.
 #include "bindings.hpp"
 
 #include "knn.hpp"
 #include "normals.hpp"
+#include "splats.hpp"
 
 namespace illumap::bindings {
 
@@ -67,6 +69,41 @@ void bind_kernel(nb::module_& m) {
           "the sum of four m2l.");
 }
 
+namespace {
+
+// A checked (n, k) int64 neighbour table of any k.
+const std::int64_t* neighbour_table(nb::handle h, std::size_t n, std::size_t& k, nb::object& keep) {
+    AnyArray shape_of;
+    if (!nb::try_cast<AnyArray>(h, shape_of, false) || shape_of.ndim() != 2)
+        throw nb::value_error("neighbours must be a 2-D (N, k) numpy array");
+    k = shape_of.shape(1);
+    std::size_t rows;
+    const std::int64_t* I = view<std::int64_t>(h, "neighbours", 2, std::int64_t(k), rows, keep);
+    if (rows != n)
+        throw nb::value_error(("neighbours must have one row per point (" + std::to_string(n) +
+                               "), got " + std::to_string(rows)).c_str());
+    return I;
+}
+
+// Normals (N, 3) that fit(ctx, points, n, neighbours, k, out) computes without the GIL.
+template <class Fit>
+nb::ndarray<nb::numpy, double> fitted_normals(nb::handle points, nb::handle neighbours,
+                                              int threads, nb::handle progress, Fit&& fit) {
+    std::size_t n, k;
+    nb::object k1, k2;
+    const double* P = view<double>(points, "points", 2, 3, n, k1);
+    const std::int64_t* I = neighbour_table(neighbours, n, k, k2);
+    double* out;
+    auto O = new_array(n, 3, &out);
+    run_released(threads, progress, [&](Context& ctx) {
+        checkpoint(ctx, 0.0);
+        fit(ctx, P, n, I, k, out);
+    });
+    return O;
+}
+
+}  // namespace
+
 void bind_point_tools(nb::module_& m) {
     m.def("knn",
           [](nb::handle points, nb::handle queries, std::int64_t k, int threads, nb::handle progress) {
@@ -125,6 +162,128 @@ void bind_point_tools(nb::module_& m) {
           "Unit normals (N, 3) flipped to agree along the neighbour graph (N, k): (normals, "
           "connected part of each point int64 (N,)); each part keeps its first point's sign. "
           "See normals.hpp.");
+
+    m.def("covariance_normals",
+          [](nb::handle points, nb::handle neighbours, int threads, nb::handle progress) {
+              return fitted_normals(points, neighbours, threads, progress,
+                                    [](Context& ctx, const double* P, std::size_t n,
+                                       const std::int64_t* I, std::size_t k, double* out) {
+                                        covariance_normals(ctx, P, n, I, k, out);
+                                    });
+          },
+          nb::arg("points"), nb::arg("neighbours"), nb::kw_only(), nb::arg("threads") = 0,
+          nb::arg("progress") = nb::none(),
+          "Unit normals (N, 3), sign arbitrary: the smallest eigenvector of the covariance of "
+          "each point's neighbours (N, k), about their mean. See normals.hpp.");
+
+    m.def("plane_normals",
+          [](nb::handle points, nb::handle neighbours, double inlier, double share, double spread,
+             int threads, nb::handle progress) {
+              const PlaneFitOptions options{inlier, share, spread};
+              return fitted_normals(points, neighbours, threads, progress,
+                                    [&](Context& ctx, const double* P, std::size_t n,
+                                        const std::int64_t* I, std::size_t k, double* out) {
+                                        plane_normals(ctx, P, n, I, k, options, out);
+                                    });
+          },
+          nb::arg("points"), nb::arg("neighbours"), nb::kw_only(), nb::arg("inlier"),
+          nb::arg("share"), nb::arg("spread"), nb::arg("threads") = 0,
+          nb::arg("progress") = nb::none(),
+          "Unit normals (N, 3), sign arbitrary, of the plane through each point that most of "
+          "its neighbours (N, k; the first column the point itself) lie on. See normals.hpp.");
+
+    m.def("settled_normals",
+          [](nb::handle points, nb::handle normals, nb::handle neighbours, double same_cos,
+             std::int64_t min_points, double on_a_line, int threads, nb::handle progress) {
+              std::size_t n, nn, k;
+              nb::object k1, k2, k3;
+              const double* P = view<double>(points, "points", 2, 3, n, k1);
+              const double* N = view<double>(normals, "normals", 2, 3, nn, k2);
+              if (nn != n) throw nb::value_error("points and normals must have the same length");
+              const std::int64_t* I = neighbour_table(neighbours, n, k, k3);
+              double* out;
+              auto O = new_array(n, 3, &out);
+              const SettleOptions options{same_cos, std::size_t(std::max<std::int64_t>(min_points, 0)),
+                                          on_a_line};
+              run_released(threads, progress, [&](Context& ctx) {
+                  checkpoint(ctx, 0.0);
+                  settled_normals(ctx, P, N, n, I, k, options, out);
+              });
+              return O;
+          },
+          nb::arg("points"), nb::arg("normals"), nb::arg("neighbours"), nb::kw_only(),
+          nb::arg("same_cos"), nb::arg("min_points"), nb::arg("on_a_line"),
+          nb::arg("threads") = 0, nb::arg("progress") = nb::none(),
+          "Normals (N, 3) refitted as the plane through each point and its neighbours on the "
+          "same surface, oriented as given. See normals.hpp.");
+
+    m.def("splat_radii",
+          [](nb::handle points, nb::handle normals, nb::handle u, nb::handle v, nb::handle reach,
+             nb::handle rim, nb::handle neighbours, std::int64_t sides, double corner_slack,
+             double edge_cos, double rim_cos, double junction_tolerance, double edge_overlap,
+             int threads, nb::handle progress) {
+              std::size_t n, k, rows[5];
+              nb::object keep[7];
+              const double* P = view<double>(points, "points", 2, 3, n, keep[0]);
+              const double* N = view<double>(normals, "normals", 2, 3, rows[0], keep[1]);
+              const double* U = view<double>(u, "u", 2, 3, rows[1], keep[2]);
+              const double* V = view<double>(v, "v", 2, 3, rows[2], keep[3]);
+              const double* R = view<double>(reach, "reach", 1, 0, rows[3], keep[4]);
+              const double* E = view<double>(rim, "rim", 1, 0, rows[4], keep[5]);
+              for (std::size_t r : rows)
+                  if (r != n)
+                      throw nb::value_error("points, normals, u, v, reach and rim must have the same length");
+              if (sides < 1) throw nb::value_error("sides must be >= 1");
+              const std::int64_t* I = neighbour_table(neighbours, n, k, keep[6]);
+              double* out;
+              auto O = new_array(n, std::size_t(sides), &out);
+              const SplatOptions options{corner_slack, edge_cos, rim_cos, junction_tolerance,
+                                         edge_overlap};
+              run_released(threads, progress, [&](Context& ctx) {
+                  checkpoint(ctx, 0.0);
+                  splat_radii(ctx, P, N, U, V, R, E, n, I, k, std::size_t(sides), options, out);
+              });
+              return O;
+          },
+          nb::arg("points"), nb::arg("normals"), nb::arg("u"), nb::arg("v"), nb::arg("reach"),
+          nb::arg("rim"), nb::arg("neighbours"), nb::kw_only(), nb::arg("sides"),
+          nb::arg("corner_slack"), nb::arg("edge_cos"), nb::arg("rim_cos"),
+          nb::arg("junction_tolerance"), nb::arg("edge_overlap"), nb::arg("threads") = 0,
+          nb::arg("progress") = nb::none(),
+          "Radii (N, sides) in m of each point's clipped splat along cos(t) u + sin(t) v. "
+          "See splats.hpp and illumap/splats.py.");
+
+    m.def("splat_fans",
+          [](nb::handle points, nb::handle u, nb::handle v, nb::handle radii, nb::handle facing,
+             int threads, nb::handle progress) {
+              std::size_t n, rows[4];
+              nb::object keep[5];
+              AnyArray shape_of;
+              if (!nb::try_cast<AnyArray>(radii, shape_of, false) || shape_of.ndim() != 2)
+                  throw nb::value_error("radii must be a 2-D (N, sides) numpy array");
+              const std::size_t sides = shape_of.shape(1);
+              const double* P = view<double>(points, "points", 2, 3, n, keep[0]);
+              const double* U = view<double>(u, "u", 2, 3, rows[0], keep[1]);
+              const double* V = view<double>(v, "v", 2, 3, rows[1], keep[2]);
+              const double* R = view<double>(radii, "radii", 2, std::int64_t(sides), rows[2], keep[3]);
+              const double* F = view<double>(facing, "facing", 2, 3, rows[3], keep[4]);
+              for (std::size_t r : rows)
+                  if (r != n)
+                      throw nb::value_error("points, u, v, radii and facing must have the same length");
+              double* data = new double[std::max<std::size_t>(1, n * sides * 9)]();
+              nb::capsule owner(data, [](void* q) noexcept { delete[] static_cast<double*>(q); });
+              nb::ndarray<nb::numpy, double> T(data, {n * sides, 3, 3}, owner);
+              run_released(threads, progress, [&](Context& ctx) {
+                  checkpoint(ctx, 0.0);
+                  splat_fans(ctx, P, U, V, R, F, n, sides, data);
+              });
+              return T;
+          },
+          nb::arg("points"), nb::arg("u"), nb::arg("v"), nb::arg("radii"), nb::arg("facing"),
+          nb::kw_only(), nb::arg("threads") = 0, nb::arg("progress") = nb::none(),
+          "Triangles (N * sides, 3, 3) in m: each point's splat as a fan about it, its rim at "
+          "radii (N, sides) along cos(t) u + sin(t) v, wound to face along facing (N, 3). "
+          "See splats.hpp.");
 }
 
 }  // namespace illumap::bindings

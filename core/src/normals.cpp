@@ -1,9 +1,14 @@
-// normals.cpp — minimum spanning forest (Kruskal) over the k-NN graph and sign propagation.
+// normals.cpp — plane fits over each point's neighbours; minimum spanning forest (Kruskal)
+// over the k-NN graph and sign propagation.
 #include "normals.hpp"
+
+#include "sym3.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
+#include <stdexcept>
 #include <vector>
 
 namespace illumap {
@@ -34,7 +39,154 @@ struct DisjointSets {
 
 double dot3(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
+// Points handled per task by the plane fits.
+constexpr std::size_t kFitGrain = 2048;
+
+// The neighbours of point i minus the point (k x 3).
+void offsets_of(const double* points, std::size_t n, const std::int64_t* row, std::size_t k,
+                std::size_t i, double* off) {
+    const double* p = points + 3 * i;
+    for (std::size_t j = 0; j < k; ++j) {
+        const std::int64_t q = row[j];
+        if (q < 0 || std::size_t(q) >= n) throw std::out_of_range("neighbour index out of range");
+        for (int c = 0; c < 3; ++c) off[3 * j + c] = points[3 * q + c] - p[c];
+    }
+}
+
+// The eigen-decomposition of the covariance of the rows `keep` selects, about their mean.
+Sym3Eigen centred_covariance(const double* off, std::size_t k, const unsigned char* keep) {
+    double mean[3] = {0, 0, 0}, count = 0;
+    for (std::size_t j = 0; j < k; ++j)
+        if (keep[j]) {
+            for (int c = 0; c < 3; ++c) mean[c] += off[3 * j + c];
+            count += 1;
+        }
+    for (int c = 0; c < 3; ++c) mean[c] /= std::max(count, 1.0);
+    double cov[3][3] = {};
+    for (std::size_t j = 0; j < k; ++j) {
+        if (!keep[j]) continue;
+        const double d[3] = {off[3 * j] - mean[0], off[3 * j + 1] - mean[1], off[3 * j + 2] - mean[2]};
+        for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b) cov[a][b] += d[a] * d[b];
+    }
+    return sym3_eigen(cov);
+}
+
+void store(double* out, std::size_t i, const double* v) {
+    for (int c = 0; c < 3; ++c) out[3 * i + c] = v[c];
+}
+
+double median(std::vector<double>& v) {
+    const std::size_t m = v.size();
+    if (m == 0) return 0.0;
+    std::sort(v.begin(), v.end());
+    return m % 2 ? v[m / 2] : 0.5 * (v[m / 2 - 1] + v[m / 2]);
+}
+
 }  // namespace
+
+void covariance_normals(Context& ctx, const double* points, std::size_t n,
+                        const std::int64_t* neighbours, std::size_t k, double* out) {
+    ctx.set_phase("normals", 0.0, 1.0);
+    parallel_for(ctx, n, kFitGrain, [&](std::size_t b, std::size_t e) {
+        std::vector<double> off(3 * k);
+        const std::vector<unsigned char> all(k, 1);
+        for (std::size_t i = b; i < e; ++i) {
+            offsets_of(points, n, neighbours + i * k, k, i, off.data());
+            store(out, i, centred_covariance(off.data(), k, all.data()).vectors[0]);
+        }
+    });
+}
+
+void plane_normals(Context& ctx, const double* points, std::size_t n,
+                   const std::int64_t* neighbours, std::size_t k, const PlaneFitOptions& options,
+                   double* out) {
+    ctx.set_phase("normals", 0.0, 1.0);
+    parallel_for(ctx, n, kFitGrain, [&](std::size_t b, std::size_t e) {
+        std::vector<double> off(3 * k), length(k);
+        std::vector<unsigned char> keep(k), all(k, 1);
+        const std::size_t m = k > 0 ? k - 1 : 0;   // neighbours other than the first column
+        for (std::size_t i = b; i < e; ++i) {
+            offsets_of(points, n, neighbours + i * k, k, i, off.data());
+            const double* nb = off.data() + 3;
+            for (std::size_t j = 0; j < m; ++j) length[j] = std::sqrt(dot3(nb + 3 * j, nb + 3 * j));
+            std::vector<double> sorted(length.begin(), length.begin() + m);
+            const double scale = median(sorted);
+            const double tol = options.inlier * scale;
+            const double floor = 1e-6 * std::max(scale, 1e-300) * std::max(scale, 1e-300);
+            const double norm = std::max(tol * double(m), 1e-300);
+            double best_score = -std::numeric_limits<double>::infinity(), best[3] = {0, 0, 0};
+            bool usable_any = false;
+            for (std::size_t a = 0; a < m; ++a)
+                for (std::size_t c = a + 1; c < m; ++c) {
+                    const double* u = nb + 3 * a;
+                    const double* v = nb + 3 * c;
+                    double cand[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                                      u[0] * v[1] - u[1] * v[0]};
+                    const double len = std::sqrt(dot3(cand, cand));
+                    if (!(len > floor)) continue;
+                    usable_any = true;
+                    for (double& x : cand) x /= len;
+                    double inliers = 0, clamped = 0;
+                    for (std::size_t j = 0; j < m; ++j) {
+                        const double d = std::fabs(dot3(cand, nb + 3 * j));
+                        inliers += d < tol;
+                        clamped += std::min(d, tol);
+                    }
+                    const double score = inliers - clamped / norm;
+                    if (score > best_score) {
+                        best_score = score;
+                        std::copy(cand, cand + 3, best);
+                    }
+                }
+            std::size_t kept = 0;
+            keep[0] = 1;
+            for (std::size_t j = 0; j < m; ++j) {
+                keep[j + 1] = usable_any && std::fabs(dot3(best, nb + 3 * j)) < tol;
+                kept += keep[j + 1];
+            }
+            const bool weak = !usable_any || double(kept) < options.share * double(m);
+            Sym3Eigen fit = centred_covariance(off.data(), k, weak ? all.data() : keep.data());
+            if (!weak && fit.values[1] < options.spread * fit.values[2])
+                fit = centred_covariance(off.data(), k, all.data());
+            store(out, i, fit.vectors[0]);
+        }
+    });
+}
+
+void settled_normals(Context& ctx, const double* points, const double* normals, std::size_t n,
+                     const std::int64_t* neighbours, std::size_t k, const SettleOptions& options,
+                     double* out) {
+    ctx.set_phase("normals", 0.0, 1.0);
+    parallel_for(ctx, n, kFitGrain, [&](std::size_t b, std::size_t e) {
+        std::vector<double> off(3 * k);
+        for (std::size_t i = b; i < e; ++i) {
+            offsets_of(points, n, neighbours + i * k, k, i, off.data());
+            const double* ni = normals + 3 * i;
+            double cov[3][3] = {};
+            std::size_t same = 0;
+            for (std::size_t j = 0; j < k; ++j) {
+                if (!(std::fabs(dot3(ni, normals + 3 * neighbours[i * k + j])) > options.same_cos))
+                    continue;
+                ++same;
+                const double* d = off.data() + 3 * j;
+                for (int a = 0; a < 3; ++a)
+                    for (int c = 0; c < 3; ++c) cov[a][c] += d[a] * d[c];
+            }
+            const Sym3Eigen fit = sym3_eigen(cov);
+            const bool on_line =
+                fit.values[1] < options.on_a_line * options.on_a_line * fit.values[2];
+            if (on_line || same < options.min_points) {
+                store(out, i, ni);
+                continue;
+            }
+            const double flip = dot3(fit.vectors[0], ni) < 0 ? -1.0 : 1.0;
+            const double v[3] = {flip * fit.vectors[0][0], flip * fit.vectors[0][1],
+                                 flip * fit.vectors[0][2]};
+            store(out, i, v);
+        }
+    });
+}
 
 std::size_t orient_normals(Context& ctx, const double* points, double* normals, std::size_t n,
                            const std::int64_t* neighbours, std::size_t k, std::int64_t* part) {

@@ -29,8 +29,8 @@ import numpy as np
 
 from .surfels import InputError
 
-__all__ = ["estimate_normals", "pca_normals", "orient_normals", "orientation_hints",
-           "plane_through", "DEFAULT_K"]
+__all__ = ["estimate_normals", "pca_normals", "plane_normals", "orient_normals",
+           "orientation_hints", "plane_through", "settled_normals", "DEFAULT_K"]
 
 #: Neighbours for the PCA and the orientation graph.
 DEFAULT_K = 12
@@ -108,18 +108,14 @@ def orient_normals(points: np.ndarray, normals: np.ndarray, k: int = DEFAULT_K, 
 def estimate_normals(points: np.ndarray, k: int = DEFAULT_K, *, threads: int = 0,
                      progress: Callable[[float, str], bool | None] | None = None) -> np.ndarray:
     """Unit normals (P, 3) of a point cloud (P, 3, m): the plane that most of the ``k``
-    nearest neighbours lie on (``_plane_normals``; PCA on a smooth surface), oriented by
+    nearest neighbours lie on (``plane_normals``; PCA on a smooth surface), oriented by
     :func:`orient_normals`."""
-    from . import _core
     pts = _checked_points(points)
     if len(pts) < 3:
         raise InputError(f"points: PCA normals need at least 3 points, got {len(pts)}")
     idx = _neighbours(pts, k, threads)
-    normals = np.empty((len(pts), 3))
-    for lo in range(0, len(pts), _CHUNK):
-        rows = slice(lo, min(lo + _CHUNK, len(pts)))
-        normals[rows] = _plane_normals(pts[idx[rows]] - pts[rows, None, :])
-    return _oriented(pts, normals, idx, None, threads, progress)[0]
+    return _oriented(pts, plane_normals(pts, idx, threads=threads, progress=progress), idx,
+                     None, threads, progress)[0]
 
 
 def _neighbours(pts: np.ndarray, k: int, threads: int) -> np.ndarray:
@@ -132,21 +128,15 @@ def _neighbours(pts: np.ndarray, k: int, threads: int) -> np.ndarray:
 def pca_normals(points: np.ndarray, k: int = DEFAULT_K, *, threads: int = 0) -> np.ndarray:
     """Unit normals (P, 3), unoriented: the smallest eigenvector of the covariance of each
     point's ``k`` nearest neighbours (itself included). Where two surfaces meet it tilts
-    between them: the mean of the surfaces, which is what a vertex on a crease shows."""
+    between them: the mean of the surfaces, which is what a vertex on a crease shows.
+    Native (``illumap._core.covariance_normals``)."""
+    from . import _core
     pts = _checked_points(points)
     if len(pts) < 3:
         raise InputError(f"points: PCA normals need at least 3 points, got {len(pts)}")
-    nb = pts[_neighbours(pts, k, threads)]
-    centred = nb - nb.mean(axis=1, keepdims=True)
-    cov = np.empty((len(pts), 3, 3))
-    for a in range(3):              # six products over (P, k) beat a (P, k, 3, 3) einsum
-        for b in range(a, 3):
-            cov[:, a, b] = cov[:, b, a] = np.einsum("nk,nk->n", centred[:, :, a], centred[:, :, b])
-    return np.linalg.eigh(cov)[1][:, :, 0]
+    return np.asarray(_core.covariance_normals(pts, _neighbours(pts, k, threads), threads=threads))
 
 
-#: Points handled at once by the plane fits (memory ~ 2 KB per point at k = 8).
-_CHUNK = 32768
 #: A neighbour lies on a candidate plane within this fraction of the median neighbour distance.
 PLANE_INLIER = 0.2
 #: Fewer of the neighbours than this share on the best plane: no plane stands out (a curved,
@@ -156,47 +146,21 @@ PLANE_SHARE = 0.5
 PLANE_SPREAD = 0.05
 
 
-def _plane_normals(offsets: np.ndarray) -> np.ndarray:
-    """Unit normals (R, 3) of the planes through each point that most of its neighbours lie
-    on: ``offsets`` (R, 1 + k, 3) are the neighbours minus the point (the point first).
-    Where two surfaces meet (a floor along a wall), a PCA over all neighbours tilts between
-    them, and a splat on such a tilted plane stands up out of the floor; here each pair of
-    neighbours proposes the plane through it and the point, the plane with the most
-    neighbours within ``PLANE_INLIER`` of the median neighbour distance wins (the smaller
-    total distance breaks ties), and a PCA over its neighbours gives the normal. On a single
-    smooth surface every neighbour agrees and this is PCA."""
-    nb = offsets[:, 1:, :]
-    rows, k = nb.shape[:2]
-    scale = np.median(np.linalg.norm(nb, axis=2), axis=1)                 # (R,)
-    a, b = np.triu_indices(k, 1)
-    cand = np.cross(nb[:, a], nb[:, b])                                   # (R, C, 3)
-    length = np.linalg.norm(cand, axis=2)
-    usable = length > 1e-6 * np.maximum(scale, 1e-300)[:, None] ** 2
-    cand = cand / np.where(usable, length, 1.0)[..., None]
-    dist = np.abs(np.einsum("rcx,rkx->rck", cand, nb))                    # (R, C, k)
-    tol = (PLANE_INLIER * scale)[:, None, None]
-    inliers = np.where(usable[..., None], dist < tol, False)
-    score = inliers.sum(axis=2) - np.minimum(dist, tol).sum(axis=2) / np.maximum(tol[..., 0] * k, 1e-300)
-    best = np.argmax(np.where(usable, score, -np.inf), axis=1)
-    keep = inliers[np.arange(rows), best]                                 # (R, k)
-    weak = ~usable.any(axis=1) | (keep.sum(axis=1) < PLANE_SHARE * k)
-    keep = np.concatenate([np.ones((rows, 1), dtype=bool), keep], axis=1)
-    # No plane stands out, or too few usable pairs (collinear neighbours): every neighbour
-    # counts, as plain PCA.
-    keep[weak] = True
-    vals, vecs = _covariance_eigen(offsets, keep)
-    # The chosen neighbours nearly on a line leave the plane free to turn about it: all count.
-    thin = vals[:, 1] < PLANE_SPREAD * vals[:, 2]
-    if thin.any():
-        vecs[thin] = _covariance_eigen(offsets[thin], np.ones(keep[thin].shape, dtype=bool))[1]
-    return vecs[:, :, 0]
-
-
-def _covariance_eigen(offsets: np.ndarray, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    w = keep[..., None].astype(np.float64)
-    mean = (w * offsets).sum(axis=1) / w.sum(axis=1)
-    centred = (offsets - mean[:, None, :]) * w
-    return np.linalg.eigh(np.einsum("rka,rkb->rab", centred, centred))
+def plane_normals(points: np.ndarray, neighbours: np.ndarray, *, threads: int = 0,
+                  progress: Callable[[float, str], bool | None] | None = None) -> np.ndarray:
+    """Unit normals (P, 3), unoriented, of the planes through each point that most of its
+    ``neighbours`` (P, 1 + k indices, the point first) lie on. Where two surfaces meet (a
+    floor along a wall), a PCA over all neighbours tilts between them, and a splat on such a
+    tilted plane stands up out of the floor; here each pair of neighbours proposes the plane
+    through it and the point, the plane with the most neighbours within ``PLANE_INLIER`` of
+    the median neighbour distance wins (the smaller total distance breaks ties), and a PCA
+    over its neighbours gives the normal. On a single smooth surface every neighbour agrees
+    and this is PCA. Native (``illumap._core.plane_normals``; O(P k³))."""
+    from . import _core
+    return np.asarray(_core.plane_normals(
+        _checked_points(points), np.ascontiguousarray(neighbours, dtype=np.int64),
+        inlier=PLANE_INLIER, share=PLANE_SHARE, spread=PLANE_SPREAD, threads=threads,
+        progress=progress))
 
 
 #: Points (with the point) on a line: their second spread below this share of the first.
@@ -226,16 +190,13 @@ def settled_normals(positions, normals) -> np.ndarray:
     ``SETTLE_COS``), oriented as given. A fit over all neighbours tilts beside an edge, where
     the other surface's points are among them (a block's side 6° downwards next to the floor
     it stands on): its splat, in that plane, then stands off the true surface by a tenth of
-    the spacing at its far end and shadows the points along the edge. Returns (N, 3)."""
+    the spacing at its far end and shadows the points along the edge. Returns (N, 3).
+    Native (``illumap._core.settled_normals``)."""
     from . import _core
     p = np.ascontiguousarray(positions, dtype=np.float64)
     n = np.ascontiguousarray(normals, dtype=np.float64)
     if len(p) < SETTLE_MIN_POINTS:
         return n
     idx, _ = _core.knn(p, p, min(SETTLE_NEIGHBOURS + 1, len(p)))
-    idx = np.asarray(idx)
-    same = np.abs(np.einsum("ic,ikc->ik", n, n[idx])) > SETTLE_COS
-    plane, on_line = plane_through((p[idx] - p[:, None, :]) * same[..., None])
-    plane *= np.where(np.einsum("ic,ic->i", plane, n) < 0, -1.0, 1.0)[:, None]
-    fit = ~on_line & (same.sum(axis=1) >= SETTLE_MIN_POINTS)
-    return np.where(fit[:, None], plane, n)
+    return np.asarray(_core.settled_normals(p, n, idx, same_cos=SETTLE_COS,
+                                            min_points=SETTLE_MIN_POINTS, on_a_line=ON_A_LINE))

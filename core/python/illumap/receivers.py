@@ -58,8 +58,8 @@ def _corners(corners) -> np.ndarray:
     c = np.ascontiguousarray(corners, dtype=np.float64)
     if c.ndim != 3 or c.shape[1:] != (3, 3):
         raise InputError(f"corners must have shape (T, 3, 3), got {c.shape}")
-    bad = ~np.isfinite(c).all(axis=(1, 2))
-    if bad.any():
+    if not np.isfinite(c).all():
+        bad = ~np.isfinite(c).all(axis=(1, 2))
         raise InputError(f"corners of triangle {int(np.flatnonzero(bad)[0])} are not finite")
     return c
 
@@ -92,9 +92,6 @@ class MeshOccluders:
             raise InputError("MeshOccluders needs at least one triangle")
         self.corners = c
         self._scene = _core.MeshScene(c.reshape(-1, 9), threads=threads, progress=progress)
-        e1, e2 = c[:, 1] - c[:, 0], c[:, 2] - c[:, 0]
-        cross = np.cross(e1, e2)
-        self.normals = cross / np.maximum(np.linalg.norm(cross, axis=1, keepdims=True), 1e-300)
         self.extent = float(self._scene.extent)
         self.feature_length = float(self._scene.feature_length)
         self.offset = (float(offset) if offset is not None

@@ -69,10 +69,11 @@ def _basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def splat_radii(positions, normals, areas, *, reach: float = DEFAULT_REACH,
-                neighbours: int = DEFAULT_NEIGHBOURS, sides: int = DEFAULT_SIDES,
-                chunk: int = 16384) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                neighbours: int = DEFAULT_NEIGHBOURS,
+                sides: int = DEFAULT_SIDES) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The clipped outline of every splat: (radii (N, sides) in m along the directions
-    cos θ_m u + sin θ_m v, u (N, 3), v (N, 3)), the tangent basis of each point."""
+    cos θ_m u + sin θ_m v, u (N, 3), v (N, 3)), the tangent basis of each point. Native
+    (``illumap._core.splat_radii``, splats.cpp), both threads."""
     p = np.ascontiguousarray(positions, dtype=np.float64)
     n = np.asarray(normals, dtype=np.float64)
     a = np.asarray(areas, dtype=np.float64)
@@ -84,71 +85,19 @@ def splat_radii(positions, normals, areas, *, reach: float = DEFAULT_REACH,
     if (a <= 0).any():
         raise InputError(f"splat area {int(np.flatnonzero(a <= 0)[0])} is not positive")
     count = len(p)
-    n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    n = np.ascontiguousarray(n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300))
     u, v = _basis(n)
-    theta = 2.0 * np.pi * np.arange(sides) / sides
-    directions = (np.cos(theta)[None, :, None] * u[:, None, :]
-                  + np.sin(theta)[None, :, None] * v[:, None, :])          # (N, M, 3)
     own = np.sqrt(a / np.pi)
-    radii = np.repeat((reach * own)[:, None], sides, axis=1)
     k = min(neighbours, count - 1)
     if k < 1:
-        return radii, u, v
+        return np.repeat((reach * own)[:, None], sides, axis=1), u, v
     idx, _ = _core.knn(p, p, k + 1)
-    idx = idx[:, 1:]
-    for lo in range(0, count, chunk):
-        rows = slice(lo, min(lo + chunk, count))
-        radii[rows] = np.minimum(radii[rows], _clip(p[rows], n[rows], directions[rows],
-                                                    p[idx[rows]], n[idx[rows]],
-                                                    own[rows, None]))
-    return radii, u, v
-
-
-def _clip(p, n, d, q, nq, rim) -> np.ndarray:
-    """Largest radius along each direction d (R, M, 3) inside every neighbour's half-spaces."""
-    w = q - p[:, None, :]                                       # (R, k, 3)
-    dw = np.einsum("rmc,rkc->rmk", d, w)
-    half = 0.5 * np.einsum("rkc,rkc->rk", w, w)
-    turn = np.einsum("rc,rkc->rk", n, nq) < EDGE_COS
-    # Bisector with neighbours on the same surface: ρ (d·w) ≤ |w|²/2; coincident points
-    # (w = 0) leave each other whole.
-    limit = np.where((dw > 1e-12 * np.sqrt(half)[:, None, :] + 1e-300) & ~turn[:, None, :],
-                     CORNER_SLACK * half[:, None, :] / np.where(dw > 0, dw, 1.0), np.inf)
-    # Directions with no neighbour within 60° lead off the scan's rim: there the splat ends at
-    # the point's own radius instead of its reach. (Another surface's neighbours count: a
-    # wall's splats reach down to the floor's plane, which then clips them.)
-    tangential = w - np.einsum("rkc,rc->rk", w, n)[..., None] * n[:, None, :]
-    length = np.linalg.norm(tangential, axis=2)
-    toward = dw / np.maximum(length, 1e-300)[:, None, :]       # cos(d, neighbour), tangentially
-    supported = ((toward > RIM_COS) & (length > 0)[:, None, :]).any(axis=2)
-    # Tangent planes where the surface turns: a splat stays on the side of each such plane
-    # that its point is on, side·(x − q)·n_q ≥ 0.
-    height = np.einsum("rkc,rkc->rk", -w, nq)                  # (p − q)·n_q
-    on_plane = turn & (np.abs(height) <= JUNCTION_TOLERANCE * np.sqrt(2.0 * half))
-    # p on the plane itself (an edge's own points): the side its own surface lies on, where
-    # the centroid of p and its same-surface neighbours is (whichever way either normal was
-    # oriented). Unless it is a junction, where the other surface lies on both sides of p's
-    # plane (a box's side on a floor that runs on under it): there nothing clips, or the
-    # side's splats would lose their half above the floor.
-    own = (~turn)[..., None]
-    centroid = (w * own).sum(axis=1) / (own.sum(axis=1) + 1.0)             # minus p
-    lean = np.einsum("rc,rkc->rk", centroid, nq) + height                 # (c − q)·n_q
-    leaning = np.abs(lean) > JUNCTION_TOLERANCE * np.sqrt(2.0 * half)
-    # Which side of p's plane each neighbour lies on; one on the edge line itself lies on
-    # neither (it would make every edge look like a junction).
-    rise = np.einsum("rkc,rc->rk", w, n)
-    bend = np.where(np.abs(rise) > JUNCTION_TOLERANCE * np.sqrt(2.0 * half), np.sign(rise), 0.0)
-    side = np.where(on_plane, np.where(leaning, np.sign(lean), 0.0), np.sign(height))
-    junction = (on_plane & (bend > 0)).any(axis=1) & (on_plane & (bend < 0)).any(axis=1)
-    # ... a hair beyond it: splats that end exactly on each other's planes leave a slit
-    # along the edge that rays slip through (0.5% of the rays from inside a scanned box).
-    g = np.maximum(side * height, 0.0) + EDGE_OVERLAP * np.sqrt(2.0 * half)
-    slope = side[:, None, :] * np.einsum("rmc,rkc->rmk", d, nq)
-    keep = turn & (side != 0) & ~(on_plane & junction[:, None])
-    applies = keep[:, None, :] & (slope < 0)
-    plane = np.where(applies, g[:, None, :] / np.where(slope < 0, -slope, 1.0), np.inf)
-    radius = np.minimum(limit, plane).min(axis=2)
-    return np.where(supported, radius, np.minimum(radius, rim))
+    radii = _core.splat_radii(p, n, np.ascontiguousarray(u), np.ascontiguousarray(v),
+                              reach * own, own, np.ascontiguousarray(np.asarray(idx)[:, 1:]),
+                              sides=int(sides), corner_slack=CORNER_SLACK, edge_cos=EDGE_COS,
+                              rim_cos=RIM_COS, junction_tolerance=JUNCTION_TOLERANCE,
+                              edge_overlap=EDGE_OVERLAP)
+    return np.asarray(radii), u, v
 
 
 def splat_triangles(positions, normals, areas, **options) -> np.ndarray:
@@ -157,16 +106,7 @@ def splat_triangles(positions, normals, areas, **options) -> np.ndarray:
     (``pointcloud.settled_normals``), wound so that their normals agree with ``normals``.
     Options: see ``splat_radii``."""
     p = np.ascontiguousarray(positions, dtype=np.float64)
-    normals = settled_normals(p, normals)
-    radii, u, v = splat_radii(p, normals, areas, **options)
-    sides = radii.shape[1]
-    theta = 2.0 * np.pi * np.arange(sides) / sides
-    rim = p[:, None, :] + radii[..., None] * (np.cos(theta)[None, :, None] * u[:, None, :]
-                                              + np.sin(theta)[None, :, None] * v[:, None, :])
-    centre = np.broadcast_to(p[:, None, :], rim.shape)
-    nxt = np.roll(rim, -1, axis=1)
-    # The rim runs counter-clockwise about u × v: wind each fan so its normal is the point's.
-    along = np.einsum("nc,nc->n", np.cross(u, v), np.asarray(normals, dtype=np.float64)) >= 0
-    first = np.where(along[:, None, None], rim, nxt)
-    second = np.where(along[:, None, None], nxt, rim)
-    return np.stack([centre, first, second], axis=2).reshape(-1, 3, 3)
+    facing = np.ascontiguousarray(settled_normals(p, normals), dtype=np.float64)
+    radii, u, v = splat_radii(p, facing, areas, **options)
+    return np.asarray(_core.splat_fans(p, np.ascontiguousarray(u), np.ascontiguousarray(v),
+                                       np.ascontiguousarray(radii), facing))
