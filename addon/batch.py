@@ -19,6 +19,7 @@ Options (after ``--``)::
                            corner; the light is evaluated at the meshes' own corners)
     --no-transfer          leave the meshes alone: results on the surfel object only
     --gather-rays N        final-gather rays per mesh corner (default: the preset's)
+    --gather-cache A       irradiance cache accuracy for point clouds' points (0.15; 0: off)
     --no-lamps             ignore Blender lamps
     --no-lamp-shadows      lamp light unshadowed (default: rays against the surfels)
     --shadow-samples N     rays per surfel for lamps with a size (default 16)
@@ -88,6 +89,7 @@ MAX_RESOLUTION = limit("resolution").high
 #: Numeric options and the limits (``illumap.limits``) that bound them.
 NUMBER_OPTIONS = {"--density": "density", "--budget": "budget", "--tol": "tol",
                   "--target-error": "target_error", "--gather-rays": "gather_rays",
+                  "--gather-cache": "gather_cache",
                   "--shadow-samples": "shadow_samples", "--resolution": "resolution",
                   "--samples": "samples", "--lightmap-size": "lightmap_size", "--seed": "seed"}
 
@@ -128,6 +130,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--transfer", choices=["point", "corner"], type=str.lower)
     p.add_argument("--no-transfer", action="store_true")
     p.add_argument("--gather-rays", type=int, help=f"rays per vertex, {_range('--gather-rays')}")
+    p.add_argument("--gather-cache", type=float,
+                   help="irradiance cache accuracy for point clouds' points, "
+                        f"{_range('--gather-cache')}; 0: every point gathers itself")
     p.add_argument("--no-adaptive", action="store_true")
     p.add_argument("--no-lamps", action="store_true")
     p.add_argument("--no-lamp-shadows", action="store_true")
@@ -283,6 +288,8 @@ def make_settings(args) -> pipeline.Settings:
         settings.transfer = False
     if args.gather_rays is not None:
         settings.gather_rays = args.gather_rays
+    if args.gather_cache is not None:
+        settings.gather_cache = args.gather_cache
     return settings
 
 

@@ -66,6 +66,7 @@ def check_settings(settings) -> None:
     _check("adaptive_max_ratio", s.adaptive_max_ratio)
     _check("shadow_samples", s.shadow_samples)
     _check("gather_rays", s.gather_rays)
+    _check("gather_cache", s.gather_cache)
     _check("receiver_shadow_samples", s.receiver_shadow_samples)
     _choice("transfer_domain", s.transfer_domain, ("point", "corner"))
     _check("seed", s.seed)

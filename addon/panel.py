@@ -85,6 +85,7 @@ def draw_advanced(layout, context):
     sub.active = props.transfer
     sub.prop(props, "transfer_domain")
     sub.prop(props, "gather_rays")
+    sub.prop(props, "gather_cache")
     sub.prop(props, "receiver_shadow_samples")
     layout.operator("illumap.reset_settings", icon="LOOP_BACK")
 

@@ -70,6 +70,8 @@ class Settings:
     world_ambient: bool = True        # light from the world (Background), shadowed like lamps
     transfer: bool = True             # evaluate 'illumination' at the source meshes' corners
     gather_rays: int = 512            # final-gather rays per receiver (indirect light)
+    gather_cache: float = 0.15        # a point cloud's points share gathers through an
+                                      # irradiance cache of this accuracy (Ward's a); 0: off
     receiver_shadow_samples: int = 128  # shadow rays per receiver and sized lamp/emitter
     transfer_domain: str = "CORNER"   # 'POINT' | 'CORNER'
     seed: int = 0                     # sampling seed (results are reproducible)

@@ -38,7 +38,7 @@ def field_bounds(name: str) -> dict:
 
 DEFAULT_PRESET = "MEDIUM"
 _DEFAULTS = dict(density=100.0, budget=10_000, order=4, theta=0.5, visibility="EXACT",
-                 tol=1e-4, gather_rays=512, receiver_shadow_samples=128)
+                 tol=1e-4, gather_rays=512, gather_cache=0.15, receiver_shadow_samples=128)
 _DEFAULTS.update(PRESET_PROPERTY_VALUES.get(DEFAULT_PRESET, {}))
 
 PRESET_ITEMS = [
@@ -267,6 +267,13 @@ class IllumapSettings(bpy.types.PropertyGroup):
         update=_field_update,
         description="Rays per mesh vertex or corner that gather the light reflected by the "
                     "scene: more give smoother indirect light; cost grows in proportion")
+    gather_cache: FloatProperty(
+        name="Gather Cache", default=_DEFAULTS["gather_cache"], **field_bounds("gather_cache"),
+        update=_field_update,
+        description="A point cloud's points share their final gathers through an irradiance "
+                    "cache of this accuracy (Ward's a): smaller gathers at more points; at 0.15 "
+                    "the values are as close to the light as every point's own gather; 0: "
+                    "every point gathers itself")
     receiver_shadow_samples: IntProperty(
         name="Receiver Shadow Samples", default=_DEFAULTS["receiver_shadow_samples"],
         **field_bounds("receiver_shadow_samples"), update=_field_update,
@@ -301,7 +308,7 @@ _SETTINGS_FIELDS = ("density", "budget", "seed", "method", "order", "theta", "le
                     "near_field", "lamps",
                     "lamp_shadows", "shadow_samples", "world_ambient", "transfer",
                     "transfer_domain", "target_error", "adaptive", "gather_rays",
-                    "receiver_shadow_samples")
+                    "gather_cache", "receiver_shadow_samples")
 _LOWER_ENUMS = ("visibility", "occluder_shape", "solver", "near_field", "method")
 # Alternative field names a Settings dataclass may use for the same knob.
 _ALIASES = {

@@ -6,7 +6,8 @@ triangles (``mesh_occluders``). Before the gather, the surfels whose disc reache
 another surface are evaluated as receivers too (``_regather_straddling``), and the gather's
 table takes the lamps' light cast at its own points where it changes sharply
 (``_exact_direct``). Receivers that another surface lies flat against get no light
-(``covered_receivers``).
+(``covered_receivers``). A point cloud's points share their gathers through an irradiance
+cache (``illumap.irradiance_cache``, ``Settings.gather_cache``).
 """
 
 from __future__ import annotations
@@ -386,20 +387,30 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     from illumap.refinement import LUMINANCE_WEIGHTS
     lum = np.asarray(LUMINANCE_WEIGHTS, dtype=np.float64)
     noise2 = light2 = indirect = total = 0.0
-    def incident_at(points, normals, ids, meshes=None, rays=gather_rays):
+    def gather_at(points, normals, ids, rays):
+        return rc.gather(occ, field_, points, normals, rays=rays, seed=s.seed, ids=ids,
+                         background=background, back_field=back_field, two_sided=job.two_sided,
+                         owners=owners, back_owners=back_owners, exact=exact,
+                         progress=None if progress is None else
+                         (lambda f, _p="": progress(f, "gather")))
+
+    def incident_at(points, normals, ids, meshes=None, rays=gather_rays, shared=None):
         """Incident radiance (M, 3) at receivers, the gather's result, the rays cast and the
-        receivers found covered (inside or under another surface: no light)."""
+        receivers found covered (inside or under another surface: no light). ``shared`` (M,)
+        int: receivers of one group (≥ 0) share the gather through an irradiance cache
+        (``illumap.irradiance_cache``); -1 or None: each gathers itself."""
         shadows = None
         if all_lamps and s.lamp_shadows:
             shadows = lamps.Shadows(occ.segment_query(normals), samples=shadow_samples,
                                     seed=s.seed, extent=occ.extent, ids=ids)
         direct = lamps.incident_radiance(all_lamps, points, normals, shadows=shadows)
-        gathered = rc.gather(occ, field_, points, normals, rays=rays, seed=s.seed, ids=ids,
-                             background=background,
-                             back_field=back_field, two_sided=job.two_sided, owners=owners,
-                             back_owners=back_owners, exact=exact,
-                             progress=None if progress is None else
-                             (lambda f, _p="": progress(f, "gather")))
+        if shared is not None and s.gather_cache > 0 and (shared >= 0).any():
+            from illumap.irradiance_cache import cached_gather
+            gathered = cached_gather(
+                lambda rows, rays=rays: gather_at(points[rows], normals[rows], ids[rows], rays),
+                points, normals, groups=shared, accuracy=s.gather_cache, max_reach=occ.extent)
+        else:
+            gathered = gather_at(points, normals, ids, rays)
         incident = direct + gathered.radiance
         hidden = covered_receivers(job, points, normals, 2.0 * occ.offset, meshes)
         incident[hidden] = 0.0
@@ -442,8 +453,13 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
                       enumerate(x for x in job.sources if x.kind == "MESH")}
         batch_meshes = np.concatenate([np.full(len(rows), mesh_index.get(rec.name, -1), np.int64)
                                        for rec, (rows, _) in zip(batch, merged)])
+        # A point cloud's points (each part of the batch on its own) share their gathers.
+        shared = np.concatenate([np.full(len(rows), part if part >= len(job.receivers) else -1,
+                                         np.int64)
+                                 for part, (rows, _) in enumerate(merged)])
 
-        incident, gathered, cast, covered = incident_at(points, normals, ids, batch_meshes)
+        incident, gathered, cast, covered = incident_at(points, normals, ids, batch_meshes,
+                                                        shared=shared)
         rays += cast
         values_of = []
         for rec, lo, (_, index) in zip(batch, offsets[:-1], merged):

@@ -246,9 +246,10 @@ void bind_gather(nb::module_& m) {
               opt.seed = seed;
               opt.offset = offset;
               for (int c = 0; c < 3; ++c) opt.background[c] = BG[c];
-              double *out, *err;
+              double *out, *err, *reach;
               auto a1 = new_array(m, 3, &out);
               auto a2 = new_array(m, 0, &err);
+              auto a3 = new_array(m, 0, &reach);
               run_released(threads, progress, [&](Context& ctx) {
                   ctx.set_phase("gather", 0.0, 1.0);
                   checkpoint(ctx, 0.0);
@@ -256,9 +257,10 @@ void bind_gather(nb::module_& m) {
                          sided.empty() ? nullptr : sided.data(), per.empty() ? nullptr : per.data(),
                          own_front.empty() ? nullptr : own_front.data(),
                          own_back.empty() ? nullptr : own_back.data(),
-                         ex_front.lattice ? &ex_front : nullptr, ex_back.lattice ? &ex_back : nullptr);
+                         ex_front.lattice ? &ex_front : nullptr, ex_back.lattice ? &ex_back : nullptr,
+                         reach);
               });
-              return nb::make_tuple(a1, a2);
+              return nb::make_tuple(a1, a2, a3);
           },
           nb::arg("scene"), nb::arg("front"), nb::arg("back").none(), nb::arg("positions"),
           nb::arg("normals"), nb::arg("ids"), nb::kw_only(), nb::arg("rays"), nb::arg("seed") = 0,

@@ -77,7 +77,10 @@ void gather_lattices(const MeshScene& scene, const SurfelField& front, const Sur
                      const std::int64_t* owner_back, GatherLattice& front_out,
                      GatherLattice& back_out);
 
-// out: m x 3 mean radiance; stderr_out: m, standard error of the mean's luminance.
+// out: m x 3 mean radiance; stderr_out: m, standard error of the mean's luminance;
+// reach_out (m, may be null): the harmonic mean of the rays' hit distances, misses counted as
+// infinitely far (m; infinite when nothing is hit): how near the surroundings that shape the
+// receiver's indirect light are (an irradiance cache's validity radius).
 // two_sided (one flag per triangle, may be null: all): which triangles' back faces take the
 // back field; the others' back faces are black.
 // rays_per (m entries, may be null: opt.rays each) gives each receiver its own ray count.
@@ -89,6 +92,7 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
             const GatherOptions& opt, double* out, double* stderr_out,
             const std::uint8_t* two_sided = nullptr, const std::int32_t* rays_per = nullptr,
             const std::int64_t* owner_front = nullptr, const std::int64_t* owner_back = nullptr,
-            const ExactPart* front_exact = nullptr, const ExactPart* back_exact = nullptr);
+            const ExactPart* front_exact = nullptr, const ExactPart* back_exact = nullptr,
+            double* reach_out = nullptr);
 
 }  // namespace illumap

@@ -85,7 +85,7 @@ def test_a_field_at_its_end_passes_the_settings_check(registered_addon, end):
 #: The settings check: pipeline.Settings field -> limit name.
 CHECKED = ("density", "budget", "order", "theta", "leaf_size", "tol", "max_iterations",
            "target_error", "adaptive_first_pass", "adaptive_max_ratio", "shadow_samples",
-           "gather_rays", "receiver_shadow_samples", "seed", "memory_limit", "lightmap_size")
+           "gather_rays", "gather_cache", "receiver_shadow_samples", "seed", "memory_limit", "lightmap_size")
 
 
 def test_the_settings_check_covers_its_limits():
@@ -132,13 +132,14 @@ def test_the_settings_check_refuses_just_outside_and_accepts_at_each_bound(name)
 def test_the_batch_command_refuses_just_outside_and_accepts_at_each_bound(option):
     lim = limit(batch.NUMBER_OPTIONS[option])
     parser = batch.build_parser()
+    # option=value: a negative float in exponent form would read as an option name.
     for value in _outside(lim):
-        args = parser.parse_args([option, repr(value) if lim.kind is float else str(value)])
+        args = parser.parse_args([f"{option}={value!r}" if lim.kind is float else f"{option}={value}"])
         with pytest.raises(batch.UsageError,
                            match=re.escape(f"{option} must lie in {lim.interval()}")):
             batch.make_settings(args)
     for value in _at(lim):
-        args = parser.parse_args([option, repr(value) if lim.kind is float else str(value)])
+        args = parser.parse_args([f"{option}={value!r}" if lim.kind is float else f"{option}={value}"])
         batch.make_settings(args)
 
 

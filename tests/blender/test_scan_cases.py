@@ -51,6 +51,12 @@ def as_scan(meshes, normals=None):
     return link(bpy.data.objects.new("Scan", data))
 
 
+def vertex_normals(obj):
+    n = np.empty(len(obj.data.vertices) * 3)
+    obj.data.vertices.foreach_get("normal", n)
+    return n.reshape(-1, 3)
+
+
 def scan_values(scan):
     attr = scan.data.attributes["illumination"]
     out = np.empty(len(attr.data) * 4, np.float32)
@@ -187,9 +193,40 @@ def test_the_side_probe_changes_no_value_and_saves_rays(monkeypatch):
     got, rays, probe = {}, {}, receive.SIDE_PROBE_SHARE
     for share in (probe, 1.0):   # 1.0: no probe, both sides in full
         monkeypatch.setattr(receive, "SIDE_PROBE_SHARE", share)
-        result = pipeline.compute(bpy.context, [scan], pipeline.Settings())
+        # Every point gathers itself: the cache's records follow which sides are lit.
+        result = pipeline.compute(bpy.context, [scan], pipeline.Settings(gather_cache=0.0))
         got[share], rays[share] = scan_values(scan), result.stats["receivers"]["rays"]
     probed, full = got[probe], got[1.0]
     assert full.max() > 0 and (full == 0).mean() < 0.5
     np.testing.assert_array_equal(probed, full)
     assert rays[probe] < 0.75 * rays[1.0], rays
+
+
+def test_a_dense_scan_shares_its_gathers_and_keeps_its_contact_shadows():
+    """A box on a floor scanned densely (normals given): the irradiance cache gathers in full
+    at a part of the points only, and the values stay those of every point gathering itself,
+    at the box's foot too, where the light changes within centimetres."""
+    white = diffuse("W")
+    floor = plane("Floor", [(-1.5, -1.5, 0), (1.5, -1.5, 0), (1.5, 1.5, 0), (-1.5, 1.5, 0)],
+                  0.03, white)
+    box = closed_box("Box", (-0.4, -0.4, 0.0), (0.4, 0.4, 0.8), 0.03, white)
+    add_lamp("AREA", location=(0.8, -0.6, 2.0), energy=400.0, size=0.5)
+    normals = np.concatenate([vertex_normals(m) for m in (floor, box)])
+    scan = as_scan([floor, box], normals)
+    for mesh in (floor, box):
+        mesh.hide_set(True)
+        mesh.hide_render = True
+    got, stats = {}, {}
+    for a in (0.0, pipeline.Settings().gather_cache):
+        result = pipeline.compute(bpy.context, [scan], pipeline.Settings(gather_cache=a))
+        got[a], stats[a] = scan_values(scan), result.stats["receivers"]
+    full, shared = got[0.0], got[pipeline.Settings().gather_cache]
+    lum = np.array([0.2126, 0.7152, 0.0722])
+    diff = (shared - full) @ lum
+    assert np.sqrt((diff ** 2).mean() / ((full @ lum) ** 2).mean()) < 0.01
+    p = np.concatenate([positions(m) for m in (floor, box)])
+    foot = (p[:, 2] == 0) & (np.abs(p[:, :2]).max(axis=1) > 0.4) & \
+        (np.abs(p[:, :2]).max(axis=1) < 0.5)
+    assert foot.sum() > 50
+    assert np.abs(diff[foot]).max() < 0.05 * (full[foot] @ lum).mean()
+    assert stats[pipeline.Settings().gather_cache]["rays"] < 0.7 * stats[0.0]["rays"], stats

@@ -241,6 +241,9 @@ LIMITS: tuple[Limit, ...] = (
          "size.", f"{_UI}, {_CHECK}, {_BATCH}", soft_high=128),
     _int("gather_rays", 1, MAX_INT32, "rays", "Gather rays per mesh vertex or corner.",
          f"{_UI}, {_CHECK}, {_BATCH}", soft_high=4096),
+    _float("gather_cache", 0.0, 1.0, "", "Irradiance cache accuracy (Ward's a) with which a "
+           "point cloud's points share their final gathers; 0: every point gathers itself.",
+           f"{_UI}, {_CHECK}, {_BATCH}", soft_high=0.5),
     _int("receiver_shadow_samples", 1, MAX_INT32, "rays", "Shadow rays per mesh vertex or "
          "corner for each lamp or emitter with a size.", f"{_UI}, {_CHECK}", soft_high=1024),
     _int("light_triangles", 0, 256, "triangles", "Emissive triangles integrated exactly as "

@@ -313,6 +313,8 @@ class GatherResult:
     radiance: np.ndarray      # (M, 3) mean radiance seen by the rays (incident, irradiance/π)
     stderr: np.ndarray        # (M,) standard error of the luminance of that mean
     rays: int                 # rays cast
+    # (M,) m: harmonic mean distance of the rays' hits, misses infinitely far (inf: no hit)
+    reach: np.ndarray | None = None
 
 
 def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, rays,
@@ -364,7 +366,7 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
 
     front_rest, front_lattice = exact_rows(exact)
     back_rest, back_lattice = exact_rows(back_exact)
-    radiance, stderr = _core.gather(
+    radiance, stderr, reach = _core.gather(
         occluders._scene, field._field, None if back_field is None else back_field._field,
         p, n, ids, rays=int(rays), seed=int(seed), offset=occluders.offset, background=bg,
         two_sided=_sided(occluders, two_sided), rays_per=per,
@@ -372,7 +374,7 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
         owner_back=_owner_rows(occluders, back_owners, "back_owners"), front_rest=front_rest,
         front_lattice=front_lattice, back_rest=back_rest, back_lattice=back_lattice,
         threads=threads, progress=progress)
-    return GatherResult(radiance=radiance, stderr=stderr, rays=count)
+    return GatherResult(radiance=radiance, stderr=stderr, rays=count, reach=reach)
 
 
 #: Neighbours a point's light is compared with by ``remove_specks``.

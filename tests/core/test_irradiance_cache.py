@@ -1,0 +1,119 @@
+"""The irradiance cache (illumap.irradiance_cache): a dense set of receivers gathers in full
+only at records, and every other receiver takes what the valid records say. Here the gather
+is a known field, so what the cache makes of it can be checked exactly: records keep their
+own values, a sloping field is followed to first order, light does not spill across a change
+in the surroundings (the ceiling behind an emitter hung just under it), a record serves only
+its own group, and the cache gathers far fewer points than there are."""
+
+import numpy as np
+import pytest
+
+import illumap
+from illumap.irradiance_cache import DEFAULT_ACCURACY, PROBE_RAYS, cached_gather
+from illumap.receivers import GatherResult
+
+
+def floor(spacing=0.01, size=1.0):
+    """A square floor of points on a grid, facing up."""
+    g = np.arange(0.0, size, spacing)
+    x, y = np.meshgrid(g, g, indexing="ij")
+    p = np.c_[x.ravel(), y.ravel(), np.zeros(x.size)]
+    return p, np.tile([0.0, 0.0, 1.0], (len(p), 1))
+
+
+class Field:
+    """gather_rows over a known field: value(points) (R, 3) and reach(points) (R,) m; counts
+    the rows it was asked for at full rays."""
+
+    def __init__(self, points, value, reach, rays=512):
+        self.points, self.value, self.reach, self.rays = points, value, reach, rays
+        self.full = np.zeros(len(points), dtype=int)
+
+    def __call__(self, rows, rays=None):
+        q = self.points[rows]
+        if rays is None:
+            self.full[rows] += 1
+        k = self.rays if rays is None else rays
+        return GatherResult(radiance=self.value(q), stderr=np.full(len(rows), 1e-3),
+                            rays=len(rows) * k, reach=self.reach(q))
+
+
+def test_records_keep_their_values_and_a_slope_is_followed():
+    p, n = floor()
+    slope = lambda q: np.c_[1.0 + 0.5 * q[:, 0], 1.0 + 0.2 * q[:, 1], np.full(len(q), 0.7)]
+    field = Field(p, slope, lambda q: np.full(len(q), 2.0))
+    got = cached_gather(field, p, n, max_reach=2.0)
+    rec = got.records
+    assert 0 < rec.sum() < 0.1 * len(p)                 # a tenth at most gathered in full
+    assert (field.full[rec] == 1).all() and (field.full[~rec] == 0).all()
+    want = slope(p)
+    np.testing.assert_array_equal(got.radiance[rec], want[rec])
+    # Inside the records' hull the fitted plane is exact; at the rim, where it would
+    # extrapolate, it stays within the records' range.
+    inner = np.all((p[:, :2] > 0.15) & (p[:, :2] < 0.85), axis=1)
+    np.testing.assert_allclose(got.radiance[inner], want[inner], atol=1e-9)
+    assert np.abs(got.radiance - want).max() < 0.05
+    assert got.rays == rec.sum() * 512 + len(p) * PROBE_RAYS
+
+
+def test_light_does_not_spill_where_the_surroundings_change_close_by():
+    """A panel hung just under part of the ceiling: there every ray meets it within a
+    millimetre and sees black; around it the ceiling is lit and its rays reach far."""
+    p, n = floor()
+    n = -n
+    under = lambda q: (q[:, 0] > 0.3) & (q[:, 0] < 0.6) & (q[:, 1] > 0.3) & (q[:, 1] < 0.6)
+    field = Field(p, lambda q: np.where(under(q)[:, None], 0.0, 1.0) * np.ones((len(q), 3)),
+                  lambda q: np.where(under(q), 1e-3, 2.0))
+    got = cached_gather(field, p, n, max_reach=2.0)
+    hidden = under(p)
+    assert (got.radiance[hidden] == 0).all()
+    assert (got.radiance[~hidden] == 1).all()
+    assert got.records[hidden].all()       # each point under the panel gathers itself
+    assert got.records[~hidden].mean() < 0.2
+
+
+def test_records_serve_their_own_group_and_minus_one_gathers_itself():
+    p, n = floor(0.02)
+    group = (np.arange(len(p)) % 3).astype(np.int64) - 1       # -1, 0, 1 interleaved
+    field = Field(p, lambda q: np.ones((len(q), 3)), lambda q: np.full(len(q), 2.0))
+    value = np.where(group[:, None] == 0, 2.0, 5.0) * np.ones((len(p), 3))
+    field.value = lambda q: _lookup(p, value, q)
+    got = cached_gather(field, p, n, max_reach=2.0, groups=group)
+    assert got.records[group == -1].all()
+    np.testing.assert_array_equal(got.radiance, value)
+    assert got.records[group >= 0].mean() < 0.5
+
+
+def _lookup(p, value, q):
+    from illumap import _core
+    idx, _ = _core.knn(p, np.ascontiguousarray(q), 1)
+    return value[np.asarray(idx)[:, 0]]
+
+
+def test_a_finer_accuracy_places_more_records_errs_less_and_repeats():
+    p, n = floor()
+    wave = lambda q: np.c_[1.0 + 0.3 * np.sin(6 * q[:, 0]), np.ones(len(q)), np.ones(len(q))]
+    counts, errors = [], []
+    for a in (0.3, DEFAULT_ACCURACY, 0.05):
+        field = Field(p, wave, lambda q: np.full(len(q), 1.0))
+        first = cached_gather(field, p, n, max_reach=1.0, accuracy=a)
+        again = cached_gather(field, p, n, max_reach=1.0, accuracy=a)
+        np.testing.assert_array_equal(first.radiance, again.radiance)
+        counts.append(first.records.sum())
+        errors.append(np.sqrt(((first.radiance - wave(p)) ** 2).mean()))
+    assert counts[0] < counts[1] < counts[2] < len(p) / 4, counts
+    assert errors[0] > errors[1] > errors[2], errors
+    assert errors[1] < 0.01, errors
+
+
+def test_bad_arguments_are_refused():
+    p, n = floor(0.1)
+    field = Field(p, lambda q: np.ones((len(q), 3)), lambda q: np.ones(len(q)))
+    with pytest.raises(illumap.InputError, match="accuracy"):
+        cached_gather(field, p, n, max_reach=1.0, accuracy=0.0)
+    with pytest.raises(illumap.InputError, match="max_reach"):
+        cached_gather(field, p, n, max_reach=np.inf)
+    with pytest.raises(illumap.InputError, match="groups must have"):
+        cached_gather(field, p, n, max_reach=1.0, groups=np.zeros(3))
+    with pytest.raises(illumap.InputError, match=r"shape \(M, 3\)"):
+        cached_gather(field, p[:, :2], n, max_reach=1.0)
