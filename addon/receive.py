@@ -309,7 +309,8 @@ def _exact_direct(job: Job, occ, sent: np.ndarray, front: np.ndarray, field_,
 
 
 #: A scan of unknown orientation is first lit on both sides with this share of the gather's
-#: rays (at least SIDE_PROBE_MIN_RAYS): most patches' outside is plain from that
+#: rays and of the shadow samples (at least SIDE_PROBE_MIN_RAYS): most patches' outside is
+#: plain from that
 #: (``illumap.receivers.ScanPatches.sides``), and only the other patches take the full gather
 #: on both sides.
 SIDE_PROBE_SHARE = 1 / 16
@@ -324,7 +325,8 @@ def _rows_of(rec, rows: np.ndarray, normals: np.ndarray | None = None):
                    inward=None if rec.inward is None else rec.inward[rows])
 
 
-def _probe_sides(front, back, incident_at, gather_rays: int, lum: np.ndarray) -> tuple:
+def _probe_sides(front, back, incident_at, gather_rays: int, shadow_samples: int,
+                 lum: np.ndarray) -> tuple:
     """Which side of each point of a cloud of unknown orientation faces out, from a probe
     gather of both sides (``front`` and ``back``: the same points, opposite normals).
     Returns (``ScanPatches``, side (P,) bool: True where the front normal faces out,
@@ -339,7 +341,8 @@ def _probe_sides(front, back, incident_at, gather_rays: int, lum: np.ndarray) ->
     ids = np.arange(n, dtype=np.int64)
     incident, gathered, cast, _ = incident_at(
         np.concatenate([front.points, back.points]), np.concatenate([front.normals, back.normals]),
-        np.concatenate([ids, ids]), rays=rays)
+        np.concatenate([ids, ids]), rays=rays,
+        samples=max(SIDE_PROBE_MIN_RAYS, int(shadow_samples * SIDE_PROBE_SHARE)))
     lit_front = front.emission + front.albedo * incident[:n]
     lit_back = back.emission + back.albedo * incident[n:]
     noise_front = (front.albedo @ lum) * gathered.stderr[:n]
@@ -394,14 +397,15 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
                          progress=None if progress is None else
                          (lambda f, _p="": progress(f, "gather")))
 
-    def incident_at(points, normals, ids, meshes=None, rays=gather_rays, shared=None):
+    def incident_at(points, normals, ids, meshes=None, rays=gather_rays, shared=None,
+                    samples=shadow_samples):
         """Incident radiance (M, 3) at receivers, the gather's result, the rays cast and the
         receivers found covered (inside or under another surface: no light). ``shared`` (M,)
         int: receivers of one group (≥ 0) share the gather through an irradiance cache
         (``illumap.irradiance_cache``); -1 or None: each gathers itself."""
         shadows = None
         if all_lamps and s.lamp_shadows:
-            shadows = lamps.Shadows(occ.segment_query(normals), samples=shadow_samples,
+            shadows = lamps.Shadows(occ.segment_query(normals), samples=samples,
                                     seed=s.seed, extent=occ.extent, ids=ids)
         direct = lamps.incident_radiance(all_lamps, points, normals, shadows=shadows)
         if shared is not None and s.gather_cache > 0 and (shared >= 0).any():
@@ -432,7 +436,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
                 batch_ids.append(None)
                 continue
             patches, side, settled, cast = _probe_sides(front, other, incident_at, gather_rays,
-                                                        lum)
+                                                        shadow_samples, lum)
             rays += cast
             done, both = np.flatnonzero(settled), np.flatnonzero(~settled)
             outward = np.where(side[:, None], front.normals, -front.normals)

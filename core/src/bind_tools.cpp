@@ -2,7 +2,10 @@
 // (plane fits, orient_normals) and splat_radii.
 #include "bindings.hpp"
 
+#include <nanobind/stl/vector.h>
+
 #include "knn.hpp"
+#include "lamp_samples.hpp"
 #include "normals.hpp"
 #include "splats.hpp"
 
@@ -103,6 +106,78 @@ nb::ndarray<nb::numpy, double> fitted_normals(nb::handle points, nb::handle neig
 }
 
 }  // namespace
+
+void bind_lamp_samples(nb::module_& m) {
+    m.def("lamp_samples",
+          [](const std::string& kind, nb::handle points, nb::handle normals, nb::handle shifts,
+             std::int64_t k, double far, std::vector<double> position,
+             std::vector<double> direction, std::vector<double> axes, double radius,
+             double angle, bool disk, nb::handle corner, nb::handle edge1, nb::handle edge2,
+             nb::handle normal, nb::handle cumulative, nb::handle power, bool two_sided,
+             int threads, nb::handle progress) {
+              LampShape L;
+              static const std::pair<const char*, LampKind> kinds[] = {
+                  {"WORLD", LampKind::World}, {"SUN", LampKind::Sun}, {"MESH", LampKind::Mesh},
+                  {"AREA", LampKind::Area}, {"POINT", LampKind::Point}, {"SPOT", LampKind::Point}};
+              bool known = false;
+              for (const auto& kv : kinds)
+                  if (kind == kv.first) L.kind = kv.second, known = true;
+              if (!known) throw nb::value_error(("unknown lamp kind '" + kind + "'").c_str());
+              if (position.size() != 3 || direction.size() != 3 || axes.size() != 6)
+                  throw nb::value_error("position and direction need 3 values, axes 6");
+              for (int c = 0; c < 3; ++c) {
+                  L.position[c] = position[c];
+                  L.direction[c] = direction[c];
+                  L.axes[0][c] = axes[c];
+                  L.axes[1][c] = axes[3 + c];
+              }
+              L.radius = radius;
+              L.angle = angle;
+              L.disk = disk;
+              L.two_sided = two_sided;
+              if (k < 1) throw nb::value_error("k must be >= 1");
+              std::size_t m, rows[2];
+              nb::object keep[9];
+              const double* P = view<double>(points, "points", 2, 3, m, keep[0]);
+              const double* N = view<double>(normals, "normals", 2, 3, rows[0], keep[1]);
+              const double* S = view<double>(shifts, "shifts", 2, 2, rows[1], keep[2]);
+              if (rows[0] != m || rows[1] != m)
+                  throw nb::value_error("points, normals and shifts must have the same length");
+              if (L.kind == LampKind::Mesh) {
+                  std::size_t t[6];
+                  L.corner = view<double>(corner, "corner", 2, 3, t[0], keep[3]);
+                  L.edge1 = view<double>(edge1, "edge1", 2, 3, t[1], keep[4]);
+                  L.edge2 = view<double>(edge2, "edge2", 2, 3, t[2], keep[5]);
+                  L.normal = view<double>(normal, "normal", 2, 3, t[3], keep[6]);
+                  L.cumulative = view<double>(cumulative, "cumulative", 1, 0, t[4], keep[7]);
+                  L.power = view<double>(power, "power", 1, 0, t[5], keep[8]);
+                  for (std::size_t x : t)
+                      if (x != t[0]) throw nb::value_error("a mesh lamp's arrays must have one row per triangle");
+                  if (t[0] == 0) throw nb::value_error("a mesh lamp needs triangles");
+                  L.triangles = t[0];
+              }
+              double* data = new double[std::max<std::size_t>(1, m * std::size_t(k) * 3)]();
+              nb::capsule owner(data, [](void* q) noexcept { delete[] static_cast<double*>(q); });
+              nb::ndarray<nb::numpy, double> T(data, {m, std::size_t(k), 3}, owner);
+              double* w;
+              auto W = new_array(m, std::size_t(k), &w);
+              run_released(threads, progress, [&](Context& ctx) {
+                  checkpoint(ctx, 0.0);
+                  lamp_samples(ctx, L, P, N, S, m, std::size_t(k), far, data, w);
+              });
+              return nb::make_tuple(T, W);
+          },
+          nb::arg("kind"), nb::arg("points"), nb::arg("normals"), nb::arg("shifts"),
+          nb::arg("k"), nb::arg("far"), nb::kw_only(), nb::arg("position"), nb::arg("direction"),
+          nb::arg("axes"), nb::arg("radius") = 0.0, nb::arg("angle") = 0.0,
+          nb::arg("disk") = false, nb::arg("corner") = nb::none(), nb::arg("edge1") = nb::none(),
+          nb::arg("edge2") = nb::none(), nb::arg("normal") = nb::none(),
+          nb::arg("cumulative") = nb::none(), nb::arg("power") = nb::none(),
+          nb::arg("two_sided") = false, nb::arg("threads") = 0, nb::arg("progress") = nb::none(),
+          "Shadow-ray targets (M, k, 3) in m on a lamp and their unshadowed weights (M, k) for "
+          "receivers (M, 3) with normals (M, 3), the lattice shifted per receiver by shifts "
+          "(M, 2). See lamp_samples.hpp.");
+}
 
 void bind_point_tools(nb::module_& m) {
     m.def("knn",

@@ -338,4 +338,5 @@ NB_MODULE(_core, m) {
     bind_gather(m);
     bind_kernel(m);
     bind_point_tools(m);
+    bind_lamp_samples(m);
 }

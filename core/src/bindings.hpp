@@ -198,6 +198,7 @@ void bind_mesh_scene(nb::module_& m);      // MeshScene           (bindings.cpp)
 void bind_surfel_field(nb::module_& m);    // SurfelField         (bindings.cpp)
 void bind_gather(nb::module_& m);          // cosine_directions, gather (bindings.cpp)
 void bind_kernel(nb::module_& m);          // _kernel_derivatives (bind_tools.cpp)
+void bind_lamp_samples(nb::module_& m);    // lamp_samples (bind_tools.cpp)
 void bind_point_tools(nb::module_& m);     // knn, normals, splat_radii (bind_tools.cpp)
 
 }  // namespace illumap::bindings

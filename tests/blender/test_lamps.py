@@ -272,3 +272,39 @@ def test_a_probe_settles_the_points_that_see_all_or_none_of_a_lamp():
     np.testing.assert_array_equal(got[~penumbra], want[~penumbra])
     assert full.rays == 61 * k
     assert probed.rays == 61 * lamps.PROBE_SAMPLES + penumbra.sum() * k
+
+
+def _sample_lamps():
+    rng = np.random.default_rng(5)
+    tri = rng.uniform(-1, 1, (7, 3, 3)) + [0.0, 0.0, 3.0]
+    down = np.array([0.0, 0.0, -1.0])
+    axes = np.array([[0.6, 0.0, 0.0], [0.0, 0.3, 0.1]])
+    yield lamps.Lamp("P", "POINT", np.ones(3), np.array([0.5, -0.2, 2.0]), down, radius=0.25)
+    yield lamps.Lamp("Spot", "SPOT", np.ones(3), np.array([0.1, 0.2, 2.5]), down, radius=0.1)
+    yield lamps.Lamp("Sun", "SUN", np.ones(3), np.zeros(3), np.array([0.3, 0.2, -0.93]),
+                     angle=0.3)
+    yield lamps.Lamp("World", "WORLD", np.ones(3), np.zeros(3), down)
+    for shape in ("RECTANGLE", "DISK"):
+        yield lamps.Lamp(shape, "AREA", np.ones(3), np.array([0.0, 0.0, 2.0]), down,
+                         shape=shape, axes=axes)
+    for both in (False, True):
+        yield lamps.Lamp(f"Mesh{both}", "MESH", np.ones(3), np.zeros(3), down, triangles=tri,
+                         radiance=rng.uniform(0.1, 2.0, (7, 3)), two_sided=both)
+
+
+@pytest.mark.parametrize("lamp", list(_sample_lamps()), ids=lambda lamp: lamp.name)
+def test_the_native_lamp_samples_are_the_numpy_formulation(lamp):
+    """lamps._lamp_samples runs natively; the whole-array numpy formulation it replaced
+    (numpy_lamp_samples) gives the same targets and weights, for every lamp kind."""
+    from numpy_lamp_samples import lamp_samples
+    rng = np.random.default_rng(11)
+    p = rng.uniform(-2, 2, (500, 3)) * [1, 1, 0.3]
+    n = rng.normal(size=(500, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    shifts = lamps.row_shifts(3, 77, np.arange(500))
+    for k in (1, 7, 32):
+        got = lamps._lamp_samples(lamp, p, n, k, shifts, 40.0)
+        want = lamp_samples(lamp, p, n, k, shifts, 40.0)
+        np.testing.assert_allclose(got[0], want[0], rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(got[1], want[1], rtol=1e-9, atol=1e-300)
+        assert got[1].max() > 0
