@@ -456,6 +456,20 @@ def _basis(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return u, np.cross(d, u)
 
 
+def mesh_lamp_triangles(lamp: Lamp) -> dict[str, np.ndarray]:
+    """A 'MESH' lamp's triangles as its samples use them: each one's first corner, edges
+    (m), unit normal, the cumulative share of the area (T,) and the power (luminance of its
+    radiance, T)."""
+    tri = lamp.triangles
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    nrm = np.cross(e1, e2)
+    area = 0.5 * np.linalg.norm(nrm, axis=1)
+    nrm /= np.maximum(2 * area[:, None], 1e-300)
+    return dict(corner=tri[:, 0], edge1=e1, edge2=e2, normal=nrm,
+                cumulative=np.cumsum(area) / area.sum(),
+                power=lamp.radiance @ LUMINANCE_WEIGHTS + 1e-12)
+
+
 def _lamp_samples(lamp: Lamp, p: np.ndarray, n: np.ndarray, k: int, shifts: np.ndarray,
                   far: float) -> tuple[np.ndarray, np.ndarray]:
     """Sample points (M, k, 3) on ``lamp`` seen from receivers p (M, 3) and each sample's
@@ -471,16 +485,8 @@ def _lamp_samples(lamp: Lamp, p: np.ndarray, n: np.ndarray, k: int, shifts: np.n
     from illumap import _core
     mesh = {}
     if lamp.kind == "MESH":
-        tri = lamp.triangles
-        e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-        nrm = np.cross(e1, e2)
-        area = 0.5 * np.linalg.norm(nrm, axis=1)
-        nrm /= np.maximum(2 * area[:, None], 1e-300)
-        mesh = dict(corner=np.ascontiguousarray(tri[:, 0]), edge1=np.ascontiguousarray(e1),
-                    edge2=np.ascontiguousarray(e2), normal=np.ascontiguousarray(nrm),
-                    cumulative=np.cumsum(area) / area.sum(),
-                    power=np.ascontiguousarray(lamp.radiance @ LUMINANCE_WEIGHTS + 1e-12),
-                    two_sided=bool(lamp.two_sided))
+        mesh = {name: np.ascontiguousarray(a) for name, a in mesh_lamp_triangles(lamp).items()}
+        mesh["two_sided"] = bool(lamp.two_sided)
     axes = np.zeros(6) if lamp.axes is None else np.asarray(lamp.axes, dtype=np.float64).reshape(6)
     pts, weight = _core.lamp_samples(
         lamp.kind, np.ascontiguousarray(p, dtype=np.float64),

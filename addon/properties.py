@@ -271,9 +271,8 @@ class IllumapSettings(bpy.types.PropertyGroup):
         name="Gather Cache", default=_DEFAULTS["gather_cache"], **field_bounds("gather_cache"),
         update=_field_update,
         description="A point cloud's points share their final gathers through an irradiance "
-                    "cache of this accuracy (Ward's a): smaller gathers at more points; at 0.15 "
-                    "the values are as close to the light as every point's own gather; 0: "
-                    "every point gathers itself")
+                    "cache of this accuracy (Ward's a): smaller gathers at more points; 0: every "
+                    "point gathers itself")
     receiver_shadow_samples: IntProperty(
         name="Receiver Shadow Samples", default=_DEFAULTS["receiver_shadow_samples"],
         **field_bounds("receiver_shadow_samples"), update=_field_update,

@@ -103,15 +103,14 @@ void plane_normals(Context& ctx, const double* points, std::size_t n,
                    double* out) {
     ctx.set_phase("normals", 0.0, 1.0);
     parallel_for(ctx, n, kFitGrain, [&](std::size_t b, std::size_t e) {
-        std::vector<double> off(3 * k), length(k);
-        std::vector<unsigned char> keep(k), all(k, 1);
         const std::size_t m = k > 0 ? k - 1 : 0;   // neighbours other than the first column
+        std::vector<double> off(3 * k), length(m);
+        std::vector<unsigned char> keep(k), all(k, 1);
         for (std::size_t i = b; i < e; ++i) {
             offsets_of(points, n, neighbours + i * k, k, i, off.data());
             const double* nb = off.data() + 3;
             for (std::size_t j = 0; j < m; ++j) length[j] = std::sqrt(dot3(nb + 3 * j, nb + 3 * j));
-            std::vector<double> sorted(length.begin(), length.begin() + m);
-            const double scale = median(sorted);
+            const double scale = median(length);   // reorders `length`: only its median is used
             const double tol = options.inlier * scale;
             const double floor = 1e-6 * std::max(scale, 1e-300) * std::max(scale, 1e-300);
             const double norm = std::max(tol * double(m), 1e-300);

@@ -4,7 +4,7 @@ it."""
 
 import numpy as np
 
-from addon.lamps import Lamp, _basis, _disc
+from addon.lamps import Lamp, _basis, _disc, mesh_lamp_triangles
 from illumap.refinement import LUMINANCE_WEIGHTS
 
 
@@ -38,12 +38,10 @@ def lamp_samples(lamp: Lamp, p: np.ndarray, n: np.ndarray, k: int, shifts: np.nd
         weight = np.maximum(np.einsum("mkc,mc->mk", dirs, n), 0.0)
         return p[:, None, :] + far * dirs, weight
     if lamp.kind == "MESH":
+        # The triangles' set-up is the add-on's; the sampling below is the reference.
+        mesh = mesh_lamp_triangles(lamp)
         tri = lamp.triangles
-        e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-        nrm = np.cross(e1, e2)
-        area = 0.5 * np.linalg.norm(nrm, axis=1)
-        nrm /= np.maximum(2 * area[:, None], 1e-300)
-        cum = np.cumsum(area) / area.sum()
+        e1, e2, nrm, cum = mesh["edge1"], mesh["edge2"], mesh["normal"], mesh["cumulative"]
         # The first coordinate picks a triangle by area (stratified) and, rescaled inside its
         # interval, places the sample in it with the second (uniform square-root map).
         t = np.minimum(np.searchsorted(cum, uv[..., 0], side="right"), len(tri) - 1)
