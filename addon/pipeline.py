@@ -302,9 +302,10 @@ def adaptive_error_ratio_applies(settings: Settings) -> bool:
 #: With the light evaluated at the meshes (``receive``), the surfels only carry the indirect
 #: light, a fraction of what a receiver sees, and the final gather averages their error over
 #: its rays: the surfels are solved to this multiple of the target error, at most
-#: MAX_SURFEL_TARGET (bench/reference, the Cornell box against its 2048-sample Cycles bake:
-#: surfels held to 0.1 gave 2.0% at the vertices, held to 0.03 gave 1.3%).
-RECEIVER_TARGET_RATIO = 3.0
+#: MAX_SURFEL_TARGET. bench/reference, every scene against its Cycles bake (one run,
+#: 2026-12-06): at 5 each target was met with room to spare (10%: 1.4-4.6%, 3%: 0.8-2.0%,
+#: 1%: 0.39-0.75%) in about half the time it took at 3 (3%: 0.35-0.62 s instead of 0.73-1.25 s).
+RECEIVER_TARGET_RATIO = 5.0
 MAX_SURFEL_TARGET = 0.3
 
 
@@ -791,9 +792,12 @@ def run(job: Job, progress: Progress | None = None) -> Result:
             raise IllumapError(f"Target error must lie in (0, 1), got {s.target_error}", ExitCode.USAGE)
         from illumap import accuracy
         solve = accuracy.solve
-        # Should the error model choose exact visibility, its occluders are the shadows' too.
+        # Surfels always see each other past occluders: the error model's occlusion probe
+        # measures how much skipping visibility would cost, which does not prove a scene needs
+        # none (an open scene's sphere read 2% bright at Target 3%). The occluders are the
+        # shadows' own.
         kwargs = dict(target_error=surfel_target(s), progress=progress, near_field=s.near_field,
-                      coverage=SURFEL_COVERAGE)
+                      coverage=SURFEL_COVERAGE, probe=False)
         if triangles_occlude(job):
             kwargs["occluder_triangles"] = job.triangles   # as without a target (below)
         chosen = job.accuracy or {}

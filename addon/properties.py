@@ -37,9 +37,8 @@ def field_bounds(name: str) -> dict:
 
 
 DEFAULT_PRESET = "MEDIUM"
-_DEFAULTS = dict(density=100.0, budget=10_000, order=4, theta=0.5, visibility="EXACT",
-                 tol=1e-4, gather_rays=512, gather_cache=0.15, receiver_shadow_samples=128)
-_DEFAULTS.update(PRESET_PROPERTY_VALUES.get(DEFAULT_PRESET, {}))
+#: The fields' defaults: the default preset's values, and the two fields no preset sets.
+_DEFAULTS = dict(density=100.0, gather_cache=0.15, **PRESET_PROPERTY_VALUES[DEFAULT_PRESET])
 
 PRESET_ITEMS = [
     ("DRAFT", "Draft", "Few surfels, low FMM order, loose tolerance: quick look"),

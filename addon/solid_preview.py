@@ -147,7 +147,9 @@ def recorded_meshes(blend_data) -> list:
 
 def is_on(blend_data) -> bool:
     """Whether Solid Preview is on anywhere in the file: a mesh or a screen carries a record."""
-    return bool(recorded_meshes(blend_data)) or any(SCREEN_RECORD in s for s in blend_data.screens)
+    # Drawn with the panel on every redraw: the few screens first, and no list of meshes.
+    return (any(SCREEN_RECORD in s for s in blend_data.screens)
+            or any(RECORD in m for m in blend_data.meshes))
 
 
 def disable(blend_data) -> int:

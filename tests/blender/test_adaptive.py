@@ -262,3 +262,57 @@ def test_one_uniform_pass_where_the_models_predict_it_faster():
                               pipeline.Settings(transfer=False, target_error=target, lamp_shadows=False,
                                                 adaptive_first_pass=0.4))
     assert custom.refine is not None
+
+
+def test_the_target_sets_the_rays_per_receiver():
+    """With a target error the gather's rays follow from it (noise ∝ 1/√rays, held to half the
+    target), a quarter of them shadow samples: fewer for a looser target, never below
+    MIN_TARGET_RAYS, and what the statistics report is what was cast."""
+    from addon import receive
+    targets = (0.3, 0.1, 0.05, 0.03, 0.02, 0.01, 0.003)
+    rays = [receive.receiver_rays(pipeline.Settings(target_error=t)) for t in targets]
+    gathers = [g for g, _ in rays]
+    assert gathers == sorted(gathers) and gathers[0] < gathers[-1]
+    assert all(s == g // 4 for g, s in rays)
+    assert min(gathers) == receive.MIN_TARGET_RAYS and max(gathers) == receive.MAX_TARGET_RAYS
+    for t, g in zip(targets, gathers):
+        predicted = receive.NOISE_AT_512_RAYS * math.sqrt(512 / g)
+        assert g == receive.MAX_TARGET_RAYS or predicted <= receive.GATHER_NOISE_SHARE * t + 1e-12
+    assert receive.receiver_rays(pipeline.Settings()) == (512, 128)   # no target: the settings'
+    objects = spot_scene()
+    for target in (0.1, 0.02):
+        result = pipeline.compute(bpy.context, objects, pipeline.Settings(target_error=target))
+        got = result.stats["receivers"]
+        assert (got["gather_rays"], got["shadow_samples"]) == receive.receiver_rays(
+            pipeline.Settings(target_error=target))
+
+
+def test_the_target_never_skips_visibility(monkeypatch):
+    """The error model may find that skipping visibility would stay within the surfels' share
+    of the target; that does not prove the scene needs none, so the add-on solves with exact
+    visibility and never asks (even where the probe would report an unoccluded scene)."""
+    from illumap.accuracy import choice
+    asked = []
+
+    def unoccluded(*args, **kwargs):
+        asked.append(True)
+        return dict(error_none=0.0, surfels=200, seconds=0.0)
+    monkeypatch.setattr(choice, "occlusion_probe", unoccluded)
+    monkeypatch.setattr(choice, "PROBE_WORTH", 0.0)
+    objects = spot_scene()
+    box = bpy.data.objects.new("Box", bpy.data.meshes.new("Box"))
+    link(box)
+    import bmesh
+    bm = bmesh.new()
+    bmesh.ops.create_cube(bm, size=0.4)
+    bm.to_mesh(box.data)
+    bm.free()
+    box.location = (0.3, 0.0, 0.2)
+    box.data.materials.append(diffuse_material("B", (0.5,) * 3))
+    bpy.context.view_layer.update()
+    for adaptive in (False, True):
+        result = pipeline.compute(bpy.context, objects + [box],
+                                  pipeline.Settings(target_error=0.1, adaptive=adaptive))
+        assert result.stats["accuracy"]["settings"]["visibility"] == "exact"
+        assert result.stats["accuracy"]["settings"]["probe"] is None
+    assert not asked

@@ -874,3 +874,4 @@ def test_scene_defaults_match_the_pipeline_defaults(registered_addon):
                  "lamp_shadows", "shadow_samples", "adaptive", "target_error",
                  "world_ambient", "transfer", "transfer_domain", "seed", "method"):
         assert getattr(settings, name) == getattr(defaults, name), name
+    assert settings.gather_cache == pytest.approx(defaults.gather_cache, rel=1e-6)   # float32

@@ -10,15 +10,16 @@ from .estimate import estimate_error
 
 def solve(surfels: Surfels, target_error, *, kind: str | None = None, allow_direct: bool = True,
           estimate: bool = True, coarse: bool = False, settings: dict | None = None,
-          discretization_scale: float = 1.0, progress=None, **overrides):
+          discretization_scale: float = 1.0, probe="auto", progress=None, **overrides):
     """Choose settings for ``target_error`` (or use ``settings``, a :func:`choose_settings`
     result) and solve ``surfels``; ``stats["accuracy"]`` holds the chosen settings, the solve
     keywords and (``estimate=True``) the a-posteriori estimate. ``discretization_scale``: as
     in :func:`choose_settings` (ADAPTIVE_ERROR_RATIO for the second pass of an adaptive
-    sampling). ``overrides`` replace chosen solve keywords (e.g. ``solver="jacobi"``)."""
+    sampling). ``probe``: as in :func:`choose_settings` (False: never ``visibility="none"``).
+    ``overrides`` replace chosen solve keywords (e.g. ``solver="jacobi"``)."""
     chosen = settings if settings is not None else choose_settings(
         surfels, target_error, kind=kind, allow_direct=allow_direct,
-        discretization_scale=discretization_scale)
+        discretization_scale=discretization_scale, probe=probe)
     kw = solve_keywords(chosen)
     kw.update(overrides)
     sol = _solve(surfels, progress=progress, keep_operator=estimate, **kw)
