@@ -387,7 +387,8 @@ def _report(frame: int, result: pipeline.Result, out) -> None:
     if receivers:
         print(f"  receivers        {receivers['corners']} corners, {receivers['rays']} rays "
               f"({receivers['gather_rays']} gather rays each; gather noise "
-              f"{receivers['gather_noise']:.2%}, indirect share {receivers['indirect_share']:.0%}"
+              f"{receivers['gather_noise']:.2%}, indirect share {receivers['indirect_share']:.0%}, "
+              f"from the surfels {receivers.get('surfel_share', 0.0):.0%}"
               + (f"; estimated error at the meshes {receivers['estimate']:.2%}"
                  if "estimate" in receivers else "") + ")", file=out)
     accuracy = result.stats.get("accuracy")

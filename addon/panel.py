@@ -127,7 +127,7 @@ def draw_stats(layout, context):
         col.label(text=f"Chosen: {stats.chosen_settings}")
     if stats.estimated_error_at_objects > 0:
         # What a user compares: the light on their objects (the surfels' part shrinks by the
-        # indirect share there).
+        # share of it gathered from them).
         col.label(text=f"Estimated error at the objects: {stats.estimated_error_at_objects:.1%}")
     if stats.estimated_error > 0:
         col.label(text=f"Estimated error of the surfels: {stats.estimated_error:.1%}")

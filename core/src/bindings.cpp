@@ -246,10 +246,11 @@ void bind_gather(nb::module_& m) {
               opt.seed = seed;
               opt.offset = offset;
               for (int c = 0; c < 3; ++c) opt.background[c] = BG[c];
-              double *out, *err, *reach;
+              double *out, *err, *reach, *open;
               auto a1 = new_array(m, 3, &out);
               auto a2 = new_array(m, 0, &err);
               auto a3 = new_array(m, 0, &reach);
+              auto a4 = new_array(m, 0, &open);
               run_released(threads, progress, [&](Context& ctx) {
                   ctx.set_phase("gather", 0.0, 1.0);
                   checkpoint(ctx, 0.0);
@@ -258,9 +259,9 @@ void bind_gather(nb::module_& m) {
                          own_front.empty() ? nullptr : own_front.data(),
                          own_back.empty() ? nullptr : own_back.data(),
                          ex_front.lattice ? &ex_front : nullptr, ex_back.lattice ? &ex_back : nullptr,
-                         reach);
+                         reach, open);
               });
-              return nb::make_tuple(a1, a2, a3);
+              return nb::make_tuple(a1, a2, a3, a4);
           },
           nb::arg("scene"), nb::arg("front"), nb::arg("back").none(), nb::arg("positions"),
           nb::arg("normals"), nb::arg("ids"), nb::kw_only(), nb::arg("rays"), nb::arg("seed") = 0,
@@ -271,7 +272,8 @@ void bind_gather(nb::module_& m) {
           nb::arg("back_rest").none() = nb::none(), nb::arg("back_lattice").none() = nb::none(),
           nb::arg("threads") = 0,
           nb::arg("progress") = nb::none(),
-          "Final gather: (mean radiance (M, 3), standard error of its luminance (M,)).");
+          "Final gather: (mean radiance (M, 3), standard error of its luminance (M,), reach (M,) m, "
+          "share of the rays that hit nothing (M,)).");
 
     m.def("gather_lattices",
           [](PyMeshScene& scene, PySurfelField& front, nb::handle back, nb::handle two_sided,

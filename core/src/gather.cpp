@@ -295,7 +295,8 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
             const GatherOptions& opt, double* out, double* stderr_out,
             const std::uint8_t* two_sided, const std::int32_t* rays_per,
             const std::int64_t* owner_front, const std::int64_t* owner_back,
-            const ExactPart* front_exact, const ExactPart* back_exact, double* reach_out) {
+            const ExactPart* front_exact, const ExactPart* back_exact, double* reach_out,
+            double* open_out) {
     std::size_t K_max = std::size_t(std::max(1, opt.rays));
     if (rays_per)
         for (std::size_t i = 0; i < m; ++i)
@@ -333,9 +334,12 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
             scene.intersect_serial(org.data(), dir.data(), K, HUGE_VAL, prim.data(), dist.data(),
                                    face.data(), uv.data());
             double sum[3] = {0, 0, 0}, lum = 0, lum2 = 0, nearness = 0;
+            std::size_t misses = 0;
             for (std::size_t k = 0; k < K; ++k) {
                 double v[3] = {opt.background[0], opt.background[1], opt.background[2]};
-                if (prim[k] >= 0) {
+                if (prim[k] < 0) {
+                    ++misses;
+                } else {
                     const std::size_t t = std::size_t(prim[k]);
                     nearness += 1.0 / std::max(dist[k] + opt.offset, 1e-300);
                     const SurfelField* field = face[k] ? &front : back;
@@ -367,6 +371,7 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
             const double var = std::max(0.0, lum2 / double(K) - mean * mean);
             stderr_out[i] = std::sqrt(var / double(K));
             if (reach_out) reach_out[i] = nearness > 0 ? double(K) / nearness : HUGE_VAL;
+            if (open_out) open_out[i] = double(misses) / double(K);
         }
     });
 }

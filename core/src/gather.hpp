@@ -81,6 +81,7 @@ void gather_lattices(const MeshScene& scene, const SurfelField& front, const Sur
 // reach_out (m, may be null): the harmonic mean of the rays' hit distances, misses counted as
 // infinitely far (m; infinite when nothing is hit): how near the surroundings that shape the
 // receiver's indirect light are (an irradiance cache's validity radius).
+// open_out (m, may be null): the share of the rays that hit nothing and take the background.
 // two_sided (one flag per triangle, may be null: all): which triangles' back faces take the
 // back field; the others' back faces are black.
 // rays_per (m entries, may be null: opt.rays each) gives each receiver its own ray count.
@@ -93,6 +94,6 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
             const std::uint8_t* two_sided = nullptr, const std::int32_t* rays_per = nullptr,
             const std::int64_t* owner_front = nullptr, const std::int64_t* owner_back = nullptr,
             const ExactPart* front_exact = nullptr, const ExactPart* back_exact = nullptr,
-            double* reach_out = nullptr);
+            double* reach_out = nullptr, double* open_out = nullptr);
 
 }  // namespace illumap

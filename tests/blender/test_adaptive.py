@@ -223,8 +223,8 @@ def test_adaptive_pass_one_solves_with_the_final_counts_settings():
 
 def test_the_estimate_at_the_objects_is_what_the_panel_shows_first():
     """With Transfer, the light on the objects has its own estimate (the surfels' error by
-    the indirect share, with the gather's noise), recorded for the panel beside the
-    surfels'."""
+    the share of the light gathered from them, with the gather's noise), recorded for the
+    panel beside the surfels'."""
     objects = spot_scene()
     result = pipeline.compute(bpy.context, objects, pipeline.Settings(target_error=0.1))
     from addon import operators
@@ -232,7 +232,8 @@ def test_the_estimate_at_the_objects_is_what_the_panel_shows_first():
     operators.record_stats(stats, result, 1.0)
     surfels = result.stats["accuracy"]["estimate"]["total"]
     at_objects = result.stats["receivers"]["estimate"]
-    share = result.stats["receivers"]["indirect_share"]
+    share = result.stats["receivers"]["surfel_share"]
+    assert share == pytest.approx(result.stats["receivers"]["indirect_share"], rel=1e-9)  # no sky
     noise = result.stats["receivers"]["gather_noise"]
     assert 0 < at_objects == pytest.approx(np.hypot(noise, share * surfels), rel=1e-9)
     assert stats.estimated_error == pytest.approx(surfels, rel=1e-5)

@@ -92,10 +92,14 @@ def test_world_light_is_shadowed_at_the_surfels():
 
 @requires_core
 def test_world_light_reaches_the_meshes_through_the_gather():
-    """One upward floor under the sky, nothing else: every corner reads albedo × sky."""
+    """One upward floor under the sky, nothing else: every corner reads albedo × sky, all of
+    it gathered and none of it from the surfels (what the estimate at the objects weighs
+    the surfels' error by)."""
     set_world()
     floor = make_plane("Floor", size=1.0, material=diffuse_material("D", (ALBEDO,) * 3))
-    pipeline.compute(bpy.context, [floor], pipeline.Settings(budget=500, lamps=False))
+    result = pipeline.compute(bpy.context, [floor], pipeline.Settings(budget=500, lamps=False))
+    assert result.stats["receivers"]["indirect_share"] == pytest.approx(1.0, rel=1e-9)
+    assert result.stats["receivers"]["surfel_share"] == pytest.approx(0.0, abs=1e-12)
     rgba = np.empty(len(floor.data.loops) * 4, np.float32)
     attr = floor.data.color_attributes["illumination"]
     attr.data.foreach_get("color", rgba)

@@ -35,7 +35,7 @@ class Field:
             self.full[rows] += 1
         k = self.rays if rays is None else rays
         return GatherResult(radiance=self.value(q), stderr=np.full(len(rows), 1e-3),
-                            rays=len(rows) * k, reach=self.reach(q))
+                            rays=len(rows) * k, reach=self.reach(q), open=0.5 * q[:, 0])
 
 
 def test_records_keep_their_values_and_a_slope_is_followed():
@@ -54,6 +54,9 @@ def test_records_keep_their_values_and_a_slope_is_followed():
     np.testing.assert_allclose(got.radiance[inner], want[inner], atol=1e-9)
     assert np.abs(got.radiance - want).max() < 0.05
     assert got.rays == rec.sum() * 512 + len(p) * PROBE_RAYS
+    # the share of rays that leave: the records' own, a weighted mean of theirs elsewhere
+    np.testing.assert_array_equal(got.open[rec], 0.5 * p[rec, 0])
+    assert np.abs(got.open - 0.5 * p[:, 0]).max() < 0.1
 
 
 def test_light_does_not_spill_where_the_surroundings_change_close_by():

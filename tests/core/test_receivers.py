@@ -128,6 +128,25 @@ def test_gather_background_for_rays_that_leave():
     g = rc.gather(occ, field, p, np.array([[0.0, 0.0, -1.0]]), rays=64, background=[0.5, 0.25, 1.0])
     np.testing.assert_allclose(g.radiance[0], [0.5, 0.25, 1.0])
     assert g.stderr[0] < 1e-6
+    assert g.open[0] == 1.0
+
+
+def test_the_gathers_open_share_is_the_backgrounds_part():
+    """``open``: the share of a receiver's rays that hit nothing, so that its radiance is
+    open × background plus what the surfels send (which the same gather without a background
+    gives)."""
+    square = grid_square(1.0, 8)
+    occ = rc.MeshOccluders(square)
+    field = surfels_on(square, value=0.3)
+    p = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.9], [0.0, 0.0, 2.0]])   # the last above it
+    n = np.tile([0.0, 0.0, 1.0], (3, 1))
+    bg = np.array([0.5, 0.25, 1.0])
+    lit = rc.gather(occ, field, p, n, rays=1024, background=bg)
+    dark = rc.gather(occ, field, p, n, rays=1024)
+    assert 0.0 < lit.open[1] < lit.open[0] < 1.0 and lit.open[2] == 1.0   # nearer: less sky
+    np.testing.assert_allclose(lit.open, dark.open)
+    np.testing.assert_allclose(lit.radiance, dark.radiance + lit.open[:, None] * bg, rtol=1e-12)
+    assert abs((1.0 - lit.open[0]) - SQUARE_FORM_FACTOR) < 0.03     # the square's form factor
 
 
 def test_gather_inside_a_closed_box_is_a_furnace():

@@ -64,6 +64,7 @@ class CachedGather:
     stderr: np.ndarray        # (M,) standard error of its luminance (records': their mean's)
     rays: int                 # rays cast
     records: np.ndarray       # (M,) bool: receivers that gathered themselves
+    open: np.ndarray | None = None   # (M,) share of rays that hit nothing (records': their mean)
 
 
 def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
@@ -89,7 +90,7 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
              else np.ascontiguousarray(groups, dtype=np.int64).reshape(-1))
     if len(group) != m:
         raise InputError(f"groups must have {m} entries, got {len(group)}")
-    radiance, stderr = np.zeros((m, 3)), np.zeros(m)
+    radiance, stderr, sky = np.zeros((m, 3)), np.zeros(m), np.zeros(m)
     reach = np.full(m, max_reach)
     record = group < 0
     covered = np.zeros(m, dtype=bool)
@@ -111,6 +112,7 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
         if len(rows):
             g = gather_rows(rows)
             radiance[rows], stderr[rows] = g.radiance, g.stderr
+            sky[rows] = _open(g)
             reach[rows] = own[rows] = _bounded(g.reach, max_reach)
             rays += int(g.rays)
             record[rows] = True
@@ -129,13 +131,20 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
         if len(lost):
             g = gather_rows(lost)
             radiance[lost], stderr[lost] = g.radiance, g.stderr
+            sky[lost] = _open(g)
             rays += int(g.rays)
             record[lost] = True
         keep = total > 0
         rest, idx, w, total = rest[keep], idx[keep], w[keep], total[keep]
         radiance[rest] = _fitted(p[rest], n[rest], p[idx], w, radiance[idx])
         stderr[rest] = np.sqrt(np.einsum("rk,rk->r", w * w, stderr[idx] ** 2)) / total
-    return CachedGather(radiance=radiance, stderr=stderr, rays=rays, records=record)
+        sky[rest] = np.einsum("rk,rk->r", w, sky[idx]) / total
+    return CachedGather(radiance=radiance, stderr=stderr, rays=rays, records=record, open=sky)
+
+
+def _open(g: GatherResult) -> np.ndarray | float:
+    """A gather's share of rays that hit nothing (0 where it does not say)."""
+    return 0.0 if g.open is None else g.open
 
 
 def _fitted(q: np.ndarray, nq: np.ndarray, at: np.ndarray, w: np.ndarray,

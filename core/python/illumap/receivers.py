@@ -315,6 +315,9 @@ class GatherResult:
     rays: int                 # rays cast
     # (M,) m: harmonic mean distance of the rays' hits, misses infinitely far (inf: no hit)
     reach: np.ndarray | None = None
+    # (M,) share of the rays that hit nothing: the background's part of ``radiance`` is
+    # ``open × background``, the rest is the surfels'
+    open: np.ndarray | None = None
 
 
 def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, rays,
@@ -366,7 +369,7 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
 
     front_rest, front_lattice = exact_rows(exact)
     back_rest, back_lattice = exact_rows(back_exact)
-    radiance, stderr, reach = _core.gather(
+    radiance, stderr, reach, open_ = _core.gather(
         occluders._scene, field._field, None if back_field is None else back_field._field,
         p, n, ids, rays=int(rays), seed=int(seed), offset=occluders.offset, background=bg,
         two_sided=_sided(occluders, two_sided), rays_per=per,
@@ -374,7 +377,7 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
         owner_back=_owner_rows(occluders, back_owners, "back_owners"), front_rest=front_rest,
         front_lattice=front_lattice, back_rest=back_rest, back_lattice=back_lattice,
         threads=threads, progress=progress)
-    return GatherResult(radiance=radiance, stderr=stderr, rays=count, reach=reach)
+    return GatherResult(radiance=radiance, stderr=stderr, rays=count, reach=reach, open=open_)
 
 
 #: Neighbours a point's light is compared with by ``remove_specks``.
