@@ -277,6 +277,9 @@ class ComputeTask:
 
     def _target(self):
         try:
+            build = getattr(self.job, "build", None)   # a scene as read (``UnbuiltJob``)
+            if callable(build):
+                self.job = build(self.progress)
             self.result = self._run(self.job, self.progress)
         except BaseException as error:  # reported on the main thread
             self.error = error
@@ -487,7 +490,10 @@ class ILLUMAP_OT_compute_illumination_map(bpy.types.Operator):
             # Transfer targets and export paths are checked before the scene is read (the
             # write checks them again: the user may change the scene while the run is going).
             output.check_targets(objects, settings)
-            job = _pipeline().prepare(context.evaluated_depsgraph_get(), objects, settings)
+            # Read on the main thread; the splats and ray-casting structure are built on the
+            # worker (a 486k-point scan: 8.6-9.0 s on the main thread before, 2.5-2.7 s after).
+            job = _pipeline().prepare(context.evaluated_depsgraph_get(), objects, settings,
+                                      build=False)
         except Exception as error:
             self.report({"ERROR"}, f"Illumap could not prepare the scene: {error_message(error)}")
             return {"CANCELLED"}

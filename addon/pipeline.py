@@ -363,21 +363,24 @@ def target_density(settings: Settings, mesh_area: float, point_count: int, point
     return density, chosen
 
 
-def prepare(depsgraph, objects, settings: Settings) -> Job:
+def prepare(depsgraph, objects, settings: Settings, *, build: bool = True) -> "Job | UnbuiltJob":
     """Read the scene on the main thread and build the job (``_prepare``), with any mesh
-    preview of the objects switched off while their materials are read."""
+    preview of the objects switched off while their materials are read. ``build=False``:
+    the scene as read (``UnbuiltJob``), for ``run`` to build on a worker thread."""
     import bpy
 
     from . import mesh_preview
     checks.check_settings(settings)   # refused before anything is read
     objects = list(objects)
     with mesh_preview.suspended(objects, bpy.context.view_layer):
-        return _prepare(depsgraph, objects, settings)
+        unbuilt = _prepare(depsgraph, objects, settings)
+    return unbuilt.build() if build else unbuilt
 
 
-def _prepare(depsgraph, objects, settings: Settings) -> Job:
-    """Read the scene on the main thread and build the job (surfels, materials, lamps; the
-    direct light is ``run``'s first phase, ``light``).
+def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
+    """Read the scene on the main thread (surfels, materials, lamps, receivers), to be built
+    into the job by ``UnbuiltJob.build`` (the direct light is ``run``'s first phase,
+    ``light``).
 
     With a target error and ``settings.adaptive``, this is pass 1 (a fraction of the surfels,
     uniform); ``next_pass`` builds pass 2 from its result.
@@ -456,29 +459,71 @@ def _prepare(depsgraph, objects, settings: Settings) -> Job:
         first = np.maximum(np.rint(counts * fraction).astype(np.int64), 1)
     lights = emitters.mesh_lights(tri_meshes, warnings)
     samples = [sampling.sample_mesh(tm, int(n), rng) for tm, n in zip(tri_meshes, first)]
-    triangles, two_sided, splat_point = _surface_triangles(tri_meshes, clouds, point_sources)
-    occluders = None
-    if triangles is not None and any(tm.two_sided for tm in tri_meshes):
-        from illumap.receivers import MeshOccluders
-        occluders = MeshOccluders(triangles)
-    job = _assemble(settings, samples, point_parts, point_sources, lamp_list, world, warnings,
-                    stats, t0, occluders)
-    job.refine = refine
-    job.accuracy = chosen
-    job.emitters = lights
-    job.triangles = triangles
-    job.two_sided = two_sided
-    job.splat_point = splat_point
-    job.mesh_triangle_start = np.cumsum([0] + [len(tm.corners) for tm in tri_meshes])[:-1]
-    job.occluders = occluders
-    job.clouds = [PointCloud(name, full[0], look, full[3], full[4], owner)
-                  for (name, _, _), full, look, (_, owner) in zip(point_sources, clouds, looks,
-                                                                   thinned)]
+    parts = _surfel_parts(samples, point_parts, point_sources, warnings)
+    receivers = []
     if settings.transfer:
         scratch: list[str] = []   # material warnings were given for the surfels already
-        job.receivers = [r for r in (sampling.read_receivers(obj, scratch)
-                                     for obj in meshes if obj.type == "MESH") if r is not None]
-    return job
+        receivers = [r for r in (sampling.read_receivers(obj, scratch)
+                                 for obj in meshes if obj.type == "MESH") if r is not None]
+    read_clouds = [PointCloud(name, full[0], look, full[3], full[4], owner)
+                   for (name, _, _), full, look, (_, owner) in zip(point_sources, clouds, looks,
+                                                                    thinned)]
+    mesh_surfaces = [_MeshSurface(tm.corners, tm.two_sided) for tm in tri_meshes]
+
+    def build(progress: Progress | None = None) -> Job:
+        # numpy and the core only from here: off the main thread for an interactive run
+        def going_on(_fraction=0.0, _phase="") -> bool:
+            return progress is None or progress(0.0, BUILD_PHASE) is not False
+
+        if not going_on():
+            raise IllumapCancelled("Cancelled")
+        triangles, two_sided, splat_point = _surface_triangles(mesh_surfaces, clouds, point_sources)
+        if not going_on():
+            raise IllumapCancelled("Cancelled")
+        occluders = None
+        if triangles is not None and any(m.two_sided for m in mesh_surfaces):
+            from illumap.receivers import MeshOccluders
+            try:
+                occluders = MeshOccluders(triangles, progress=going_on)
+            except Exception as exc:  # noqa: BLE001 - the core's Cancelled
+                if core_cancelled(exc):
+                    raise IllumapCancelled("Cancelled") from None
+                raise
+        job = _assembled(parts, settings, lamp_list, world, warnings, stats, t0, occluders)
+        job.refine = refine
+        job.accuracy = chosen
+        job.emitters = lights
+        job.triangles = triangles
+        job.two_sided = two_sided
+        job.splat_point = splat_point
+        job.mesh_triangle_start = np.cumsum([0] + [len(m.corners) for m in mesh_surfaces])[:-1]
+        job.occluders = occluders
+        job.clouds = read_clouds
+        job.receivers = receivers
+        return job
+    return UnbuiltJob(build)
+
+
+#: The progress phase while an ``UnbuiltJob`` is built.
+BUILD_PHASE = "building the scene"
+
+
+@dataclass
+class _MeshSurface:
+    """A mesh's triangles (T, 3, 3), m, and whether it is an open surface."""
+
+    corners: np.ndarray
+    two_sided: bool
+
+
+@dataclass
+class UnbuiltJob:
+    """A scene as ``prepare(…, build=False)`` read it on the main thread: ``build(progress)``
+    makes the Job from it with numpy and the core alone (the point clouds' splats, the
+    scene's ray-casting structure, the open surfaces' back faces), so an interactive run does
+    that on its worker (``run`` builds one it is given)."""
+
+    build: Callable[..., "Job"]
 
 
 #: How far a back-face surfel's preview disc sits off its surface, in surfel radii.
@@ -590,53 +635,84 @@ def _assemble(settings: Settings, samples: list, point_parts: list, point_source
               occluders=None) -> Job:
     """Materials and the Job from sampled meshes and point clouds (direct light: ``light``);
     ``occluders`` (the scene's triangles) find the open surfaces' back faces in view."""
-    parts, sources, start = [], [], 0
+    return _assembled(_surfel_parts(samples, point_parts, point_sources, warnings), settings,
+                      lamp_list, world, warnings, stats, t0, occluders)
+
+
+@dataclass
+class _SurfelParts:
+    """The surfels as read (numpy only), before the open surfaces' back faces are chosen:
+    each part is (positions, normals, areas, albedo, emission, uv, triangle, bary,
+    material index)."""
+
+    fronts: list                  # meshes' and point clouds' parts, in order
+    sources: list                 # Source of each front part
+    in_lamp: list                 # (n,) bool per front part: emission a lamp carries
+    backs: list                   # (sample index, name, area, part) per open mesh: every row
+    point_backs: list             # (name, area, part) per point cloud of unknown orientation
+
+
+def _surfel_parts(samples: list, point_parts: list, point_sources: list,
+                  warnings: list[str]) -> _SurfelParts:
+    """The surfels' materials (main thread: the materials are bpy's) and parts."""
+    fronts, sources, start = [], [], 0
     for s in samples:
         albedo, emission = materials.surfel_materials(s, warnings)
-        uv = s.uv()
-        parts.append((s.positions, s.normals, s.areas, albedo, emission,
-                      uv if uv is not None else np.full((len(s.areas), 2), np.nan),
-                      s.triangle, s.bary, s.material_index))
+        fronts.append((s.positions, s.normals, s.areas, albedo, emission, _uv_rows(s),
+                       s.triangle, s.bary, s.material_index))
         sources.append(Source(s.mesh.name, "MESH", start, start + len(s.areas), s.mesh.total_area))
         start += len(s.areas)
     for part, (name, area, _) in zip(point_parts, point_sources):
-        parts.append(part)
+        fronts.append(part)
         sources.append(Source(name, "POINTS", start, start + len(part[2]), area))
         start += len(part[2])
     in_lamp = [s.mesh.light_mask[s.triangle] if s.mesh.light_mask is not None
                else np.zeros(len(s.areas), dtype=bool) for s in samples]
     in_lamp += [np.zeros(len(p[2]), dtype=bool) for p in point_parts]
-    # The back faces of open surfaces, as surfels of their own (normals reversed), where they
-    # can exchange light with anything.
     scratch: list[str] = []   # the front faces' evaluation already warned about the materials
+    backs = []
     for index, s in enumerate(samples):
-        if not s.mesh.two_sided:
-            continue
-        keep = _back_faces_in_view(occluders, s.positions, -s.normals) if world is None \
-            else np.ones(len(s.areas), dtype=bool)
+        if s.mesh.two_sided and len(s.areas):
+            albedo, emission = materials.surfel_materials(s, scratch, side="back")
+            backs.append((index, s.mesh.name, s.mesh.total_area,
+                          (s.positions, -s.normals, s.areas, albedo, emission, _uv_rows(s),
+                           s.triangle, s.bary, s.material_index)))
+    point_backs = [(name, area, (part[0], -part[1]) + tuple(part[2:]))
+                   for part, (name, area, two_sided) in zip(point_parts, point_sources)
+                   if two_sided]
+    return _SurfelParts(fronts, sources, in_lamp, backs, point_backs)
+
+
+def _uv_rows(samples) -> np.ndarray:
+    uv = samples.uv()
+    return uv if uv is not None else np.full((len(samples.areas), 2), np.nan)
+
+
+def _assembled(parts: _SurfelParts, settings: Settings, lamp_list: list, world,
+               warnings: list[str], stats: dict, t0: float, occluders=None) -> Job:
+    """The Job from the surfels' parts (no bpy): the back faces of open surfaces, as surfels
+    of their own (normals reversed), where they can exchange light with anything
+    (``occluders``, the scene's triangles, say where; under a world, everywhere); then the
+    points of unknown orientation (normals estimated), two-sided: a surfel each way."""
+    chosen, sources, in_lamp = list(parts.fronts), list(parts.sources), list(parts.in_lamp)
+    start = sources[-1].stop if sources else 0
+    for index, name, area, part in parts.backs:
+        keep = _back_faces_in_view(occluders, part[0], part[1]) if world is None \
+            else np.ones(len(part[2]), dtype=bool)
         if not keep.any():
             continue
-        albedo, emission = materials.surfel_materials(s, scratch, side="back")
-        uv = s.uv()
-        parts.append((s.positions[keep], -s.normals[keep], s.areas[keep], albedo[keep],
-                      emission[keep],
-                      (uv if uv is not None else np.full((len(s.areas), 2), np.nan))[keep],
-                      s.triangle[keep], s.bary[keep], s.material_index[keep]))
-        sources.append(Source(s.mesh.name, "BACK", start, start + int(keep.sum()),
-                              s.mesh.total_area))
+        chosen.append(tuple(column[keep] for column in part))
+        sources.append(Source(name, "BACK", start, start + int(keep.sum()), area))
         start += int(keep.sum())
-        in_lamp.append(in_lamp[index][keep])
-    # Points of unknown orientation (normals estimated) are two-sided: a surfel each way.
-    for part, (name, area, two_sided) in zip(point_parts, point_sources):
-        if two_sided:
-            pos, nrm = part[0], part[1]
-            parts.append((pos, -nrm) + tuple(part[2:]))
-            sources.append(Source(name, "BACK", start, start + len(pos), area))
-            start += len(pos)
-            in_lamp.append(np.zeros(len(pos), dtype=bool))
+        in_lamp.append(parts.in_lamp[index][keep])
+    for name, area, part in parts.point_backs:
+        chosen.append(part)
+        sources.append(Source(name, "BACK", start, start + len(part[0]), area))
+        start += len(part[0])
+        in_lamp.append(np.zeros(len(part[0]), dtype=bool))
     check_memory(start, settings)
     pos, nrm, area, albedo, emission, uv, tri, bary, mat_idx = (
-        np.concatenate([p[i] for p in parts]) for i in range(9))
+        np.concatenate([p[i] for p in chosen]) for i in range(9))
     # Emission that a lamp of emitters.py carries leaves the solve (the surfels still reflect).
     in_lamp = np.concatenate(in_lamp)
     timings = {"sampling": time.perf_counter() - t0}
@@ -778,6 +854,8 @@ def run(job: Job, progress: Progress | None = None) -> Result:
         import illumap
     except ImportError as exc:
         raise IllumapError(f"The Illumap core module is not installed ({exc})", ExitCode.SOLVER) from None
+    if isinstance(job, UnbuiltJob):
+        raise TypeError("run needs a built Job: call the UnbuiltJob's build() first")
     s = job.settings
     shape = occluder_shape(s)   # an unknown shape is refused before any work
     light(job, progress)

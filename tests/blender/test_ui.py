@@ -71,7 +71,7 @@ def _make_fake_pipeline():
     fake.steps = 5
     fake.step_delay = 0.0
 
-    def prepare(depsgraph, objects, settings):
+    def prepare(depsgraph, objects, settings, build=True):
         fake.calls.append(("prepare", [o.name for o in objects], settings))
         chunks = []
         for obj in objects:
@@ -529,6 +529,59 @@ def test_real_pipeline_cancel_leaves_the_file_untouched(registered_addon, two_pl
     assert task.wait(60) == "CANCELLED"
     assert operators.finish_task(bpy.context, task, lambda k, m: None) == {"CANCELLED"}
     assert snapshot() == before
+
+
+JOB_ARRAYS = ("positions", "normals", "areas", "albedo", "emission", "solve_emission",
+              "triangles", "two_sided", "mesh_triangle_start")
+
+
+@requires_core
+def test_the_worker_builds_the_scene_the_main_thread_read(registered_addon, two_planes):
+    """An interactive run reads the scene on the main thread (``prepare(build=False)``) and
+    builds the job on its worker (splats, ray-casting structure, the open surfaces' back
+    faces): the job is the one ``prepare`` builds at once, and the run writes as usual."""
+    from addon import operators, pipeline, properties
+    settings = properties.make_settings(bpy.context.scene.illumap, pipeline.Settings)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    built = pipeline.prepare(depsgraph, list(two_planes), settings)
+    unbuilt = pipeline.prepare(depsgraph, list(two_planes), settings, build=False)
+    assert isinstance(unbuilt, pipeline.UnbuiltJob)
+    with pytest.raises(TypeError):
+        pipeline.run(unbuilt)
+    task = operators.ComputeTask(unbuilt, pipeline.run).start()
+    assert task.wait(60) == "DONE", task.error
+    assert isinstance(task.job, pipeline.Job)
+    assert task.job.occluders is not None      # open planes: their back faces were probed
+    for name in JOB_ARRAYS:
+        np.testing.assert_array_equal(getattr(task.job, name), getattr(built, name), err_msg=name)
+    assert operators.finish_task(bpy.context, task, lambda k, m: None) == {"FINISHED"}
+    assert "illumination" in bpy.data.objects[SURFELS].data.attributes
+
+
+@requires_core
+def test_building_a_read_scene_needs_no_blender_data(registered_addon, two_planes):
+    """What the worker builds from holds no Blender data: it builds the same job after the
+    objects, their meshes and materials are gone, and a cancel while it builds stops it."""
+    from addon import pipeline, properties
+    from addon.errors import IllumapCancelled
+    settings = properties.make_settings(bpy.context.scene.illumap, pipeline.Settings)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    built = pipeline.prepare(depsgraph, list(two_planes), settings)
+    unbuilt = pipeline.prepare(depsgraph, list(two_planes), settings, build=False)
+    cancelled = pipeline.prepare(depsgraph, list(two_planes), settings, build=False)
+    for obj in two_planes:
+        mesh = obj.data
+        bpy.data.objects.remove(obj)
+        bpy.data.meshes.remove(mesh)
+    for material in list(bpy.data.materials):
+        bpy.data.materials.remove(material)
+    job = unbuilt.build()
+    for name in JOB_ARRAYS:
+        np.testing.assert_array_equal(getattr(job, name), getattr(built, name), err_msg=name)
+    phases = []
+    with pytest.raises(IllumapCancelled):
+        cancelled.build(lambda fraction, phase="": phases.append(phase) or False)
+    assert phases == [pipeline.BUILD_PHASE]
 
 
 @requires_core
