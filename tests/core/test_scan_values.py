@@ -229,3 +229,39 @@ def test_a_box_corner_takes_all_three_faces_even_where_one_is_seen_only_by_its_e
     off = c.points[k] - p[corner]
     assert (np.einsum("ec,ec->e", off, c.normals[k]) > 0).all()
     assert (off <= 1e-12).sum(axis=1).min() >= 2
+
+
+def noisy_box_on_floor(seed=3):
+    """A noisy scan of a box standing on a floor (edges, corners, a concave junction), with
+    duplicated points (twins) where two scans overlap, normals fitted without orientation."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(-1.0, 1.0, 41)
+    u, v = (a.ravel() for a in np.meshgrid(t, t))
+    floor = np.column_stack([u, v, np.zeros_like(u)])
+    floor = floor[~((np.abs(floor[:, 0]) < 0.3) & (np.abs(floor[:, 1]) < 0.3))]
+    box = grid_cube(13) * 0.6 - [0.3, 0.3, 0.0]
+    box = box[box[:, 2] > 0.0]
+    p = np.concatenate([floor, box, box[::7]]) + rng.normal(0.0, 0.002, (len(floor) + len(box) + len(box[::7]), 3))
+    return p, pca_normals(p, 8)
+
+
+def test_only_points_beside_a_second_face_are_grouped_and_nothing_changes():
+    """``crease_surfaces`` groups the neighbours' normals only at points where a neighbour
+    whose plane they lie on disagrees with their own normal (or that are missing from their
+    own neighbours): the result is the grouping of every point's, to the bit."""
+    from illumap import _core
+    from illumap import receivers
+    p, n = noisy_box_on_floor()
+    got = crease_surfaces(p, n)
+    k = receivers.CREASE_NEIGHBOURS
+    idx, dist = _core.knn(p, p, k + 1)
+    idx, dist = np.asarray(idx, dtype=np.int64), np.asarray(dist)
+    rows = np.arange(len(p))
+    crease = np.zeros(len(p), dtype=bool)
+    want_rows, want_normals, want_points = receivers._crease_faces(p, n, rows, idx, dist, crease)
+    np.testing.assert_array_equal(got.rows, want_rows)
+    np.testing.assert_array_equal(got.normals, want_normals)
+    np.testing.assert_array_equal(got.points, want_points)
+    np.testing.assert_array_equal(got.own, ~crease)
+    looked = receivers._may_crease(p, n, rows, idx, dist)
+    assert crease.sum() > 50 and looked[crease].all() and looked.mean() < 0.5

@@ -572,8 +572,10 @@ def crease_surfaces(points, normals, *, k: int = CREASE_NEIGHBOURS) -> Creases:
     found = []
     for lo in range(0, P, _CREASE_CHUNK):
         rows = np.arange(lo, min(lo + _CREASE_CHUNK, P))
-        found.append(_crease_faces(p, n, rows, idx[rows], dist[rows], crease))
-    r = np.concatenate([f[0] for f in found])
+        rows = rows[_may_crease(p, n, rows, idx[rows], dist[rows])]
+        if len(rows):
+            found.append(_crease_faces(p, n, rows, idx[rows], dist[rows], crease))
+    r = np.concatenate([f[0] for f in found]) if found else np.zeros(0, dtype=np.int64)
     if len(r) == 0:
         return nothing
     return Creases(r, np.concatenate([f[1] for f in found]),
@@ -582,6 +584,21 @@ def crease_surfaces(points, normals, *, k: int = CREASE_NEIGHBOURS) -> Creases:
 
 #: Points grouped at once by ``crease_surfaces`` (~60 MB of neighbour offsets at k = 12).
 _CREASE_CHUNK = 32768
+
+
+def _may_crease(p, n, rows, idx, dist) -> np.ndarray:
+    """Which of the points ``rows`` ``_crease_faces`` can find on a crease: a second face
+    needs a neighbour whose tangent plane the point lies on and whose normal the point's own
+    does not share (its first group is the point's own normal's). Points missing from their
+    own neighbours (twins) are always looked at. The rest, most of a scan, lie on one face."""
+    me = idx == rows[:, None]
+    scale = np.median(dist[:, 1:], axis=1)
+    nb_n = n[idx]
+    offsets = p[idx] - p[rows, None, :]
+    free = me | (np.abs(np.einsum("pkc,pkc->pk", offsets, nb_n)) <= CREASE_ON_PLANE * scale[:, None])
+    # a hair of margin: a neighbour on the boundary is looked at, whichever way it rounds
+    differ = np.einsum("pkc,pc->pk", nb_n, n[rows]) < CREASE_SAME_COS + 1e-9
+    return ~me.any(axis=1) | (free & differ).any(axis=1)
 
 
 def _crease_faces(p, n, rows, idx, dist, crease) -> tuple:
