@@ -1,7 +1,8 @@
-"""The numpy formulation of the point clouds' plane fits and splat outlines that the native
-code (``illumap._core``: normals.cpp, splats.cpp) replaced, kept as an independent reference
-for it: the same rules written as whole-array algebra, with LAPACK's eigen-solver instead of
-the native Jacobi rotations."""
+"""The numpy formulation of the point clouds' plane fits and splat outlines, and of the
+irradiance cache's record weights and fitted values, that the native code (``illumap._core``:
+normals.cpp, splats.cpp, irradiance_cache.cpp) replaced, kept as an independent reference for
+it: the same rules written as whole-array algebra, with LAPACK's eigen-solver and linear
+solver instead of the native Jacobi rotations and elimination."""
 
 from __future__ import annotations
 
@@ -191,3 +192,40 @@ def splat_triangles(positions, normals, areas, **options) -> np.ndarray:
     first = np.where(along[:, None, None], rim, nxt)
     second = np.where(along[:, None, None], nxt, rim)
     return np.stack([centre, first, second], axis=2).reshape(-1, 3, 3)
+
+
+def record_weights(p, n, reach, own, rows, near, dist, accuracy, behind_slack):
+    """``_core.record_weights``: (weights (R, K), valid (R, K) bool)."""
+    q, nq = p[rows], n[rows]
+    cos = np.einsum("rc,rkc->rk", nq, n[near])
+    eps = dist / np.minimum(reach[near], own[rows, None]) + np.sqrt(np.maximum(0.0, 1.0 - cos))
+    lift = np.einsum("rkc,rkc->rk", q[:, None, :] - p[near], 0.5 * (nq[:, None, :] + n[near]))
+    ok = (eps < accuracy) & (lift >= -behind_slack * dist)
+    return np.where(ok, 1.0 / np.maximum(eps, 1e-3 * accuracy) - 1.0 / accuracy, 0.0), ok
+
+
+def fitted_values(p, n, values, rows, near, w):
+    """``_core.fitted_values``: (R, 3)."""
+    q, nq, at, vals = p[rows], n[rows], p[near], values[near]
+    mean = np.einsum("rk,rkc->rc", w, vals) / w.sum(axis=1)[:, None]
+    helper = np.where((np.abs(nq[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    u = np.cross(nq, helper)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = np.cross(nq, u)
+    d = at - q[:, None, :]
+    scale = np.sqrt(np.einsum("rk,rkc,rkc->r", w, d, d) / w.sum(axis=1))
+    scale = np.where(scale > 0, scale, 1.0)
+    design = np.stack([np.ones(w.shape), np.einsum("rkc,rc->rk", d, u) / scale[:, None],
+                       np.einsum("rkc,rc->rk", d, v) / scale[:, None]], axis=2)
+    normal = np.einsum("rk,rki,rkj->rij", w, design, design)
+    rhs = np.einsum("rk,rki,rkc->ric", w, design, vals)
+    posed = (np.count_nonzero(w > 0, axis=1) >= 3) & \
+        (np.linalg.eigvalsh(normal)[:, 0] > 1e-3 * w.sum(axis=1))
+    out = mean.copy()
+    if posed.any():
+        out[posed] = np.linalg.solve(normal[posed], rhs[posed])[:, 0, :]
+        valid = (w > 0)[..., None]
+        low = np.where(valid, vals, np.inf).min(axis=1)
+        high = np.where(valid, vals, -np.inf).max(axis=1)
+        out = np.clip(out, low, high)
+    return out

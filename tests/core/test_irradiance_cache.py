@@ -120,3 +120,56 @@ def test_bad_arguments_are_refused():
         cached_gather(field, p, n, max_reach=1.0, groups=np.zeros(3))
     with pytest.raises(illumap.InputError, match=r"shape \(M, 3\)"):
         cached_gather(field, p[:, :2], n, max_reach=1.0)
+
+
+def cache_case(seed=5, m=3000, K=16):
+    """Receivers and records on a bumpy floor with a wall, the records' reach and values
+    varied, each receiver's K nearest records (as ``cached_gather`` finds them)."""
+    from illumap import _core
+    rng = np.random.default_rng(seed)
+    floor = np.c_[rng.uniform(0, 2, (m, 2)), 0.02 * np.sin(6 * rng.uniform(0, 2, m))]
+    wall = np.c_[rng.uniform(0, 2, m // 3), np.zeros(m // 3), rng.uniform(0, 1, m // 3)]
+    p = np.concatenate([floor, wall])
+    n = np.concatenate([np.tile([0.0, 0, 1], (m, 1)), np.tile([0.0, 1, 0], (m // 3, 1))])
+    n += rng.normal(0, 0.05, n.shape)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    reach = rng.uniform(0.2, 2.0, len(p))
+    own = rng.uniform(0.2, 2.0, len(p))
+    values = np.c_[1 + p[:, 0], 0.5 + p[:, 1] ** 2, rng.uniform(0.2, 0.3, len(p))]
+    records = rng.choice(len(p), len(p) // 6, replace=False)
+    rows = np.setdiff1d(np.arange(len(p)), records)
+    near, dist = _core.knn(np.ascontiguousarray(p[records]), np.ascontiguousarray(p[rows]), K)
+    return p, n, reach, own, values, rows, records[np.asarray(near)], np.asarray(dist)
+
+
+def test_native_record_weights_are_the_numpy_formulas():
+    from illumap import _core
+    import numpy_reference as ref
+    from illumap.irradiance_cache import BEHIND_SLACK
+    p, n, reach, own, _, rows, near, dist = cache_case()
+    for a in (0.05, 0.15, 0.5):
+        w, ok = _core.record_weights(p, n, reach, own, rows, near, dist, accuracy=a,
+                                     behind_slack=BEHIND_SLACK)
+        want_w, want_ok = ref.record_weights(p, n, reach, own, rows, near, dist, a, BEHIND_SLACK)
+        np.testing.assert_array_equal(np.asarray(ok, dtype=bool), want_ok)
+        np.testing.assert_allclose(w, want_w, rtol=1e-9, atol=1e-12 / a)
+        if a == 0.5:
+            assert 0.05 < want_ok.mean() < 0.95      # both valid and invalid records occur
+
+
+def test_native_fitted_values_are_the_numpy_formulas():
+    from illumap import _core
+    import numpy_reference as ref
+    from illumap.irradiance_cache import BEHIND_SLACK
+    p, n, reach, own, values, rows, near, dist = cache_case()
+    w, _ = ref.record_weights(p, n, reach, own, rows, near, dist, 0.5, BEHIND_SLACK)
+    keep = w.sum(axis=1) > 0
+    rows, near, w = rows[keep], near[keep], w[keep]
+    w[::7, 1:], w[::7, 0] = 0.0, 1.0                 # some with too few records: their mean
+    got = _core.fitted_values(p, n, values, rows, near, w)
+    want = ref.fitted_values(p, n, values, rows, near, w)
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
+    with pytest.raises(ValueError, match="positive weight"):
+        _core.fitted_values(p, n, values, rows, near, np.zeros_like(w))
+    with pytest.raises(ValueError, match="out of range"):
+        _core.fitted_values(p, n, values, rows, near + len(p), w)

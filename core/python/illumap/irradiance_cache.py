@@ -136,7 +136,7 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
             record[lost] = True
         keep = total > 0
         rest, idx, w, total = rest[keep], idx[keep], w[keep], total[keep]
-        radiance[rest] = _fitted(p[rest], n[rest], p[idx], w, radiance[idx])
+        radiance[rest] = _fitted(p, n, radiance, rest, idx, w)
         stderr[rest] = np.sqrt(np.einsum("rk,rk->r", w * w, stderr[idx] ** 2)) / total
         sky[rest] = np.einsum("rk,rk->r", w, sky[idx]) / total
     return CachedGather(radiance=radiance, stderr=stderr, rays=rays, records=record, open=sky)
@@ -147,37 +147,18 @@ def _open(g: GatherResult) -> np.ndarray | float:
     return 0.0 if g.open is None else g.open
 
 
-def _fitted(q: np.ndarray, nq: np.ndarray, at: np.ndarray, w: np.ndarray,
-            values: np.ndarray) -> np.ndarray:
-    """The value at each point ``q`` (R, 3) of the plane fitted, by weighted least squares
-    ``w`` (R, K), to the records' ``values`` (R, K, 3) over their offsets ``at − q`` in the
-    point's tangent plane: first order where the light slopes across the records' domains,
-    which their weighted mean smooths to a bias. Where the records do not span the plane (fewer
-    than three, or on a line) it is their weighted mean; it never leaves the range of the
-    valid records' values."""
-    mean = np.einsum("rk,rkc->rc", w, values) / w.sum(axis=1)[:, None]
-    helper = np.where((np.abs(nq[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
-    u = np.cross(nq, helper)
-    u /= np.linalg.norm(u, axis=1, keepdims=True)
-    v = np.cross(nq, u)
-    d = at - q[:, None, :]
-    scale = np.sqrt(np.einsum("rk,rkc,rkc->r", w, d, d) / w.sum(axis=1))
-    scale = np.where(scale > 0, scale, 1.0)
-    design = np.stack([np.ones(w.shape), np.einsum("rkc,rc->rk", d, u) / scale[:, None],
-                       np.einsum("rkc,rc->rk", d, v) / scale[:, None]], axis=2)     # (R, K, 3)
-    normal = np.einsum("rk,rki,rkj->rij", w, design, design)
-    rhs = np.einsum("rk,rki,rkc->ric", w, design, values)
-    # Well-posed where the smallest eigenvalue of the (scaled) normal matrix is not tiny.
-    posed = (np.count_nonzero(w > 0, axis=1) >= 3) & \
-        (np.linalg.eigvalsh(normal)[:, 0] > 1e-3 * w.sum(axis=1))
-    out = mean.copy()
-    if posed.any():
-        out[posed] = np.linalg.solve(normal[posed], rhs[posed])[:, 0, :]
-        valid = (w > 0)[..., None]
-        low = np.where(valid, values, np.inf).min(axis=1)
-        high = np.where(valid, values, -np.inf).max(axis=1)
-        out = np.clip(out, low, high)
-    return out
+def _fitted(p: np.ndarray, n: np.ndarray, values: np.ndarray, rows: np.ndarray,
+            idx: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """The value at each receiver ``rows`` (R,) of the plane fitted, by weighted least squares
+    ``w`` (R, K), to its records' ``values[idx]`` (idx: (R, K) rows of ``p``) over their
+    offsets in the receiver's tangent plane: first order where the light slopes across the
+    records' domains, which their weighted mean smooths to a bias. Where the records do not
+    span the plane (fewer than three, or on a line) it is their weighted mean; it never leaves
+    the range of the valid records' values (native: ``_core.fitted_values``)."""
+    return _core.fitted_values(p, n, np.ascontiguousarray(values, dtype=np.float64),
+                               np.ascontiguousarray(rows, dtype=np.int64),
+                               np.ascontiguousarray(idx, dtype=np.int64),
+                               np.ascontiguousarray(w, dtype=np.float64))
 
 
 def _bounded(reach: np.ndarray, max_reach: float) -> np.ndarray:
@@ -226,13 +207,10 @@ def _weights(p, n, group, reach, own, record, rows, accuracy):
         kk = min(k, len(theirs))
         near, dist = _core.knn(np.ascontiguousarray(p[theirs]), np.ascontiguousarray(p[rows[mine]]), kk)
         near, dist = theirs[np.asarray(near)], np.asarray(dist)
-        q, nq = p[rows[mine]], n[rows[mine]]
-        cos = np.einsum("rc,rkc->rk", nq, n[near])
-        eps = dist / np.minimum(reach[near], own[rows[mine], None]) + \
-            np.sqrt(np.maximum(0.0, 1.0 - cos))
-        lift = np.einsum("rkc,rkc->rk", q[:, None, :] - p[near], 0.5 * (nq[:, None, :] + n[near]))
-        ok = (eps < accuracy) & (lift >= -BEHIND_SLACK * dist)
+        wm, ok = _core.record_weights(p, n, reach, own, np.ascontiguousarray(rows[mine]),
+                                      np.ascontiguousarray(near), np.ascontiguousarray(dist),
+                                      accuracy=float(accuracy), behind_slack=BEHIND_SLACK)
         idx[mine, :kk] = near
-        valid[mine, :kk] = ok
-        w[mine, :kk] = np.where(ok, 1.0 / np.maximum(eps, 1e-3 * accuracy) - 1.0 / accuracy, 0.0)
+        valid[mine, :kk] = np.asarray(ok, dtype=bool)
+        w[mine, :kk] = wm
     return idx, w, valid
