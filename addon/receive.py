@@ -330,6 +330,10 @@ def _exact_direct(job: Job, occ, sent: np.ndarray, front: np.ndarray, field_,
 #: on both sides.
 SIDE_PROBE_SHARE = 1 / 16
 SIDE_PROBE_MIN_RAYS = 8
+#: The probe lights this share of a patch's points (every point of a patch of at most
+#: SIDE_PROBE_WHOLE_PATCH): a patch's sides are judged on its sums (``ScanPatches.sides``).
+SIDE_PROBE_POINTS = 1 / 4
+SIDE_PROBE_WHOLE_PATCH = 64
 
 
 def _rows_of(rec, rows: np.ndarray, normals: np.ndarray | None = None):
@@ -353,16 +357,18 @@ def _probe_sides(front, back, incident_at, gather_rays: int, shadow_samples: int
     rays = max(SIDE_PROBE_MIN_RAYS, int(gather_rays * SIDE_PROBE_SHARE))
     if n == 0 or 2 * rays >= gather_rays:
         return patches, np.ones(n, dtype=bool), np.zeros(n, dtype=bool), 0
-    ids = np.arange(n, dtype=np.int64)
+    ids = patches.sample(SIDE_PROBE_POINTS, SIDE_PROBE_WHOLE_PATCH)
+    m = len(ids)
     incident, gathered, cast, _ = incident_at(
-        np.concatenate([front.points, back.points]), np.concatenate([front.normals, back.normals]),
+        np.concatenate([front.points[ids], back.points[ids]]),
+        np.concatenate([front.normals[ids], back.normals[ids]]),
         np.concatenate([ids, ids]), rays=rays,
         samples=max(SIDE_PROBE_MIN_RAYS, int(shadow_samples * SIDE_PROBE_SHARE)))
-    lit_front = front.emission + front.albedo * incident[:n]
-    lit_back = back.emission + back.albedo * incident[n:]
-    noise_front = (front.albedo @ lum) * gathered.stderr[:n]
-    noise_back = (back.albedo @ lum) * gathered.stderr[n:]
-    side, settled = patches.sides(lit_front, lit_back, noise_front, noise_back)
+    lit_front = front.emission[ids] + front.albedo[ids] * incident[:m]
+    lit_back = back.emission[ids] + back.albedo[ids] * incident[m:]
+    noise_front = (front.albedo[ids] @ lum) * gathered.stderr[:m]
+    noise_back = (back.albedo[ids] @ lum) * gathered.stderr[m:]
+    side, settled = patches.sides(lit_front, lit_back, noise_front, noise_back, rows=ids)
     return patches, side, settled, cast
 
 

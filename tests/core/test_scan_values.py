@@ -108,6 +108,31 @@ def test_a_probe_settles_a_patch_only_where_its_sides_differ_beyond_their_noise(
     assert not patches.sides(front, back)[1].any()   # no noise given: nothing settled
 
 
+def test_a_patch_is_judged_on_a_sample_of_its_points():
+    """``ScanPatches.sample`` keeps a small patch whole and about a share of a large one (at
+    least ``whole`` points of each); ``sides`` judged on the sample's values alone settles
+    the same patches the same way as on every point's."""
+    rng = np.random.default_rng(7)
+    big = np.insert(rng.random((2000, 2)), 2, 0.0, axis=1)
+    small = np.insert(rng.random((40, 2)) * 0.2, 2, 0.0, axis=1) + [10, 0, 0]
+    pts = np.vstack([big, small])
+    nrm = np.tile([0.0, 0.0, 1.0], (len(pts), 1))
+    patches = ScanPatches(pts, nrm)
+    assert len(np.unique(patches.part)) == 2
+    rows = patches.sample(0.25, 64)
+    assert (np.diff(rows) > 0).all()
+    in_small = rows >= 2000
+    assert in_small.sum() == 40 and 450 <= (~in_small).sum() <= 550
+    front = np.full((len(pts), 3), 0.6) + rng.normal(0, 0.01, (len(pts), 3))
+    back = np.where((np.arange(len(pts)) < 2000)[:, None], 0.02, 0.9) * np.ones((1, 3))
+    noise = np.full(len(pts), 0.01)
+    full = patches.sides(front, back, noise, noise)
+    sampled = patches.sides(front[rows], back[rows], noise[rows], noise[rows], rows=rows)
+    np.testing.assert_array_equal(sampled[0], full[0])
+    np.testing.assert_array_equal(sampled[1], full[1])
+    assert full[1].all() and full[0][:2000].all() and not full[0][2000:].any()
+
+
 def grid_cube(n=11):
     """The surface of the unit cube as a scan of a mesh's vertices: a regular n × n grid per
     face, each edge's and corner's points once (as a shared vertex is), no normals."""

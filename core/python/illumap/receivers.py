@@ -482,26 +482,44 @@ class ScanPatches:
         #: (P,) int: the patch of each point
         self.part = np.asarray(part, dtype=np.int64)
 
-    def sides(self, front, back, front_noise=None, back_noise=None) -> tuple[np.ndarray, np.ndarray]:
+    def sides(self, front, back, front_noise=None, back_noise=None,
+              rows=None) -> tuple[np.ndarray, np.ndarray]:
         """(side, settled), (P,) bool each. ``side``: True where the point's normal faces out
         (see ``outward_sides``), from the radiance ``front`` and ``back`` (P, 3) seen along
         and against the normals. ``settled``: where the patch's two sides differ by
         ``SIDE_SETTLED_SIGMAS`` standard errors and ``SIDE_SETTLED_SHARE`` of their sum, given
         each value's standard error ``front_noise``, ``back_noise`` (P,) in luminance; all
-        False without them."""
-        lum_f = _rows3("front", front, len(self.part)) @ LUMINANCE_WEIGHTS
-        lum_b = _rows3("back", back, len(self.part)) @ LUMINANCE_WEIGHTS
-        along = np.bincount(self.part, np.where(self.along_front, lum_f, lum_b))
-        against = np.bincount(self.part, np.where(self.along_front, lum_b, lum_f))
+        False without them. ``rows`` (M,): the values are those of these points only (a
+        patch none of them lies in is neither side's and not settled)."""
+        part = self.part if rows is None else self.part[rows]
+        along_front = self.along_front if rows is None else self.along_front[rows]
+        parts = int(self.part.max()) + 1 if len(self.part) else 0
+        lum_f = _rows3("front", front, len(part)) @ LUMINANCE_WEIGHTS
+        lum_b = _rows3("back", back, len(part)) @ LUMINANCE_WEIGHTS
+        along = np.bincount(part, np.where(along_front, lum_f, lum_b), minlength=parts)
+        against = np.bincount(part, np.where(along_front, lum_b, lum_f), minlength=parts)
         side = (along >= against)[self.part] == self.along_front
         if front_noise is None or back_noise is None:
             return side, np.zeros(len(side), dtype=bool)
-        var = np.bincount(self.part, np.asarray(front_noise, dtype=np.float64) ** 2
-                          + np.asarray(back_noise, dtype=np.float64) ** 2)
+        var = np.bincount(part, np.asarray(front_noise, dtype=np.float64) ** 2
+                          + np.asarray(back_noise, dtype=np.float64) ** 2, minlength=parts)
         gap = np.abs(along - against)
         settled = (gap > SIDE_SETTLED_SIGMAS * np.sqrt(var)) & \
             (gap > SIDE_SETTLED_SHARE * (along + against))
         return side, settled[self.part]
+
+    def sample(self, share: float, whole: int) -> np.ndarray:
+        """Points (ascending rows) that stand for their patches: every point of a patch of at
+        most ``whole`` points, about ``share`` of a larger one's (every 1/share-th in row
+        order), at least ``whole`` of each."""
+        order = np.argsort(self.part, kind="stable")
+        sizes = np.bincount(self.part)
+        starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+        rank = np.empty(len(order), dtype=np.int64)
+        rank[order] = np.arange(len(order)) - starts[self.part[order]]
+        size = sizes[self.part]
+        stride = np.maximum(1, np.minimum(np.rint(1.0 / share), size // max(whole, 1))).astype(np.int64)
+        return np.flatnonzero(rank % stride == 0)
 
 
 #: Neighbours searched for the surfaces that meet at a scan point.
