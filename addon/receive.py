@@ -132,8 +132,19 @@ def covered_receivers(job: Job, points: np.ndarray, normals: np.ndarray, toleran
     source = np.concatenate([np.full(src.stop - src.start, i) for i, src in enumerate(sources)])
     triangle = job.mesh_triangle_start[source] + job.triangle[rows]
     k = min(_COVER_NEIGHBOURS, len(rows))
-    idx, _ = _core.knn(job.positions[rows], points, k)
-    covered = _covered(job.triangles, triangle[np.asarray(idx)], points, normals, tolerance)
+    idx, dist = _core.knn(job.positions[rows], points, k)
+    idx = np.asarray(idx)
+    # A triangle that covers a point holds it within ``tolerance`` of its plane, and its
+    # surfel lies in it too: no farther from the point than the triangle's longest edge
+    # and the tolerance. Only points near such a surfel are tested (a scan's points far
+    # from every mesh, most of them, are not).
+    corners = job.triangles[triangle]
+    longest = np.sqrt(np.max([((corners[:, a] - corners[:, b]) ** 2).sum(axis=1)
+                              for a, b in ((0, 1), (1, 2), (2, 0))], axis=0))
+    near = np.flatnonzero((np.asarray(dist) <= longest[idx] * (1 + 1e-6) + tolerance).any(axis=1))
+    covered = np.zeros(len(points), dtype=bool)
+    covered[near] = _covered(job.triangles, triangle[idx[near]], points[near], normals[near],
+                             tolerance)
     if owners is None:
         return covered
     # Where the nearest triangle of another mesh lies flat against the point: that mesh's
