@@ -290,10 +290,15 @@ def _regather_straddling(job: Job, result: "Result", occ, sent: np.ndarray, back
     back_field_, own_back = good_field(back, back_owners) if back.any() else (None, None)
     if front_field is None:
         return 0
+    # The triangles no good surfel stands for (the re-evaluated surfels' splats, the meshes'
+    # own) are tabulated only where that takes fewer lookups than the rays (a dense scan's
+    # straddling surfels stand for hundreds of thousands of splat triangles).
+    untabled = sum(int((o < 0).sum()) for o in (own_front, own_back) if o is not None) \
+        if own_front is not None else 2 * len(job.triangles)
     g = rc.gather(occ, front_field, job.positions[rows], job.normals[rows], rays=rays,
                   seed=job.settings.seed, ids=rows.astype(np.int64),
                   background=background, back_field=back_field_, two_sided=job.two_sided, owners=own_front,
-                  back_owners=own_back)
+                  back_owners=own_back, tabulate=3 * untabled <= rows.size * rays)
     sent[rows] = job.solve_emission[rows] + direct[rows] + job.albedo[rows] * g.radiance
     result.radiosity[rows] = sent[rows] + job.emission[rows] - job.solve_emission[rows]
     return int(rows.size)

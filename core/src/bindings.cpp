@@ -159,8 +159,8 @@ void bind_gather(nb::module_& m) {
              nb::handle normals, nb::handle ids, int rays, std::uint64_t seed, double offset,
              nb::handle background, nb::handle two_sided, nb::handle rays_per,
              nb::handle owner_front, nb::handle owner_back, nb::handle front_rest,
-             nb::handle front_lattice, nb::handle back_rest, nb::handle back_lattice, int threads,
-             nb::handle progress) {
+             nb::handle front_lattice, nb::handle back_rest, nb::handle back_lattice,
+             bool tabulate, int threads, nb::handle progress) {
               const double *P, *N;
               nb::object k1, k2, k3, k4;
               const std::size_t m = paired_rays(positions, "positions", normals, "normals", P, N, k1, k2);
@@ -245,6 +245,7 @@ void bind_gather(nb::module_& m) {
               opt.rays = rays;
               opt.seed = seed;
               opt.offset = offset;
+              opt.tabulate = tabulate;
               for (int c = 0; c < 3; ++c) opt.background[c] = BG[c];
               double *out, *err, *reach, *open;
               auto a1 = new_array(m, 3, &out);
@@ -270,7 +271,7 @@ void bind_gather(nb::module_& m) {
           nb::arg("owner_front").none() = nb::none(), nb::arg("owner_back").none() = nb::none(),
           nb::arg("front_rest").none() = nb::none(), nb::arg("front_lattice").none() = nb::none(),
           nb::arg("back_rest").none() = nb::none(), nb::arg("back_lattice").none() = nb::none(),
-          nb::arg("threads") = 0,
+          nb::arg("tabulate") = true, nb::arg("threads") = 0,
           nb::arg("progress") = nb::none(),
           "Final gather: (mean radiance (M, 3), standard error of its luminance (M,), reach (M,) m, "
           "share of the rays that hit nothing (M,)).");

@@ -132,6 +132,7 @@ struct FieldTable {
     // triangle t; false (nothing written) where the sub-triangle is not clean.
     bool at(std::size_t t, double u, double v, double out[3]) const {
         const std::size_t nn = n[t];
+        if (nn == 0) return false;   // not tabulated
         const double x = std::min(std::max(u, 0.0), 1.0) * double(nn);
         const double y = std::min(std::max(v, 0.0), 1.0) * double(nn);
         std::size_t i = std::min<std::size_t>(std::size_t(x), nn - 1);
@@ -310,6 +311,14 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
                      const std::vector<std::uint8_t>& only) {
         FieldTable tab = lattice_layout(scene, field.reach(), only.empty() ? nullptr : only.data());
         const bool split = exact && exact->rest && exact->lattice;
+        // Without a table each hit looks the field up itself (cheaper for a few receivers in
+        // a large scene). An exact part lives on the lattice, so it keeps one.
+        if (!split && !opt.tabulate) {
+            std::fill(tab.n.begin(), tab.n.end(), 0u);
+            std::fill(tab.start.begin(), tab.start.end(), std::size_t(0));
+            std::fill(tab.sub_start.begin(), tab.sub_start.end(), std::size_t(0));
+            return tab;
+        }
         fill_table(ctx, scene, split ? *exact->rest : field, sign, opt.offset,
                    split ? exact->lattice : nullptr, tab);
         return tab;

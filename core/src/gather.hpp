@@ -55,6 +55,9 @@ struct GatherOptions {
     std::uint64_t seed = 0;
     double offset = 0;                    // ray origins move this far along the normal (m)
     double background[3] = {0, 0, 0};     // radiance of rays that leave the scene
+    // Tabulate the field on the triangles that are not splats (a lattice, looked up once per
+    // point); false: each hit looks the field up itself (a few receivers in a large scene).
+    bool tabulate = true;
 };
 
 // A part of a field known exactly at the gather's lattice points (direct light, evaluated with

@@ -161,6 +161,32 @@ def test_gather_inside_a_closed_box_is_a_furnace():
     np.testing.assert_allclose(g.radiance, 0.7, rtol=1e-12)
 
 
+def test_a_gather_without_a_table_looks_the_field_up_at_each_hit():
+    """``tabulate=False``: the same light as through the lattice (exactly, for a field that
+    is constant; within the lattice's interpolation otherwise), and per receiver the same
+    whatever the batch."""
+    box = closed_box()
+    occ = rc.MeshOccluders(box)
+    rng = np.random.default_rng(3)
+    p = rng.uniform(-0.9, 0.9, (40, 3))
+    n = rng.normal(size=(40, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    flat = surfels_on(box, value=0.7)
+    np.testing.assert_allclose(rc.gather(occ, flat, p, n, rays=64, tabulate=False).radiance, 0.7,
+                               rtol=1e-12)
+    square = grid_square(1.0, 8)
+    field = surfels_on(square)
+    one = np.array([[0.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 1.0]])
+    direct = rc.gather(rc.MeshOccluders(square), field, *one, rays=4096, tabulate=False)
+    np.testing.assert_allclose(direct.radiance[0], SQUARE_FORM_FACTOR, rtol=0.01)
+    face = np.cross(box[:, 1] - box[:, 0], box[:, 2] - box[:, 0])
+    varied = rc.SurfelField(box.mean(axis=1), face / np.linalg.norm(face, axis=1, keepdims=True),
+                            np.arange(len(box))[:, None] / len(box) * np.ones((1, 3)))
+    both = rc.gather(occ, varied, p, n, rays=32, tabulate=False).radiance
+    alone = rc.gather(occ, varied, p[:5], n[:5], rays=32, tabulate=False).radiance
+    np.testing.assert_array_equal(both[:5], alone)
+
+
 def test_gather_is_the_same_in_any_order_and_thread_count():
     box = closed_box()
     occ = rc.MeshOccluders(box)

@@ -324,7 +324,7 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
            ids: np.ndarray | None = None, seed: int = 0, background=None,
            back_field: SurfelField | None = None, two_sided=None, owners=None,
            back_owners=None, exact: ExactPart | None = None,
-           back_exact: ExactPart | None = None, threads: int = 0,
+           back_exact: ExactPart | None = None, tabulate: bool = True, threads: int = 0,
            progress: Progress | None = None) -> GatherResult:
     """Indirect incident radiance at receivers (``positions``, unit ``normals``, (M, 3)).
 
@@ -338,8 +338,10 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
     ``back_field`` it stands for (a point's splat, ``illumap.splats``) or -1: a hit on it takes
     that surfel's value instead of a lookup. ``exact`` / ``back_exact`` give a part of
     the field / back field known at ``gather_lattices``' points (``ExactPart``).
-    ``ids`` (M,) name the receivers for
-    their random streams (default: their rows). Runs natively on ``threads`` (0: all), the GIL
+    ``tabulate``: the field is tabulated on the triangles that are not splats, a lattice
+    looked up once per point (False: each hit looks it up itself, cheaper where few rays meet
+    many such triangles; an exact part keeps its lattice). ``ids`` (M,) name the receivers
+    for their random streams (default: their rows). Runs natively on ``threads`` (0: all), the GIL
     released; ``progress`` returning False cancels (``illumap.Cancelled``).
     """
     p = _rows3("positions", positions)
@@ -376,7 +378,7 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
         owner_front=_owner_rows(occluders, owners, "owners"),
         owner_back=_owner_rows(occluders, back_owners, "back_owners"), front_rest=front_rest,
         front_lattice=front_lattice, back_rest=back_rest, back_lattice=back_lattice,
-        threads=threads, progress=progress)
+        tabulate=bool(tabulate), threads=threads, progress=progress)
     return GatherResult(radiance=radiance, stderr=stderr, rays=count, reach=reach, open=open_)
 
 
