@@ -401,25 +401,19 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
             warnings.append(f"Object '{tm.name}': {tm.skipped_triangles} zero-area triangle(s) skipped")
     if not tri_meshes and not points:
         raise IllumapError("Nothing to compute: the selected instancers hold no mesh geometry")
-    point_parts, point_sources, looks = [], [], []
-    for obj in points:
-        p = pointcloud.read_points(obj, depsgraph, warnings)
-        looks.append(p.receiver_normals if p.receiver_normals is not None else p.normals)
-        m = len(p.areas)
-        point_parts.append((p.positions, p.normals, p.areas, p.albedo, p.emission,
-                            np.full((m, 2), np.nan), np.full(m, -1, np.int64),
-                            np.full((m, 3), np.nan), np.full(m, -1, np.int64)))
-        point_sources.append((p.name, float(p.areas.sum()), p.two_sided))
+    # Normals a cloud lacks are estimated by the build (``pointcloud.with_normals``).
+    read = [pointcloud.read_points(obj, depsgraph, warnings) for obj in points]
+    point_sources = [(p.name, float(p.areas.sum()), p.two_sided) for p in read]
     stats: dict = {}
     mesh_areas = np.array([tm.total_area for tm in tri_meshes])
     target = target_density(settings, float(mesh_areas.sum()),
-                            sum(len(pp[2]) for pp in point_parts),
+                            sum(len(p.areas) for p in read),
                             sum(src[1] for src in point_sources), stats)
     density, chosen = target if target is not None else (None, None)
     counts = np.zeros(0, dtype=np.int64)
     point_area = sum(src[1] for src in point_sources)
     if tri_meshes:
-        n_points = sum(len(pp[2]) for pp in point_parts)
+        n_points = sum(len(p.areas) for p in read)
         if density is not None and settings.budget and stats["density"]["surfels"] >= settings.budget:
             # The budget caps the target's count: spend it exactly, as without a target.
             counts = sampling.allocate(mesh_areas, budget=max(settings.budget - n_points,
@@ -436,14 +430,12 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
     check_memory(int(counts.sum()), settings)  # before sampling allocates anything big
     rng = np.random.default_rng(settings.seed)
     # Every point is a receiver; the solve needs only as many surfels as the light does.
-    clouds = point_parts
-    wanted = _point_counts(settings, density, clouds, point_sources, float(mesh_areas.sum()))
-    thinned = [_thin_points(part, n, rng) for part, n in zip(clouds, wanted)]
-    point_parts = [part for part, _ in thinned]
-    for (name, _, _), full, part in zip(point_sources, clouds, point_parts):
-        if len(part[0]) < len(full[0]):
-            stats.setdefault("point_surfels", {})[name] = dict(points=len(full[0]),
-                                                               surfels=len(part[0]))
+    wanted = _point_counts(settings, density, [(p.positions,) for p in read], point_sources,
+                           float(mesh_areas.sum()))
+    # The thinning's random order is drawn here, before the meshes' samples, as ever: the
+    # build thins with it.
+    orders = [rng.permutation(len(p.areas)) if n < len(p.areas) else None
+              for p, n in zip(read, wanted)]
     lamp_list = lamps.read_lamps(depsgraph, warnings) if settings.lamps else []
     world = lamps.world_light(depsgraph.scene, warnings) if settings.world_ambient else None
     refine = None
@@ -455,19 +447,16 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
         fraction = float(settings.adaptive_first_pass)
         if not 0.0 < fraction <= 1.0:
             raise IllumapError(f"Adaptive first pass must be a fraction in (0, 1], got {fraction}", ExitCode.USAGE)
-        refine = _Scene(tri_meshes, counts, point_parts, point_sources, lamp_list, world)
+        refine = _Scene(tri_meshes, counts, [], point_sources, lamp_list, world)   # points: build
         first = np.maximum(np.rint(counts * fraction).astype(np.int64), 1)
     lights = emitters.mesh_lights(tri_meshes, warnings)
     samples = [sampling.sample_mesh(tm, int(n), rng) for tm, n in zip(tri_meshes, first)]
-    parts = _surfel_parts(samples, point_parts, point_sources, warnings)
+    mesh_parts = _surfel_parts(samples, warnings)
     receivers = []
     if settings.transfer:
         scratch: list[str] = []   # material warnings were given for the surfels already
         receivers = [r for r in (sampling.read_receivers(obj, scratch)
                                  for obj in meshes if obj.type == "MESH") if r is not None]
-    read_clouds = [PointCloud(name, full[0], look, full[3], full[4], owner)
-                   for (name, _, _), full, look, (_, owner) in zip(point_sources, clouds, looks,
-                                                                    thinned)]
     mesh_surfaces = [_MeshSurface(tm.corners, tm.two_sided) for tm in tri_meshes]
 
     def build(progress: Progress | None = None) -> Job:
@@ -475,6 +464,19 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
         def going_on(_fraction=0.0, _phase="") -> bool:
             return progress is None or progress(0.0, BUILD_PHASE) is not False
 
+        if not going_on():
+            raise IllumapCancelled("Cancelled")
+        full = [pointcloud.with_normals(p) for p in read]
+        clouds = [_point_part(p) for p in full]
+        thinned = [_thin_points(part, n, order) for part, n, order in zip(clouds, wanted, orders)]
+        point_parts = [part for part, _ in thinned]
+        for (name, _, _), whole, part in zip(point_sources, clouds, point_parts):
+            if len(part[0]) < len(whole[0]):
+                stats.setdefault("point_surfels", {})[name] = dict(points=len(whole[0]),
+                                                                   surfels=len(part[0]))
+        if refine is not None:
+            refine.points = point_parts
+        parts = _with_points(mesh_parts, point_parts, point_sources)
         if not going_on():
             raise IllumapCancelled("Cancelled")
         triangles, two_sided, splat_point = _surface_triangles(mesh_surfaces, clouds, point_sources)
@@ -498,7 +500,10 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
         job.splat_point = splat_point
         job.mesh_triangle_start = np.cumsum([0] + [len(m.corners) for m in mesh_surfaces])[:-1]
         job.occluders = occluders
-        job.clouds = read_clouds
+        job.clouds = [PointCloud(p.name, p.positions,
+                                 p.receiver_normals if p.receiver_normals is not None else p.normals,
+                                 p.albedo, p.emission, owner)
+                      for p, (_, owner) in zip(full, thinned)]
         job.receivers = receivers
         return job
     return UnbuiltJob(build)
@@ -564,17 +569,18 @@ def _point_counts(settings: Settings, density: float | None, clouds: list, sourc
     return out
 
 
-def _thin_points(part: tuple, count: int, rng: np.random.Generator) -> tuple[tuple, np.ndarray]:
+def _thin_points(part: tuple, count: int, order: np.ndarray | None) -> tuple[tuple, np.ndarray]:
     """About ``count`` of a cloud's points as surfels, one per cell of a grid sized to the
-    cloud's area, each carrying the area, albedo and emission (area-weighted) of the points
-    nearest to it. Returns (the surfels' part, the surfel (row) of every point)."""
+    cloud's area (the first point in the random ``order``, a permutation of the points, None
+    when no thinning is wanted), each carrying the area, albedo and emission (area-weighted)
+    of the points nearest to it. Returns (the surfels' part, the surfel (row) of every
+    point)."""
     positions, normals, areas = part[0], part[1], part[2]
     n = len(positions)
     if count >= n:
         return part, np.arange(n, dtype=np.int64)
     from illumap import _core
     cell = np.sqrt(areas.sum() / count)
-    order = rng.permutation(n)
     for _ in range(3):   # a surface crosses more cells than its area / cell²: correct the size
         keys = np.floor((positions[order] - positions.min(axis=0)) / cell).astype(np.int64)
         _, first = np.unique(keys, axis=0, return_index=True)
@@ -635,8 +641,8 @@ def _assemble(settings: Settings, samples: list, point_parts: list, point_source
               occluders=None) -> Job:
     """Materials and the Job from sampled meshes and point clouds (direct light: ``light``);
     ``occluders`` (the scene's triangles) find the open surfaces' back faces in view."""
-    return _assembled(_surfel_parts(samples, point_parts, point_sources, warnings), settings,
-                      lamp_list, world, warnings, stats, t0, occluders)
+    parts = _with_points(_surfel_parts(samples, warnings), point_parts, point_sources)
+    return _assembled(parts, settings, lamp_list, world, warnings, stats, t0, occluders)
 
 
 @dataclass
@@ -652,9 +658,8 @@ class _SurfelParts:
     point_backs: list             # (name, area, part) per point cloud of unknown orientation
 
 
-def _surfel_parts(samples: list, point_parts: list, point_sources: list,
-                  warnings: list[str]) -> _SurfelParts:
-    """The surfels' materials (main thread: the materials are bpy's) and parts."""
+def _surfel_parts(samples: list, warnings: list[str]) -> _SurfelParts:
+    """The meshes' surfels with their materials (main thread: the materials are bpy's)."""
     fronts, sources, start = [], [], 0
     for s in samples:
         albedo, emission = materials.surfel_materials(s, warnings)
@@ -662,13 +667,8 @@ def _surfel_parts(samples: list, point_parts: list, point_sources: list,
                        s.triangle, s.bary, s.material_index))
         sources.append(Source(s.mesh.name, "MESH", start, start + len(s.areas), s.mesh.total_area))
         start += len(s.areas)
-    for part, (name, area, _) in zip(point_parts, point_sources):
-        fronts.append(part)
-        sources.append(Source(name, "POINTS", start, start + len(part[2]), area))
-        start += len(part[2])
     in_lamp = [s.mesh.light_mask[s.triangle] if s.mesh.light_mask is not None
                else np.zeros(len(s.areas), dtype=bool) for s in samples]
-    in_lamp += [np.zeros(len(p[2]), dtype=bool) for p in point_parts]
     scratch: list[str] = []   # the front faces' evaluation already warned about the materials
     backs = []
     for index, s in enumerate(samples):
@@ -677,10 +677,30 @@ def _surfel_parts(samples: list, point_parts: list, point_sources: list,
             backs.append((index, s.mesh.name, s.mesh.total_area,
                           (s.positions, -s.normals, s.areas, albedo, emission, _uv_rows(s),
                            s.triangle, s.bary, s.material_index)))
+    return _SurfelParts(fronts, sources, in_lamp, backs, [])
+
+
+def _with_points(meshes: _SurfelParts, point_parts: list, point_sources: list) -> _SurfelParts:
+    """The meshes' parts followed by the point clouds' (no bpy); a cloud of unknown
+    orientation brings its back faces too."""
+    fronts, sources, in_lamp = list(meshes.fronts), list(meshes.sources), list(meshes.in_lamp)
+    start = sources[-1].stop if sources else 0
+    for part, (name, area, _) in zip(point_parts, point_sources):
+        fronts.append(part)
+        sources.append(Source(name, "POINTS", start, start + len(part[2]), area))
+        start += len(part[2])
+        in_lamp.append(np.zeros(len(part[2]), dtype=bool))
     point_backs = [(name, area, (part[0], -part[1]) + tuple(part[2:]))
                    for part, (name, area, two_sided) in zip(point_parts, point_sources)
                    if two_sided]
-    return _SurfelParts(fronts, sources, in_lamp, backs, point_backs)
+    return _SurfelParts(fronts, sources, in_lamp, meshes.backs, point_backs)
+
+
+def _point_part(p) -> tuple:
+    """A point cloud (``pointcloud.PointSamples`` with normals) as a surfel part."""
+    m = len(p.areas)
+    return (p.positions, p.normals, p.areas, p.albedo, p.emission, np.full((m, 2), np.nan),
+            np.full(m, -1, np.int64), np.full((m, 3), np.nan), np.full(m, -1, np.int64))
 
 
 def _uv_rows(samples) -> np.ndarray:

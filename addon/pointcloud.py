@@ -17,7 +17,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -35,7 +35,7 @@ class PointSamples:
 
     name: str
     positions: np.ndarray
-    normals: np.ndarray
+    normals: np.ndarray | None    # None until ``with_normals`` estimates them
     areas: np.ndarray
     albedo: np.ndarray
     emission: np.ndarray
@@ -175,18 +175,13 @@ def _finish(obj, obj_eval, name, pos, extra, active, mats, warnings) -> PointSam
         _check_spacing(name, pos, areas, k)
         warnings.append(f"Point cloud '{name}': no 'radius' attribute; areas estimated from the "
                         f"spacing of {k} nearest neighbours")
-    receiver_normals = None
     if normal is not None:
         normal = normal @ np.linalg.inv(lin)
         length = np.linalg.norm(normal, axis=1)
         if (length < 1e-12).any() or not np.all(np.isfinite(length)):
             raise IllumapError(f"Point cloud '{name}': normal attribute has zero or NaN vectors")
         normal = normal / length[:, None]
-    else:
-        normal = estimate_normals(pos, k)
-        from illumap.pointcloud import pca_normals  # noqa: PLC0415 - native, loaded on use
-        spread = pca_normals(pos, k)
-        receiver_normals = spread * np.where(np.einsum("ij,ij->i", spread, normal) < 0, -1.0, 1.0)[:, None]
+    else:   # estimated by ``with_normals``, off the main thread in an interactive run
         warnings.append(f"Point cloud '{name}': no 'normal' attribute; normals estimated from the "
                         f"plane most of {k} neighbours lie on, and as their orientation is unknown "
                         f"both sides of every point are lit (each point shows its brighter side: "
@@ -203,4 +198,19 @@ def _finish(obj, obj_eval, name, pos, extra, active, mats, warnings) -> PointSam
     albedo = np.clip(np.nan_to_num(albedo), 0.0, materials.MAX_ALBEDO)
     return PointSamples(name=name, positions=pos, normals=normal, areas=areas, albedo=albedo,
                         emission=np.maximum(np.nan_to_num(emission), 0.0), colors=colors,
-                        two_sided=extra["normal"] is None, receiver_normals=receiver_normals)
+                        two_sided=extra["normal"] is None)
+
+
+def with_normals(samples: PointSamples) -> PointSamples:
+    """``samples`` with normals: as read, or where the cloud had none, estimated from the
+    plane most of each point's neighbours lie on (``receiver_normals``: the spread of all
+    of them, oriented alike). numpy and the core only."""
+    if samples.normals is not None:
+        return samples
+    pos = samples.positions
+    k = min(K_NEIGHBOURS, len(pos) - 1)
+    normal = estimate_normals(pos, k)
+    from illumap.pointcloud import pca_normals  # noqa: PLC0415 - native, loaded on use
+    spread = pca_normals(pos, k)
+    receiver = spread * np.where(np.einsum("ij,ij->i", spread, normal) < 0, -1.0, 1.0)[:, None]
+    return replace(samples, normals=normal, receiver_normals=receiver)
