@@ -490,9 +490,9 @@ class ILLUMAP_OT_compute_illumination_map(bpy.types.Operator):
             # Transfer targets and export paths are checked before the scene is read (the
             # write checks them again: the user may change the scene while the run is going).
             output.check_targets(objects, settings)
-            # Read on the main thread; the splats and ray-casting structure are built on the
-            # worker (a 486k-point scan: 8.8 s on the main thread before, 2.3-2.4 s after;
-            # bench/micro/scan_prepare.py).
+            # Read on the main thread; a scan's normals, thinning and splats and the
+            # ray-casting structure are built on the worker (a 486k-point scan: 8.8 s on the
+            # main thread before, 0.6 s after; bench/micro/scan_prepare.py).
             job = _pipeline().prepare(context.evaluated_depsgraph_get(), objects, settings,
                                       build=False)
         except Exception as error:

@@ -230,3 +230,41 @@ def test_a_dense_scan_shares_its_gathers_and_keeps_its_contact_shadows():
     assert foot.sum() > 50
     assert np.abs(diff[foot]).max() < 0.05 * (full[foot] @ lum).mean()
     assert stats[pipeline.Settings().gather_cache]["rays"] < 0.7 * stats[0.0]["rays"], stats
+
+
+def test_a_scan_without_normals_is_estimated_and_thinned_on_the_worker(monkeypatch):
+    """An interactive run reads a scan on the main thread and estimates its normals and
+    thins it on its worker (``prepare(build=False)``, then ``ComputeTask``): the job is the
+    one ``prepare`` builds at once, the estimation ran on the worker, and the result is
+    written as usual."""
+    import threading
+
+    from addon import operators, pointcloud
+    white = diffuse("W")
+    floor = plane("Floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], 0.05, white)
+    box = closed_box("Box", (-0.3, -0.3, 0.0), (0.3, 0.3, 0.6), 0.05, white)
+    add_lamp("POINT", location=(0.5, -0.5, 1.5), energy=200.0, shadow_soft_size=0.1)
+    scan = as_scan([floor, box])
+    for mesh in (floor, box):
+        mesh.hide_set(True)
+        mesh.hide_render = True
+    settings = pipeline.Settings(budget=300)          # fewer surfels than points: thinned
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    built = pipeline.prepare(depsgraph, [scan], settings)
+    assert built.stats["point_surfels"]["Scan"]["surfels"] < len(scan.data.vertices)
+    threads = []
+    estimate = pointcloud.estimate_normals
+    monkeypatch.setattr(pointcloud, "estimate_normals",
+                        lambda *a, **k: threads.append(threading.current_thread()) or estimate(*a, **k))
+    unbuilt = pipeline.prepare(depsgraph, [scan], settings, build=False)
+    assert threads == []                               # nothing estimated while reading
+    task = operators.ComputeTask(unbuilt, pipeline.run).start()
+    assert task.wait(120) == "DONE", task.error
+    assert len(threads) == 1 and threads[0] is not threading.main_thread()
+    for name in ("positions", "normals", "areas", "albedo", "triangles", "splat_point"):
+        np.testing.assert_array_equal(getattr(task.job, name), getattr(built, name), err_msg=name)
+    for a, b in zip(task.job.clouds, built.clouds):
+        np.testing.assert_array_equal(a.normals, b.normals)
+        np.testing.assert_array_equal(a.surfel, b.surfel)
+    assert operators.finish_task(bpy.context, task, lambda k, m: None) == {"FINISHED"}
+    assert scan_values(scan).max() > 0
