@@ -46,9 +46,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=OUT)
     args = ap.parse_args(argv)
     pipeline = run.register_addon()
-    scene = scenes.cornell(cell=args.cell)
-    scene.name, scene.scan = "scan_prepare", [o.name for o in scene.scored]
-    objects, spans = run.scan_objects(scene)
+    objects, spans = run.scan_objects(scenes.cornell_scan(args.cell))
     points = sum(count for _, count in spans.values())
     settings = run.make_settings(pipeline, {})
     depsgraph = bpy.context.evaluated_depsgraph_get()

@@ -51,6 +51,15 @@ def as_scan(meshes, normals=None):
     return link(bpy.data.objects.new("Scan", data))
 
 
+def scan_in_place_of(meshes, normals=None):
+    """``as_scan(meshes, normals)`` with the meshes hidden from the viewport and renders."""
+    scan = as_scan(meshes, normals)
+    for mesh in meshes:
+        mesh.hide_set(True)
+        mesh.hide_render = True
+    return scan
+
+
 def vertex_normals(obj):
     n = np.empty(len(obj.data.vertices) * 3)
     obj.data.vertices.foreach_get("normal", n)
@@ -186,10 +195,7 @@ def test_the_side_probe_changes_no_value_and_saves_rays(monkeypatch):
     floor = plane("Floor", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], 0.2, white)
     box = closed_box("Box", (-0.5, -0.5, 0.0), (0.5, 0.5, 1.0), 0.2, white)
     add_lamp("POINT", location=(1.0, -1.5, 2.0), energy=300.0, shadow_soft_size=0.2)
-    scan = as_scan([floor, box])
-    for mesh in (floor, box):
-        mesh.hide_set(True)
-        mesh.hide_render = True
+    scan = scan_in_place_of([floor, box])
     got, rays, probe = {}, {}, receive.SIDE_PROBE_SHARE
     for share in (probe, 1.0):   # 1.0: no probe, both sides in full
         monkeypatch.setattr(receive, "SIDE_PROBE_SHARE", share)
@@ -212,10 +218,7 @@ def test_a_dense_scan_shares_its_gathers_and_keeps_its_contact_shadows():
     box = closed_box("Box", (-0.4, -0.4, 0.0), (0.4, 0.4, 0.8), 0.03, white)
     add_lamp("AREA", location=(0.8, -0.6, 2.0), energy=400.0, size=0.5)
     normals = np.concatenate([vertex_normals(m) for m in (floor, box)])
-    scan = as_scan([floor, box], normals)
-    for mesh in (floor, box):
-        mesh.hide_set(True)
-        mesh.hide_render = True
+    scan = scan_in_place_of([floor, box], normals)
     got, stats = {}, {}
     for a in (0.0, pipeline.Settings().gather_cache):
         result = pipeline.compute(bpy.context, [scan], pipeline.Settings(gather_cache=a))
@@ -244,10 +247,7 @@ def test_a_scan_without_normals_is_estimated_and_thinned_on_the_worker(monkeypat
     floor = plane("Floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], 0.05, white)
     box = closed_box("Box", (-0.3, -0.3, 0.0), (0.3, 0.3, 0.6), 0.05, white)
     add_lamp("POINT", location=(0.5, -0.5, 1.5), energy=200.0, shadow_soft_size=0.1)
-    scan = as_scan([floor, box])
-    for mesh in (floor, box):
-        mesh.hide_set(True)
-        mesh.hide_render = True
+    scan = scan_in_place_of([floor, box])
     settings = pipeline.Settings(budget=300)          # fewer surfels than points: thinned
     depsgraph = bpy.context.evaluated_depsgraph_get()
     built = pipeline.prepare(depsgraph, [scan], settings)
