@@ -77,7 +77,7 @@ def _read_attr(attributes, name: str, count: int, width: int) -> np.ndarray | No
 
 def estimate_areas(positions: np.ndarray, k: int = K_NEIGHBOURS) -> np.ndarray:
     """Area per point (m²) from neighbour spacing (see the module docstring)."""
-    idx, dist = knn(positions, positions, k + 1)
+    _, dist = knn(positions, positions, k + 1)
     d2 = dist[:, 1:] ** 2
     return 2 * np.pi * d2.mean(axis=1) / (d2.shape[1] + 1)
 
