@@ -427,12 +427,16 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     from illumap.refinement import LUMINANCE_WEIGHTS
     lum = np.asarray(LUMINANCE_WEIGHTS, dtype=np.float64)
     noise2 = light2 = indirect = from_surfels = total = 0.0
+    report = None if progress is None else (lambda f, _p="": progress(f, "gather"))
+    gatherer = []   # one rc.Gatherer for every batch: the field is tabulated once
+
     def gather_at(points, normals, ids, rays):
-        return rc.gather(occ, field_, points, normals, rays=rays, seed=s.seed, ids=ids,
-                         background=background, back_field=back_field, two_sided=job.two_sided,
-                         owners=owners, back_owners=back_owners, exact=exact,
-                         progress=None if progress is None else
-                         (lambda f, _p="": progress(f, "gather")))
+        if not gatherer:
+            gatherer.append(rc.Gatherer(occ, field_, background=background, back_field=back_field,
+                                        two_sided=job.two_sided, owners=owners,
+                                        back_owners=back_owners, exact=exact, progress=report))
+        return gatherer[0].gather(points, normals, rays=rays, seed=s.seed, ids=ids,
+                                  progress=report)
 
     def incident_at(points, normals, ids, meshes=None, rays=gather_rays, shared=None,
                     samples=shadow_samples):

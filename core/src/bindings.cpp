@@ -154,127 +154,157 @@ void bind_gather(nb::module_& m) {
           nb::arg("normals"), nb::arg("count"), nb::arg("ids"), nb::arg("seed") = 0,
           "Cosine-distributed unit directions (M, count, 3) about unit normals, per receiver id.");
 
-    m.def("gather",
-          [](PyMeshScene& scene, PySurfelField& front, nb::handle back, nb::handle positions,
-             nb::handle normals, nb::handle ids, int rays, std::uint64_t seed, double offset,
-             nb::handle background, nb::handle two_sided, nb::handle rays_per,
-             nb::handle owner_front, nb::handle owner_back, nb::handle front_rest,
-             nb::handle front_lattice, nb::handle back_rest, nb::handle back_lattice,
-             bool tabulate, int threads, nb::handle progress) {
-              const double *P, *N;
-              nb::object k1, k2, k3, k4;
-              const std::size_t m = paired_rays(positions, "positions", normals, "normals", P, N, k1, k2);
-              std::size_t ni, nbg;
-              const std::int64_t* I = view<std::int64_t>(ids, "ids", 1, 0, ni, k3);
-              if (ni != m) throw nb::value_error("ids must have one entry per receiver");
-              const double* BG = view<double>(background, "background", 1, 0, nbg, k4);
-              if (nbg != 3) throw nb::value_error("background must have 3 values");
-              if (rays < 1) throw nb::value_error("rays must be >= 1");
-              if (!(offset >= 0) || !std::isfinite(offset)) throw nb::value_error("offset must be finite and >= 0");
-              std::vector<std::uint8_t> sided;
-              if (two_sided.is_valid() && !two_sided.is_none()) {
-                  std::size_t ns;
-                  nb::object k5;
-                  const std::int64_t* S = view<std::int64_t>(two_sided, "two_sided", 1, 0, ns, k5);
-                  if (ns != scene.scene->size())
-                      throw nb::value_error("two_sided must have one entry per triangle");
-                  sided.assign(S, S + ns);
-              }
-              std::vector<std::int32_t> per;
-              if (rays_per.is_valid() && !rays_per.is_none()) {
-                  std::size_t nr;
-                  nb::object k6;
-                  const std::int64_t* R = view<std::int64_t>(rays_per, "rays_per", 1, 0, nr, k6);
-                  if (nr != m) throw nb::value_error("rays_per must have one entry per receiver");
-                  per.resize(m);
-                  for (std::size_t i = 0; i < m; ++i) {
-                      if (R[i] < 1 || R[i] > (1 << 20))
-                          throw nb::value_error(("rays_per[" + std::to_string(i) + "] must be in 1..2^20").c_str());
-                      per[i] = std::int32_t(R[i]);
-                  }
-              }
-              const SurfelField* back_field = nullptr;
-              if (back.is_valid() && !back.is_none()) back_field = nb::cast<PySurfelField&>(back).field.get();
-              // Splat owners: -1, or a row of the field they index (checked here, once).
-              auto owners = [&](nb::handle h, const char* name, const SurfelField* field) {
-                  std::vector<std::int64_t> o;
-                  if (!h.is_valid() || h.is_none()) return o;
-                  std::size_t no;
-                  nb::object keep;
-                  const std::int64_t* O = view<std::int64_t>(h, name, 1, 0, no, keep);
-                  if (no != scene.scene->size())
-                      throw nb::value_error((std::string(name) + " must have one entry per triangle").c_str());
-                  const std::int64_t limit = field ? std::int64_t(field->size()) : 0;
-                  for (std::size_t t = 0; t < no; ++t)
-                      if (O[t] < -1 || O[t] >= limit)
-                          throw nb::value_error((std::string(name) + "[" + std::to_string(t) +
-                                                 "] is not -1 or a surfel of its field").c_str());
-                  o.assign(O, O + no);
-                  return o;
-              };
-              const std::vector<std::int64_t> own_front = owners(owner_front, "owner_front", front.field.get());
-              const std::vector<std::int64_t> own_back = owners(owner_back, "owner_back", back_field);
-              // Exact parts: a rest field and one value per lattice point, both or neither.
-              GatherLattice lat_front, lat_back;
-              const bool any_exact = !front_lattice.is_none() || !back_lattice.is_none();
-              if (any_exact)
-                  gather_lattices(*scene.scene, *front.field, back_field,
-                                  sided.empty() ? nullptr : sided.data(),
-                                  own_front.empty() ? nullptr : own_front.data(),
-                                  own_back.empty() ? nullptr : own_back.data(), lat_front, lat_back);
-              nb::object kf, kb;
-              auto exact = [&](nb::handle rest, nb::handle lattice, const char* name,
-                               std::size_t expected, nb::object& keep) {
-                  ExactPart e;
-                  if (rest.is_none() != lattice.is_none())
-                      throw nb::value_error((std::string(name) + ": give the rest field and the lattice values together").c_str());
-                  if (lattice.is_none()) return e;
-                  std::size_t nl;
-                  e.lattice = view<double>(lattice, name, 2, 3, nl, keep);
-                  if (nl != expected)
-                      throw nb::value_error((std::string(name) + " must have " + std::to_string(expected) +
-                                             " rows (gather_lattices), got " + std::to_string(nl)).c_str());
-                  e.rest = nb::cast<PySurfelField&>(rest).field.get();
-                  return e;
-              };
-              const ExactPart ex_front = exact(front_rest, front_lattice, "front_lattice", lat_front.size(), kf);
-              if (!back_lattice.is_none() && !back_field)
-                  throw nb::value_error("back_lattice needs a back field");
-              const ExactPart ex_back = exact(back_rest, back_lattice, "back_lattice", lat_back.size(), kb);
-              GatherOptions opt;
-              opt.rays = rays;
-              opt.seed = seed;
-              opt.offset = offset;
-              opt.tabulate = tabulate;
-              for (int c = 0; c < 3; ++c) opt.background[c] = BG[c];
-              double *out, *err, *reach, *open;
-              auto a1 = new_array(m, 3, &out);
-              auto a2 = new_array(m, 0, &err);
-              auto a3 = new_array(m, 0, &reach);
-              auto a4 = new_array(m, 0, &open);
-              run_released(threads, progress, [&](Context& ctx) {
-                  ctx.set_phase("gather", 0.0, 1.0);
-                  checkpoint(ctx, 0.0);
-                  gather(ctx, *scene.scene, *front.field, back_field, P, N, I, m, opt, out, err,
-                         sided.empty() ? nullptr : sided.data(), per.empty() ? nullptr : per.data(),
-                         own_front.empty() ? nullptr : own_front.data(),
-                         own_back.empty() ? nullptr : own_back.data(),
-                         ex_front.lattice ? &ex_front : nullptr, ex_back.lattice ? &ex_back : nullptr,
-                         reach, open);
-              });
-              return nb::make_tuple(a1, a2, a3, a4);
-          },
-          nb::arg("scene"), nb::arg("front"), nb::arg("back").none(), nb::arg("positions"),
-          nb::arg("normals"), nb::arg("ids"), nb::kw_only(), nb::arg("rays"), nb::arg("seed") = 0,
-          nb::arg("offset"), nb::arg("background"), nb::arg("two_sided").none() = nb::none(),
-          nb::arg("rays_per").none() = nb::none(),
-          nb::arg("owner_front").none() = nb::none(), nb::arg("owner_back").none() = nb::none(),
-          nb::arg("front_rest").none() = nb::none(), nb::arg("front_lattice").none() = nb::none(),
-          nb::arg("back_rest").none() = nb::none(), nb::arg("back_lattice").none() = nb::none(),
-          nb::arg("tabulate") = true, nb::arg("threads") = 0,
-          nb::arg("progress") = nb::none(),
-          "Final gather: (mean radiance (M, 3), standard error of its luminance (M,), reach (M,) m, "
-          "share of the rays that hit nothing (M,)).");
+    // A gather prepared once (GatherPlan): the scene, fields and exact parts stay referenced,
+    // the per-triangle arrays are copied and checked once.
+    struct PyGatherer {
+        nb::object scene_ref, front_ref, back_ref, keep_front_rest, keep_back_rest,
+            keep_front_lattice, keep_back_lattice;
+        std::vector<std::uint8_t> sided;
+        std::vector<std::int64_t> own_front, own_back;
+        ExactPart ex_front, ex_back;
+        GatherOptions opt;
+        std::unique_ptr<GatherPlan> plan;
+    };
+    nb::class_<PyGatherer>(m, "Gatherer")
+        .def("__init__",
+             [](PyGatherer* self, nb::handle scene_h, nb::handle front_h, nb::handle back,
+                double offset, nb::handle background, nb::handle two_sided,
+                nb::handle owner_front, nb::handle owner_back, nb::handle front_rest,
+                nb::handle front_lattice, nb::handle back_rest, nb::handle back_lattice,
+                bool tabulate, int threads, nb::handle progress) {
+                 // Built aside and moved in only once complete: nanobind destroys no half-built
+                 // instance, so a refused argument must not leave references behind.
+                 PyGatherer g;
+                 PyMeshScene& scene = nb::cast<PyMeshScene&>(scene_h);
+                 PySurfelField& front = nb::cast<PySurfelField&>(front_h);
+                 g.scene_ref = nb::borrow(scene_h);
+                 g.front_ref = nb::borrow(front_h);
+                 std::size_t nbg;
+                 nb::object k4;
+                 const double* BG = view<double>(background, "background", 1, 0, nbg, k4);
+                 if (nbg != 3) throw nb::value_error("background must have 3 values");
+                 if (!(offset >= 0) || !std::isfinite(offset)) throw nb::value_error("offset must be finite and >= 0");
+                 const std::size_t T = scene.scene->size();
+                 if (two_sided.is_valid() && !two_sided.is_none()) {
+                     std::size_t ns;
+                     nb::object k5;
+                     const std::int64_t* S = view<std::int64_t>(two_sided, "two_sided", 1, 0, ns, k5);
+                     if (ns != T) throw nb::value_error("two_sided must have one entry per triangle");
+                     g.sided.assign(S, S + ns);
+                 }
+                 const SurfelField* back_field = nullptr;
+                 if (back.is_valid() && !back.is_none()) {
+                     back_field = nb::cast<PySurfelField&>(back).field.get();
+                     g.back_ref = nb::borrow(back);
+                 }
+                 // Splat owners: -1, or a row of the field they index.
+                 auto owners = [&](nb::handle h, const char* name, const SurfelField* field) {
+                     std::vector<std::int64_t> o;
+                     if (!h.is_valid() || h.is_none()) return o;
+                     std::size_t no;
+                     nb::object keep;
+                     const std::int64_t* O = view<std::int64_t>(h, name, 1, 0, no, keep);
+                     if (no != T)
+                         throw nb::value_error((std::string(name) + " must have one entry per triangle").c_str());
+                     const std::int64_t limit = field ? std::int64_t(field->size()) : 0;
+                     for (std::size_t t = 0; t < no; ++t)
+                         if (O[t] < -1 || O[t] >= limit)
+                             throw nb::value_error((std::string(name) + "[" + std::to_string(t) +
+                                                    "] is not -1 or a surfel of its field").c_str());
+                     o.assign(O, O + no);
+                     return o;
+                 };
+                 g.own_front = owners(owner_front, "owner_front", front.field.get());
+                 g.own_back = owners(owner_back, "owner_back", back_field);
+                 const std::uint8_t* sided = g.sided.empty() ? nullptr : g.sided.data();
+                 const std::int64_t* of = g.own_front.empty() ? nullptr : g.own_front.data();
+                 const std::int64_t* ob = g.own_back.empty() ? nullptr : g.own_back.data();
+                 // Exact parts: a rest field and one value per lattice point, both or neither.
+                 GatherLattice lat_front, lat_back;
+                 if (!front_lattice.is_none() || !back_lattice.is_none())
+                     gather_lattices(*scene.scene, *front.field, back_field, sided, of, ob,
+                                     lat_front, lat_back);
+                 auto exact = [&](nb::handle rest, nb::handle lattice, const char* name,
+                                  std::size_t expected, nb::object& keep_lattice, nb::object& keep_rest) {
+                     ExactPart e;
+                     if (rest.is_none() != lattice.is_none())
+                         throw nb::value_error((std::string(name) + ": give the rest field and the lattice values together").c_str());
+                     if (lattice.is_none()) return e;
+                     std::size_t nl;
+                     e.lattice = view<double>(lattice, name, 2, 3, nl, keep_lattice);
+                     if (nl != expected)
+                         throw nb::value_error((std::string(name) + " must have " + std::to_string(expected) +
+                                                " rows (gather_lattices), got " + std::to_string(nl)).c_str());
+                     e.rest = nb::cast<PySurfelField&>(rest).field.get();
+                     keep_rest = nb::borrow(rest);
+                     return e;
+                 };
+                 g.ex_front = exact(front_rest, front_lattice, "front_lattice", lat_front.size(),
+                                        g.keep_front_lattice, g.keep_front_rest);
+                 if (!back_lattice.is_none() && !back_field)
+                     throw nb::value_error("back_lattice needs a back field");
+                 g.ex_back = exact(back_rest, back_lattice, "back_lattice", lat_back.size(),
+                                       g.keep_back_lattice, g.keep_back_rest);
+                 g.opt.offset = offset;
+                 g.opt.tabulate = tabulate;
+                 for (int c = 0; c < 3; ++c) g.opt.background[c] = BG[c];
+                 run_released(threads, progress, [&](Context& ctx) {
+                     checkpoint(ctx, 0.0);
+                     g.plan = std::make_unique<GatherPlan>(
+                         ctx, *scene.scene, *front.field, back_field, g.opt, sided, of, ob,
+                         g.ex_front.lattice ? &g.ex_front : nullptr,
+                         g.ex_back.lattice ? &g.ex_back : nullptr);
+                 });
+                 new (self) PyGatherer(std::move(g));   // the plan keeps no pointer into g itself
+             },
+             nb::arg("scene"), nb::arg("front"), nb::arg("back").none(), nb::kw_only(),
+             nb::arg("offset"), nb::arg("background"), nb::arg("two_sided").none() = nb::none(),
+             nb::arg("owner_front").none() = nb::none(), nb::arg("owner_back").none() = nb::none(),
+             nb::arg("front_rest").none() = nb::none(), nb::arg("front_lattice").none() = nb::none(),
+             nb::arg("back_rest").none() = nb::none(), nb::arg("back_lattice").none() = nb::none(),
+             nb::arg("tabulate") = true, nb::arg("threads") = 0, nb::arg("progress") = nb::none(),
+             "A final gather prepared once for any number of receivers (its field tables).")
+        .def("gather",
+             [](PyGatherer& self, nb::handle positions, nb::handle normals, nb::handle ids, int rays,
+                std::uint64_t seed, nb::handle rays_per, int threads, nb::handle progress) {
+                 const double *P, *N;
+                 nb::object k1, k2, k3;
+                 const std::size_t m = paired_rays(positions, "positions", normals, "normals", P, N, k1, k2);
+                 std::size_t ni;
+                 const std::int64_t* I = view<std::int64_t>(ids, "ids", 1, 0, ni, k3);
+                 if (ni != m) throw nb::value_error("ids must have one entry per receiver");
+                 if (rays < 1) throw nb::value_error("rays must be >= 1");
+                 std::vector<std::int32_t> per;
+                 if (rays_per.is_valid() && !rays_per.is_none()) {
+                     std::size_t nr;
+                     nb::object k6;
+                     const std::int64_t* R = view<std::int64_t>(rays_per, "rays_per", 1, 0, nr, k6);
+                     if (nr != m) throw nb::value_error("rays_per must have one entry per receiver");
+                     per.resize(m);
+                     for (std::size_t i = 0; i < m; ++i) {
+                         if (R[i] < 1 || R[i] > (1 << 20))
+                             throw nb::value_error(("rays_per[" + std::to_string(i) + "] must be in 1..2^20").c_str());
+                         per[i] = std::int32_t(R[i]);
+                     }
+                 }
+                 double *out, *err, *reach, *open;
+                 auto a1 = new_array(m, 3, &out);
+                 auto a2 = new_array(m, 0, &err);
+                 auto a3 = new_array(m, 0, &reach);
+                 auto a4 = new_array(m, 0, &open);
+                 run_released(threads, progress, [&](Context& ctx) {
+                     ctx.set_phase("gather", 0.0, 1.0);
+                     checkpoint(ctx, 0.0);
+                     self.plan->gather(ctx, P, N, I, m, rays, seed, per.empty() ? nullptr : per.data(),
+                                       out, err, reach, open);
+                 });
+                 return nb::make_tuple(a1, a2, a3, a4);
+             },
+             nb::arg("positions"), nb::arg("normals"), nb::arg("ids"), nb::kw_only(),
+             nb::arg("rays"), nb::arg("seed") = 0, nb::arg("rays_per").none() = nb::none(),
+             nb::arg("threads") = 0, nb::arg("progress") = nb::none(),
+             "Final gather: (mean radiance (M, 3), standard error of its luminance (M,), reach (M,) m, "
+             "share of the rays that hit nothing (M,)).");
 
     m.def("gather_lattices",
           [](PyMeshScene& scene, PySurfelField& front, nb::handle back, nb::handle two_sided,

@@ -2,6 +2,7 @@
 #include "gather.hpp"
 
 #include <algorithm>
+#include <memory>
 #include <cmath>
 #include <stdexcept>
 
@@ -291,18 +292,17 @@ void lattice_points_of(const MeshScene& scene, const FieldTable& tab, double sig
 
 }  // namespace
 
-void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, const SurfelField* back,
-            const double* positions, const double* normals, const std::int64_t* ids, std::size_t m,
-            const GatherOptions& opt, double* out, double* stderr_out,
-            const std::uint8_t* two_sided, const std::int32_t* rays_per,
-            const std::int64_t* owner_front, const std::int64_t* owner_back,
-            const ExactPart* front_exact, const ExactPart* back_exact, double* reach_out,
-            double* open_out) {
-    std::size_t K_max = std::size_t(std::max(1, opt.rays));
-    if (rays_per)
-        for (std::size_t i = 0; i < m; ++i)
-            K_max = std::max(K_max, std::size_t(std::max(1, rays_per[i])));
-    const std::size_t K_grain = std::size_t(std::max(1, opt.rays));
+struct GatherPlan::Tables {
+    FieldTable front, back;
+};
+
+GatherPlan::GatherPlan(Context& ctx, const MeshScene& scene, const SurfelField& front,
+                       const SurfelField* back, const GatherOptions& opt,
+                       const std::uint8_t* two_sided, const std::int64_t* owner_front,
+                       const std::int64_t* owner_back, const ExactPart* front_exact,
+                       const ExactPart* back_exact)
+    : scene_(scene), front_(front), back_(back), opt_(opt), two_sided_(two_sided),
+      owner_front_(owner_front), owner_back_(owner_back), tables_(std::make_unique<Tables>()) {
     ctx.set_phase("gather: field", 0.0, 0.1);
     const LatticeMasks mk = lattice_masks(scene.size(), back != nullptr, two_sided, owner_front, owner_back);
     // With an exact part, the lattice takes its values plus the rest's field; hits off the
@@ -323,8 +323,31 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
                    split ? exact->lattice : nullptr, tab);
         return tab;
     };
-    const FieldTable front_tab = table(front, front_exact, 1.0, mk.front);
-    const FieldTable back_tab = back ? table(*back, back_exact, -1.0, mk.back) : FieldTable{};
+    tables_->front = table(front, front_exact, 1.0, mk.front);
+    if (back) tables_->back = table(*back, back_exact, -1.0, mk.back);
+}
+
+GatherPlan::~GatherPlan() = default;
+
+void GatherPlan::gather(Context& ctx, const double* positions, const double* normals,
+                        const std::int64_t* ids, std::size_t m, int rays, std::uint64_t seed,
+                        const std::int32_t* rays_per, double* out, double* stderr_out,
+                        double* reach_out, double* open_out) const {
+    const MeshScene& scene = scene_;
+    const SurfelField& front = front_;
+    const SurfelField* back = back_;
+    const std::uint8_t* two_sided = two_sided_;
+    const std::int64_t* owner_front = owner_front_;
+    const std::int64_t* owner_back = owner_back_;
+    const FieldTable& front_tab = tables_->front;
+    const FieldTable& back_tab = tables_->back;
+    const double offset = opt_.offset;
+    const double* background = opt_.background;
+    std::size_t K_max = std::size_t(std::max(1, rays));
+    if (rays_per)
+        for (std::size_t i = 0; i < m; ++i)
+            K_max = std::max(K_max, std::size_t(std::max(1, rays_per[i])));
+    const std::size_t K_grain = std::size_t(std::max(1, rays));
     ctx.set_phase("gather", 0.1, 0.9);
     parallel_for(ctx, m, std::max<std::size_t>(1, 4096 / K_grain), [&](std::size_t lo, std::size_t hi) {
         std::vector<double> org(3 * K_max), dir(3 * K_max), dist(K_max);
@@ -336,21 +359,21 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
             const double* p = positions + 3 * i;
             const double* n = normals + 3 * i;
             const std::size_t K = rays_per ? std::size_t(std::max(1, rays_per[i]))
-                                           : std::size_t(std::max(1, opt.rays));
-            cosine_directions(n, K, ids ? ids[i] : std::int64_t(i), opt.seed, dir.data());
+                                           : std::size_t(std::max(1, rays));
+            cosine_directions(n, K, ids ? ids[i] : std::int64_t(i), seed, dir.data());
             for (std::size_t k = 0; k < K; ++k)
-                for (int d = 0; d < 3; ++d) org[3 * k + d] = p[d] + opt.offset * n[d];
+                for (int d = 0; d < 3; ++d) org[3 * k + d] = p[d] + offset * n[d];
             scene.intersect_serial(org.data(), dir.data(), K, HUGE_VAL, prim.data(), dist.data(),
                                    face.data(), uv.data());
             double sum[3] = {0, 0, 0}, lum = 0, lum2 = 0, nearness = 0;
             std::size_t misses = 0;
             for (std::size_t k = 0; k < K; ++k) {
-                double v[3] = {opt.background[0], opt.background[1], opt.background[2]};
+                double v[3] = {background[0], background[1], background[2]};
                 if (prim[k] < 0) {
                     ++misses;
                 } else {
                     const std::size_t t = std::size_t(prim[k]);
-                    nearness += 1.0 / std::max(dist[k] + opt.offset, 1e-300);
+                    nearness += 1.0 / std::max(dist[k] + offset, 1e-300);
                     const SurfelField* field = face[k] ? &front : back;
                     if (!face[k] && two_sided && !two_sided[t]) field = nullptr;
                     const FieldTable& tab = face[k] ? front_tab : back_tab;
@@ -367,7 +390,7 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
                         const double q[3] = {org[3 * k] + dist[k] * dir[3 * k],
                                              org[3 * k + 1] + dist[k] * dir[3 * k + 1],
                                              org[3 * k + 2] + dist[k] * dir[3 * k + 2]};
-                        field->at(q, nt, best, v, &scene, opt.offset);
+                        field->at(q, nt, best, v, &scene, offset);
                     }
                 }
                 for (int c = 0; c < 3; ++c) sum[c] += v[c];
@@ -383,6 +406,20 @@ void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, cons
             if (open_out) open_out[i] = double(misses) / double(K);
         }
     });
+}
+
+
+void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, const SurfelField* back,
+            const double* positions, const double* normals, const std::int64_t* ids, std::size_t m,
+            const GatherOptions& opt, double* out, double* stderr_out,
+            const std::uint8_t* two_sided, const std::int32_t* rays_per,
+            const std::int64_t* owner_front, const std::int64_t* owner_back,
+            const ExactPart* front_exact, const ExactPart* back_exact, double* reach_out,
+            double* open_out) {
+    const GatherPlan plan(ctx, scene, front, back, opt, two_sided, owner_front, owner_back,
+                          front_exact, back_exact);
+    plan.gather(ctx, positions, normals, ids, m, opt.rays, opt.seed, rays_per, out, stderr_out,
+                reach_out, open_out);
 }
 
 void gather_lattices(const MeshScene& scene, const SurfelField& front, const SurfelField* back,

@@ -17,6 +17,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace illumap {
@@ -79,6 +80,39 @@ void gather_lattices(const MeshScene& scene, const SurfelField& front, const Sur
                      const std::uint8_t* two_sided, const std::int64_t* owner_front,
                      const std::int64_t* owner_back, GatherLattice& front_out,
                      GatherLattice& back_out);
+
+// A gather prepared once for any number of receivers: the fields tabulated on the lattice
+// of every triangle that needs one (see gather below for the arguments, which must outlive
+// the plan; opt's offset, background and tabulate hold for every call, its rays and seed are
+// each call's). Preparing it reads every triangle, so a few receivers in a large scene cost
+// far less through one plan than through a gather each.
+class GatherPlan {
+public:
+    GatherPlan(Context& ctx, const MeshScene& scene, const SurfelField& front,
+               const SurfelField* back, const GatherOptions& opt,
+               const std::uint8_t* two_sided = nullptr, const std::int64_t* owner_front = nullptr,
+               const std::int64_t* owner_back = nullptr, const ExactPart* front_exact = nullptr,
+               const ExactPart* back_exact = nullptr);
+    ~GatherPlan();
+    GatherPlan(const GatherPlan&) = delete;
+    GatherPlan& operator=(const GatherPlan&) = delete;
+    // As gather below, with `rays` and `seed` for this call.
+    void gather(Context& ctx, const double* positions, const double* normals,
+                const std::int64_t* ids, std::size_t m, int rays, std::uint64_t seed,
+                const std::int32_t* rays_per, double* out, double* stderr_out,
+                double* reach_out = nullptr, double* open_out = nullptr) const;
+
+private:
+    struct Tables;
+    const MeshScene& scene_;
+    const SurfelField& front_;
+    const SurfelField* back_;
+    GatherOptions opt_;
+    const std::uint8_t* two_sided_;
+    const std::int64_t* owner_front_;
+    const std::int64_t* owner_back_;
+    std::unique_ptr<Tables> tables_;
+};
 
 // out: m x 3 mean radiance; stderr_out: m, standard error of the mean's luminance;
 // reach_out (m, may be null): the harmonic mean of the rays' hit distances, misses counted as

@@ -319,6 +319,33 @@ def test_an_exact_part_adds_to_the_rest_of_the_field():
         rc.gather(occ, ones, p, n, rays=8, exact=rc.ExactPart(rest=zeros, values=np.ones((3, 3))))
 
 
+def test_one_gatherer_serves_every_batch_as_a_gather_each():
+    """``Gatherer`` tabulates once; each of its calls gives what ``gather`` with the same
+    arguments gives, to the bit (an exact part and a back field included), and a refused
+    argument leaves nothing behind."""
+    square = grid_square(1.0, 8)
+    occ = rc.MeshOccluders(square)
+    rng = np.random.default_rng(2)
+    field = rc.SurfelField(square.mean(axis=1), np.tile([0.0, 0.0, -1.0], (len(square), 1)),
+                           rng.uniform(0.2, 1.0, (len(square), 3)))
+    back = surfels_on(square, value=0.3)
+    (points, _), _ = rc.gather_lattices(occ, field)
+    exact = rc.ExactPart(rest=surfels_on(square, value=0.1), values=np.full((len(points), 3), 0.4))
+    kw = dict(background=[0.2, 0.2, 0.3], back_field=back, exact=exact)
+    p = np.c_[rng.uniform(-0.5, 0.5, (30, 2)), rng.uniform(-0.5, 0.9, 30)]
+    n = np.tile([0.0, 0.0, 1.0], (30, 1))
+    n[::3] *= -1
+    once = rc.Gatherer(occ, field, **kw)
+    for rows, rays in ((np.arange(0, 10), 64), (np.arange(10, 30), 16), (np.arange(5, 8), 128)):
+        got = once.gather(p[rows], n[rows], rays=rays, ids=rows, seed=3)
+        want = rc.gather(occ, field, p[rows], n[rows], rays=rays, ids=rows, seed=3, **kw)
+        for name in ("radiance", "stderr", "reach", "open"):
+            np.testing.assert_array_equal(getattr(got, name), getattr(want, name), err_msg=name)
+        assert got.rays == want.rays == len(rows) * rays
+    with pytest.raises(ValueError, match="owner_front"):
+        rc.Gatherer(occ, field, owners=np.full(len(square), 10 ** 6))
+
+
 def test_a_back_exact_part_adds_to_the_back_field():
     # A two-sided square seen from behind: the back field's light, split or whole, alike.
     square = grid_square(1.0, 8, facing_down=False)              # faces away from the receiver

@@ -320,6 +320,64 @@ class GatherResult:
     open: np.ndarray | None = None
 
 
+class Gatherer:
+    """A final gather prepared once for any number of receivers (``gather``'s arguments but
+    the receivers, their rays and ids): the fields are tabulated on the scene's triangles
+    here, not at each call, which in a scan of millions of splat triangles costs more than
+    a small batch of receivers' rays."""
+
+    def __init__(self, occluders: MeshOccluders, field: SurfelField, *, background=None,
+                 back_field: SurfelField | None = None, two_sided=None, owners=None,
+                 back_owners=None, exact: ExactPart | None = None,
+                 back_exact: ExactPart | None = None, tabulate: bool = True, threads: int = 0,
+                 progress: Progress | None = None):
+        bg = np.zeros(3) if background is None else np.ascontiguousarray(background, dtype=np.float64).reshape(3)
+        if not np.isfinite(bg).all() or (bg < 0).any():
+            raise InputError(f"background must be 3 finite values >= 0, got {bg}")
+
+        def exact_rows(part):
+            if part is None:
+                return None, None
+            return part.rest._field, np.ascontiguousarray(part.values, dtype=np.float64)
+
+        front_rest, front_lattice = exact_rows(exact)
+        back_rest, back_lattice = exact_rows(back_exact)
+        self._gatherer = _core.Gatherer(
+            occluders._scene, field._field, None if back_field is None else back_field._field,
+            offset=occluders.offset, background=bg, two_sided=_sided(occluders, two_sided),
+            owner_front=_owner_rows(occluders, owners, "owners"),
+            owner_back=_owner_rows(occluders, back_owners, "back_owners"),
+            front_rest=front_rest, front_lattice=front_lattice, back_rest=back_rest,
+            back_lattice=back_lattice, tabulate=bool(tabulate), threads=threads,
+            progress=progress)
+
+    def gather(self, positions, normals, *, rays, ids: np.ndarray | None = None, seed: int = 0,
+               threads: int = 0, progress: Progress | None = None) -> GatherResult:
+        """Indirect incident radiance at receivers (``positions``, unit ``normals``, (M, 3)),
+        as ``gather``."""
+        p = _rows3("positions", positions)
+        n = _rows3("normals", normals, len(p))
+        per = None
+        if np.ndim(rays) == 0:
+            if int(rays) < 1:
+                raise InputError(f"rays must be >= 1, got {rays}")
+            count = len(p) * int(rays)
+        else:
+            per = np.ascontiguousarray(rays, dtype=np.int64).reshape(-1)
+            if len(per) != len(p) or (per < 1).any():
+                raise InputError(f"rays must be an int >= 1 or {len(p)} counts >= 1")
+            count = int(per.sum())
+            rays = int(per.max()) if len(per) else 1
+        ids = (np.arange(len(p), dtype=np.int64) if ids is None
+               else np.ascontiguousarray(ids, dtype=np.int64).reshape(-1))
+        if len(ids) != len(p):
+            raise InputError(f"ids must have {len(p)} entries, got {len(ids)}")
+        radiance, stderr, reach, open_ = self._gatherer.gather(
+            p, n, ids, rays=int(rays), seed=int(seed), rays_per=per, threads=threads,
+            progress=progress)
+        return GatherResult(radiance=radiance, stderr=stderr, rays=count, reach=reach, open=open_)
+
+
 def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, rays,
            ids: np.ndarray | None = None, seed: int = 0, background=None,
            back_field: SurfelField | None = None, two_sided=None, owners=None,
@@ -342,44 +400,14 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
     looked up once per point (False: each hit looks it up itself, cheaper where few rays meet
     many such triangles; an exact part keeps its lattice). ``ids`` (M,) name the receivers
     for their random streams (default: their rows). Runs natively on ``threads`` (0: all), the GIL
-    released; ``progress`` returning False cancels (``illumap.Cancelled``).
+    released; ``progress`` returning False cancels (``illumap.Cancelled``). Many calls over
+    one scene and field: ``Gatherer``, which tabulates once.
     """
-    p = _rows3("positions", positions)
-    n = _rows3("normals", normals, len(p))
-    per = None
-    if np.ndim(rays) == 0:
-        if int(rays) < 1:
-            raise InputError(f"rays must be >= 1, got {rays}")
-        count = len(p) * int(rays)
-    else:
-        per = np.ascontiguousarray(rays, dtype=np.int64).reshape(-1)
-        if len(per) != len(p) or (per < 1).any():
-            raise InputError(f"rays must be an int >= 1 or {len(p)} counts >= 1")
-        count = int(per.sum())
-        rays = int(per.max()) if len(per) else 1
-    ids = (np.arange(len(p), dtype=np.int64) if ids is None
-           else np.ascontiguousarray(ids, dtype=np.int64).reshape(-1))
-    if len(ids) != len(p):
-        raise InputError(f"ids must have {len(p)} entries, got {len(ids)}")
-    bg = np.zeros(3) if background is None else np.ascontiguousarray(background, dtype=np.float64).reshape(3)
-    if not np.isfinite(bg).all() or (bg < 0).any():
-        raise InputError(f"background must be 3 finite values >= 0, got {bg}")
-    def exact_rows(part):
-        if part is None:
-            return None, None
-        return part.rest._field, np.ascontiguousarray(part.values, dtype=np.float64)
-
-    front_rest, front_lattice = exact_rows(exact)
-    back_rest, back_lattice = exact_rows(back_exact)
-    radiance, stderr, reach, open_ = _core.gather(
-        occluders._scene, field._field, None if back_field is None else back_field._field,
-        p, n, ids, rays=int(rays), seed=int(seed), offset=occluders.offset, background=bg,
-        two_sided=_sided(occluders, two_sided), rays_per=per,
-        owner_front=_owner_rows(occluders, owners, "owners"),
-        owner_back=_owner_rows(occluders, back_owners, "back_owners"), front_rest=front_rest,
-        front_lattice=front_lattice, back_rest=back_rest, back_lattice=back_lattice,
-        tabulate=bool(tabulate), threads=threads, progress=progress)
-    return GatherResult(radiance=radiance, stderr=stderr, rays=count, reach=reach, open=open_)
+    return Gatherer(occluders, field, background=background, back_field=back_field,
+                    two_sided=two_sided, owners=owners, back_owners=back_owners, exact=exact,
+                    back_exact=back_exact, tabulate=tabulate, threads=threads,
+                    progress=progress).gather(positions, normals, rays=rays, ids=ids, seed=seed,
+                                              threads=threads, progress=progress)
 
 
 #: Neighbours a point's light is compared with by ``remove_specks``.
