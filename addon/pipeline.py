@@ -366,7 +366,7 @@ def target_density(settings: Settings, mesh_area: float, point_count: int, point
 def prepare(depsgraph, objects, settings: Settings, *, build: bool = True) -> "Job | UnbuiltJob":
     """Read the scene on the main thread and build the job (``_prepare``), with any mesh
     preview of the objects switched off while their materials are read. ``build=False``:
-    the scene as read (``UnbuiltJob``), for ``run`` to build on a worker thread."""
+    the scene as read (``UnbuiltJob``), to be built on a worker thread (``ComputeTask``)."""
     import bpy
 
     from . import mesh_preview
@@ -430,7 +430,7 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
     check_memory(int(counts.sum()), settings)  # before sampling allocates anything big
     rng = np.random.default_rng(settings.seed)
     # Every point is a receiver; the solve needs only as many surfels as the light does.
-    wanted = _point_counts(settings, density, [(p.positions,) for p in read], point_sources,
+    wanted = _point_counts(settings, density, [len(p.areas) for p in read], point_sources,
                            float(mesh_areas.sum()))
     # The thinning's random order is drawn here, before the meshes' samples, as ever: the
     # build thins with it.
@@ -464,8 +464,11 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
         def going_on(_fraction=0.0, _phase="") -> bool:
             return progress is None or progress(0.0, BUILD_PHASE) is not False
 
-        if not going_on():
-            raise IllumapCancelled("Cancelled")
+        def stop_if_cancelled():
+            if not going_on():
+                raise IllumapCancelled("Cancelled")
+
+        stop_if_cancelled()
         full = [pointcloud.with_normals(p) for p in read]
         clouds = [_point_part(p) for p in full]
         thinned = [_thin_points(part, n, order) for part, n, order in zip(clouds, wanted, orders)]
@@ -477,11 +480,9 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
         if refine is not None:
             refine.points = point_parts
         parts = _with_points(mesh_parts, point_parts, point_sources)
-        if not going_on():
-            raise IllumapCancelled("Cancelled")
+        stop_if_cancelled()
         triangles, two_sided, splat_point = _surface_triangles(mesh_surfaces, clouds, point_sources)
-        if not going_on():
-            raise IllumapCancelled("Cancelled")
+        stop_if_cancelled()
         occluders = None
         if triangles is not None and any(m.two_sided for m in mesh_surfaces):
             from illumap.receivers import MeshOccluders
@@ -524,9 +525,10 @@ class _MeshSurface:
 @dataclass
 class UnbuiltJob:
     """A scene as ``prepare(…, build=False)`` read it on the main thread: ``build(progress)``
-    makes the Job from it with numpy and the core alone (the point clouds' splats, the
-    scene's ray-casting structure, the open surfaces' back faces), so an interactive run does
-    that on its worker (``run`` builds one it is given)."""
+    makes the Job from it with numpy and the core alone (the point clouds' normals, thinning
+    and splats, the scene's ray-casting structure, the open surfaces' back faces), so an
+    interactive run does that on its worker (``operators.ComputeTask``; ``run`` takes only
+    a built Job)."""
 
     build: Callable[..., "Job"]
 
@@ -551,14 +553,14 @@ class PointCloud:
     surfel: np.ndarray
 
 
-def _point_counts(settings: Settings, density: float | None, clouds: list, sources: list,
-                  mesh_area: float) -> list[int]:
-    """Surfels per point cloud: its area (m²) × the density when one is set or chosen, else
-    its share of the surface in the budget; never more than its points."""
+def _point_counts(settings: Settings, density: float | None, point_counts: list[int],
+                  sources: list, mesh_area: float) -> list[int]:
+    """Surfels per point cloud (``point_counts``: its points): its area (m²) × the density
+    when one is set or chosen, else its share of the surface in the budget; never more than
+    its points."""
     total = mesh_area + sum(src[1] for src in sources)
     out = []
-    for part, (_, area, _) in zip(clouds, sources):
-        points = len(part[0])
+    for points, (_, area, _) in zip(point_counts, sources):
         dens = density if density is not None else settings.density
         if dens is not None:
             want = dens * area

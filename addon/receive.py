@@ -428,15 +428,9 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     lum = np.asarray(LUMINANCE_WEIGHTS, dtype=np.float64)
     noise2 = light2 = indirect = from_surfels = total = 0.0
     report = None if progress is None else (lambda f, _p="": progress(f, "gather"))
-    gatherer = []   # one rc.Gatherer for every batch: the field is tabulated once
 
     def gather_at(points, normals, ids, rays):
-        if not gatherer:
-            gatherer.append(rc.Gatherer(occ, field_, background=background, back_field=back_field,
-                                        two_sided=job.two_sided, owners=owners,
-                                        back_owners=back_owners, exact=exact, progress=report))
-        return gatherer[0].gather(points, normals, rays=rays, seed=s.seed, ids=ids,
-                                  progress=report)
+        return gatherer.gather(points, normals, rays=rays, seed=s.seed, ids=ids, progress=report)
 
     def incident_at(points, normals, ids, meshes=None, rays=gather_rays, shared=None,
                     samples=shadow_samples):
@@ -463,6 +457,10 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
         return incident, gathered, cast, int(hidden.sum())
 
     try:
+        # One prepared gather for every batch below: the field is tabulated once.
+        gatherer = rc.Gatherer(occ, field_, background=background, back_field=back_field,
+                               two_sided=job.two_sided, owners=owners, back_owners=back_owners,
+                               exact=exact, progress=report)
         # Every object's receivers in one batch (the gather tabulates the surfels' light
         # once), corners that see the same light evaluated once. A point cloud of unknown
         # orientation brings the side of each point that a probe found facing out, and both

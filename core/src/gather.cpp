@@ -409,19 +409,6 @@ void GatherPlan::gather(Context& ctx, const double* positions, const double* nor
 }
 
 
-void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, const SurfelField* back,
-            const double* positions, const double* normals, const std::int64_t* ids, std::size_t m,
-            const GatherOptions& opt, double* out, double* stderr_out,
-            const std::uint8_t* two_sided, const std::int32_t* rays_per,
-            const std::int64_t* owner_front, const std::int64_t* owner_back,
-            const ExactPart* front_exact, const ExactPart* back_exact, double* reach_out,
-            double* open_out) {
-    const GatherPlan plan(ctx, scene, front, back, opt, two_sided, owner_front, owner_back,
-                          front_exact, back_exact);
-    plan.gather(ctx, positions, normals, ids, m, opt.rays, opt.seed, rays_per, out, stderr_out,
-                reach_out, open_out);
-}
-
 void gather_lattices(const MeshScene& scene, const SurfelField& front, const SurfelField* back,
                      const std::uint8_t* two_sided, const std::int64_t* owner_front,
                      const std::int64_t* owner_back, GatherLattice& front_out,

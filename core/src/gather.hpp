@@ -52,8 +52,6 @@ void cosine_directions(const double n[3], std::size_t count, std::int64_t id, st
                        double* dirs);
 
 struct GatherOptions {
-    int rays = 256;
-    std::uint64_t seed = 0;
     double offset = 0;                    // ray origins move this far along the normal (m)
     double background[3] = {0, 0, 0};     // radiance of rays that leave the scene
     // Tabulate the field on the triangles that are not splats (a lattice, looked up once per
@@ -82,10 +80,15 @@ void gather_lattices(const MeshScene& scene, const SurfelField& front, const Sur
                      GatherLattice& back_out);
 
 // A gather prepared once for any number of receivers: the fields tabulated on the lattice
-// of every triangle that needs one (see gather below for the arguments, which must outlive
-// the plan; opt's offset, background and tabulate hold for every call, its rays and seed are
-// each call's). Preparing it reads every triangle, so a few receivers in a large scene cost
-// far less through one plan than through a gather each.
+// of every triangle that needs one. Preparing it reads every triangle, so many batches of
+// receivers in a large scene cost far less through one plan than through a plan each.
+// The arguments must outlive the plan:
+// two_sided (one flag per triangle, may be null: all): which triangles' back faces take the
+// back field (`back`; null: every back face is black); the others' back faces are black.
+// owner_front / owner_back (one entry per triangle, may be null) name the surfel of the front /
+// back field that a triangle stands for (a point's splat), or -1: a hit on such a triangle
+// takes that surfel's value, not a lookup.
+// front_exact / back_exact (may be null): used while the plan is prepared only.
 class GatherPlan {
 public:
     GatherPlan(Context& ctx, const MeshScene& scene, const SurfelField& front,
@@ -96,7 +99,13 @@ public:
     ~GatherPlan();
     GatherPlan(const GatherPlan&) = delete;
     GatherPlan& operator=(const GatherPlan&) = delete;
-    // As gather below, with `rays` and `seed` for this call.
+    // Receivers (m: positions, unit normals, ids that key their directions) cast `rays`
+    // each (rays_per, m entries, may be null: each receiver's own count) with `seed`.
+    // out: m x 3 mean radiance; stderr_out: m, standard error of the mean's luminance;
+    // reach_out (m, may be null): the harmonic mean of the rays' hit distances, misses
+    // counted as infinitely far (infinite when nothing is hit): how near the surroundings
+    // that shape the receiver's indirect light are (an irradiance cache's validity radius).
+    // open_out (m, may be null): the share of the rays that hit nothing (the background).
     void gather(Context& ctx, const double* positions, const double* normals,
                 const std::int64_t* ids, std::size_t m, int rays, std::uint64_t seed,
                 const std::int32_t* rays_per, double* out, double* stderr_out,
@@ -113,24 +122,5 @@ private:
     const std::int64_t* owner_back_;
     std::unique_ptr<Tables> tables_;
 };
-
-// out: m x 3 mean radiance; stderr_out: m, standard error of the mean's luminance;
-// reach_out (m, may be null): the harmonic mean of the rays' hit distances, misses counted as
-// infinitely far (m; infinite when nothing is hit): how near the surroundings that shape the
-// receiver's indirect light are (an irradiance cache's validity radius).
-// open_out (m, may be null): the share of the rays that hit nothing and take the background.
-// two_sided (one flag per triangle, may be null: all): which triangles' back faces take the
-// back field; the others' back faces are black.
-// rays_per (m entries, may be null: opt.rays each) gives each receiver its own ray count.
-// owner_front / owner_back (one entry per triangle, may be null) name the surfel of the front /
-// back field that a triangle stands for (a point's splat), or -1: a hit on such a triangle
-// takes that surfel's value, not a lookup.
-void gather(Context& ctx, const MeshScene& scene, const SurfelField& front, const SurfelField* back,
-            const double* positions, const double* normals, const std::int64_t* ids, std::size_t m,
-            const GatherOptions& opt, double* out, double* stderr_out,
-            const std::uint8_t* two_sided = nullptr, const std::int32_t* rays_per = nullptr,
-            const std::int64_t* owner_front = nullptr, const std::int64_t* owner_back = nullptr,
-            const ExactPart* front_exact = nullptr, const ExactPart* back_exact = nullptr,
-            double* reach_out = nullptr, double* open_out = nullptr);
 
 }  // namespace illumap
