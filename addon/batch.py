@@ -265,6 +265,8 @@ def make_settings(args) -> pipeline.Settings:
                      seed=args.seed, target_error=args.target_error,
                      occluder_shape=args.occluder_shape)
     settings = pipeline.settings_from_preset(args.quality, **overrides)
+    if args.target_error is not None and args.budget is None:
+        settings.budget = None          # the target chooses the count; --budget caps it
     for option, name in NUMBER_OPTIONS.items():   # NaN fails too
         value = getattr(args, option[2:].replace("-", "_"))
         if value is not None and not limit(name).contains(value):

@@ -45,8 +45,10 @@ def draw_advanced(layout, context):
     layout.use_property_split = True
     layout.use_property_decorate = False
     col = layout.column(heading="Sampling")
-    col.prop(props, "sampling")
-    col.prop(props, "density" if props.sampling == "DENSITY" else "budget")
+    sub = col.column()
+    sub.active = not props.use_target_error     # the target chooses the surfel count
+    sub.prop(props, "sampling")
+    sub.prop(props, "density" if props.sampling == "DENSITY" else "budget")
     col.prop(props, "seed")
     col = layout.column(heading="Accuracy")
     col.prop(props, "use_target_error")

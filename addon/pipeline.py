@@ -359,8 +359,32 @@ def target_density(settings: Settings, mesh_area: float, point_count: int, point
                             density=float(density), surfels=int(chosen["n"]),
                             predicted_discretization=float(disc),
                             discretization_scale=float(chosen["discretization_scale"]),
+                            surfel_target=float(surfel_target(settings)),
+                            predicted=float(predicted.get("total", float("nan"))),
+                            reached=bool(chosen.get("reached", True)), cap=cap,
                             notes=list(chosen.get("notes", [])))
     return density, chosen
+
+
+def capped_target_warning(density: dict) -> str | None:
+    """What to tell a user whose target error the surfel count cannot reach: the budget (or a
+    scan's points) caps it below what the error model needs. None when the target is within
+    reach. ``density`` is ``stats['density']`` from ``target_density``."""
+    if density.get("reached", True):
+        return None
+    wanted = density["surfel_target"]
+    where = ("above the target" if wanted == density["target_error"] else
+             f"where the target leaves them {wanted:.1%} (they carry the indirect light)")
+    predicted = f"the surfels are predicted at {density['predicted']:.1%} error {where}"
+    head = f"Target error {density['target_error']:.2%} may not be met"
+    cap = density.get("cap")
+    if cap is None:
+        return f"{head}: at the most surfels the error model covers, {predicted}; loosen the target"
+    if density["kind"] == "point_cloud":
+        limit, remedy = f"the scans' {cap:,} points cap", "a denser scan or a looser target"
+    else:
+        limit, remedy = f"the surfel budget of {cap:,} caps", "raise the budget or clear it"
+    return f"{head}: {limit} the surfels, and {predicted}; {remedy}"
 
 
 def prepare(depsgraph, objects, settings: Settings, *, build: bool = True) -> "Job | UnbuiltJob":
@@ -410,6 +434,10 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
                             sum(len(p.areas) for p in read),
                             sum(src[1] for src in point_sources), stats)
     density, chosen = target if target is not None else (None, None)
+    if target is not None:
+        capped = capped_target_warning(stats["density"])
+        if capped:
+            warnings.append(capped)
     counts = np.zeros(0, dtype=np.int64)
     point_area = sum(src[1] for src in point_sources)
     if tri_meshes:

@@ -212,8 +212,8 @@ class IllumapSettings(bpy.types.PropertyGroup):
                       default=0, **field_bounds("seed"), update=_field_update)
     use_target_error: BoolProperty(
         name="Target Error", default=False, update=_field_update,
-        description="Choose the surfel density, FMM order, opening angle and tolerance from "
-                    "a target error instead of the settings below")
+        description="Choose the surfel count, FMM order, opening angle and tolerance from "
+                    "a target error instead of the sampling and solver settings")
     target_error: FloatProperty(
         name="Error", default=0.05, **field_bounds("target_error"), precision=3,
         update=_field_update,
@@ -324,7 +324,10 @@ def settings_values(props):
     values = {name: getattr(props, name) for name in _SETTINGS_FIELDS}
     for name in _LOWER_ENUMS:
         values[name] = values[name].lower()
-    if props.sampling == "DENSITY":
+    if props.use_target_error:
+        # The target chooses the count; the budget field (a preset's count) would cap it.
+        values["budget"] = values["density"] = None
+    elif props.sampling == "DENSITY":
         values["budget"] = None
     else:
         values["density"] = None

@@ -287,24 +287,26 @@ void bind_gather(nb::module_& m) {
                          per[i] = std::int32_t(R[i]);
                      }
                  }
-                 double *out, *err, *reach, *open;
+                 double *out, *err, *reach, *open, *halves;
                  auto a1 = new_array(m, 3, &out);
                  auto a2 = new_array(m, 0, &err);
                  auto a3 = new_array(m, 0, &reach);
                  auto a4 = new_array(m, 0, &open);
+                 auto a5 = new_array(m, 0, &halves);
                  run_released(threads, progress, [&](Context& ctx) {
                      ctx.set_phase("gather", 0.0, 1.0);
                      checkpoint(ctx, 0.0);
                      self.plan->gather(ctx, P, N, I, m, rays, seed, per.empty() ? nullptr : per.data(),
-                                       out, err, reach, open);
+                                       out, err, reach, open, halves);
                  });
-                 return nb::make_tuple(a1, a2, a3, a4);
+                 return nb::make_tuple(a1, a2, a3, a4, a5);
              },
              nb::arg("positions"), nb::arg("normals"), nb::arg("ids"), nb::kw_only(),
              nb::arg("rays"), nb::arg("seed") = 0, nb::arg("rays_per").none() = nb::none(),
              nb::arg("threads") = 0, nb::arg("progress") = nb::none(),
              "Final gather: (mean radiance (M, 3), standard error of its luminance (M,), reach (M,) m, "
-             "share of the rays that hit nothing (M,)).");
+             "share of the rays that hit nothing (M,), half the difference of the even and odd "
+             "rays' mean luminance (M,)).");
 
     m.def("gather_lattices",
           [](PyMeshScene& scene, PySurfelField& front, nb::handle back, nb::handle two_sided,

@@ -332,7 +332,7 @@ GatherPlan::~GatherPlan() = default;
 void GatherPlan::gather(Context& ctx, const double* positions, const double* normals,
                         const std::int64_t* ids, std::size_t m, int rays, std::uint64_t seed,
                         const std::int32_t* rays_per, double* out, double* stderr_out,
-                        double* reach_out, double* open_out) const {
+                        double* reach_out, double* open_out, double* halves_out) const {
     const MeshScene& scene = scene_;
     const SurfelField& front = front_;
     const SurfelField* back = back_;
@@ -365,7 +365,7 @@ void GatherPlan::gather(Context& ctx, const double* positions, const double* nor
                 for (int d = 0; d < 3; ++d) org[3 * k + d] = p[d] + offset * n[d];
             scene.intersect_serial(org.data(), dir.data(), K, HUGE_VAL, prim.data(), dist.data(),
                                    face.data(), uv.data());
-            double sum[3] = {0, 0, 0}, lum = 0, lum2 = 0, nearness = 0;
+            double sum[3] = {0, 0, 0}, lum = 0, lum2 = 0, lum_odd = 0, nearness = 0;
             std::size_t misses = 0;
             for (std::size_t k = 0; k < K; ++k) {
                 double v[3] = {background[0], background[1], background[2]};
@@ -397,11 +397,17 @@ void GatherPlan::gather(Context& ctx, const double* positions, const double* nor
                 const double y = kLumR * v[0] + kLumG * v[1] + kLumB * v[2];
                 lum += y;
                 lum2 += y * y;
+                if (k & 1) lum_odd += y;
             }
             for (int c = 0; c < 3; ++c) out[3 * i + c] = sum[c] / double(K);
             const double mean = lum / double(K);
             const double var = std::max(0.0, lum2 / double(K) - mean * mean);
             stderr_out[i] = std::sqrt(var / double(K));
+            if (halves_out) {
+                const std::size_t odd = K / 2, even = K - odd;
+                halves_out[i] = odd ? 0.5 * ((lum - lum_odd) / double(even) - lum_odd / double(odd))
+                                    : 0.0;
+            }
             if (reach_out) reach_out[i] = nearness > 0 ? double(K) / nearness : HUGE_VAL;
             if (open_out) open_out[i] = double(misses) / double(K);
         }

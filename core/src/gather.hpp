@@ -106,10 +106,15 @@ public:
     // counted as infinitely far (infinite when nothing is hit): how near the surroundings
     // that shape the receiver's indirect light are (an irradiance cache's validity radius).
     // open_out (m, may be null): the share of the rays that hit nothing (the background).
+    // halves_out (m, may be null): half the difference between the mean luminance of the
+    // even and the odd rays. The rays are a lattice, not independent: stderr_out overstates
+    // the mean's error where the light is smooth; the halves' squares, pooled over many
+    // receivers, follow it.
     void gather(Context& ctx, const double* positions, const double* normals,
                 const std::int64_t* ids, std::size_t m, int rays, std::uint64_t seed,
                 const std::int32_t* rays_per, double* out, double* stderr_out,
-                double* reach_out = nullptr, double* open_out = nullptr) const;
+                double* reach_out = nullptr, double* open_out = nullptr,
+                double* halves_out = nullptr) const;
 
 private:
     struct Tables;

@@ -25,7 +25,7 @@ import pytest
 
 from illumap_bpy_testing import diffuse_material, link, make_plane, requires_core
 
-from addon import pipeline
+from addon import pipeline, receive
 from addon.neighbours import knn
 
 pytestmark = requires_core
@@ -266,19 +266,24 @@ def test_one_uniform_pass_where_the_models_predict_it_faster():
 
 
 def test_the_target_sets_the_rays_per_receiver():
-    """With a target error the gather's rays follow from it (noise ∝ 1/√rays, held to half the
-    target), a quarter of them shadow samples: fewer for a looser target, never below
-    MIN_TARGET_RAYS, and what the statistics report is what was cast."""
+    """With a target error the gather's rays follow from it (its noise model held to half the
+    target), the shadow samples ∝ 1/target²: fewer for a looser target, never below the
+    least counts, powers of two, and what the statistics report is what was cast."""
     from addon import receive
-    targets = (0.3, 0.1, 0.05, 0.03, 0.02, 0.01, 0.003)
+    targets = (0.3, 0.1, 0.05, 0.03, 0.02, 0.01, 0.005, 0.003)
     rays = [receive.receiver_rays(pipeline.Settings(target_error=t)) for t in targets]
-    gathers = [g for g, _ in rays]
-    assert gathers == sorted(gathers) and gathers[0] < gathers[-1]
-    assert all(s == g // 4 for g, s in rays)
-    assert min(gathers) == receive.MIN_TARGET_RAYS and max(gathers) == receive.MAX_TARGET_RAYS
+    gathers, shadows = [g for g, _ in rays], [s for _, s in rays]
+    for counts, low, high in ((gathers, receive.MIN_TARGET_RAYS, receive.MAX_TARGET_RAYS),
+                              (shadows, receive.MIN_TARGET_SHADOW_SAMPLES,
+                               receive.MAX_TARGET_SHADOW_SAMPLES)):
+        assert counts == sorted(counts) and min(counts) == low and max(counts) == high
+        assert all(c & (c - 1) == 0 for c in counts)
     for t, g in zip(targets, gathers):
-        predicted = receive.NOISE_AT_512_RAYS * math.sqrt(512 / g)
-        assert g == receive.MAX_TARGET_RAYS or predicted <= receive.GATHER_NOISE_SHARE * t + 1e-12
+        def noise(rays):
+            return receive.NOISE_AT_512_RAYS * (512 / rays) ** receive.NOISE_EXPONENT
+        share = receive.GATHER_NOISE_SHARE * t
+        assert g == receive.MAX_TARGET_RAYS or noise(g) <= share * (1 + 1e-9)
+        assert g == receive.MIN_TARGET_RAYS or noise(g // 2) > share    # the fewest
     assert receive.receiver_rays(pipeline.Settings()) == (512, 128)   # no target: the settings'
     objects = spot_scene()
     for target in (0.1, 0.02):
@@ -317,3 +322,43 @@ def test_the_target_never_skips_visibility(monkeypatch):
         assert result.stats["accuracy"]["settings"]["visibility"] == "exact"
         assert result.stats["accuracy"]["settings"]["probe"] is None
     assert not asked
+
+
+def test_a_target_the_count_cannot_reach_says_so():
+    """A budget that caps the surfels below what the error model needs for the target is said
+    in the run's warnings, with the budget and the predicted error (one pass or two), and the
+    gather's own noise above a target is too; a target within reach warns of neither."""
+    objects = spot_scene()
+    result = pipeline.compute(bpy.context, objects, pipeline.Settings(target_error=0.1))
+    assert result.stats["density"]["reached"]
+    assert not any("may not be met" in w for w in result.warnings), result.warnings
+    # This scene's corners see the spot's light only through the gather, and little of it.
+    noisy = result.stats["receivers"]["gather_noise"] > 0.1
+    assert noisy == any("not met at the objects" in w for w in result.warnings)
+    for adaptive in (False, True):
+        result = pipeline.compute(bpy.context, objects, pipeline.Settings(
+            target_error=0.01, budget=300, adaptive=adaptive))
+        density = result.stats["density"]
+        assert not density["reached"] and density["cap"] == 300
+        capped = [w for w in result.warnings if "may not be met" in w]
+        assert len(capped) == 1, result.warnings
+        assert "Target error 1.00%" in capped[0] and "surfel budget of 300 caps" in capped[0]
+        assert f"{density['predicted']:.1%}" in capped[0] and "5.0%" in capped[0]
+    result = pipeline.compute(bpy.context, objects, pipeline.Settings(
+        target_error=0.0005, budget=300))
+    got = result.stats["receivers"]
+    assert got["gather_rays"] == receive.MAX_TARGET_RAYS and got["gather_noise"] > 0.0005
+    noisy = [w for w in result.warnings if "not met at the objects" in w]
+    assert len(noisy) == 1 and f"{got['gather_noise']:.2%}" in noisy[0], result.warnings
+    assert "the most a target casts" in noisy[0]
+
+
+def test_the_gather_noise_warning_names_what_was_cast():
+    """The noise verdict fires only above the target, says whether the rays were the most a
+    target casts, and never fires without a target."""
+    s = pipeline.Settings(target_error=0.03)
+    assert receive.gather_noise_warning(s, 0.029, 256) is None
+    assert receive.gather_noise_warning(s, float("nan"), 256) is None
+    few = receive.gather_noise_warning(s, 0.04, 256)
+    assert "4.00%" in few and "256 rays" in few and "the most" not in few
+    assert receive.gather_noise_warning(pipeline.Settings(), 0.5, 512) is None

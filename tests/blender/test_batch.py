@@ -179,6 +179,17 @@ def test_target_error_option_reports_chosen_settings(tmp_path, capfd):
     assert "adaptive:" not in printed and "Illumap frame 1: 300 surfels" in printed
 
 
+def test_a_target_error_chooses_the_count_unless_a_budget_caps_it():
+    """--target-error alone: no preset budget caps the count the target asks for; with
+    --budget the budget is a cap, and --quality's budget applies again without a target."""
+    parse = batch.build_parser().parse_args
+    settings = batch.make_settings(parse(["--target-error", "0.01"]))
+    assert settings.target_error == pytest.approx(0.01)
+    assert settings.budget is None and settings.density is None
+    assert batch.make_settings(parse(["--target-error", "0.01", "--budget", "500"])).budget == 500
+    assert batch.make_settings(parse([])).budget is not None
+
+
 def test_lamp_shadow_options():
     args = batch.build_parser().parse_args(["--no-lamp-shadows", "--shadow-samples", "4"])
     settings = batch.make_settings(args)

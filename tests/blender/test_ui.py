@@ -252,6 +252,30 @@ def test_settings_reach_the_pipeline_settings(registered_addon):
     assert settings.budget is None and settings.density == pytest.approx(55.0)
 
 
+def test_a_target_error_chooses_the_count_in_the_ui(registered_addon):
+    """With Target Error on, neither the Budget nor the Density field reaches the pipeline
+    (a preset's budget would silently cap the count the target asks for), and the panel
+    greys them out."""
+    from addon import panel, pipeline, properties
+    props = bpy.context.scene.illumap
+    props.preset = "MEDIUM"
+    for sampling in ("BUDGET", "DENSITY"):
+        props.sampling = sampling
+        props.use_target_error, props.target_error = True, 0.01
+        settings = properties.make_settings(props, pipeline.Settings)
+        assert settings.target_error == pytest.approx(0.01)
+        assert settings.budget is None and settings.density is None
+        layout = LayoutRecorder()
+        panel.draw_advanced(layout, bpy.context)
+        assert "sampling" in layout.inactive_props(), layout.inactive_props()
+        props.use_target_error = False
+        settings = properties.make_settings(props, pipeline.Settings)
+        assert (settings.budget is None) == (sampling == "DENSITY")
+        layout = LayoutRecorder()
+        panel.draw_advanced(layout, bpy.context)
+        assert "sampling" not in layout.inactive_props()
+
+
 def test_occluder_shape_reaches_the_pipeline_settings(registered_addon):
     """Occluder Shape: discs by default, the core's spelling in the pipeline's settings; like
     the solver it is no preset's value, so changing it keeps the preset."""
@@ -604,9 +628,9 @@ def test_real_pipeline_modal_runs_the_adaptive_second_pass(registered_addon, two
     from addon import operators, pipeline, properties
     props = bpy.context.scene.illumap
     props.use_target_error, props.target_error, props.adaptive = True, 0.1, True
-    props.sampling, props.budget = "BUDGET", 400
     settings = properties.make_settings(props, pipeline.Settings)
     assert settings.target_error == pytest.approx(0.1) and settings.adaptive
+    settings.budget = 400           # a cap, as the batch job's --budget gives, to fix the counts
     before = snapshot()
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), list(two_planes), settings)
     assert job.count == 200 and job.refine is not None
@@ -641,8 +665,8 @@ def test_real_pipeline_modal_cancel_during_second_pass(registered_addon, two_pla
     from addon import operators, pipeline, properties
     props = bpy.context.scene.illumap
     props.use_target_error, props.target_error = True, 0.1
-    props.sampling, props.budget = "BUDGET", 400
     settings = properties.make_settings(props, pipeline.Settings)
+    settings.budget = 400
     before = snapshot()
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), list(two_planes), settings)
     task = operators.ComputeTask(job, pipeline.run).start()
@@ -777,7 +801,9 @@ class LayoutRecorder:
         object.__setattr__(self, name, value)
 
     def _child(self, *args, **kwargs):
-        return LayoutRecorder(self.log)
+        child = LayoutRecorder(self.log)
+        child.active = getattr(self, "active", True)    # Blender's children inherit it
+        return child
 
     row = column = box = split = _child
 
@@ -787,6 +813,8 @@ class LayoutRecorder:
     def prop(self, data, name, **kwargs):
         assert hasattr(data, name), name
         self.log.append(("prop", name))
+        if not getattr(self, "active", True):
+            self.log.append(("inactive", name))
 
     def operator(self, idname, **kwargs):
         self.log.append(("operator", idname))
@@ -797,6 +825,9 @@ class LayoutRecorder:
 
     def texts(self, kind):
         return [v for k, v in self.log if k == kind]
+
+    def inactive_props(self):
+        return self.texts("inactive")
 
 
 def test_panel_draws_settings_and_stats(fake_pipeline, two_planes):

@@ -337,6 +337,23 @@ def test_a_capped_mesh_count_gets_two_passes():
     assert accuracy.ADAPTIVE_MIN_COUNT <= high["n"] <= 3000
 
 
+def test_a_choice_says_whether_its_count_reaches_the_target():
+    """``reached`` is False exactly where the cap leaves no setting within the target (the
+    most accurate one is returned, with a note), for meshes, scans and adaptive passes."""
+    free = accuracy.choose_mesh_settings(MESH_SUMMARY, 0.1)
+    assert free["reached"] and free["predicted"]["total"] <= 0.1
+    assert not any(n.startswith("no calibrated setting") for n in free["notes"])
+    for adaptive in (False, True):
+        capped = accuracy.choose_mesh_settings(MESH_SUMMARY, 0.03, max_surfels=300,
+                                               adaptive=adaptive)
+        assert not capped["reached"] and capped["n"] <= 300
+        assert capped["predicted"]["total"] > accuracy.SAFETY * 0.03
+        assert any(n.startswith("no calibrated setting reaches") for n in capped["notes"])
+    scan = dict(MESH_SUMMARY, kind="point_cloud", n=200)
+    assert not accuracy.choose_settings(scan, 0.02, kind="point_cloud")["reached"]
+    assert accuracy.choose_settings(dict(scan, n=NO_LIMIT), 0.2, kind="point_cloud")["reached"]
+
+
 def test_solve_with_target_error_chooses_and_reports_settings():
     q = scenes.closed_box(6, albedo=0.7, emission=0.0).replace(
         emission=np.where(np.arange(216)[:, None] < 36, 1.0, 0.0) * np.ones((216, 3)))

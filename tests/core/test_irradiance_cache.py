@@ -35,7 +35,8 @@ class Field:
             self.full[rows] += 1
         k = self.rays if rays is None else rays
         return GatherResult(radiance=self.value(q), stderr=np.full(len(rows), 1e-3),
-                            rays=len(rows) * k, reach=self.reach(q), open=0.5 * q[:, 0])
+                            rays=len(rows) * k, reach=self.reach(q), open=0.5 * q[:, 0],
+                            halves=0.01 * q[:, 1])
 
 
 def test_records_keep_their_values_and_a_slope_is_followed():
@@ -57,6 +58,9 @@ def test_records_keep_their_values_and_a_slope_is_followed():
     # the share of rays that leave: the records' own, a weighted mean of theirs elsewhere
     np.testing.assert_array_equal(got.open[rec], 0.5 * p[rec, 0])
     assert np.abs(got.open - 0.5 * p[:, 0]).max() < 0.1
+    # the lattice halves likewise (the gather's error where the receiver takes the records')
+    np.testing.assert_array_equal(got.halves[rec], 0.01 * p[rec, 1])
+    assert np.abs(got.halves - 0.01 * p[:, 1]).max() < 0.002
 
 
 def test_light_does_not_spill_where_the_surroundings_change_close_by():

@@ -131,6 +131,34 @@ def test_gather_background_for_rays_that_leave():
     assert g.open[0] == 1.0
 
 
+def test_the_halves_follow_the_lattices_error_where_the_rays_variance_overstates_it():
+    """``halves`` (half the difference of the even and odd rays' mean luminance), pooled over
+    receivers, estimates the gather's error: measured as the difference between two seeds
+    (independent shifts of the ray lattice, so it is √2 × the error). The rays' variance
+    (``stderr``) assumes independent rays and overstates it. A receiver whose rays all see the
+    same light has zero halves; one ray has no halves."""
+    square = grid_square(1.0, 8)
+    occ = rc.MeshOccluders(square)
+    rng = np.random.default_rng(5)
+    field = rc.SurfelField(square.mean(axis=1), np.tile([0.0, 0.0, -1.0], (len(square), 1)),
+                           rng.uniform(0.2, 1.0, (len(square), 3)))
+    m = 400
+    p = np.c_[rng.uniform(-1.5, 1.5, (m, 2)), np.zeros(m)]
+    n = np.tile([0.0, 0.0, 1.0], (m, 1))
+    ids = np.arange(m)
+    for rays in (64, 512):
+        a, b = (rc.gather(occ, field, p, n, rays=rays, ids=ids, seed=seed) for seed in (0, 1))
+        lum = np.array([0.2126, 0.7152, 0.0722])
+        measured = np.sqrt(np.mean(((a.radiance - b.radiance) @ lum) ** 2) / 2.0)
+        pooled = np.sqrt(np.mean(a.halves ** 2))
+        independent = np.sqrt(np.mean(a.stderr ** 2))
+        assert measured < pooled < 4.0 * measured, (rays, measured, pooled)
+        assert pooled < independent
+    sky = rc.gather(occ, field, p[:3], -n[:3], rays=64, background=[0.5, 0.25, 1.0])
+    assert np.abs(sky.halves).max() < 1e-12
+    assert (rc.gather(occ, field, p[:3], n[:3], rays=1).halves == 0.0).all()
+
+
 def test_the_gathers_open_share_is_the_backgrounds_part():
     """``open``: the share of a receiver's rays that hit nothing, so that its radiance is
     open × background plus what the surfels send (which the same gather without a background
@@ -339,7 +367,7 @@ def test_one_gatherer_serves_every_batch_as_a_gather_each():
     for rows, rays in ((np.arange(0, 10), 64), (np.arange(10, 30), 16), (np.arange(5, 8), 128)):
         got = once.gather(p[rows], n[rows], rays=rays, ids=rows, seed=3)
         want = rc.gather(occ, field, p[rows], n[rows], rays=rays, ids=rows, seed=3, **kw)
-        for name in ("radiance", "stderr", "reach", "open"):
+        for name in ("radiance", "stderr", "reach", "open", "halves"):
             np.testing.assert_array_equal(getattr(got, name), getattr(want, name), err_msg=name)
         assert got.rays == want.rays == len(rows) * rays
     with pytest.raises(ValueError, match="owner_front"):

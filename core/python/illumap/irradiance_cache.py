@@ -65,6 +65,7 @@ class CachedGather:
     rays: int                 # rays cast
     records: np.ndarray       # (M,) bool: receivers that gathered themselves
     open: np.ndarray | None = None   # (M,) share of rays that hit nothing (records': their mean)
+    halves: np.ndarray | None = None  # (M,) GatherResult.halves (records': their weighted mean)
 
 
 def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
@@ -90,7 +91,7 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
              else np.ascontiguousarray(groups, dtype=np.int64).reshape(-1))
     if len(group) != m:
         raise InputError(f"groups must have {m} entries, got {len(group)}")
-    radiance, stderr, sky = np.zeros((m, 3)), np.zeros(m), np.zeros(m)
+    radiance, stderr, sky, halves = np.zeros((m, 3)), np.zeros(m), np.zeros(m), np.zeros(m)
     reach = np.full(m, max_reach)
     record = group < 0
     covered = np.zeros(m, dtype=bool)
@@ -111,7 +112,7 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
         pending = pending[:0]
         if len(rows):
             g = gather_rows(rows)
-            radiance[rows], stderr[rows] = g.radiance, g.stderr
+            radiance[rows], stderr[rows], halves[rows] = g.radiance, g.stderr, _halves(g)
             sky[rows] = _open(g)
             reach[rows] = own[rows] = _bounded(g.reach, max_reach)
             rays += int(g.rays)
@@ -130,7 +131,7 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
         lost = rest[total <= 0]
         if len(lost):
             g = gather_rows(lost)
-            radiance[lost], stderr[lost] = g.radiance, g.stderr
+            radiance[lost], stderr[lost], halves[lost] = g.radiance, g.stderr, _halves(g)
             sky[lost] = _open(g)
             rays += int(g.rays)
             record[lost] = True
@@ -139,7 +140,13 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
         radiance[rest] = _fitted(p, n, radiance, rest, idx, w)
         stderr[rest] = np.sqrt(np.einsum("rk,rk->r", w * w, stderr[idx] ** 2)) / total
         sky[rest] = np.einsum("rk,rk->r", w, sky[idx]) / total
-    return CachedGather(radiance=radiance, stderr=stderr, rays=rays, records=record, open=sky)
+        halves[rest] = np.einsum("rk,rk->r", w, halves[idx]) / total
+    return CachedGather(radiance=radiance, stderr=stderr, rays=rays, records=record, open=sky,
+                        halves=halves)
+
+
+def _halves(g: GatherResult) -> np.ndarray | float:
+    return 0.0 if g.halves is None else g.halves
 
 
 def _open(g: GatherResult) -> np.ndarray | float:

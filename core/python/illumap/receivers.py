@@ -318,6 +318,11 @@ class GatherResult:
     # (M,) share of the rays that hit nothing: the background's part of ``radiance`` is
     # ``open × background``, the rest is the surfels'
     open: np.ndarray | None = None
+    # (M,) half the difference of the even and the odd rays' mean luminance. The rays are a
+    # lattice: ``stderr`` (independent rays) overstates the error where the light is smooth;
+    # the mean of these squares over many receivers estimates the mean squared error
+    # (``pooled_noise``)
+    halves: np.ndarray | None = None
 
 
 class Gatherer:
@@ -372,10 +377,11 @@ class Gatherer:
                else np.ascontiguousarray(ids, dtype=np.int64).reshape(-1))
         if len(ids) != len(p):
             raise InputError(f"ids must have {len(p)} entries, got {len(ids)}")
-        radiance, stderr, reach, open_ = self._gatherer.gather(
+        radiance, stderr, reach, open_, halves = self._gatherer.gather(
             p, n, ids, rays=int(rays), seed=int(seed), rays_per=per, threads=threads,
             progress=progress)
-        return GatherResult(radiance=radiance, stderr=stderr, rays=count, reach=reach, open=open_)
+        return GatherResult(radiance=radiance, stderr=stderr, rays=count, reach=reach, open=open_,
+                            halves=halves)
 
 
 def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, rays,

@@ -106,7 +106,8 @@ def choose_settings(scene, target_error, *, kind: str | None = None, allow_direc
     ``visibility_keywords``, ``solver``, ``tol``, ``label`` (the calibrated setting),
     ``predicted`` (``total`` error and ``discretization``, the setting's error at N),
     ``predicted_time`` (s, calibration machine), ``discretization_scale`` (as given),
-    ``probe`` and ``notes``. Pass it to
+    ``reached`` (False where no setting meets the target within the counts allowed: the most
+    accurate one is returned, with a note), ``probe`` and ``notes``. Pass it to
     :func:`solve_keywords` for ``illumap.solve``.
     """
     target = check_target(target_error)
@@ -161,6 +162,7 @@ def choose_settings(scene, target_error, *, kind: str | None = None, allow_direc
                        occlusion=e_occ if vis == "none" else None),
         predicted_time=float(best["time"]),
         discretization_scale=scale,
+        reached=bool(best["ok"]),
         probe=probe_info,
         notes=notes,
     )
