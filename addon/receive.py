@@ -31,9 +31,9 @@ Progress = Callable[[float, str], "bool | None"]
 #: the halves of each receiver's ray lattice: ``stats['receivers']['gather_noise']``) is held
 #: to this share of the target; its rays, a power of two in [MIN_TARGET_RAYS,
 #: MAX_TARGET_RAYS], follow from noise = NOISE_AT_512_RAYS × (512 / rays)^NOISE_EXPONENT. On
-#: the bench scenes the estimate was 1.4-1.9% at 64 rays, 0.28-0.37% at 512 and 0.09-0.10% at
-#: 2048 (the lattice converges as rays^-0.8, not ^-0.5), and 1.5-2.3x the noise measured with
-#: a second seed (bench/reference/gather_noise.py).
+#: the bench scenes the estimate was 1.4-2.0% at 64 rays, 0.28-0.37% at 512 and 0.08-0.10% at
+#: 2048 (the lattice converges as rays^-0.8, not ^-0.5), and 1.45-2.3x the noise measured
+#: with a second seed (bench/reference/gather_noise.py).
 GATHER_NOISE_SHARE = 0.5
 NOISE_AT_512_RAYS = 0.004
 NOISE_EXPONENT = 0.75
@@ -544,8 +544,8 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
             # from the surfels, by luminance.
             rho = rec.albedo @ lum
             # The halves' squares pooled, not the rays' variance: the rays are a lattice,
-            # whose error is 1.6-2.3x below the halves' and 2.6-8.7x below what independent
-            # rays would leave (tested against a second seed, DESIGN.md §6).
+            # whose error is 1.45-2.3x below the halves' and 2.6-11x below what independent
+            # rays would leave (bench/reference/gather_noise.py).
             noise2 += float(((rho * gathered.halves[rows]) ** 2).sum())
             light2 += float(((values @ lum) ** 2).sum())
             gathered_lum = gathered.radiance[rows] @ lum
