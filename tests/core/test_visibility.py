@@ -167,7 +167,9 @@ def test_triangle_occluders_block_exactly_the_pairs_they_cover(method):
 
 def test_the_cornell_box_meshed_finely_or_coarsely_occludes_alike():
     """The scaling bench's mesh occluders (bench/scenes.py ``cornell_surface``): the box's 16
-    quads as 32 triangles or as 10,368 give the same solution; the blocks cast shadows."""
+    quads as 32 triangles or as 10,368 give the same solution, but for the few segments that
+    end within rounding of a surface (which meshing decides them: 1.4e-6 of the brightest value
+    with Embree's watertight mode on AMD EPYC); the blocks cast shadows."""
     sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "bench"))
     import scenes as S
     s = S.build("cornell", 10_000, seed=1)
@@ -177,7 +179,7 @@ def test_the_cornell_box_meshed_finely_or_coarsely_occludes_alike():
         assert len(tri) == 32 * cells ** 2
         B[cells] = np.asarray(illumap.solve(s, method="fmm", visibility="exact",
                                             occluder_triangles=tri, tol=1e-8).radiosity)
-    np.testing.assert_allclose(B[S.CORNELL_MESH_CELLS], B[1], rtol=0, atol=1e-12 * B[1].max())
+    np.testing.assert_allclose(B[S.CORNELL_MESH_CELLS], B[1], rtol=0, atol=1e-5 * B[1].max())
     open_B = np.asarray(illumap.solve(s, method="fmm", tol=1e-8).radiosity)
     floor = np.abs(s.positions[:, 2]) < 1e-9
     assert (B[1][floor] < open_B[floor] - 0.05 * open_B[floor]).sum() > 0.05 * floor.sum()
