@@ -393,6 +393,10 @@ def _report(frame: int, result: pipeline.Result, out) -> None:
               f"from the surfels {receivers.get('surfel_share', 0.0):.0%}"
               + (f"; estimated error at the meshes {receivers['estimate']:.2%}"
                  if "estimate" in receivers else "") + ")", file=out)
+        first = receivers.get("first_gather")
+        if first:
+            print(f"  gathered again   the first gather's noise at {first['rays']} rays, "
+                  f"{first['gather_noise']:.2%}, exceeded its share of the target", file=out)
     accuracy = result.stats.get("accuracy")
     if accuracy:
         chosen = accuracy["settings"]

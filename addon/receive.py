@@ -69,6 +69,22 @@ def receiver_rays(settings: Settings) -> tuple[int, int]:
     return rays, samples
 
 
+def more_rays(settings: Settings, gather_noise: float, rays: int) -> int | None:
+    """With a target error, the gather rays per receiver that the noise estimated at ``rays``
+    asks for, where it exceeds GATHER_NOISE_SHARE of the target (the light at the receivers
+    comes from a few bright patches, where the noise model's bench scenes had it spread): the
+    noise model's slope from the noise found, a power of two up to MAX_TARGET_RAYS. None
+    where the noise is within its share, without a target, or at MAX_TARGET_RAYS already."""
+    t = settings.target_error
+    if t is None or rays >= MAX_TARGET_RAYS:
+        return None
+    share = GATHER_NOISE_SHARE * t
+    if not gather_noise > share:
+        return None
+    wanted = rays * (gather_noise / share) ** (1.0 / NOISE_EXPONENT)
+    return _power_of_two(wanted, 2 * rays, MAX_TARGET_RAYS)
+
+
 def gather_noise_warning(settings: Settings, gather_noise: float, rays: int) -> str | None:
     """What to tell a user whose target error the final gather's own noise (relative RMS at
     the receivers, estimated from its rays) already exceeds: the most rays a target casts
@@ -419,7 +435,8 @@ def _probe_sides(front, back, incident_at, gather_rays: int, shadow_samples: int
     return patches, side, settled, cast
 
 
-def receive(job: Job, result: "Result", progress: Progress | None = None) -> None:
+def receive(job: Job, result: "Result", progress: Progress | None = None, *,
+            per_receiver: tuple[int, int] | None = None) -> None:
     """Evaluate the light at every receiver (DESIGN.md §6): the meshes' corners
     (``job.receivers``) into ``result.receiver_values``, and with Transfer the point clouds'
     points (their outward side where the orientation is unknown, a crease's points the mean of
@@ -428,7 +445,12 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
     from the receiver, plus the final gather of the surfels' solved light
     (``illumap.receivers``); the world's light through the gather's rays that leave the
     scene. No bpy; runs on the worker after the solve. Raises IllumapCancelled when
-    cancelled."""
+    cancelled.
+
+    ``per_receiver``: (gather rays, shadow samples) instead of ``receiver_rays``'. With a
+    target error, a gather whose estimated noise exceeds its share of the target is cast
+    again, once, with the rays ``more_rays`` asks for (``stats['receivers']['first_gather']``
+    says what the first one found)."""
     point_sets = _point_receivers(job) if job.settings.transfer else []
     if not job.receivers and not point_sets:
         return
@@ -446,7 +468,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
         if src.kind == "BACK":
             back[src.start:src.stop] = True
     owners, back_owners = _splat_owners(job, back)
-    gather_rays, shadow_samples = receiver_rays(s)
+    gather_rays, shadow_samples = receiver_rays(s) if per_receiver is None else per_receiver
     background = None if job.world is None else job.world.color
     straddling = _regather_straddling(job, result, occ, sent, back, owners, back_owners,
                                       gather_rays, background)
@@ -609,6 +631,15 @@ def receive(job: Job, result: "Result", progress: Progress | None = None) -> Non
                                      lattice_shadowed=lattice_lit,
                                      gather_noise=gather_noise, indirect_share=float(share),
                                      surfel_share=float(surfel_share))
+    more = None if per_receiver is not None else more_rays(s, gather_noise, gather_rays)
+    if more is not None:
+        first = dict(rays=int(gather_rays), cast=int(rays), gather_noise=gather_noise,
+                     seconds=result.timings["receivers"])
+        receive(job, result, progress, per_receiver=(more, shadow_samples))
+        result.stats["receivers"]["first_gather"] = first
+        result.stats["receivers"]["rays"] += first["cast"]
+        result.timings["receivers"] += first["seconds"]
+        return
     missed = gather_noise_warning(s, gather_noise, gather_rays)
     if missed:
         result.warnings.append(missed)

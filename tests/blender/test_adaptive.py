@@ -287,10 +287,14 @@ def test_the_target_sets_the_rays_per_receiver():
     assert receive.receiver_rays(pipeline.Settings()) == (512, 128)   # no target: the settings'
     objects = spot_scene()
     for target in (0.1, 0.02):
-        result = pipeline.compute(bpy.context, objects, pipeline.Settings(target_error=target))
+        settings = pipeline.Settings(target_error=target)
+        result = pipeline.compute(bpy.context, objects, settings)
         got = result.stats["receivers"]
-        assert (got["gather_rays"], got["shadow_samples"]) == receive.receiver_rays(
-            pipeline.Settings(target_error=target))
+        planned = receive.receiver_rays(settings)
+        first = got.get("first_gather")      # this scene's gather is noisy: cast again
+        assert first is not None and first["rays"] == planned[0]
+        assert (got["gather_rays"], got["shadow_samples"]) == (
+            receive.more_rays(settings, first["gather_noise"], planned[0]), planned[1])
 
 
 def test_the_target_never_skips_visibility(monkeypatch):
@@ -351,6 +355,49 @@ def test_a_target_the_count_cannot_reach_says_so():
     noisy = [w for w in result.warnings if "not met at the objects" in w]
     assert len(noisy) == 1 and f"{got['gather_noise']:.2%}" in noisy[0], result.warnings
     assert "the most a target casts" in noisy[0]
+
+
+def test_a_gather_noisier_than_its_share_of_the_target_is_cast_again_with_more_rays():
+    """This scene's corners see the spot's light only through the gather, in a small bright
+    patch: 64 rays leave far more noise than the half of a 10% target the model expects, so
+    the receivers gather again, once, with the rays the noise found asks for; what both
+    gathers cast is counted, and the first is reported."""
+    objects = spot_scene()
+    settings = pipeline.Settings(target_error=0.1)
+    result = pipeline.compute(bpy.context, objects, settings)
+    got = result.stats["receivers"]
+    first = got["first_gather"]
+    assert first["rays"] == receive.receiver_rays(settings)[0] == receive.MIN_TARGET_RAYS
+    assert first["gather_noise"] > receive.GATHER_NOISE_SHARE * 0.1
+    assert got["gather_rays"] == receive.more_rays(settings, first["gather_noise"], first["rays"])
+    assert got["gather_noise"] < first["gather_noise"]
+    corners = got["corners"]
+    assert got["rays"] >= corners * (first["rays"] + got["gather_rays"])
+    import io
+    from addon import batch
+    printed = io.StringIO()
+    batch._report(1, result, printed)
+    assert f"first gather's noise at 64 rays, {first['gather_noise']:.2%}" in printed.getvalue()
+    # Without a target the settings' rays are cast once, whatever the noise.
+    plain = pipeline.compute(bpy.context, objects, pipeline.Settings(gather_rays=64))
+    assert "first_gather" not in plain.stats["receivers"]
+    assert plain.stats["receivers"]["gather_rays"] == 64
+
+
+def test_more_rays_follow_the_noise_found():
+    s = pipeline.Settings(target_error=0.02)
+    share = receive.GATHER_NOISE_SHARE * 0.02
+    assert receive.more_rays(s, 0.99 * share, 256) is None
+    assert receive.more_rays(s, float("nan"), 256) is None
+    assert receive.more_rays(s, 10.0, receive.MAX_TARGET_RAYS) is None
+    assert receive.more_rays(pipeline.Settings(), 10.0, 64) is None
+    counts = [receive.more_rays(s, noise, 128) for noise in (1.01 * share, 2 * share, 4 * share, 100.0)]
+    assert counts == sorted(counts) and counts[0] == 256 and counts[-1] == receive.MAX_TARGET_RAYS
+    assert all(c & (c - 1) == 0 for c in counts)
+    # enough by the model's slope: the noise found, scaled to the count, within the share
+    for noise, c in zip((1.01 * share, 2 * share, 4 * share), counts):
+        assert c == receive.MAX_TARGET_RAYS or \
+            noise * (128 / c) ** receive.NOISE_EXPONENT <= share * (1 + 1e-9)
 
 
 def test_the_gather_noise_warning_names_what_was_cast():
