@@ -303,15 +303,15 @@ LATTICE_SHADOW_SAMPLES = 4
 
 
 def _regather_straddling(job: Job, result: "Result", occ, sent: np.ndarray, back: np.ndarray,
-                         owners, back_owners, rays: int, background) -> int:
+                         owners, back_owners, rays: int, background, sides) -> int:
     """Evaluate the surfels whose disc reaches through another surface
     (``illumap.receivers.straddling_surfels``: a floor's along a wall, a crease's in a scan)
     as receivers are: their direct light plus a gather of the other surfels' light. Their
     solved values scatter by tens of percent where the light is smooth, and a receiver at the
     line where the surfaces meet sees them at close range. Their direct light is the lamps'
     and emitters' (``job.direct_lamps``); the world's comes through the gather's rays that
-    leave the scene (``background``). Updates ``sent`` and ``result.radiosity`` in place;
-    returns how many were evaluated."""
+    leave the scene (``background``); ``sides``: ``_gather_sides``. Updates ``sent`` and
+    ``result.radiosity`` in place; returns how many were evaluated."""
     from illumap import receivers as rc
     direct = job.direct_lamps
     if direct is None:
@@ -344,15 +344,36 @@ def _regather_straddling(job: Job, result: "Result", occ, sent: np.ndarray, back
         if own_front is not None else 2 * len(job.triangles)
     g = rc.gather(occ, front_field, job.positions[rows], job.normals[rows], rays=rays,
                   seed=job.settings.seed, ids=rows.astype(np.int64),
-                  background=background, back_field=back_field_, two_sided=job.two_sided, owners=own_front,
+                  background=background, back_field=back_field_, two_sided=sides, owners=own_front,
                   back_owners=own_back, tabulate=3 * untabled <= rows.size * rays)
     sent[rows] = job.solve_emission[rows] + direct[rows] + job.albedo[rows] * g.radiance
     result.radiosity[rows] = sent[rows] + job.emission[rows] - job.solve_emission[rows]
     return int(rows.size)
 
 
+def _gather_sides(job: Job) -> np.ndarray | None:
+    """``job.two_sided`` as the gather takes it: an open mesh none of whose back faces kept a
+    surfel (they face only the black world, ``pipeline._back_faces_in_view``: nothing sees
+    them) is one-sided there. Its back then sends nothing, as the solve had it, and the gather
+    tabulates no back lattice over it, which would look the back field up from surfels metres
+    away (a ground plane's underside took most of the receivers' tables on the open bench
+    scene at Target 1%)."""
+    sided = job.two_sided
+    if sided is None or job.mesh_triangle_start is None:
+        return sided
+    live = {src.name for src in job.sources if src.kind == "BACK"}
+    meshes = [src.name for src in job.sources if src.kind == "MESH"]
+    starts = [int(a) for a in job.mesh_triangle_start]
+    mesh_end = len(sided) if job.splat_point is None else int((job.splat_point < 0).sum())
+    out = sided.copy()
+    for name, lo, hi in zip(meshes, starts, starts[1:] + [mesh_end]):
+        if name not in live:
+            out[lo:hi] = False
+    return out
+
+
 def _exact_direct(job: Job, occ, sent: np.ndarray, front: np.ndarray, field_,
-                  owners) -> tuple:
+                  owners, sides) -> tuple:
     """The gather's ``ExactPart`` for the front field (None without lamp light) and the
     number of lattice points shadow rays were cast from: the reflected direct light of the
     lamps and emitters at the points where the gather tabulates the surfels' light, beside
@@ -367,7 +388,7 @@ def _exact_direct(job: Job, occ, sent: np.ndarray, front: np.ndarray, field_,
         return None, 0
     s = job.settings
     all_lamps = list(job.lamps) + list(job.emitters)
-    (points, normals), _ = rc.gather_lattices(occ, field_, two_sided=job.two_sided, owners=owners)
+    (points, normals), _ = rc.gather_lattices(occ, field_, two_sided=sides, owners=owners)
     if not len(points):
         return None, 0
     pos, nrm, direct = job.positions[front], job.normals[front], job.direct_lamps[front]
@@ -470,12 +491,13 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
     owners, back_owners = _splat_owners(job, back)
     gather_rays, shadow_samples = receiver_rays(s) if per_receiver is None else per_receiver
     background = None if job.world is None else job.world.color
+    sides = _gather_sides(job)
     straddling = _regather_straddling(job, result, occ, sent, back, owners, back_owners,
-                                      gather_rays, background)
+                                      gather_rays, background, sides)
     field_ = rc.SurfelField(job.positions[~back], job.normals[~back], sent[~back])
     back_field = (rc.SurfelField(job.positions[back], job.normals[back], sent[back])
                   if back.any() else None)
-    exact, lattice_lit = _exact_direct(job, occ, sent, ~back, field_, owners)
+    exact, lattice_lit = _exact_direct(job, occ, sent, ~back, field_, owners, sides)
     all_lamps = list(job.lamps) + list(job.emitters)
     from illumap.refinement import LUMINANCE_WEIGHTS
     lum = np.asarray(LUMINANCE_WEIGHTS, dtype=np.float64)
@@ -512,7 +534,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
     try:
         # One prepared gather for every batch below: the field is tabulated once.
         gatherer = rc.Gatherer(occ, field_, background=background, back_field=back_field,
-                               two_sided=job.two_sided, owners=owners, back_owners=back_owners,
+                               two_sided=sides, owners=owners, back_owners=back_owners,
                                exact=exact, progress=report)
         # Every object's receivers in one batch (the gather tabulates the surfels' light
         # once), corners that see the same light evaluated once. A point cloud of unknown

@@ -124,6 +124,38 @@ def test_open_plane_reflects_from_its_back_face():
     assert under == pytest.approx(closed, rel=0.1)
 
 
+def test_an_open_mesh_whose_back_sees_nothing_is_one_sided_to_the_gather(monkeypatch):
+    """A floor's underside faces only the black world: it keeps no back surfels, and the
+    gather treats its triangles as one-sided (no back lattice looked up from the plate's back
+    surfels metres away), while the plate above, whose underside sees the floor, stays
+    two-sided. Nothing can see the floor's underside, so the light at the meshes is what the
+    whole open mesh's two sides give, to the bit."""
+    from addon import receive
+    floor = subdivided(make_plane("Floor", size=6.0, material=diffuse_material("F", (ALBEDO,) * 3)),
+                       cuts=9)
+    plate = make_plane("Plate", size=2.0, location=(0, 0, 1.0),
+                       material=diffuse_material("P", (ALBEDO,) * 3))
+    sun = bpy.data.lights.new("Sun", "SUN")
+    sun.energy = 3.0
+    link(bpy.data.objects.new("Sun", sun))
+    bpy.context.view_layer.update()
+    settings = pipeline.Settings(budget=3000, transfer_domain="POINT", gather_rays=64)
+    job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), [floor, plate], settings)
+    assert {src.name for src in job.sources if src.kind == "BACK"} == {"Plate"}
+    sides = receive._gather_sides(job)
+    start = {src.name: int(a) for src, a in zip(
+        [src for src in job.sources if src.kind == "MESH"], job.mesh_triangle_start)}
+    floor_rows = slice(start["Floor"], start["Floor"] + 2 * 10 * 10)
+    plate_rows = slice(start["Plate"], start["Plate"] + 2)
+    assert job.two_sided[floor_rows].all() and not sides[floor_rows].any()
+    assert sides[plate_rows].all() and len(sides) == len(job.two_sided)
+    result = pipeline.run(job)
+    monkeypatch.setattr(receive, "_gather_sides", lambda job: job.two_sided)
+    both = pipeline.run(job)
+    for name, values in result.receiver_values.items():
+        np.testing.assert_array_equal(values, both.receiver_values[name], err_msg=name)
+
+
 def test_same_input_same_result():
     """Two runs of the same scene and settings write the same values (threads, ray order and
     chunking do not enter the result)."""
