@@ -74,6 +74,20 @@ def subdivided(obj, cuts=8):
     return obj
 
 
+def plate_over_floor(cuts):
+    """A 6 m floor (``cuts`` subdivisions) under a 2 m single plane at 1 m, both facing up,
+    in a straight-down sun; returns (floor, plate)."""
+    floor = subdivided(make_plane("Floor", size=6.0, material=diffuse_material("F", (ALBEDO,) * 3)),
+                       cuts=cuts)
+    plate = make_plane("Plate", size=2.0, location=(0, 0, 1.0),
+                       material=diffuse_material("P", (ALBEDO,) * 3))
+    sun = bpy.data.lights.new("Sun", "SUN")
+    sun.energy = 3.0
+    link(bpy.data.objects.new("Sun", sun))
+    bpy.context.view_layer.update()
+    return floor, plate
+
+
 @pytest.mark.parametrize("one_sided", [False, True])
 def test_emitter_faces_as_in_cycles(one_sided):
     """A plain Emission shader emits from both faces, as in Cycles: the ceiling just behind
@@ -99,14 +113,7 @@ def test_open_plane_reflects_from_its_back_face():
     reflects of the lit floor around. Open surfaces reflect on both faces as in Cycles, so
     that is the same light as under a thin closed slab, whose underside is a front face; a
     one-sided plane would leave the floor there black."""
-    floor = subdivided(make_plane("Floor", size=6.0, material=diffuse_material("F", (ALBEDO,) * 3)),
-                       cuts=29)
-    plate = make_plane("Plate", size=2.0, location=(0, 0, 1.0),
-                       material=diffuse_material("P", (ALBEDO,) * 3))
-    sun = bpy.data.lights.new("Sun", "SUN")
-    sun.energy = 3.0
-    link(bpy.data.objects.new("Sun", sun))                    # straight down
-    bpy.context.view_layer.update()
+    floor, plate = plate_over_floor(cuts=29)
     settings = pipeline.Settings(budget=3000, transfer_domain="POINT", gather_rays=256)
     result = pipeline.compute(bpy.context, [floor, plate], settings)
     under, n_under = centre_value(floor)
@@ -131,14 +138,7 @@ def test_an_open_mesh_whose_back_sees_nothing_is_one_sided_to_the_gather(monkeyp
     two-sided. Nothing can see the floor's underside, so the light at the meshes is what the
     whole open mesh's two sides give, to the bit."""
     from addon import receive
-    floor = subdivided(make_plane("Floor", size=6.0, material=diffuse_material("F", (ALBEDO,) * 3)),
-                       cuts=9)
-    plate = make_plane("Plate", size=2.0, location=(0, 0, 1.0),
-                       material=diffuse_material("P", (ALBEDO,) * 3))
-    sun = bpy.data.lights.new("Sun", "SUN")
-    sun.energy = 3.0
-    link(bpy.data.objects.new("Sun", sun))
-    bpy.context.view_layer.update()
+    floor, plate = plate_over_floor(cuts=9)
     settings = pipeline.Settings(budget=3000, transfer_domain="POINT", gather_rays=64)
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), [floor, plate], settings)
     assert {src.name for src in job.sources if src.kind == "BACK"} == {"Plate"}

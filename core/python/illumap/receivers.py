@@ -321,7 +321,6 @@ class GatherResult:
     # (M,) half the difference of the even and the odd rays' mean luminance. The rays are a
     # lattice: ``stderr`` (independent rays) overstates the error where the light is smooth;
     # the mean of these squares over many receivers estimates the mean squared error
-    # (``pooled_noise``)
     halves: np.ndarray | None = None
 
 
