@@ -924,8 +924,11 @@ def run(job: Job, progress: Progress | None = None) -> Result:
         # measures how much skipping visibility would cost, which does not prove a scene needs
         # none (an open scene's sphere read 2% bright at Target 3%). The occluders are the
         # shadows' own.
+        # The estimate scores every surfel that is not a light: the lamps' direct light that
+        # the solve takes as emission is light a receiver sees like any other.
         kwargs = dict(target_error=surfel_target(s), progress=progress, near_field=s.near_field,
-                      coverage=SURFEL_COVERAGE, probe=False)
+                      coverage=SURFEL_COVERAGE, probe=False,
+                      scored=~(job.emission.max(axis=1) > 0))
         if triangles_occlude(job):
             kwargs["occluder_triangles"] = job.triangles   # as without a target (below)
         chosen = job.accuracy or {}

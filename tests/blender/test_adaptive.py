@@ -328,6 +328,30 @@ def test_the_target_never_skips_visibility(monkeypatch):
     assert not asked
 
 
+def test_the_estimate_scores_the_lamp_lit_surfels_too(monkeypatch):
+    """The solve takes the spot's light at the surfels as emission; the estimate still scores
+    every surfel that is not a light, lit or dark, so its parts are relative to the light a
+    receiver sees, not to the unlit surfels' alone."""
+    from illumap.accuracy import automatic
+    seen = {}
+    real = automatic.estimate_error
+
+    def spy(sol, surfels, **kw):
+        seen.update(kw, emission=np.asarray(surfels.emission))
+        seen["unscored"] = real(sol, surfels, **{**kw, "scored": None})
+        return real(sol, surfels, **kw)
+    monkeypatch.setattr(automatic, "estimate_error", spy)
+    objects = spot_scene()
+    result = pipeline.compute(bpy.context, objects, pipeline.Settings(target_error=0.1))
+    scored = seen["scored"]
+    assert scored.all() and len(scored) == result.count    # no emissive mesh in this scene
+    lit = seen["emission"].max(axis=1) > 0                   # the spot's light, as emission
+    assert lit.any() and not lit.all()
+    got = result.stats["accuracy"]["estimate"]
+    # Relative to the lit and dark surfels, not the dark ones alone: smaller.
+    assert 0 < got["solver"] < seen["unscored"]["solver"]
+
+
 def test_a_target_the_count_cannot_reach_says_so():
     """A budget that caps the surfels below what the error model needs for the target is said
     in the run's warnings, with the budget and the predicted error (one pass or two), and the

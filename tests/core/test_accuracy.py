@@ -1027,3 +1027,36 @@ def test_calibrate_writes_the_data_file_the_package_loads(tmp_path):
             assert a == b
     same(calibration.CALIBRATION, loaded)
     assert calibrate.CALIBRATION_JSON.endswith(os.path.join("illumap", "data", "calibration.json"))
+
+
+def test_the_estimate_scores_the_surfels_it_is_told_to():
+    """A caller that hands the solve its own direct light as emission (the add-on: lamp light
+    at the surfels) scores the lit surfels too: the FMM part is then relative to the RMS
+    radiosity of the scored surfels, on probe rows drawn from them, and the solve's own
+    estimate is rescaled from its non-emitting surfels to the scored ones."""
+    q = scenes.closed_box(10, albedo=0.7, emission=0.0)
+    lamp = (q.normals[:, 2] < -0.9) & (np.abs(q.positions[:, 0] - 0.5) < 0.2) \
+        & (np.abs(q.positions[:, 1] - 0.5) < 0.2)                    # a patch of the ceiling
+    lit = q.normals[:, 2] > 0.9                                      # the floor, lamp-lit
+    emission = np.where(lamp[:, None], 5.0, 0.0) + np.where(lit[:, None], 0.4, 0.0)
+    q = q.replace(emission=emission * np.ones((q.n, 3)))
+    sol = illumap.solve(q, method="fmm", order=1, theta=0.8, leaf_size=8, tol=1e-8,
+                        keep_operator=True)
+    scored = ~lamp
+    plain = accuracy.estimate_error(sol, q, operator=sol.operator)
+    got = accuracy.estimate_error(sol, q, operator=sol.operator, scored=scored)
+    same = accuracy.estimate_error(sol, q, operator=sol.operator, scored=None)
+    assert {k: v for k, v in same.items() if k != "seconds"} == \
+        {k: v for k, v in plain.items() if k != "seconds"}
+    B = np.asarray(sol.radiosity)
+    rows = np.sort(np.random.default_rng(0).choice(np.flatnonzero(scored), 256, replace=False))
+    diff = q.albedo[rows] * (sol.operator.apply(B)[rows] - sol.operator.apply_rows(B, rows))
+    rms = lambda x: math.sqrt(float(np.mean(np.square(x))))  # noqa: E731
+    assert got["fmm"] == pytest.approx(rms(diff) / rms(B[rows]) * got["gain"], rel=1e-9)
+    assert got["fmm"] > 0
+    dark = ~(emission.max(axis=1) > 0)
+    assert got["solver"] == pytest.approx(plain["solver"] * rms(B[dark]) / rms(B[scored]),
+                                          rel=1e-9)
+    assert got["solver"] < plain["solver"]          # the lit floor outshines the dark walls
+    with pytest.raises(ValueError, match="scored must have"):
+        accuracy.estimate_error(sol, q, operator=sol.operator, scored=scored[:-1])

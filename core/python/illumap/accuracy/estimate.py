@@ -88,8 +88,15 @@ def bounce_gain(radiosity, surfels: Surfels, operator: TransportOperator) -> flo
 def estimate_error(solution, surfels: Surfels, *, operator: TransportOperator | None = None,
                    probe: int = 256, coarse: bool = False, settings: dict | None = None,
                    kind: str | None = None, seed: int = 0,
-                   discretization_scale: float | None = None) -> dict:
+                   discretization_scale: float | None = None,
+                   scored: np.ndarray | None = None) -> dict:
     """A-posteriori estimate of the relative RMS error (emitters excluded) of ``solution``.
+
+    ``scored`` (N,) bool: the surfels whose error is estimated, relative to their own RMS
+    radiosity (default: those that emit nothing). A caller that hands the solve light it
+    computed itself as emission (direct lamp light at the surfels) scores the lit surfels too:
+    relative to the dark ones alone, every part read several times what a receiver, which
+    sees lit and dark surfels alike, is left with.
 
     * ``solver``: SOLVER_ESTIMATE_MARGIN × the solve's ``stats["solver_error_estimate"]``
       (the bounce gain times ‖r‖/‖B‖ for the final residual r = E − (B − ρ K B), RMS over the
@@ -120,6 +127,15 @@ def estimate_error(solution, surfels: Surfels, *, operator: TransportOperator | 
     if not non_emit.any():
         non_emit = np.ones(surfels.n, bool)
     e_solver = _solver_error(stats, surfels, B, non_emit)
+    if scored is not None:
+        scored = np.asarray(scored, dtype=bool).reshape(-1)
+        if len(scored) != surfels.n:
+            raise ValueError(f"scored must have {surfels.n} entries, got {len(scored)}")
+        if scored.any():
+            # The solve's own estimate is relative to its non-emitting surfels; the residual
+            # is taken to be alike over the scored ones.
+            e_solver *= _rms(B[non_emit]) / (_rms(B[scored]) or 1.0)
+            non_emit = scored
     vis = stats.get("visibility", "none")
     vis_kw = _visibility_keywords_of(stats, settings, kind)
     e_fmm, gain, rows = 0.0, None, np.array([], dtype=np.int64)
