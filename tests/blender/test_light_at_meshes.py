@@ -156,6 +156,63 @@ def test_an_open_mesh_whose_back_sees_nothing_is_one_sided_to_the_gather(monkeyp
         np.testing.assert_array_equal(values, both.receiver_values[name], err_msg=name)
 
 
+def box_on_floor(world: bool):
+    """A 0.5 m cube resting on a 3 m floor (9 cuts), under a sky (``world``) or, in a black
+    world, a straight-down sun; returns (floor, box)."""
+    from illumap_bpy_testing import black_world, sky_world
+    (sky_world if world else black_world)()
+    floor = subdivided(make_plane("Floor", size=3.0, material=diffuse_material("F", (ALBEDO,) * 3)),
+                       cuts=9)
+    h = 0.25
+    verts = [(x, y, z) for z in (0.0, 2 * h) for y in (-h, h) for x in (-h, h)]
+    faces = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+    mesh = bpy.data.meshes.new("Box")
+    mesh.from_pydata(verts, [], faces)
+    mesh.materials.append(diffuse_material("B", (ALBEDO,) * 3))
+    box = link(bpy.data.objects.new("Box", mesh))
+    if not world:
+        sun = bpy.data.lights.new("Sun", "SUN")
+        sun.energy = 3.0
+        link(bpy.data.objects.new("Sun", sun))
+    bpy.context.view_layer.update()
+    return floor, box
+
+
+def test_beside_contacts_finds_lattice_points_a_facing_surface_nearly_touches():
+    """A point on a floor is beside a contact where a surfel of a surface that faces it lies
+    within CONTACT_REACH of that surfel's radii: a face just above it looking down, or a wall
+    beside it looking back; not a surface facing the same way, one facing away, or one out
+    of reach."""
+    from addon import receive
+    up, down = (0.0, 0.0, 1.0), (0.0, 0.0, -1.0)
+    points = np.array([[0.0, 0, 0], [0.3, 0, 0], [1.0, 0, 0], [2.0, 0, 0], [3.0, 0, 0]])
+    normals = np.tile(up, (len(points), 1))
+    pos = np.array([[0.0, 0, 0.05],       # looks down on the first point from 5 cm
+                    [1.0, 0, 0.05],       # faces up, as the floor does
+                    [2.0, 0.05, 0.05],    # a wall beside the fourth point, looking back
+                    [3.0, 0.05, 0.05]])   # a wall beside the fifth, facing away
+    nrm = np.array([down, up, (0.0, -1.0, 0.0), (0.0, 1.0, 0.0)])
+    areas = np.full(len(pos), np.pi * 0.05 ** 2)           # radius 5 cm: reach 10 cm
+    got = receive._beside_contacts(points, normals, pos, nrm, areas)
+    assert got.tolist() == [0, 3]
+    assert receive._beside_contacts(points[:0], normals[:0], pos, nrm, areas).size == 0
+
+
+def test_under_a_sky_contacts_gather_afresh_and_the_exact_part_takes_the_sky():
+    """Under a sky the exact part casts the sky's shadow rays at the lattice points where the
+    surfels' light changes sharply (there is no lamp here), and the points beside the box's
+    foot gather the light between box and floor afresh; in a black world with a sun neither
+    the sky nor the contact gather runs, and the sun's shadow edge still takes its rays."""
+    floor, box = box_on_floor(world=True)
+    settings = pipeline.Settings(budget=3000, transfer_domain="POINT", gather_rays=64)
+    sky = pipeline.compute(bpy.context, [floor, box], settings).stats["receivers"]
+    assert sky["lattice_shadowed"] > 0 and sky["contact_points"] > 0
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    floor, box = box_on_floor(world=False)
+    sun = pipeline.compute(bpy.context, [floor, box], settings).stats["receivers"]
+    assert sun["contact_points"] == 0 and sun["lattice_shadowed"] > 0
+
+
 def test_same_input_same_result():
     """Two runs of the same scene and settings write the same values (threads, ray order and
     chunking do not enter the result)."""
