@@ -448,10 +448,10 @@ def _beside_contacts(points: np.ndarray, normals: np.ndarray, pos: np.ndarray,
     return np.unique(row[facing])
 
 
-def _gathered_at_contacts(job: Job, occ, exact, field_, back_field, owners, back_owners,
-                          sides, rays: int) -> tuple:
-    """Under a sky (the exact part has it), the lattice points beside a contact
-    (``_beside_contacts``) take the light between the surfaces gathered afresh (``rays``
+def _gathered_at_contacts(job: Job, occ, exact, front: np.ndarray, field_, back_field,
+                          owners, back_owners, sides, rays: int) -> tuple:
+    """Under a sky (the exact part has it), the lattice points of the ``front`` surfels' field
+    beside a contact (``_beside_contacts``) take the light between the surfaces gathered afresh (``rays``
     rays each, the sky's part left to the exact part) in place of the surfels' own: where a
     sphere rests on a floor, both the sky hidden under it and the light bounced between them
     change over less than a surfel's spacing. Returns the exact part and how many points
@@ -461,10 +461,6 @@ def _gathered_at_contacts(job: Job, occ, exact, field_, back_field, owners, back
     from illumap import receivers as rc
     if exact is None or job.world is None:
         return exact, 0
-    front = np.ones(job.count, dtype=bool)
-    for src in job.sources:
-        if src.kind == "BACK":
-            front[src.start:src.stop] = False
     (points, normals), _ = rc.gather_lattices(occ, field_, two_sided=sides, owners=owners)
     beside = _beside_contacts(points, normals, job.positions[front], job.normals[front],
                               job.areas[front])
@@ -574,8 +570,8 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
                   if back.any() else None)
     exact, lattice_lit = _exact_direct(job, occ, sent, ~back, field_, owners, sides,
                                        shadow_samples)
-    exact, contact_points = _gathered_at_contacts(job, occ, exact, field_, back_field, owners,
-                                                  back_owners, sides,
+    exact, contact_points = _gathered_at_contacts(job, occ, exact, ~back, field_, back_field,
+                                                  owners, back_owners, sides,
                                                   min(gather_rays, CONTACT_RAYS))
     all_lamps = list(job.lamps) + list(job.emitters)
     from illumap.refinement import LUMINANCE_WEIGHTS

@@ -35,10 +35,10 @@ sphere, point lamp     RMS 0.47-0.49 over runs; lit side mean ratio 0.59-0.64 (t
 =====================  ==========================================================================
 
 Two open scenes under a sky came later: a box on a floor, and a sphere resting on a floor
-(built from numpy in a fixed order). The sphere measured RMS 0.011, underside RMS 0.038 once
-the lattice points beside its contact gathered afresh and the exact part took the sky (three
-seeds against a 1024-sample bake: RMS 1.01-1.16%, underside 3.5-4.0%, where it had been
-1.33-1.52% and 4.6-5.3%).
+(the bench's ``uv_sphere``, its faces in a fixed order). The sphere measured RMS 0.014,
+underside RMS 0.047 once the lattice points beside its contact gathered afresh and the exact
+part took the sky (three seeds against a 1024-sample bake: RMS 0.95-1.10%, underside
+3.2-3.8%, where it had been 1.29-1.44% and 4.4-4.9%).
 """
 
 import bpy
@@ -48,6 +48,7 @@ import pytest
 from illumap_bpy_testing import add_lamp, link, requires_core, sky_world
 
 from addon import pipeline
+from bench.reference.scenes import uv_sphere
 
 pytestmark = requires_core
 
@@ -404,26 +405,6 @@ def test_open_scene_lit_by_the_world():
     assert rms < bound["rms"]
 
 
-def uv_sphere(name, radius, segments=32, rings=16):
-    """A UV sphere (quads, triangle fans at the poles) built from numpy in a fixed vertex
-    and face order (bmesh's comes in another order on each build)."""
-    theta = np.pi * np.arange(1, rings) / rings - np.pi / 2
-    phi = 2 * np.pi * np.arange(segments) / segments
-    ring = np.stack([np.outer(np.cos(theta), np.cos(phi)), np.outer(np.cos(theta), np.sin(phi)),
-                     np.repeat(np.sin(theta)[:, None], segments, axis=1)], axis=-1)
-    verts = np.concatenate([[[0, 0, -1]], ring.reshape(-1, 3), [[0, 0, 1]]]) * radius
-    top, j = len(verts) - 1, np.arange(segments)
-    faces = [(0, 1 + (k + 1) % segments, 1 + k) for k in j]
-    for i in range(rings - 2):
-        a, b = 1 + i * segments, 1 + (i + 1) * segments
-        faces += [(a + k, a + (k + 1) % segments, b + (k + 1) % segments, b + k) for k in j]
-    a = 1 + (rings - 2) * segments
-    faces += [(a + k, a + (k + 1) % segments, top) for k in j]
-    data = bpy.data.meshes.new(name)
-    data.from_pydata(verts.tolist(), [], faces)
-    return data
-
-
 def test_sphere_resting_on_a_floor_under_the_sky():
     """A UV sphere (r 0.3 m, 32 × 16) resting on a 2 m floor under a sky, no lamps. Its
     underside sees the floor beneath it, which the sphere hides from the sky: light that
@@ -432,10 +413,7 @@ def test_sphere_resting_on_a_floor_under_the_sky():
     sky_world()
     white = diffuse("White")
     floor = plane("Floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], 0.1, white)
-    data = uv_sphere("Sphere", 0.3)
-    data.materials.append(white)
-    sphere = link(bpy.data.objects.new("Sphere", data))
-    sphere.location = (0.0, 0.0, 0.3)
+    sphere = uv_sphere("Sphere", (0.0, 0.0, 0.3), 0.3, white)
     got, ref, pos = both([floor, sphere])
     nf = len(floor.data.vertices)
     # The sphere's lower half above its bottom pole, which touches the floor (no light
