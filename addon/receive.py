@@ -5,7 +5,8 @@ final gather of the surfels' solved light (``illumap.receivers``) against the sc
 triangles (``mesh_occluders``). Before the gather, the surfels whose disc reaches through
 another surface are evaluated as receivers too (``_regather_straddling``), and the gather's
 table takes the lamps' light cast at its own points where it changes sharply
-(``_exact_direct``). Receivers that another surface lies flat against get no light
+(``_exact_direct``), and a receiver facing a surface across a gap finer than that table
+takes the lamps' light cast at its rays' hits there (``_across_gaps``). Receivers that another surface lies flat against get no light
 (``covered_receivers``). A point cloud's points share their gathers through an irradiance
 cache (``illumap.irradiance_cache``, ``Settings.gather_cache``).
 """
@@ -478,6 +479,85 @@ def _gathered_at_contacts(job: Job, occ, exact, front: np.ndarray, field_, back_
     return rc.ExactPart(rest=exact.rest, values=values), int(beside.size)
 
 
+#: A receiver facing a surface across a gap narrower than the gather's lattice (a sphere's
+#: underside just above a floor) sees that surface's lamp light change over less than the
+#: lattice resolves. Where GAP_SHARE of GAP_RAYS probe rays meet a surface facing it (cosine
+#: between the normals below -GAP_FACING) nearer than the field's reach, what those rays
+#: took from the lattice is replaced by the lamps' light cast at their hits (one shadow ray
+#: per hit and lamp: the rays average them), in proportion. Without a sky only: under one
+#: the lattice points beside contacts gather afresh (``_gathered_at_contacts``), and there
+#: this made no error smaller.
+GAP_FACING = 0.5
+GAP_SHARE = 0.5
+GAP_RAYS = 32
+GAP_SHADOW_SAMPLES = 1
+
+
+def _gap_candidates(points: np.ndarray, normals: np.ndarray, pos: np.ndarray,
+                    nrm: np.ndarray, reach: float) -> np.ndarray:
+    """Rows of receivers (``points``, unit ``normals``) with a surfel (``pos``, ``nrm``)
+    facing them within ``reach`` (m) in front of them: the ones that may face a gap."""
+    from .neighbours import knn
+    if not len(points) or not len(pos):
+        return np.zeros(0, dtype=np.int64)
+    near, dist = knn(pos, points, 8)
+    ahead = np.einsum("mkc,mc->mk", pos[near] - points[:, None, :], normals)
+    facing = ((np.einsum("mkc,mc->mk", nrm[near], normals) < -GAP_FACING)
+              & (dist < reach) & (ahead > 0))
+    return np.flatnonzero(facing.any(axis=1))
+
+
+def _across_gaps(job: Job, occ, exact, gatherer, points: np.ndarray, normals: np.ndarray,
+                 ids: np.ndarray, rays: int, radiance: np.ndarray) -> tuple[int, int]:
+    """Corrects the gather's ``radiance`` (M, 3, in place) at the receivers that face a gap
+    (GAP_SHARE, above): the mean over GAP_RAYS probe rays of the lamps' light cast at the
+    hits across it less what the gather's tables hold there. Returns how many receivers and
+    the rays cast. Needs the exact part (its field: the surfels' light less their lamp light)."""
+    from illumap import receivers as rc
+    all_lamps = list(job.lamps) + list(job.emitters)
+    s = job.settings
+    if exact is None or job.world is not None or not all_lamps or not s.lamp_shadows:
+        return 0, 0
+    front = np.ones(job.count, dtype=bool)
+    for src in job.sources:
+        if src.kind == "BACK":
+            front[src.start:src.stop] = False
+    pos, nrm = job.positions[front], job.normals[front]
+    reach = exact.rest.reach
+    rows = _gap_candidates(points, normals, pos, nrm, reach)
+    if not rows.size:
+        return 0, 0
+    k = min(int(rays), GAP_RAYS)
+    dirs = rc.cosine_directions(normals[rows], k, ids[rows], s.seed).reshape(-1, 3)
+    origins = np.repeat(points[rows] + occ.offset * normals[rows], k, axis=0)
+    tri, dist, front_hit = occ.intersect(origins, dirs)
+    cast_rays = int(rows.size) * k
+    hit = tri >= 0
+    c = occ.corners
+    face_normals = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
+    face_normals /= np.maximum(np.linalg.norm(face_normals, axis=1, keepdims=True), 1e-300)
+    hit_normals = np.zeros_like(dirs)
+    hit_normals[hit] = face_normals[tri[hit]] * np.where(front_hit[hit], 1.0, -1.0)[:, None]
+    across = hit & (dist < reach) & (np.einsum(
+        "ic,ic->i", hit_normals, np.repeat(normals[rows], k, axis=0)) < -GAP_FACING)
+    gap = across.reshape(-1, k).mean(axis=1) >= GAP_SHARE
+    cast = np.flatnonzero(across & front_hit & np.repeat(gap, k))
+    if not cast.size:
+        return 0, cast_rays
+    p_ = origins[cast] + dist[cast, None] * dirs[cast]
+    n_ = hit_normals[cast]
+    albedo = rc.SurfelField(pos, nrm, job.albedo[front]).at(p_, n_)
+    shadows = lamps.Shadows(occ.segment_query(n_), samples=GAP_SHADOW_SAMPLES, seed=s.seed,
+                            extent=occ.extent, ids=cast.astype(np.int64))
+    lit = exact.rest.at(p_, n_) + albedo * lamps.incident_radiance(all_lamps, p_, n_,
+                                                                   shadows=shadows)
+    correction = np.zeros((rows.size, 3))
+    np.add.at(correction, cast // k, lit - gatherer.hit_values(tri[cast], np.ones(cast.size, bool), p_))
+    radiance[rows[gap]] += correction[gap] / k
+    np.maximum(radiance, 0.0, out=radiance)
+    return int(gap.sum()), cast_rays + int(shadows.rays)
+
+
 #: A scan of unknown orientation is first lit on both sides with this share of the gather's
 #: rays and of the shadow samples (at least SIDE_PROBE_MIN_RAYS): most patches' outside is
 #: plain from that
@@ -577,13 +657,14 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
     from illumap.refinement import LUMINANCE_WEIGHTS
     lum = np.asarray(LUMINANCE_WEIGHTS, dtype=np.float64)
     noise2 = light2 = indirect = from_surfels = total = 0.0
+    gap_rows = [0]
     report = None if progress is None else (lambda f, _p="": progress(f, "gather"))
 
     def gather_at(points, normals, ids, rays):
         return gatherer.gather(points, normals, rays=rays, seed=s.seed, ids=ids, progress=report)
 
     def incident_at(points, normals, ids, meshes=None, rays=gather_rays, shared=None,
-                    samples=shadow_samples):
+                    samples=shadow_samples, gaps=False):
         """Incident radiance (M, 3) at receivers, the gather's result, the rays cast and the
         receivers found covered (inside or under another surface: no light). ``shared`` (M,)
         int: receivers of one group (≥ 0) share the gather through an irradiance cache
@@ -600,10 +681,14 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
                 points, normals, groups=shared, accuracy=s.gather_cache, max_reach=occ.extent)
         else:
             gathered = gather_at(points, normals, ids, rays)
+        gap_cast = 0
+        if gaps:
+            gap_rows[0], gap_cast = _across_gaps(job, occ, exact, gatherer, points, normals,
+                                                 ids, rays, gathered.radiance)
         incident = direct + gathered.radiance
         hidden = covered_receivers(job, points, normals, 2.0 * occ.offset, meshes)
         incident[hidden] = 0.0
-        cast = gathered.rays + (shadows.rays if shadows is not None else 0)
+        cast = gathered.rays + gap_cast + (shadows.rays if shadows is not None else 0)
         return incident, gathered, cast, int(hidden.sum())
 
     try:
@@ -652,7 +737,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
                                  for part, (rows, _) in enumerate(merged)])
 
         incident, gathered, cast, covered = incident_at(points, normals, ids, batch_meshes,
-                                                        shared=shared)
+                                                        shared=shared, gaps=True)
         rays += cast
         values_of = []
         for rec, lo, (_, index) in zip(batch, offsets[:-1], merged):
@@ -727,6 +812,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
                                      lattice_points=0 if exact is None else len(exact.values),
                                      lattice_shadowed=lattice_lit,
                                      contact_points=contact_points,
+                                     gap_receivers=gap_rows[0],
                                      gather_noise=gather_noise, indirect_share=float(share),
                                      surfel_share=float(surfel_share))
     more = None if per_receiver is not None else more_rays(s, gather_noise, gather_rays)

@@ -134,7 +134,10 @@ void bind_surfel_field(nb::module_& m) {
              },
              nb::arg("points"), nb::arg("surface_normals"), nb::arg("scene").none() = nb::none(),
              nb::arg("lift") = 0.0)
-        .def_prop_ro("n", [](const PySurfelField& self) { return self.field->size(); });
+        .def_prop_ro("n", [](const PySurfelField& self) { return self.field->size(); })
+        .def_prop_ro("reach", [](const PySurfelField& self) { return self.field->reach(); },
+                     "Median distance to the k-th nearest surfel (m): the gather's lattice "
+                     "spacing is at most this.");
 }
 
 void bind_gather(nb::module_& m) {
@@ -306,7 +309,31 @@ void bind_gather(nb::module_& m) {
              nb::arg("threads") = 0, nb::arg("progress") = nb::none(),
              "Final gather: (mean radiance (M, 3), standard error of its luminance (M,), reach (M,) m, "
              "share of the rays that hit nothing (M,), half the difference of the even and odd "
-             "rays' mean luminance (M,)).");
+             "rays' mean luminance (M,)).")
+        .def("hit_values",
+             [](PyGatherer& self, nb::handle triangles, nb::handle front, nb::handle points,
+                int threads) {
+                 std::size_t nt, nf, np_;
+                 nb::object k1, k2, k3;
+                 const std::int64_t* T = view<std::int64_t>(triangles, "triangles", 1, 0, nt, k1);
+                 const std::uint8_t* F = view<std::uint8_t>(front, "front", 1, 0, nf, k2);
+                 const double* P = view<double>(points, "points", 2, 3, np_, k3);
+                 if (nf != nt || np_ != nt)
+                     throw nb::value_error("triangles, front and points must have the same length");
+                 const std::size_t n_tri = self.plan->triangles();
+                 for (std::size_t i = 0; i < nt; ++i)
+                     if (T[i] < 0 || std::size_t(T[i]) >= n_tri)
+                         throw nb::value_error(("triangles[" + std::to_string(i) + "] is not a triangle of the scene").c_str());
+                 double* out;
+                 auto a = new_array(nt, 3, &out);
+                 run_released(threads, nb::none(), [&](Context& ctx) {
+                     self.plan->hit_values(ctx, T, F, P, nt, out);
+                 });
+                 return a;
+             },
+             nb::arg("triangles"), nb::arg("front"), nb::arg("points"), nb::kw_only(),
+             nb::arg("threads") = 0,
+             "What a gather ray takes at hits (triangle, front face, point (M, 3)): radiance (M, 3).");
 
     m.def("gather_lattices",
           [](PyMeshScene& scene, PySurfelField& front, nb::handle back, nb::handle two_sided,

@@ -329,6 +329,52 @@ GatherPlan::GatherPlan(Context& ctx, const MeshScene& scene, const SurfelField& 
 
 GatherPlan::~GatherPlan() = default;
 
+void GatherPlan::hit_value(std::size_t t, bool front_face, double u, double v,
+                           const double q[3], KdTree::Best& best, double out[3]) const {
+    const SurfelField* field = front_face ? &front_ : back_;
+    if (!front_face && two_sided_ && !two_sided_[t]) field = nullptr;
+    const FieldTable& tab = front_face ? tables_->front : tables_->back;
+    const std::int64_t* owner = front_face ? owner_front_ : owner_back_;
+    if (!field) {
+        out[0] = out[1] = out[2] = 0.0;
+    } else if (owner && owner[t] >= 0) {
+        const double* own = field->value(std::size_t(owner[t]));
+        for (int c = 0; c < 3; ++c) out[c] = own[c];
+    } else if (!tab.at(t, u, v, out)) {
+        const float* tn = scene_.triangle_normal(t);
+        const double sg = front_face ? 1.0 : -1.0;
+        const double nt[3] = {sg * tn[0], sg * tn[1], sg * tn[2]};
+        field->at(q, nt, best, out, &scene_, opt_.offset);
+    }
+}
+
+void GatherPlan::hit_values(Context& ctx, const std::int64_t* triangles,
+                            const std::uint8_t* front, const double* points, std::size_t m,
+                            double* out) const {
+    parallel_for(ctx, m, 1024, [&](std::size_t lo, std::size_t hi) {
+        KdTree::Best best{std::size_t(std::max(front_.k(), back_ ? back_->k() : 1))};
+        for (std::size_t i = lo; i < hi; ++i) {
+            const std::size_t t = std::size_t(triangles[i]);
+            const double* c = scene_.triangle_corners(t);
+            const double* q = points + 3 * i;
+            // Barycentric weights of corners 1 and 2 (Embree's u, v), from the normal
+            // equations of q - c0 = u (c1 - c0) + v (c2 - c0).
+            double e1[3], e2[3], w[3];
+            for (int d = 0; d < 3; ++d) {
+                e1[d] = c[3 + d] - c[d];
+                e2[d] = c[6 + d] - c[d];
+                w[d] = q[d] - c[d];
+            }
+            auto dot = [](const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
+            const double a11 = dot(e1, e1), a12 = dot(e1, e2), a22 = dot(e2, e2);
+            const double b1 = dot(w, e1), b2 = dot(w, e2), det = a11 * a22 - a12 * a12;
+            const double u = det > 0 ? (a22 * b1 - a12 * b2) / det : 0.0;
+            const double v = det > 0 ? (a11 * b2 - a12 * b1) / det : 0.0;
+            hit_value(t, front[i] != 0, u, v, q, best, out + 3 * i);
+        }
+    });
+}
+
 void GatherPlan::gather(Context& ctx, const double* positions, const double* normals,
                         const std::int64_t* ids, std::size_t m, int rays, std::uint64_t seed,
                         const std::int32_t* rays_per, double* out, double* stderr_out,
@@ -336,11 +382,6 @@ void GatherPlan::gather(Context& ctx, const double* positions, const double* nor
     const MeshScene& scene = scene_;
     const SurfelField& front = front_;
     const SurfelField* back = back_;
-    const std::uint8_t* two_sided = two_sided_;
-    const std::int64_t* owner_front = owner_front_;
-    const std::int64_t* owner_back = owner_back_;
-    const FieldTable& front_tab = tables_->front;
-    const FieldTable& back_tab = tables_->back;
     const double offset = opt_.offset;
     const double* background = opt_.background;
     std::size_t K_max = std::size_t(std::max(1, rays));
@@ -372,26 +413,12 @@ void GatherPlan::gather(Context& ctx, const double* positions, const double* nor
                 if (prim[k] < 0) {
                     ++misses;
                 } else {
-                    const std::size_t t = std::size_t(prim[k]);
                     nearness += 1.0 / std::max(dist[k] + offset, 1e-300);
-                    const SurfelField* field = face[k] ? &front : back;
-                    if (!face[k] && two_sided && !two_sided[t]) field = nullptr;
-                    const FieldTable& tab = face[k] ? front_tab : back_tab;
-                    const std::int64_t* owner = face[k] ? owner_front : owner_back;
-                    if (!field) {
-                        v[0] = v[1] = v[2] = 0.0;
-                    } else if (owner && owner[t] >= 0) {
-                        const double* own = field->value(std::size_t(owner[t]));
-                        for (int c = 0; c < 3; ++c) v[c] = own[c];
-                    } else if (!tab.at(t, uv[2 * k], uv[2 * k + 1], v)) {
-                        const float* tn = scene.triangle_normal(t);
-                        const double sg = face[k] ? 1.0 : -1.0;
-                        const double nt[3] = {sg * tn[0], sg * tn[1], sg * tn[2]};
-                        const double q[3] = {org[3 * k] + dist[k] * dir[3 * k],
-                                             org[3 * k + 1] + dist[k] * dir[3 * k + 1],
-                                             org[3 * k + 2] + dist[k] * dir[3 * k + 2]};
-                        field->at(q, nt, best, v, &scene, offset);
-                    }
+                    const double q[3] = {org[3 * k] + dist[k] * dir[3 * k],
+                                         org[3 * k + 1] + dist[k] * dir[3 * k + 1],
+                                         org[3 * k + 2] + dist[k] * dir[3 * k + 2]};
+                    hit_value(std::size_t(prim[k]), face[k] != 0, uv[2 * k], uv[2 * k + 1], q,
+                              best, v);
                 }
                 for (int c = 0; c < 3; ++c) sum[c] += v[c];
                 const double y = kLumR * v[0] + kLumG * v[1] + kLumB * v[2];

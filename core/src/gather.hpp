@@ -115,8 +115,18 @@ public:
                 const std::int32_t* rays_per, double* out, double* stderr_out,
                 double* reach_out = nullptr, double* open_out = nullptr,
                 double* halves_out = nullptr) const;
+    // What a gather ray takes at each of m hits (triangle, front face or not, the point on
+    // it, m x 3): out (m x 3) radiance, the tables' interpolation where they cover the
+    // point, as in `gather`.
+    void hit_values(Context& ctx, const std::int64_t* triangles, const std::uint8_t* front,
+                    const double* points, std::size_t m, double* out) const;
+    std::size_t triangles() const { return scene_.size(); }
 
 private:
+    // The radiance a ray takes at a hit on triangle t (front face or back) at barycentric
+    // (u, v) (Embree's: weights of corners 1 and 2), the point q.
+    void hit_value(std::size_t t, bool front_face, double u, double v, const double q[3],
+                   KdTree::Best& best, double out[3]) const;
     struct Tables;
     const MeshScene& scene_;
     const SurfelField& front_;

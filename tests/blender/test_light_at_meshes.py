@@ -6,7 +6,10 @@ it incident radiance L; a unit square of radiance L at height h above a point on
 gives L·F with F the point-to-square form factor (0.23945 at h = 1 for a unit square).
 """
 
+import math
+
 import bpy
+
 import numpy as np
 import pytest
 
@@ -211,6 +214,76 @@ def test_under_a_sky_contacts_gather_afresh_and_the_exact_part_takes_the_sky():
     floor, box = box_on_floor(world=False)
     sun = pipeline.compute(bpy.context, [floor, box], settings).stats["receivers"]
     assert sun["contact_points"] == 0 and sun["lattice_shadowed"] > 0
+
+
+def test_gap_candidates_face_a_surface_within_reach_in_front():
+    """A receiver may face a gap where a surfel of a surface facing it lies within reach in
+    front of it: a floor point under a face looking down on it; not one under a surface
+    facing the same way, beside a wall, behind it, or out of reach."""
+    from addon import receive
+    up, down = (0.0, 0.0, 1.0), (0.0, 0.0, -1.0)
+    points = np.array([[0.0, 0, 0], [1.0, 0, 0], [2.0, 0, 0], [3.0, 0, 0], [4.0, 0, 0]])
+    normals = np.tile(up, (len(points), 1))
+    pos = np.array([[0.0, 0, 0.05],        # looks down on the first point from 5 cm
+                    [1.0, 0, 0.05],        # faces up, as the floor does
+                    [2.0, 0.05, 0.01],     # a wall beside the third point, looking back
+                    [3.0, 0, -0.05],       # below the fourth point, looking up at it
+                    [4.0, 0, 0.3]])        # looks down from 30 cm: out of reach
+    nrm = np.array([down, up, (0.0, -1.0, 0.0), up, down])
+    got = receive._gap_candidates(points, normals, pos, nrm, reach=0.1)
+    assert got.tolist() == [0]
+    assert receive._gap_candidates(points[:0], normals[:0], pos, nrm, 0.1).size == 0
+
+
+def sphere_on_floor(world: bool):
+    """The bench's UV sphere (r 0.5 m) resting on a 4 m floor of 0.25 m cells, under a sky
+    (``world``) or, in a black world, a sun from 50° off the zenith."""
+    from illumap_bpy_testing import black_world, sky_world
+    from bench.reference.scenes import uv_sphere
+    (sky_world if world else black_world)()
+    floor = subdivided(make_plane("Floor", size=4.0, material=diffuse_material("F", (ALBEDO,) * 3)),
+                       cuts=15)
+    sphere = uv_sphere("Sphere", (0.0, 0.0, 0.5), 0.5, diffuse_material("S", (ALBEDO,) * 3))
+    if not world:
+        sun = bpy.data.lights.new("Sun", "SUN")
+        sun.energy = 2.0
+        obj = link(bpy.data.objects.new("Sun", sun))
+        obj.rotation_euler = (math.radians(50.0), 0.0, 0.0)
+    bpy.context.view_layer.update()
+    return floor, sphere
+
+
+def test_a_lamp_lit_gap_takes_the_lamp_light_across_it():
+    """Under a sun, the sphere's lowest receivers face the floor across a gap finer than the
+    gather's lattice and take the sun's light cast at their rays' hits there (the floor at
+    the edge of the sphere's shadow), not the lattice's: they alone change. Under a sky the
+    contact gather does that instead, and no receiver is corrected."""
+    from addon import receive
+    settings = pipeline.Settings(budget=3000, transfer_domain="POINT", gather_rays=128)
+    floor, sphere = sphere_on_floor(world=False)
+    stats = pipeline.compute(bpy.context, [floor, sphere], settings).stats["receivers"]
+    assert stats["gap_receivers"] > 0
+    corrected = illumination(sphere, "POINT")
+    real = receive._across_gaps
+    try:
+        receive._across_gaps = lambda *a, **k: (0, 0)
+        pipeline.compute(bpy.context, [floor, sphere], settings)
+    finally:
+        receive._across_gaps = real
+    lattice = illumination(sphere, "POINT")
+    z = np.empty(len(sphere.data.vertices) * 3)
+    sphere.data.vertices.foreach_get("co", z)
+    z = z.reshape(-1, 3)[:, 2]                      # world heights: the object sits at the origin
+    low = (z > 0.005) & (z < 0.1)
+    assert low.any()
+    # only the receivers just above the floor change, and by more than rounding (whether
+    # darker or brighter: test_reference_cases compares them with Cycles)
+    assert np.abs(corrected[low] - lattice[low]).max() > 0.01 * lattice[low].max()
+    assert np.array_equal(corrected[~low], lattice[~low])
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    floor, sphere = sphere_on_floor(world=True)
+    sky = pipeline.compute(bpy.context, [floor, sphere], settings).stats["receivers"]
+    assert sky["gap_receivers"] == 0 and sky["contact_points"] > 0
 
 
 def test_same_input_same_result():

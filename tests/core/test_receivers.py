@@ -347,18 +347,27 @@ def test_an_exact_part_adds_to_the_rest_of_the_field():
         rc.gather(occ, ones, p, n, rays=8, exact=rc.ExactPart(rest=zeros, values=np.ones((3, 3))))
 
 
+def square_with_fields(seed, exact_values=None):
+    """A grid square facing down at z = 1 (occluders), a field of random values on it, a
+    back field of 0.3 and an exact part over 0.1 (``exact_values`` at the lattice points,
+    0.4 by default): (occluders, field, back field, exact part)."""
+    square = grid_square(1.0, 8)
+    occ = rc.MeshOccluders(square)
+    rng = np.random.default_rng(seed)
+    field = rc.SurfelField(square.mean(axis=1), np.tile([0.0, 0.0, -1.0], (len(square), 1)),
+                           rng.uniform(0.2, 1.0, (len(square), 3)))
+    (points, _), _ = rc.gather_lattices(occ, field)
+    values = np.full((len(points), 3), 0.4) if exact_values is None else exact_values(len(points))
+    exact = rc.ExactPart(rest=surfels_on(square, value=0.1), values=values)
+    return occ, field, surfels_on(square, value=0.3), exact
+
+
 def test_one_gatherer_serves_every_batch_as_a_gather_each():
     """``Gatherer`` tabulates once; each of its calls gives what ``gather`` with the same
     arguments gives, to the bit (an exact part and a back field included), and a refused
     argument leaves nothing behind."""
-    square = grid_square(1.0, 8)
-    occ = rc.MeshOccluders(square)
+    occ, field, back, exact = square_with_fields(2)
     rng = np.random.default_rng(2)
-    field = rc.SurfelField(square.mean(axis=1), np.tile([0.0, 0.0, -1.0], (len(square), 1)),
-                           rng.uniform(0.2, 1.0, (len(square), 3)))
-    back = surfels_on(square, value=0.3)
-    (points, _), _ = rc.gather_lattices(occ, field)
-    exact = rc.ExactPart(rest=surfels_on(square, value=0.1), values=np.full((len(points), 3), 0.4))
     kw = dict(background=[0.2, 0.2, 0.3], back_field=back, exact=exact)
     p = np.c_[rng.uniform(-0.5, 0.5, (30, 2)), rng.uniform(-0.5, 0.9, 30)]
     n = np.tile([0.0, 0.0, 1.0], (30, 1))
@@ -371,7 +380,49 @@ def test_one_gatherer_serves_every_batch_as_a_gather_each():
             np.testing.assert_array_equal(getattr(got, name), getattr(want, name), err_msg=name)
         assert got.rays == want.rays == len(rows) * rays
     with pytest.raises(ValueError, match="owner_front"):
-        rc.Gatherer(occ, field, owners=np.full(len(square), 10 ** 6))
+        rc.Gatherer(occ, field, owners=np.full(occ.n, 10 ** 6))
+
+
+def test_hit_values_are_what_the_gather_takes_at_its_hits():
+    """The gather's mean over its rays is the background for a miss and ``hit_values`` at
+    each hit (front or back face, table or lookup, an exact part included): recomputed from
+    the same rays in Python. A triangle the scene lacks is refused."""
+    rng = np.random.default_rng(5)
+    occ, field, back, exact = square_with_fields(5, lambda m: rng.uniform(0.0, 0.5, (m, 3)))
+    background = np.array([0.2, 0.2, 0.3])
+    gatherer = rc.Gatherer(occ, field, background=background, back_field=back, exact=exact)
+    p = np.c_[rng.uniform(-0.7, 0.7, (12, 2)), rng.uniform(0.2, 1.8, 12)]
+    n = np.tile([0.0, 0.0, 1.0], (12, 1))
+    n[p[:, 2] > 1.0] *= -1                          # above the square: looking down on it
+    ids, rays = np.arange(12), 32
+    got = gatherer.gather(p, n, rays=rays, ids=ids, seed=4)
+    dirs = rc.cosine_directions(n, rays, ids, seed=4).reshape(-1, 3)
+    origins = np.repeat(p + occ.offset * n, rays, axis=0)
+    tri, dist, front = occ.intersect(origins, dirs)
+    hit = tri >= 0
+    assert hit.any() and (~hit).any() and front[hit].any() and (~front[hit]).any()
+    values = np.tile(background, (len(tri), 1))
+    values[hit] = gatherer.hit_values(tri[hit], front[hit],
+                                      origins[hit] + dist[hit, None] * dirs[hit])
+    # (the hits' barycentrics recomputed from float hit points: agreement to 1e-8)
+    np.testing.assert_allclose(values.reshape(12, rays, 3).mean(axis=1), got.radiance,
+                               rtol=1e-6, atol=1e-12)
+    with pytest.raises(ValueError, match="not a triangle of the scene"):
+        gatherer.hit_values([occ.n], [True], [[0.0, 0.0, 1.0]])
+    with pytest.raises(illumap.InputError, match="front must have"):
+        gatherer.hit_values([0, 1], [True], [[0.0, 0.0, 1.0], [0.1, 0.0, 1.0]])
+
+
+def test_a_field_reaches_its_kth_nearest_surfel():
+    """``SurfelField.reach``: the median distance to the LOOKUP_NEIGHBOURS-th nearest surfel,
+    which bounds the gather's lattice spacing."""
+    rng = np.random.default_rng(6)
+    pos = rng.uniform(0.0, 1.0, (500, 3))
+    field = rc.SurfelField(pos, np.tile([0.0, 0.0, 1.0], (500, 1)), np.ones((500, 3)))
+    d = np.sort(np.linalg.norm(pos[:, None] - pos[None], axis=2), axis=1)
+    # the k nearest include the surfel itself, at distance 0
+    want = np.median(d[:, rc.LOOKUP_NEIGHBOURS - 1])
+    assert field.reach == pytest.approx(want, rel=0.05)
 
 
 def test_a_back_exact_part_adds_to_the_back_field():

@@ -168,6 +168,12 @@ class SurfelField:
         """Number of surfels."""
         return int(self._field.n)
 
+    @property
+    def reach(self) -> float:
+        """Median distance (m) from a surfel to its ``LOOKUP_NEIGHBOURS``-th nearest: the
+        gather tabulates the field on a lattice at most this coarse."""
+        return float(self._field.reach)
+
     def at(self, points, surface_normals, occluders: "MeshOccluders | None" = None) -> np.ndarray:
         """Values (M, 3) at ``points`` (M, 3) on surfaces with unit normals (M, 3). With
         ``occluders``, a surfel counts only where no triangle separates it from the point
@@ -381,6 +387,19 @@ class Gatherer:
             progress=progress)
         return GatherResult(radiance=radiance, stderr=stderr, rays=count, reach=reach, open=open_,
                             halves=halves)
+
+    def hit_values(self, triangles, front, points, *, threads: int = 0) -> np.ndarray:
+        """What a gather ray takes (M, 3: outgoing radiance, W/(m² sr)) where it meets
+        ``triangles`` (M,) int on their ``front`` (M,) bool face at ``points`` (M, 3, m, on
+        those triangles): the tables' interpolation where they cover the point, else the
+        field looked up there; a splat's own surfel; black for a back face without a back
+        field."""
+        t = np.ascontiguousarray(triangles, dtype=np.int64).reshape(-1)
+        f = np.ascontiguousarray(front, dtype=bool).reshape(-1)
+        p = _rows3("points", points, len(t))
+        if len(f) != len(t):
+            raise InputError(f"front must have {len(t)} entries, got {len(f)}")
+        return self._gatherer.hit_values(t, f.view(np.uint8), p, threads=threads)
 
 
 def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, rays,
