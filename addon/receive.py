@@ -832,7 +832,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
         # The surfels' own error (relative to every surfel that is not a light, lamp-lit or
         # not: pipeline.run's ``scored``) reaches a receiver through the light it gathers
         # from them only (not the sky's part of the gather). Conservative: on the bench
-        # scenes 1.06-5.7x the error measured against Cycles at every target; the gather
+        # scenes 1.09-5.7x the error measured against Cycles at every target; the gather
         # averages the surfels' errors.
         result.stats["receivers"]["surfel_estimate"] = float(estimate)
         result.stats["receivers"]["estimate"] = float(np.hypot(gather_noise,
