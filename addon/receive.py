@@ -507,21 +507,19 @@ def _gap_candidates(points: np.ndarray, normals: np.ndarray, pos: np.ndarray,
     return np.flatnonzero(facing.any(axis=1))
 
 
-def _across_gaps(job: Job, occ, exact, gatherer, points: np.ndarray, normals: np.ndarray,
-                 ids: np.ndarray, rays: int, radiance: np.ndarray) -> tuple[int, int]:
+def _across_gaps(job: Job, occ, exact, gatherer, front: np.ndarray, points: np.ndarray,
+                 normals: np.ndarray, ids: np.ndarray, rays: int,
+                 radiance: np.ndarray) -> tuple[int, int]:
     """Corrects the gather's ``radiance`` (M, 3, in place) at the receivers that face a gap
     (GAP_SHARE, above): the mean over GAP_RAYS probe rays of the lamps' light cast at the
     hits across it less what the gather's tables hold there. Returns how many receivers and
-    the rays cast. Needs the exact part (its field: the surfels' light less their lamp light)."""
+    the rays cast. Needs the exact part (its field: the ``front`` surfels' light less their
+    lamp light)."""
     from illumap import receivers as rc
     all_lamps = list(job.lamps) + list(job.emitters)
     s = job.settings
     if exact is None or job.world is not None or not all_lamps or not s.lamp_shadows:
         return 0, 0
-    front = np.ones(job.count, dtype=bool)
-    for src in job.sources:
-        if src.kind == "BACK":
-            front[src.start:src.stop] = False
     pos, nrm = job.positions[front], job.normals[front]
     reach = exact.rest.reach
     rows = _gap_candidates(points, normals, pos, nrm, reach)
@@ -683,8 +681,8 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
             gathered = gather_at(points, normals, ids, rays)
         gap_cast = 0
         if gaps:
-            gap_rows[0], gap_cast = _across_gaps(job, occ, exact, gatherer, points, normals,
-                                                 ids, rays, gathered.radiance)
+            gap_rows[0], gap_cast = _across_gaps(job, occ, exact, gatherer, ~back, points,
+                                                 normals, ids, rays, gathered.radiance)
         incident = direct + gathered.radiance
         hidden = covered_receivers(job, points, normals, 2.0 * occ.offset, meshes)
         incident[hidden] = 0.0
