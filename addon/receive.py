@@ -484,13 +484,15 @@ def _gathered_at_contacts(job: Job, occ, exact, front: np.ndarray, field_, back_
 #: lattice resolves. Where GAP_SHARE of GAP_RAYS probe rays meet a surface facing it (cosine
 #: between the normals below -GAP_FACING) nearer than the field's reach, what those rays
 #: took from the lattice is replaced by the lamps' light cast at their hits (one shadow ray
-#: per hit and lamp: the rays average them), in proportion. Without a sky only: under one
+#: per hit and lamp: the rays average them) and the light gathered there afresh
+#: (GAP_BOUNCE_RAYS per hit), in proportion. Without a sky only: under one
 #: the lattice points beside contacts gather afresh (``_gathered_at_contacts``), and there
 #: this made no error smaller.
 GAP_FACING = 0.5
 GAP_SHARE = 0.5
 GAP_RAYS = 32
 GAP_SHADOW_SAMPLES = 1
+GAP_BOUNCE_RAYS = 16
 
 
 def _gap_candidates(points: np.ndarray, normals: np.ndarray, pos: np.ndarray,
@@ -511,8 +513,8 @@ def _across_gaps(job: Job, occ, exact, gatherer, front: np.ndarray, points: np.n
                  normals: np.ndarray, ids: np.ndarray, rays: int,
                  radiance: np.ndarray) -> tuple[int, int]:
     """Corrects the gather's ``radiance`` (M, 3, in place) at the receivers that face a gap
-    (GAP_SHARE, above): the mean over GAP_RAYS probe rays of the lamps' light cast at the
-    hits across it less what the gather's tables hold there. Returns how many receivers and
+    (GAP_SHARE, above): the mean over GAP_RAYS probe rays of the light at the hits across it
+    (the lamps' cast there, the rest gathered there) less what the gather's tables hold. Returns how many receivers and
     the rays cast. Needs the exact part (its field: the ``front`` surfels' light less their
     lamp light)."""
     from illumap import receivers as rc
@@ -547,13 +549,17 @@ def _across_gaps(job: Job, occ, exact, gatherer, front: np.ndarray, points: np.n
     albedo = rc.SurfelField(pos, nrm, job.albedo[front]).at(p_, n_)
     shadows = lamps.Shadows(occ.segment_query(n_), samples=GAP_SHADOW_SAMPLES, seed=s.seed,
                             extent=occ.extent, ids=cast.astype(np.int64))
-    lit = exact.rest.at(p_, n_) + albedo * lamps.incident_radiance(all_lamps, p_, n_,
-                                                                   shadows=shadows)
+    # The light bounced in the gap gathered afresh from each hit too: the surfels' own
+    # (``exact.rest``) is as coarse there as the lattice.
+    bounced = gatherer.gather(p_, n_, rays=GAP_BOUNCE_RAYS, ids=cast.astype(np.int64),
+                              seed=s.seed + 1)
+    lit = albedo * (bounced.radiance + lamps.incident_radiance(all_lamps, p_, n_,
+                                                               shadows=shadows))
     correction = np.zeros((rows.size, 3))
     np.add.at(correction, cast // k, lit - gatherer.hit_values(tri[cast], np.ones(cast.size, bool), p_))
     radiance[rows[gap]] += correction[gap] / k
     np.maximum(radiance, 0.0, out=radiance)
-    return int(gap.sum()), cast_rays + int(shadows.rays)
+    return int(gap.sum()), cast_rays + int(shadows.rays) + int(bounced.rays)
 
 
 #: A scan of unknown orientation is first lit on both sides with this share of the gather's
