@@ -514,9 +514,9 @@ def _across_gaps(job: Job, occ, exact, gatherer, front: np.ndarray, points: np.n
                  radiance: np.ndarray) -> tuple[int, int]:
     """Corrects the gather's ``radiance`` (M, 3, in place) at the receivers that face a gap
     (GAP_SHARE, above): the mean over GAP_RAYS probe rays of the light at the hits across it
-    (the lamps' cast there, the rest gathered there) less what the gather's tables hold. Returns how many receivers and
-    the rays cast. Needs the exact part (its field: the ``front`` surfels' light less their
-    lamp light)."""
+    (the lamps' cast there, the rest gathered there) less what the gather's tables hold.
+    Returns how many receivers and the rays cast. Needs the exact part (its field: the
+    ``front`` surfels' light less their lamp light)."""
     from illumap import receivers as rc
     all_lamps = list(job.lamps) + list(job.emitters)
     s = job.settings
@@ -546,19 +546,22 @@ def _across_gaps(job: Job, occ, exact, gatherer, front: np.ndarray, points: np.n
         return 0, cast_rays
     p_ = origins[cast] + dist[cast, None] * dirs[cast]
     n_ = hit_normals[cast]
+    # Each hit's random streams follow from its receiver's id and its ray, not from which
+    # other receivers are in the batch.
+    hit_ids = ids[rows][cast // k].astype(np.int64) * k + cast % k
     albedo = rc.SurfelField(pos, nrm, job.albedo[front]).at(p_, n_)
     shadows = lamps.Shadows(occ.segment_query(n_), samples=GAP_SHADOW_SAMPLES, seed=s.seed,
-                            extent=occ.extent, ids=cast.astype(np.int64))
+                            extent=occ.extent, ids=hit_ids)
     # The light bounced in the gap gathered afresh from each hit too: the surfels' own
     # (``exact.rest``) is as coarse there as the lattice.
-    bounced = gatherer.gather(p_, n_, rays=GAP_BOUNCE_RAYS, ids=cast.astype(np.int64),
-                              seed=s.seed + 1)
+    bounced = gatherer.gather(p_, n_, rays=GAP_BOUNCE_RAYS, ids=hit_ids, seed=s.seed + 1)
     lit = albedo * (bounced.radiance + lamps.incident_radiance(all_lamps, p_, n_,
                                                                shadows=shadows))
+    tabled = gatherer.hit_values(tri[cast], np.ones(cast.size, dtype=bool), p_)
     correction = np.zeros((rows.size, 3))
-    np.add.at(correction, cast // k, lit - gatherer.hit_values(tri[cast], np.ones(cast.size, bool), p_))
-    radiance[rows[gap]] += correction[gap] / k
-    np.maximum(radiance, 0.0, out=radiance)
+    np.add.at(correction, cast // k, lit - tabled)
+    fixed = rows[gap]
+    radiance[fixed] = np.maximum(radiance[fixed] + correction[gap] / k, 0.0)
     return int(gap.sum()), cast_rays + int(shadows.rays) + int(bounced.rays)
 
 
