@@ -6,9 +6,10 @@ triangles (``mesh_occluders``). Before the gather, the surfels whose disc reache
 another surface are evaluated as receivers too (``_regather_straddling``), and the gather's
 table takes the lamps' light cast at its own points where it changes sharply
 (``_exact_direct``), and a receiver facing a surface across a gap finer than that table
-takes the lamps' light cast at its rays' hits there (``_across_gaps``). Receivers that another surface lies flat against get no light
-(``covered_receivers``). A point cloud's points share their gathers through an irradiance
-cache (``illumap.irradiance_cache``, ``Settings.gather_cache``).
+takes the light at its rays' hits there afresh (``_across_gaps``). Receivers that another
+surface lies flat against get no light (``covered_receivers``). A point cloud's points share
+their gathers through an irradiance cache (``illumap.irradiance_cache``,
+``Settings.gather_cache``).
 """
 
 from __future__ import annotations
@@ -452,13 +453,13 @@ def _beside_contacts(points: np.ndarray, normals: np.ndarray, pos: np.ndarray,
 def _gathered_at_contacts(job: Job, occ, exact, front: np.ndarray, field_, back_field,
                           owners, back_owners, sides, rays: int) -> tuple:
     """Under a sky (the exact part has it), the lattice points of the ``front`` surfels' field
-    beside a contact (``_beside_contacts``) take the light between the surfaces gathered afresh (``rays``
-    rays each, the sky's part left to the exact part) in place of the surfels' own: where a
-    sphere rests on a floor, both the sky hidden under it and the light bounced between them
-    change over less than a surfel's spacing. Returns the exact part and how many points
-    gathered. Without a sky the lamps' shadow edges are where light changes, which the exact
-    part covers: on the lamp-lit bench scenes this gather changed no error by 0.1% and cost
-    a third of the receivers' time."""
+    beside a contact (``_beside_contacts``) take the light between the surfaces gathered
+    afresh (``rays`` rays each, the sky's part left to the exact part) in place of the
+    surfels' own: where a sphere rests on a floor, both the sky hidden under it and the light
+    bounced between them change over less than a surfel's spacing. Returns the exact part and
+    how many points gathered. Without a sky the receivers that face such a gap take the light
+    at their rays' hits instead (``_across_gaps``): on the lamp-lit bench scenes this gather
+    had changed no error by 0.1% and cost a third of the receivers' time."""
     from illumap import receivers as rc
     if exact is None or job.world is None:
         return exact, 0
@@ -533,11 +534,11 @@ def _across_gaps(job: Job, occ, exact, gatherer, front: np.ndarray, points: np.n
     tri, dist, front_hit = occ.intersect(origins, dirs)
     cast_rays = int(rows.size) * k
     hit = tri >= 0
-    c = occ.corners
-    face_normals = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
-    face_normals /= np.maximum(np.linalg.norm(face_normals, axis=1, keepdims=True), 1e-300)
+    c = occ.corners[tri[hit]]
+    side = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
+    side *= np.where(front_hit[hit], 1.0, -1.0)[:, None]     # the face the ray met
     hit_normals = np.zeros_like(dirs)
-    hit_normals[hit] = face_normals[tri[hit]] * np.where(front_hit[hit], 1.0, -1.0)[:, None]
+    hit_normals[hit] = side / np.maximum(np.linalg.norm(side, axis=1, keepdims=True), 1e-300)
     across = hit & (dist < reach) & (np.einsum(
         "ic,ic->i", hit_normals, np.repeat(normals[rows], k, axis=0)) < -GAP_FACING)
     gap = across.reshape(-1, k).mean(axis=1) >= GAP_SHARE
@@ -664,7 +665,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
     from illumap.refinement import LUMINANCE_WEIGHTS
     lum = np.asarray(LUMINANCE_WEIGHTS, dtype=np.float64)
     noise2 = light2 = indirect = from_surfels = total = 0.0
-    gap_rows = [0]
+    gap_receivers = 0
     report = None if progress is None else (lambda f, _p="": progress(f, "gather"))
 
     def gather_at(points, normals, ids, rays):
@@ -675,7 +676,9 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
         """Incident radiance (M, 3) at receivers, the gather's result, the rays cast and the
         receivers found covered (inside or under another surface: no light). ``shared`` (M,)
         int: receivers of one group (≥ 0) share the gather through an irradiance cache
-        (``illumap.irradiance_cache``); -1 or None: each gathers itself."""
+        (``illumap.irradiance_cache``); -1 or None: each gathers itself. ``gaps``: correct
+        the receivers that face a gap (``_across_gaps``; the main batch's)."""
+        nonlocal gap_receivers
         shadows = None
         if all_lamps and s.lamp_shadows:
             shadows = lamps.Shadows(occ.segment_query(normals), samples=samples,
@@ -690,8 +693,8 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
             gathered = gather_at(points, normals, ids, rays)
         gap_cast = 0
         if gaps:
-            gap_rows[0], gap_cast = _across_gaps(job, occ, exact, gatherer, ~back, points,
-                                                 normals, ids, rays, gathered.radiance)
+            gap_receivers, gap_cast = _across_gaps(job, occ, exact, gatherer, ~back, points,
+                                                   normals, ids, rays, gathered.radiance)
         incident = direct + gathered.radiance
         hidden = covered_receivers(job, points, normals, 2.0 * occ.offset, meshes)
         incident[hidden] = 0.0
@@ -819,7 +822,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
                                      lattice_points=0 if exact is None else len(exact.values),
                                      lattice_shadowed=lattice_lit,
                                      contact_points=contact_points,
-                                     gap_receivers=gap_rows[0],
+                                     gap_receivers=gap_receivers,
                                      gather_noise=gather_noise, indirect_share=float(share),
                                      surfel_share=float(surfel_share))
     more = None if per_receiver is not None else more_rays(s, gather_noise, gather_rays)

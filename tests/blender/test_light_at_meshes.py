@@ -255,8 +255,9 @@ def sphere_on_floor(world: bool):
 
 def test_a_lamp_lit_gap_takes_the_lamp_light_across_it():
     """Under a sun, the sphere's lowest receivers face the floor across a gap finer than the
-    gather's lattice and take the sun's light cast at their rays' hits there (the floor at
-    the edge of the sphere's shadow), not the lattice's: they alone change. Under a sky the
+    gather's lattice and take the light at their rays' hits there afresh (the sun's cast at
+    the edge of the sphere's shadow, the bounced light gathered), not the lattice's: they
+    alone change. Under a sky the
     contact gather does that instead, and no receiver is corrected."""
     from addon import receive
     settings = pipeline.Settings(budget=3000, transfer_domain="POINT", gather_rays=128)
