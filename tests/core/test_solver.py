@@ -377,3 +377,18 @@ def test_error_tol_is_checked(box8, bad):
     s, op = box8
     with pytest.raises(illumap.InputError, match="error_tol"):
         illumap.solve(s, operator=op, error_tol=bad)
+
+
+@pytest.mark.parametrize("solver", ["jacobi", "cg", "gmres"])
+def test_a_kept_operator_comes_with_what_the_solve_applied_it_to(box8, solver):
+    """keep_operator=True: ``products`` holds ρ∘K(E) and the last iterate B with ρ∘K(B), as
+    applying the operator again gives them, and the radiosity is the closing step from there
+    (E + ρ∘K(B)); without it there are none."""
+    s, op = box8
+    sol = illumap.solve(s, operator=op, solver=solver, tol=1e-5, keep_operator=True)
+    p = sol.products
+    np.testing.assert_allclose(p["first_bounce"], s.albedo * op.apply(s.emission), atol=1e-12)
+    np.testing.assert_allclose(p["rho_k_iterate"], s.albedo * op.apply(p["iterate"]), atol=1e-9)
+    np.testing.assert_allclose(sol.radiosity, s.emission + p["rho_k_iterate"], atol=1e-9)
+    assert not np.allclose(p["iterate"], sol.radiosity, atol=1e-9)   # a step apart
+    assert illumap.solve(s, operator=op, solver=solver, tol=1e-5).products is None

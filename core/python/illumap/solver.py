@@ -144,6 +144,10 @@ class Solution:
     #: The operator the solve applied, with ``keep_operator=True`` (else None): to estimate
     #: its error afterwards without building it again.
     operator: object = field(default=None, repr=False, compare=False)
+    #: With ``keep_operator=True``, what the solve already applied it to, (N, 3) each, so that
+    #: the estimate need not apply it again: "first_bounce" ρ∘K(E), "iterate" the last iterate
+    #: B (before the closing step) and "rho_k_iterate" ρ∘K(B) (= r + B − E); else None.
+    products: dict | None = field(default=None, repr=False, compare=False)
 
     @property
     def residual(self) -> float:
@@ -177,6 +181,7 @@ class _Monitor:
         self.amplification = amplification
         self.emission = emission
         self.first_bounce = 0.0    # RMS of ρ∘K(E) over the non-emitting surfels, once known
+        self.first_bounce_values = None   # ρ∘K(E) itself, (N, 3)
         self.max_iterations = max_iterations
         self.guard = guard
         self.start = start_fraction
@@ -212,6 +217,7 @@ class _Monitor:
     def set_first_bounce(self, rho_KE) -> None:
         """Record ρ∘K(E), the first bounce, which CG and GMRES compute first."""
         self.first_bounce = self._rms(rho_KE)
+        self.first_bounce_values = rho_KE
 
     def error_bound(self, B, r) -> float:
         """The solver's error bound relative to the radiosity for the iterate B with residual
@@ -293,6 +299,8 @@ def _jacobi(K, E, rho, mon: _Monitor):
     while True:
         KB = K(B)
         r = E + rho * KB - B              # true residual of B; also the next Jacobi step
+        if mon.first_bounce_values is None:
+            mon.first_bounce_values = r   # B = E: ρ∘K(E) (its RMS stays unused: the bound)
         rel = mon.relative(_norms(r))
         value = mon.record(rel)
         if mon.done(value, B, r):
@@ -607,7 +615,11 @@ def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float =
         # Closing step: B + r = E + ρ∘K(B) is one more Jacobi step, which the residual already
         # holds (no application). Its error is ρ∘K of B's, at most ρ_max times it (K's row
         # sums ≤ 1), so the bound and estimate of B hold for it with room to spare.
+        products = None
         if warning is None and np.all(np.isfinite(r)):
+            if keep_operator:
+                products = dict(first_bounce=mon.first_bounce_values, iterate=B,
+                                rho_k_iterate=r + B - E)
             B = B + r
         B = np.where(mon.active[None, :], B, 0.0)
         reached = final_value <= tol or (error_tol is not None and estimate <= error_tol)
@@ -633,4 +645,4 @@ def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float =
         guard.check(1.0, "solve")
         timings["total"] = time.perf_counter() - t_total
         return Solution(B, mon.iterations, np.asarray(mon.history), converged, timings, stats,
-                        operator if keep_operator else None)
+                        operator if keep_operator else None, products)

@@ -29,9 +29,9 @@ def solve(surfels: Surfels, target_error, *, kind: str | None = None, allow_dire
     if estimate:
         # The FMM part against the operator the solve applied (its occluders included), not a
         # second one built for the purpose (at 48k surfels with exact visibility that took
-        # three times the solve).
+        # three times the solve), and with what the solve already applied it to.
         info["estimate"] = estimate_error(sol, surfels, settings=chosen, coarse=coarse,
                                           kind=kind, operator=sol.operator, scored=scored)
-    sol.operator = None
+    sol.operator = sol.products = None
     sol.stats["accuracy"] = info
     return sol

@@ -71,14 +71,18 @@ def _neumann_bound(surfels: Surfels) -> float:
     return 1.0 / (1.0 - min(float(surfels.albedo.max()), MAX_BOUND_ALBEDO))
 
 
-def bounce_gain(radiosity, surfels: Surfels, operator: TransportOperator) -> float:
+def bounce_gain(radiosity, surfels: Surfels, operator: TransportOperator | None,
+                first_bounce: np.ndarray | None = None) -> float:
     """How much an error made in one bounce grows over all of them, as the scene's own light
     did: ‖B − E‖ / ‖ρ K E‖ (all indirect light over its first bounce, RMS over the surfels),
     within [1, 1/(1 − ρ_max)]. One application of ``operator``. The bound 1/(1 − ρ_max) holds
     for any error; this gain is that of an error spread like the light (measured 1.4 on the
-    Cornell box against 3.6 for the bound)."""
+    Cornell box against 3.6 for the bound). ``first_bounce``: ρ∘K(E) where the solve has it
+    (``Solution.products``), else one application of ``operator``."""
     bound = _neumann_bound(surfels)
-    first = _rms(surfels.albedo * operator.apply(surfels.emission))
+    if first_bounce is None:
+        first_bounce = surfels.albedo * operator.apply(surfels.emission)
+    first = _rms(first_bounce)
     if first <= 0.0:
         return bound
     indirect = _rms(np.asarray(radiosity) - surfels.emission)
@@ -140,7 +144,11 @@ def estimate_error(solution, surfels: Surfels, *, operator: TransportOperator | 
     vis_kw = _visibility_keywords_of(stats, settings, kind)
     e_fmm, gain, rows = 0.0, None, np.array([], dtype=np.int64)
     if stats.get("method", "direct") == "fmm":
-        e_fmm, gain, rows = _fmm_error(stats, surfels, B, non_emit, vis_kw, operator, probe, rng)
+        # What the solve applied its operator to stands for another application of the same.
+        products = getattr(solution, "products", None) \
+            if operator is None or operator is getattr(solution, "operator", None) else None
+        e_fmm, gain, rows = _fmm_error(stats, surfels, B, non_emit, vis_kw, operator, probe, rng,
+                                       products)
     e_occ = 0.0
     if vis == "none" and settings is not None and settings.get("predicted", {}).get("occlusion"):
         e_occ = float(settings["predicted"]["occlusion"])
@@ -182,10 +190,11 @@ def _visibility_keywords_of(stats: dict, settings: dict | None, kind: str | None
 
 
 def _fmm_error(stats: dict, surfels: Surfels, B, non_emit, vis_kw: dict, operator, probe: int,
-               rng) -> tuple:
+               rng, products: dict | None = None) -> tuple:
     """(e_fmm, bounce gain, receiver rows): the FMM applied to B against the exact per-pair
     sum on ``probe`` random non-emitting receivers, times ρ, relative to B there, times the
-    bounce gain."""
+    bounce gain. With the solve's ``products`` (``Solution.products``) the FMM's side is
+    ρ∘K of its last iterate, which the solve applied already, and the first bounce its own."""
     kw = {k: stats[k] for k in _OPERATOR_STATS if k in stats}
     kw.pop("method", None)
     if stats.get("visibility", "none") != "none":
@@ -194,10 +203,15 @@ def _fmm_error(stats: dict, surfels: Surfels, B, non_emit, vis_kw: dict, operato
         operator = TransportOperator(surfels, method="fmm", **kw)
     candidates = np.flatnonzero(non_emit)
     rows = np.sort(rng.choice(candidates, min(probe, len(candidates)), replace=False))
-    fmm_y = operator.apply(B)[rows]
-    exact_y = operator.apply_rows(B, rows)   # exact per pair, same visibility
-    diff = surfels.albedo[rows] * (fmm_y - exact_y)
-    gain = bounce_gain(B, surfels, operator)
+    if products is not None:
+        exact_y = operator.apply_rows(products["iterate"], rows)   # exact per pair, same visibility
+        diff = products["rho_k_iterate"][rows] - surfels.albedo[rows] * exact_y
+        first_bounce = products["first_bounce"]
+    else:
+        exact_y = operator.apply_rows(B, rows)
+        diff = surfels.albedo[rows] * (operator.apply(B)[rows] - exact_y)
+        first_bounce = None
+    gain = bounce_gain(B, surfels, operator, first_bounce)
     return _rms(diff) / (_rms(B[rows]) or 1.0) * gain, gain, rows
 
 
