@@ -511,7 +511,9 @@ def rays_per_surfel(lamp: Lamp, shadows: Shadows) -> int:
 #: A sized lamp seen with many shadow rays is first probed with this many: where they all
 #: agree (the whole lamp in view, or none of it), that is the answer; only the rest, the
 #: penumbrae, take the full count. A shadow edge narrower than about 1/PROBE_SAMPLES of the
-#: lamp can be missed by the probe.
+#: lamp can be missed by the probe. Never the world: a room's window is a few percent of
+#: the sky, which all probe rays miss at most points inside, so those saw no sky at all (a
+#: room lit through a window read 2-4% dark, every bounce of the sky's light short).
 PROBE_SAMPLES = 32
 _PROBE_SALT = 0x5BD1E995
 
@@ -521,7 +523,7 @@ def lamp_visibility(lamp: Lamp, p: np.ndarray, n: np.ndarray, rows: np.ndarray,
     """Fraction (len(rows),) of ``lamp`` that surfels ``rows`` see (see the module docstring)."""
     k = rays_per_surfel(lamp, shadows)
     salt = zlib.crc32(lamp.name.encode())
-    if k < 2 * PROBE_SAMPLES:
+    if k < 2 * PROBE_SAMPLES or lamp.kind == "WORLD":
         return _visible_fraction(lamp, p, n, rows, shadows, k, salt)
     out = _visible_fraction(lamp, p, n, rows, shadows, PROBE_SAMPLES, salt ^ _PROBE_SALT)
     mixed = np.flatnonzero((out > 0.0) & (out < 1.0))
