@@ -132,11 +132,16 @@ def _clear_of_rounding(occ, rec):
     return replace(rec, points=points)
 
 
-def _merged_corners(occ, rec) -> tuple[np.ndarray, np.ndarray]:
+def _merged_corners(occ, rec, lamps_=()) -> tuple[np.ndarray, np.ndarray]:
     """Which corners of ``rec`` share one evaluation: corners of one vertex with one normal
-    (a flat grid's four) see the same light unless a wall stands on the vertex between them,
-    so each joins the first such corner when a ray between their points (lifted off the
-    surface) is free. Returns (the rows to evaluate, each corner's row among them)."""
+    (a flat grid's four) see the same light unless a wall stands on the vertex between them
+    or a shadow edge runs through it, so each joins the first such corner when a ray between
+    their points (lifted off the surface) is free and, for each of ``lamps_`` (the world
+    aside), a shadow ray from each point to the lamp's centre (a sun's central direction)
+    finds both lit or both shadowed. A box standing on a floor's grid lines, lit along them,
+    puts its shadow's edge through the floor's vertices: the corners on either side of it,
+    all the lead's, had read the vertex fully lit or fully dark, where it is half lit.
+    Returns (the rows to evaluate, each corner's row among them)."""
     key = np.column_stack([rec.corner_vertex, np.round(rec.normals * 1e5).astype(np.int64)])
     _, first, group = np.unique(key, axis=0, return_index=True, return_inverse=True)
     group = group.ravel()
@@ -147,9 +152,27 @@ def _merged_corners(occ, rec) -> tuple[np.ndarray, np.ndarray]:
         lift = occ.offset * rec.normals
         free = occ.visible(rec.points[lead[others]] + lift[lead[others]],
                            rec.points[others] + lift[others]) > 0
+        for lamp in lamps_:
+            if lamp.kind == "WORLD" or not free.any():
+                continue
+            pair = others[free]
+            lit = [_toward_lamp_centre(occ, lamp, rec.points[rows], rec.normals[rows])
+                   for rows in (lead[pair], pair)]
+            free[np.flatnonzero(free)[lit[0] != lit[1]]] = False
         joined[others[free]] = lead[others[free]]
     rows, index = np.unique(joined, return_inverse=True)
     return rows, index.ravel()
+
+
+def _toward_lamp_centre(occ, lamp, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """bool (M,): whether one shadow ray from each receiver to the middle of ``lamp`` (its
+    samples' pattern at its centre: a sun's central direction, an area lamp's centre) is
+    free, cast as the receivers' shadow rays are."""
+    centre = np.full((len(points), 1, 2), 0.5)
+    targets, _ = lamps._lamp_samples(lamp, points, normals, 1, centre,
+                                     4.0 * max(occ.extent, 1e-3))
+    query = occ.segment_query(normals)
+    return np.asarray(query(points, targets.reshape(-1, 3), np.arange(len(points)))) > 0
 
 
 #: A surface pressed against a receiver hides it when one of its triangles faces the receiver
@@ -728,7 +751,8 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
             batch += [_rows_of(front, done, outward[done]), _rows_of(front, both),
                       _rows_of(other, both)]
             batch_ids += [done, both, both]
-        merged = [_merged_corners(occ, rec) for rec in batch]
+        merged = [_merged_corners(occ, rec, all_lamps if s.lamp_shadows else ())
+                  for rec in batch]
         points = np.concatenate([rec.points[rows] for rec, (rows, _) in zip(batch, merged)])
         normals = np.concatenate([rec.normals[rows] for rec, (rows, _) in zip(batch, merged)])
         offsets = np.cumsum([0] + [len(rows) for rows, _ in merged])

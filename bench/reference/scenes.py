@@ -42,6 +42,11 @@ Scenes (``SCENES``):
 * ``scan_object``: the Stanford bunny (a real range scan; test data, credited in
   ``BUNNY_CREDIT``) on a floor under the sky and a sun, the bunny's vertices given to Illumap
   as a point cloud without normals, Cycles baking the scan's own triangles.
+* ``window``: a 4 × 3 × 2.5 m room lit only through a 1.6 × 1.2 m window, by the sky and a sun
+  whose patch falls on a wood floor around a table; a cabinet against a wall (open at its
+  back, which the wall closes) and a ball on the floor. Most of its light has bounced several
+  times off the walls. Built after the constants of the automatic mode were set, to check
+  them on a scene they were not fitted to (the first run found two biases, both fixed).
 * ``near``: stability cases side by side, 20 m apart: an emitter 1 mm under a ceiling above a
   floor; a room corner lit by a point lamp; a floor strip against a wall under an area lamp; a
   thin plate (a 5 mm slab, what Solidify makes) lit from one side by a spot above a floor; a
@@ -614,6 +619,38 @@ def world() -> ReferenceScene:
                    "single-plane wall, two-sided emissive panel")
 
 
+def window() -> ReferenceScene:
+    """A room lit through a window by the sky and a sun (see the module docstring)."""
+    _reset()
+    sky_world()
+    paint = diffuse_material("WallPaint", (0.75, 0.73, 0.7))
+    wood = diffuse_material("Wood", (0.45, 0.3, 0.18))
+    width, depth, height = 4.0, 3.0, 2.5
+    walls = mesh_object("Room", box_parts((0, 0, 0), (width, depth, height), 0.1, inward=True,
+                                          skip=("+y", "-z")), paint)
+    floor = mesh_object("Floor", quad_parts([(0, 0, 0), (width, 0, 0), (width, depth, 0),
+                                             (0, depth, 0)], (0, 0, 1), 0.1), wood)
+    x0, x1, z0, z1, y = 1.2, 2.8, 0.8, 2.0, depth          # the window in the wall y = depth
+    around = []
+    for corners in ([(0, y, 0), (width, y, 0), (width, y, z0), (0, y, z0)],
+                    [(0, y, z1), (width, y, z1), (width, y, height), (0, y, height)],
+                    [(0, y, z0), (x0, y, z0), (x0, y, z1), (0, y, z1)],
+                    [(x1, y, z0), (width, y, z0), (width, y, z1), (x1, y, z1)]):
+        around += quad_parts(corners, (0, -1, 0), 0.1)
+    window_wall = mesh_object("WindowWall", around, paint)
+    table = mesh_object("Table", box_parts((1.6, 1.6, 0.0), (2.4, 2.2, 0.7), 0.1),
+                        diffuse_material("Red", (0.65, 0.12, 0.1)))
+    cabinet = mesh_object("Cabinet", box_parts((0.0, 0.4, 0.0), (0.5, 1.6, 1.2), 0.1,
+                                               skip=("-x",)),
+                          matte_principled("Blue", (0.15, 0.25, 0.6)))
+    ball = uv_sphere("Ball", (3.0, 1.0, 0.35), 0.35, paint)
+    sun = add_lamp("SUN", (2.0, 6.0, 5.0), name="Sun", energy=4.0, angle=math.radians(1.0))
+    aim(sun, (2.0, 1.2, 0.0))
+    return _finish("window", [walls, floor, window_wall, table, cabinet, ball], [], [sun],
+                   "a room lit through a window by the sky and a sun, a table in the sun's "
+                   "patch, a cabinet against a wall, a ball")
+
+
 def scan_room() -> ReferenceScene:
     """The Cornell box given to Illumap as a scan: its walls' and blocks' vertices as one
     point cloud without normals (the light kept as a mesh), scored against the Cornell box's
@@ -683,7 +720,7 @@ def scan_object() -> ReferenceScene:
 
 
 SCENES = {"cornell": cornell, "room": room, "lamps": lamps, "near": near, "world": world,
-          "scan_room": scan_room, "scan_object": scan_object}
+          "window": window, "scan_room": scan_room, "scan_object": scan_object}
 
 
 def build(name: str) -> ReferenceScene:

@@ -46,7 +46,10 @@ The same sphere on a floor of 0.25 m cells under a sun (black world): RMS 0.0061
 gathered afresh (``receive._across_gaps``; 0.0039 and 0.021 with the sun's light alone).
 
 A closed room lit through a window by the sky: mean ratio 0.975 while the lattice points'
-sky light was probed (``lamps.PROBE_SAMPLES``), 1.000 since the world is never probed.
+sky light was probed (``lamps.PROBE_SAMPLES``), 1.000 since the world is never probed. A box
+on a floor's grid lines under a sun shining along them: its shadow's edges start at floor
+vertices, read 1.41 and 0.13 of Cycles' value while a vertex's corners shared one
+evaluation across the edge, 0.95 and 1.07 since.
 """
 
 import bpy
@@ -77,6 +80,8 @@ BOUNDS = {
     "sphere_on_floor_sun": dict(rms=0.02, underside_rms=0.03),
     # Mean over the room's vertices: Cycles' 256-sample mean is within a few 0.1% of the light.
     "window": dict(rms=0.08, mean_ratio=0.015),
+    # The vertices a shadow edge starts at: each against Cycles' value there.
+    "shadow_edge_vertex": dict(ratio=0.2, rms=0.05),
 }
 SAMPLES = 256
 WHITE = (0.8, 0.8, 0.8)
@@ -459,6 +464,35 @@ def test_room_lit_through_a_window_by_the_sky():
     rms, ratio = relative_rms(got, ref), float(got.sum() / ref.sum())
     report("room lit through a window", rms=rms, mean_ratio=ratio)
     assert abs(ratio - 1.0) < bound["mean_ratio"]
+    assert rms < bound["rms"]
+
+
+def test_a_shadow_edge_through_a_floors_vertices():
+    """A box standing on a floor's grid lines under a sun that shines along them: the sides of
+    its shadow run along two columns of the floor's vertices, and start at the box's front
+    corners, where the shadow is sharp and the vertex partly lit (its faces' corners on
+    either side of the edge, one under the box). The corners of such a vertex had shared the
+    first one's evaluation, a hair
+    inside its face and on one side of the edge: one front vertex read 1.41 of Cycles' value,
+    the other 0.13, RMS 0.0147 over the scene (0.95, 1.07 and 0.0071 since; a room lit
+    through a window had them at its table's feet)."""
+    bound = BOUNDS["shadow_edge_vertex"]
+    white = diffuse("White")
+    floor = plane("Floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], 0.1, white)
+    box = closed_box("Box", (-0.2, -0.2, 0.0), (0.2, 0.2, 0.4), 0.1, white)
+    sun = add_lamp("SUN", (0.0, 0.0, 5.0), name="Sun", energy=3.0, angle=np.radians(1.0))
+    sun.rotation_euler = (np.radians(-45.0), 0.0, 0.0)       # light toward −y and down
+    got, ref, pos = both([floor, box])
+    nf = len(floor.data.vertices)
+    front = np.flatnonzero((np.abs(np.abs(pos[:nf, 0]) - 0.2) < 1e-6)
+                           & (np.abs(pos[:nf, 1] + 0.2) < 1e-6))
+    lit = ref[:nf][pos[:nf, 1] < -0.8].mean()
+    ratios = got[front].mean(axis=1) / ref[front].mean(axis=1)
+    rms = relative_rms(got, ref)
+    report("shadow edge through a floor's vertices", rms=rms, front_left=ratios[0],
+           front_right=ratios[1], cycles_over_lit=ref[front].mean() / lit)
+    assert len(front) == 2 and 0.15 < ref[front].mean() / lit < 0.85   # neither lit nor dark
+    assert np.all(np.abs(ratios - 1.0) < bound["ratio"])
     assert rms < bound["rms"]
 
 
