@@ -203,8 +203,8 @@ def _fmm_error(stats: dict, surfels: Surfels, B, non_emit, vis_kw: dict, operato
         operator = TransportOperator(surfels, method="fmm", **kw)
     candidates = np.flatnonzero(non_emit)
     rows = np.sort(rng.choice(candidates, min(probe, len(candidates)), replace=False))
-    if products is not None:
-        exact_y = operator.apply_rows(products["iterate"], rows)   # exact per pair, same visibility
+    if products is not None:   # the exact per-pair sums, with the same visibility
+        exact_y = operator.apply_rows(products["iterate"], rows)
         diff = products["rho_k_iterate"][rows] - surfels.albedo[rows] * exact_y
         first_bounce = products["first_bounce"]
     else:
