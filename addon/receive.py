@@ -66,9 +66,14 @@ def receiver_rays(settings: Settings) -> tuple[int, int]:
         return int(settings.gather_rays), int(settings.receiver_shadow_samples)
     wanted = 512.0 * (NOISE_AT_512_RAYS / (GATHER_NOISE_SHARE * t)) ** (1.0 / NOISE_EXPONENT)
     rays = _power_of_two(wanted, MIN_TARGET_RAYS, MAX_TARGET_RAYS)
-    samples = _power_of_two(SHADOW_SAMPLES_AT_2_PERCENT * (0.02 / t) ** 2,
-                            MIN_TARGET_SHADOW_SAMPLES, MAX_TARGET_SHADOW_SAMPLES)
-    return rays, samples
+    return rays, target_shadow_samples(t)
+
+
+def target_shadow_samples(target: float) -> int:
+    """Shadow rays per point and sized lamp for a relative error ``target`` (0.01 = 1%):
+    ∝ 1/target², a power of two in [MIN_TARGET_SHADOW_SAMPLES, MAX_TARGET_SHADOW_SAMPLES]."""
+    return _power_of_two(SHADOW_SAMPLES_AT_2_PERCENT * (0.02 / target) ** 2,
+                         MIN_TARGET_SHADOW_SAMPLES, MAX_TARGET_SHADOW_SAMPLES)
 
 
 def more_rays(settings: Settings, gather_noise: float, rays: int) -> int | None:

@@ -297,6 +297,34 @@ def test_the_target_sets_the_rays_per_receiver():
             receive.more_rays(settings, first["gather_noise"], planned[0]), planned[1])
 
 
+def test_the_target_sets_the_shadow_rays_per_surfel(monkeypatch):
+    """The surfels' shadow rays per sized lamp (and the sky's) are at least what a receiver
+    casts for the surfels' own target (five times the target when the light is evaluated at
+    the meshes), at most the sky's cap; the settings' count when it is larger, or without a
+    target; and the direct light at the surfels is cast with them."""
+    from addon import lamps, receive
+    count = pipeline.surfel_shadow_samples
+    assert count(pipeline.Settings()) == pipeline.Settings().shadow_samples == 16
+    assert count(pipeline.Settings(shadow_samples=40)) == 40
+    assert [count(pipeline.Settings(target_error=t)) for t in (0.1, 0.03, 0.02)] == [16] * 3
+    one = pipeline.Settings(target_error=0.01)
+    assert count(one) == receive.target_shadow_samples(pipeline.surfel_target(one)) == 32
+    assert count(pipeline.Settings(target_error=0.01, shadow_samples=128)) == 128
+    # the surfels are the result without Transfer: the target's own count, capped
+    assert count(pipeline.Settings(target_error=0.01, transfer=False)) == lamps.WORLD_SAMPLES
+    cast = []
+    shadows = pipeline._shadows
+    monkeypatch.setattr(pipeline, "_shadows",
+                        lambda job, nrm, samples, progress: cast.append(samples)
+                        or shadows(job, nrm, samples, progress))
+    objects = spot_scene()
+    for target in (0.03, 0.01):
+        job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), objects,
+                               pipeline.Settings(target_error=target))
+        pipeline.light(job)
+    assert cast == [16, 32]
+
+
 def test_the_target_never_skips_visibility(monkeypatch):
     """The error model may find that skipping visibility would stay within the surfels' share
     of the target; that does not prove the scene needs none, so the add-on solves with exact
