@@ -161,9 +161,10 @@ def _merged_corners(occ, rec, lamps_=()) -> tuple[np.ndarray, np.ndarray]:
             if lamp.kind == "WORLD" or not free.any():
                 continue
             pair = others[free]
-            lit = [_toward_lamp_centre(occ, lamp, rec.points[rows], rec.normals[rows])
-                   for rows in (lead[pair], pair)]
-            free[np.flatnonzero(free)[lit[0] != lit[1]]] = False
+            ends = np.unique(np.concatenate([lead[pair], pair]))   # a lead once, not per pair
+            lit = np.zeros(len(lead), dtype=bool)
+            lit[ends] = _toward_lamp_centre(occ, lamp, rec.points[ends], rec.normals[ends])
+            free[np.flatnonzero(free)[lit[lead[pair]] != lit[pair]]] = False
         joined[others[free]] = lead[others[free]]
     rows, index = np.unique(joined, return_inverse=True)
     return rows, index.ravel()
