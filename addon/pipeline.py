@@ -32,7 +32,7 @@ from . import checks, emitters, lamps, materials, pointcloud, sampling
 from .errors import ExitCode, IllumapCancelled, IllumapError, core_cancelled
 from .kinds import MESH_TYPES, OCCLUDER_SHAPES
 from .presets import DEFAULT_BUDGET, QUALITY_PRESETS
-from .receive import mesh_occluders, receive, target_shadow_samples
+from .receive import hemisphere_hits, mesh_occluders, receive, target_shadow_samples
 
 Progress = Callable[[float, str], "bool | None"]
 
@@ -136,6 +136,9 @@ class Job:
     emitters: list = field(default_factory=list)   # lamps.Lamp 'MESH' records (emitters.py)
     solve_emission: np.ndarray | None = None       # emission left to surfels (not in a lamp)
     direct_lamps: np.ndarray | None = None         # the part of ``direct`` from lamps and emitters
+    # What each surfel's hemisphere meets (illumap.conservation.Hemisphere; set by ``light``
+    # where triangles occlude): the world's share of its light and its transport row's bound
+    hemisphere: object | None = None
     triangles: np.ndarray | None = None            # (T, 3, 3) every sampled mesh triangle, m
     two_sided: np.ndarray | None = None            # (T,) bool: its mesh is an open surface
     clouds: list = field(default_factory=list)     # PointCloud per point source, as read
@@ -833,7 +836,14 @@ def light(job: Job, progress: Progress | None = None) -> Job:
     t0 = time.perf_counter()
     s = job.settings
     pos, nrm = job.positions, job.normals
-    all_lamps = list(job.lamps) + list(job.emitters) + ([job.world] if job.world else [])
+    # The world's light comes through the rays that bound each surfel's transport row: its
+    # sky and its surfaces then share one hemisphere, and a white furnace reads 1.
+    if triangles_occlude(job) and job.hemisphere is None:
+        job.hemisphere = hemisphere_hits(job, progress)
+        job.timings["hemisphere"] = time.perf_counter() - t0
+    world_by_rays = job.world is not None and job.hemisphere is not None
+    all_lamps = (list(job.lamps) + list(job.emitters)
+                 + ([job.world] if job.world and not world_by_rays else []))
     shadows = None
     try:
         if progress is not None and progress(0.0, lamps.PHASE if all_lamps and s.lamp_shadows
@@ -843,6 +853,8 @@ def light(job: Job, progress: Progress | None = None) -> Job:
             shadows = _shadows(job, nrm, surfel_shadow_samples(s), progress)
         incident, from_world = lamps.incident_radiance(all_lamps, pos, nrm, shadows=shadows,
                                                        world_apart=True)
+        if world_by_rays:
+            from_world = job.hemisphere.open[:, None] * np.asarray(job.world.color)[None, :]
     except IllumapError:
         raise
     except Exception as exc:  # noqa: BLE001 - a failing ray query is reported, not raised raw
@@ -972,6 +984,8 @@ def run(job: Job, progress: Progress | None = None) -> Result:
                 kwargs["occluder_triangles"] = job.triangles
             else:  # the lamp shadows' occluders
                 kwargs.update(coverage=SURFEL_COVERAGE, visibility_shape=shape)
+    if job.hemisphere is not None:
+        kwargs["hemisphere_hits"] = job.hemisphere.hits
     t0 = time.perf_counter()
     try:
         sol = solve(surfels, **kwargs)

@@ -328,6 +328,25 @@ def _splat_owners(job: Job, back: np.ndarray) -> tuple[np.ndarray | None, np.nda
     return owner_front, owner_back
 
 
+def hemisphere_hits(job: Job, progress: Progress | None = None):
+    """What each surfel's hemisphere meets (``illumap.conservation.Hemisphere``: the share
+    whose first hit is a surface that sends light, and the share open to the world), against
+    the scene's triangles and splats as the gather sees them; None without triangles. No
+    bpy."""
+    occ = mesh_occluders(job, progress)
+    if occ is None:
+        return None
+    from illumap.conservation import hemisphere_hits as hits
+    back = np.zeros(job.count, dtype=bool)
+    for src in job.sources:
+        if src.kind == "BACK":
+            back[src.start:src.stop] = True
+    owners, back_owners = _splat_owners(job, back)
+    report = None if progress is None else (lambda f, _p="": progress(f, "solve"))
+    return hits(occ, job.positions, job.normals, back, two_sided=_gather_sides(job),
+                owners=owners, back_owners=back_owners, seed=job.settings.seed, progress=report)
+
+
 #: Shadow rays per lattice point and sized lamp: a hit interpolates three lattice points and
 #: a receiver averages hundreds of hits, so the lattice's own noise averages out.
 LATTICE_SHADOW_SAMPLES = 4

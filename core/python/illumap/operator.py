@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import limits
+from . import conservation, limits
 from .surfels import InputError, Surfels
 from ._progress import ProgressGuard
 
@@ -84,7 +84,7 @@ VISIBILITY_DEFAULTS = {
 
 #: The keywords ``solve`` forwards to TransportOperator.
 OPERATOR_KEYWORDS = ("method", "order", "theta", "leaf_size", "near_field", "visibility",
-                     "threads", "occluder_triangles") + tuple(VISIBILITY_DEFAULTS)
+                     "threads", "occluder_triangles", "hemisphere_hits") + tuple(VISIBILITY_DEFAULTS)
 
 
 def _require_core():
@@ -137,7 +137,7 @@ def check_values(values, n: int, name: str = "values") -> np.ndarray:
 def validate_keywords(*, method=DEFAULT_METHOD, order=DEFAULT_ORDER, theta=DEFAULT_THETA,
                       leaf_size=DEFAULT_LEAF_SIZE, near_field=DEFAULT_NEAR_FIELD,
                       visibility=DEFAULT_VISIBILITY, threads=0, occluder_triangles=None,
-                      **visibility_keywords) -> dict:
+                      hemisphere_hits=None, **visibility_keywords) -> dict:
     """Check the operator keywords (raises InputError) and return them normalized."""
     out = {}
     _check_triangles(occluder_triangles)
@@ -242,6 +242,13 @@ class TransportOperator:
         "seed": points sampled per leaf in the leaf–leaf test. Default 8.
     seed_binary_pairs : bool
         "seed": per-pair V is 0/1 after t1 (default) or the attenuation product.
+    hemisphere_hits : (N,) array in [0, 1] or None
+        Each surfel's measured share of its hemisphere whose first hit is a surface that
+        sends light (``illumap.conservation.hemisphere_hits``). Given, the operator is scaled
+        symmetrically, ``diag(d) K diag(d)``, so that every row sums to that share and never
+        more (``illumap.conservation.balance``; ``stats`` reports it): light is conserved on
+        overlapping, coincident and buried surfels, and the solve meets no indefinite system.
+        None: the kernel's own rows.
     threads : int
         Worker threads, 0 = all hardware threads.
     progress : callable(fraction, phase) -> bool | None, optional
@@ -253,7 +260,7 @@ class TransportOperator:
                  order: int = DEFAULT_ORDER, theta: float = DEFAULT_THETA,
                  leaf_size: int = DEFAULT_LEAF_SIZE, near_field: str = DEFAULT_NEAR_FIELD,
                  visibility: str = DEFAULT_VISIBILITY, threads: int = 0, progress=None,
-                 occluder_triangles=None, **visibility_keywords):
+                 occluder_triangles=None, hemisphere_hits=None, **visibility_keywords):
         if not isinstance(surfels, Surfels):
             raise InputError(
                 f"surfels: expected an illumap.Surfels, got {type(surfels).__name__} "
@@ -293,6 +300,12 @@ class TransportOperator:
                                         (self.occluder_triangles - self.origin).reshape(-1, 9))),
                 **self.visibility_options,
             )
+        self.balance = None
+        self._scale = None
+        if hemisphere_hits is not None:
+            hits = conservation.check_hits(hemisphere_hits, surfels.n)
+            self.balance = conservation.balance(self._op.apply, hits)
+            self._scale = self.balance.scale[:, None]
 
     @property
     def n(self) -> int:
@@ -309,7 +322,11 @@ class TransportOperator:
             raise InputError(f"progress: expected a callable or None, got {progress!r}")
         guard = ProgressGuard(progress)
         with guard:
-            return self._op.apply(values, progress=guard.native_callback())
+            if self._scale is None:
+                return self._op.apply(values, progress=guard.native_callback())
+            y = self._op.apply(np.ascontiguousarray(values * self._scale),
+                               progress=guard.native_callback())
+            return y * self._scale
 
     __call__ = apply
 
@@ -320,7 +337,10 @@ class TransportOperator:
         if rows.size and (rows.min() < 0 or rows.max() >= self.n):
             k = int(np.flatnonzero((rows < 0) | (rows >= self.n))[0])
             raise InputError(f"rows[{k}] = {rows[k]} is out of range [0, {self.n})")
-        return self._op.apply_rows(values, rows)
+        if self._scale is None:
+            return self._op.apply_rows(values, rows)
+        y = self._op.apply_rows(np.ascontiguousarray(values * self._scale), rows)
+        return y * self._scale[rows]
 
     @property
     def symmetric(self) -> bool:
@@ -346,6 +366,8 @@ class TransportOperator:
                      visibility=self.visibility, n=self.n)
         if self.visibility != "none":
             stats.update(self.visibility_options)
+        if self.balance is not None:
+            stats.update(self.balance.stats())
         return stats
 
     def keywords(self) -> dict:
