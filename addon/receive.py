@@ -342,7 +342,9 @@ def hemisphere_hits(job: Job, progress: Progress | None = None):
         if src.kind == "BACK":
             back[src.start:src.stop] = True
     owners, back_owners = _splat_owners(job, back)
-    report = None if progress is None else (lambda f, _p="": progress(f, "solve"))
+    # The rays belong to the direct light's phase (light() casts them first): its fraction
+    # stays where it starts, so the phases keep their order.
+    report = None if progress is None else (lambda f, _p="": progress(0.0, lamps.PHASE))
     return hits(occ, job.positions, job.normals, back, two_sided=_gather_sides(job),
                 owners=owners, back_owners=back_owners, seed=job.settings.seed, progress=report)
 
