@@ -345,8 +345,14 @@ def hemisphere_hits(job: Job, progress: Progress | None = None):
     # The rays belong to the direct light's phase (light() casts them first): its fraction
     # stays where it starts, so the phases keep their order.
     report = None if progress is None else (lambda f, _p="": progress(0.0, lamps.PHASE))
+    clouds = {cloud.name for cloud in job.clouds}
+    points = np.zeros(job.count, dtype=bool)
+    for src in job.sources:
+        if src.name in clouds:
+            points[src.start:src.stop] = True
     return hits(occ, job.positions, job.normals, back, two_sided=_gather_sides(job),
-                owners=owners, back_owners=back_owners, seed=job.settings.seed, progress=report)
+                owners=owners, back_owners=back_owners, inset=points, seed=job.settings.seed,
+                progress=report)
 
 
 #: Shadow rays per lattice point and sized lamp: a hit interpolates three lattice points and

@@ -84,7 +84,8 @@ VISIBILITY_DEFAULTS = {
 
 #: The keywords ``solve`` forwards to TransportOperator.
 OPERATOR_KEYWORDS = ("method", "order", "theta", "leaf_size", "near_field", "visibility",
-                     "threads", "occluder_triangles", "hemisphere_hits") + tuple(VISIBILITY_DEFAULTS)
+                     "threads", "occluder_triangles", "hemisphere_hits",
+                     "hemisphere_bound") + tuple(VISIBILITY_DEFAULTS)
 
 
 def _require_core():
@@ -137,7 +138,8 @@ def check_values(values, n: int, name: str = "values") -> np.ndarray:
 def validate_keywords(*, method=DEFAULT_METHOD, order=DEFAULT_ORDER, theta=DEFAULT_THETA,
                       leaf_size=DEFAULT_LEAF_SIZE, near_field=DEFAULT_NEAR_FIELD,
                       visibility=DEFAULT_VISIBILITY, threads=0, occluder_triangles=None,
-                      hemisphere_hits=None, **visibility_keywords) -> dict:
+                      hemisphere_hits=None, hemisphere_bound=None,
+                      **visibility_keywords) -> dict:
     """Check the operator keywords (raises InputError) and return them normalized."""
     out = {}
     _check_triangles(occluder_triangles)
@@ -249,6 +251,10 @@ class TransportOperator:
         more (``illumap.conservation.balance``; ``stats`` reports it): light is conserved on
         overlapping, coincident and buried surfels, and the solve meets no indefinite system.
         None: the kernel's own rows.
+    hemisphere_bound : (N,) array in [0, 1] or None
+        With ``hemisphere_hits``: rows may lie anywhere in [hits, bound] (default: bound =
+        hits, rows equal to their share). A black world's add-on run bounds a scan's rows by
+        hits + open share: a ray that slips between two splats is no window.
     threads : int
         Worker threads, 0 = all hardware threads.
     progress : callable(fraction, phase) -> bool | None, optional
@@ -260,7 +266,8 @@ class TransportOperator:
                  order: int = DEFAULT_ORDER, theta: float = DEFAULT_THETA,
                  leaf_size: int = DEFAULT_LEAF_SIZE, near_field: str = DEFAULT_NEAR_FIELD,
                  visibility: str = DEFAULT_VISIBILITY, threads: int = 0, progress=None,
-                 occluder_triangles=None, hemisphere_hits=None, **visibility_keywords):
+                 occluder_triangles=None, hemisphere_hits=None, hemisphere_bound=None,
+                 **visibility_keywords):
         if not isinstance(surfels, Surfels):
             raise InputError(
                 f"surfels: expected an illumap.Surfels, got {type(surfels).__name__} "
@@ -304,7 +311,9 @@ class TransportOperator:
         self._scale = None
         if hemisphere_hits is not None:
             hits = conservation.check_hits(hemisphere_hits, surfels.n)
-            self.balance = conservation.balance(self._op.apply, hits)
+            bound = (None if hemisphere_bound is None
+                     else conservation.check_hits(hemisphere_bound, surfels.n, "hemisphere_bound"))
+            self.balance = conservation.balance(self._op.apply, hits, bound=bound)
             self._scale = self.balance.scale[:, None]
 
     @property

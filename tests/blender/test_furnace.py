@@ -1,0 +1,148 @@
+"""White furnace against Cycles: seven geometry classes, every surface white, a white sky.
+
+Every material is a white Diffuse BSDF (albedo 1; Illumap clamps it to 0.999, as it must for
+its solve to converge), there are no lamps and no emitters, and the world's Background is
+(1, 1, 1) at strength 1. Whatever light can reach then reads 1 and what is sealed inside a
+closed part reads 0; nothing may read above 1. The cases are built by
+``bench/reference/furnace.py`` (its docstring describes them): Suzanne on a floor (open, eyes
+inside the head), two interpenetrating boxes, a box and a sphere resting on a floor, a thin
+two-sided plate over a floor, the Stanford bunny as a point cloud without and with normals,
+and a room with a table given as one point cloud without normals (twin points where surfaces
+meet).
+
+The reference is Cycles baking the same meshes (``furnace.bake_reference``: DIFFUSE, direct +
+indirect, CPU, no clamping), the mean of two bakes with different seeds. A point without a
+normal shows its brighter side (Illumap's warning says so): the room scan's walls and floor
+are baked a second time with their normals flipped and the larger value kept; the bunny's
+five holes are filled for Cycles (faces only, the points unchanged), so its inside is sealed
+and its outside is the brighter side. Two choices differ from ``bench/reference/bake.py``,
+both measured (16-sample bakes, relative RMS over a case):
+
+* 1024 bounces (Cycles' maximum), not 64: the gap under the bunny's flat base takes hundreds.
+  At albedo 1, 64 bounces read the bunny case 14.5% under 1024 (which read 1.0000), the
+  resting sphere's case 2.2%.
+* The materials' albedo is Illumap's clamp, 0.999, for the bakes: a correct solver of the
+  clamped scene meets that, not the ideal furnace. The clamp alone moves the bunny case by
+  2.7% (its mean 0.9914 against 1.0000: the gap's many bounces), Suzanne's and the resting
+  case by 0.5%.
+
+Per class, over every vertex that Cycles bakes (RGB mean): relative RMS ≤ 0.01 + the
+reference's own noise (half the relative RMS difference of its two bakes, measured in each
+run: ``SAMPLES`` per bake), no point above 1.005, and a solve that converged without "not
+positive definite". The bounds are not fitted to today's code: 6 of the 7 fail with the
+add-on as shipped (``pipeline.CONSERVE_LIGHT`` off), and are marked strict xfail
+(``KNOWN_FAILURES``) so that one that starts to pass is noticed.
+
+Measured 2026-12-07 on 2 shared cores (``bench/reference/furnace.py --conserve off`` and
+``--conserve on``; relative RMS against the bench's 512-sample references (the bunny's 128),
+whose own noise is 0.0001-0.0029; this test's 16-128-sample references agreed within 0.0003):
+
+==============  ======  ==============================  ==============================
+class           points  conservation off (shipped)      conservation on
+                        RMS / mean ratio / max / solve  RMS / mean ratio / max / solve
+==============  ======  ==============================  ==============================
+monkey          3,661   0.833 / 1.652 / 2.933 / stops   0.223 / 1.096 / 1.007 / conv.
+intersecting    2,421   0.081 / 1.006 / 1.014 / conv.   0.081 / 1.007 / 0.999 / conv.
+resting         2,485   0.067 / 0.990 / 1.082 / conv.   0.038 / 0.995 / 0.999 / conv.
+plate           1,402   0.0004 / 1.000 / 1.000 / conv.  0.0016 / 0.999 / 0.999 / conv.
+scan            35,795  2.183 / 3.068 / 8.141 / stops   0.103 / 0.949 / 0.999 / conv.
+scan_normals    35,795  0.223 / 0.923 / 1.648 / conv.   0.252 / 0.867 / 0.999 / conv.
+room_scan       4,357   0.195 / 1.178 / 1.493 / conv.   0.0004 / 1.000 / 0.999 / conv.
+==============  ======  ==============================  ==============================
+
+"stops": CG stopped on "not positive definite" and the result was written all the same.
+
+Where the failures are left with conservation on:
+
+* monkey: Suzanne 0.94-0.98 against Cycles' 0.826, and 0.05% of its points over 1.005 (the
+  gather's exact part casts the sky afresh at its lattice points beside the surfels' own
+  share). Much of the gap is Cycles': it drops the directions a smooth normal's hemisphere
+  has below a face, so its flat-shaded Suzanne reads 0.926 (``--cases monkey_flat``).
+* intersecting: 19 of the 361 sealed vertices carry 99.5% of the squared error: 13 of box A's
+  bottom vertices inside box B's footprint, where both bottoms lie on the floor, read 0.999
+  (receivers, not surfels: the corners of faces that pass into the other box).
+* resting: the sphere's contact: its pole and the floor vertex under it read 0 (Cycles 0.86).
+* scan, scan_normals: most of the squared error lies within 2 cm of the floor, the bunny's
+  flat base, which reads dark (Cycles 0.92-0.94); with the scan's normals it is worse.
+* With the normals of the hole-filled mesh (211 rim normals tilted 1-48°, ``furnace.py
+  --cases scan_fill_normals``) the solve stopped after 4 iterations, not positive definite
+  (measured with conservation off).
+
+Each test prints what it measured (``pytest -s``).
+"""
+
+import pytest
+
+from illumap_bpy_testing import requires_core
+
+from bench.reference import furnace
+
+pytestmark = requires_core
+
+#: Relative RMS Illumap may differ from the reference by, over and above the reference's noise.
+RMS = 0.01
+#: No point may read above this (the sky's radiance is 1).
+ABOVE = furnace.ABOVE
+#: Samples per reference bake (two bakes): their noise is measured in each run and added to
+#: the bound. The bunny costs ~0.7 s a sample (the gap under its base takes hundreds of
+#: bounces); Suzanne's smooth normals make its bakes noisy but cheap.
+SAMPLES = {"monkey": 128, "intersecting": 32, "resting": 64, "plate": 16, "scan": 16,
+           "scan_normals": 16, "room_scan": 64}
+
+#: Baked references by name (``scan`` and ``scan_normals`` bake the same meshes):
+#: (values at the scored vertices, noise, bake seconds).
+_REFERENCES: dict = {}
+
+
+def built_with_reference(name):
+    """Case ``name`` built in a fresh file, and its reference (baked once per session)."""
+    case = furnace.build(name)
+    key = case.reference or case.name
+    if key not in _REFERENCES:
+        ref = furnace.bake_reference(case, SAMPLES[name])
+        _REFERENCES[key] = furnace.reference_values(case, ref) + (ref["seconds"],)
+        case = furnace.build(name)           # a fresh file for Illumap
+    return case, _REFERENCES[key]
+
+
+#: Classes that fail today, each for the reason measured above (issue "Light is conserved").
+#: Strict: a case that starts to pass fails here until its entry is removed.
+KNOWN_FAILURES = {
+    "monkey": "eyes' intersection lines and contact: Suzanne 0.976 against Cycles' 0.826",
+    "intersecting": "sealed bottoms of the boxes' overlap read 0.999 instead of 0",
+    "resting": "the sphere's pole and the floor under it read 0 (Cycles 0.86)",
+    "scan": "the bunny's base within 2 cm of the floor reads 0.61-0.76 (Cycles 0.92-0.94)",
+    "scan_normals": "the bunny's base reads 0.28-0.42 with the scan's normals (Cycles 0.92-0.94)",
+    "room_scan": "twin points count their couplings twice: 1.18 mean, 1.49 max (conservation, "
+                 "off in the add-on, gives 0.0004 RMS)",
+}
+
+
+@pytest.mark.parametrize("name", [
+    pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=KNOWN_FAILURES[n]))
+    if n in KNOWN_FAILURES else n for n in furnace.CLASSES])
+def test_white_furnace(name, registered_addon):
+    case, (ref, noise, bake_seconds) = built_with_reference(name)
+    values, result, seconds = furnace.run_illumap(case)
+    row = furnace.score(case, values, ref, result)
+    bound = RMS + noise
+    print(f"\n{name}: rel. RMS {row['relative_rms']:.4f} (bound {bound:.4f}, reference noise "
+          f"{noise:.5f} at 2 x {SAMPLES[name]} samples), mean ratio {row['mean_ratio']:.4f}, "
+          f"max {row['max']:.4f}, above {ABOVE}: {row['above']:.2%}, converged "
+          f"{row['converged']}, Illumap {seconds:.1f} s, Cycles {sum(bake_seconds):.1f} s")
+    for obj, o in row["objects"].items():
+        print(f"    {obj:10s} rel. RMS {o['relative_rms']:.4f} mean {o['mean']:.4f} (Cycles "
+              f"{o['mean_reference']:.4f}) max {o['max']:.4f}; worst {o['worst']:.3f} against "
+              f"{o['worst_reference']:.3f} at {o['worst_at']}")
+    failures = []
+    if not result.converged:
+        failures.append("the solve did not converge")
+    if row["not_positive_definite"]:
+        failures.append("the solve warned 'not positive definite'")
+    if row["above"] > 0:
+        failures.append(f"{row['above']:.2%} of the points read above {ABOVE} "
+                        f"(max {row['max']:.4f})")
+    if not row["relative_rms"] <= bound:
+        failures.append(f"relative RMS {row['relative_rms']:.4f} > {bound:.4f} (0.01 + reference "
+                        f"noise {noise:.5f}); mean ratio {row['mean_ratio']:.4f}")
+    assert not failures, f"{name}: " + "; ".join(failures)
