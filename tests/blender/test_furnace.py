@@ -29,16 +29,15 @@ both measured (16-sample bakes, relative RMS over a case):
 Per class, over every vertex that Cycles bakes (RGB mean): relative RMS ≤ 0.01 + the
 reference's own noise (half the relative RMS difference of its two bakes, measured in each
 run: ``SAMPLES`` per bake), no point above 1.005, and a solve that converged without "not
-positive definite". The bounds are not fitted to today's code: 6 of the 7 fail with the
-add-on as shipped (``pipeline.CONSERVE_LIGHT`` off), and are marked strict xfail
-(``KNOWN_FAILURES``) so that one that starts to pass is noticed.
+positive definite". The bounds are not fitted to today's code: 5 of the 7 fail, and are
+marked strict xfail (``KNOWN_FAILURES``) so that one that starts to pass is noticed.
 
 Measured 2026-12-07 on 2 shared cores (``bench/reference/furnace.py --conserve off`` and
 ``--conserve on``; relative RMS against the bench's 512-sample references (the bunny's 128),
 whose own noise is 0.0001-0.0029; this test's 16-128-sample references agreed within 0.0003):
 
 ==============  ======  ==============================  ==============================
-class           points  conservation off (shipped)      conservation on
+class           points  conservation off (before)       conservation on (shipped)
                         RMS / mean ratio / max / solve  RMS / mean ratio / max / solve
 ==============  ======  ==============================  ==============================
 monkey          3,661   0.833 / 1.652 / 2.933 / stops   0.223 / 1.096 / 1.007 / conv.
@@ -113,8 +112,6 @@ KNOWN_FAILURES = {
     "resting": "the sphere's pole and the floor under it read 0 (Cycles 0.86)",
     "scan": "the bunny's base within 2 cm of the floor reads 0.61-0.76 (Cycles 0.92-0.94)",
     "scan_normals": "the bunny's base reads 0.28-0.42 with the scan's normals (Cycles 0.92-0.94)",
-    "room_scan": "twin points count their couplings twice: 1.18 mean, 1.49 max (conservation, "
-                 "off in the add-on, gives 0.0004 RMS)",
 }
 
 

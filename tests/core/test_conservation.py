@@ -121,8 +121,7 @@ def test_share_of_a_square_overhead():
     occ = MeshOccluders(square)
     pos = np.r_[receiver, sp]
     nrm = np.r_[[[0.0, 0.0, 1.0]], sn]
-    back = np.zeros(len(pos), bool)
-    got = conservation.hemisphere_hits(occ, pos, nrm, back, rays=4096)
+    got = conservation.hemisphere_hits(occ, pos, nrm, rays=4096)
     assert abs(got.hits[0] - 0.23945) <= 0.005
     assert abs(got.open[0] - (1 - 0.23945)) <= 0.005
     assert got.hits[1:].max() == 0.0 and np.all(got.open[1:] == 1.0)   # they face away
@@ -130,13 +129,14 @@ def test_share_of_a_square_overhead():
 
 def test_share_of_a_face_without_surfels_is_dark():
     """The same square seen from its back, where no surfel lies (the inside of a closed
-    part): nothing hits and nothing is open."""
+    part): nothing hits and nothing is open. Lit on both faces (a splat), it hits."""
     square = _square(1.0, down=False)            # faces up: the receiver sees its back
     sp, sn = _surfels_on(square, normal=(0, 0, 1))
     occ = MeshOccluders(square)
     pos = np.r_[[[0.0, 0.0, 0.0]], sp]
     nrm = np.r_[[[0.0, 0.0, 1.0]], sn]
-    got = conservation.hemisphere_hits(occ, pos, nrm, np.zeros(len(pos), bool), rays=4096,
-                                       two_sided=np.zeros(2, bool))
+    got = conservation.hemisphere_hits(occ, pos, nrm, rays=4096, lit_backs=np.zeros(2, bool))
     assert got.hits[0] == 0.0
     assert abs(got.open[0] - (1 - 0.23945)) <= 0.005
+    lit = conservation.hemisphere_hits(occ, pos, nrm, rays=4096)     # a splat: both faces lit
+    assert abs(lit.hits[0] - 0.23945) <= 0.005

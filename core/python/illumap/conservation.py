@@ -37,14 +37,12 @@ from .surfels import InputError
 #: Rays per surfel that measure its hemisphere's share (the gather's rank-1 lattice: its
 #: error on a smooth horizon falls faster than 1/sqrt(rays)).
 HEMISPHERE_RAYS = 64
-#: A scan point's rays start this share of the way to the centroid of its same-side
+#: A scan point's rays start this share of the way to the centroid of its nearest
 #: neighbours (``INSET_NEIGHBOURS``, in its tangent plane): a point on a box's edge lies on
 #: the other face's plane, and half its rays slipped out through it at their first
 #: millimetre (a closed box scanned, lit inside: 0.90 of Cycles' light, 0.97 inset).
 INSET_SHARE = 0.25
 INSET_NEIGHBOURS = 8
-#: Neighbours count as the same side when their normals agree within acos(this).
-INSET_MIN_COS = 0.5
 #: Rays cast again from a surfel whose first rays did not all meet one kind of thing (a lit
 #: face, the sky, a dark face): one ray grazing an edge then moves its share by 1/256, not
 #: 1/64, and the share's noise, which the solve passes on, falls by half.
@@ -68,18 +66,22 @@ class Balance:
     """The symmetric scaling of a transport operator: ``K' = diag(scale) K diag(scale)``."""
 
     scale: np.ndarray         # (N,) d_i ≥ 0
-    hits: np.ndarray          # (N,) the bound each row now sums to at most
+    hits: np.ndarray          # (N,) the bound each row now sums to at most (inf: frozen)
     rows_before: np.ndarray   # (N,) row sums of K (K·1)
     rows_after: np.ndarray    # (N,) row sums of K'
     applications: int         # operator applications spent
 
     def stats(self) -> dict:
         """Summary figures for a solution's stats (dimensionless)."""
+        free = np.isfinite(self.hits)
         over = self.rows_before > self.hits + 1e-3
+        unsettled = np.abs(self.rows_after - self.hits) > 1e-3
         return dict(balance_applications=self.applications,
                     balance_rows_over=int(over.sum()),
-                    balance_max_row_before=float(self.rows_before.max(initial=0.0)),
-                    balance_max_row_after=float(self.rows_after.max(initial=0.0)),
+                    balance_rows_unsettled=int((unsettled & free).sum()),
+                    balance_frozen=int((~free).sum()),
+                    balance_max_row_before=float(self.rows_before[free].max(initial=0.0)),
+                    balance_max_row_after=float(self.rows_after[free].max(initial=0.0)),
                     balance_min_scale=float(self.scale.min(initial=1.0)),
                     balance_max_scale=float(self.scale.max(initial=1.0)))
 
@@ -105,41 +107,52 @@ def check_hits(hits, n: int, name: str = "hemisphere_hits") -> np.ndarray:
 
 
 def balance(apply: Callable[[np.ndarray], np.ndarray], hits: np.ndarray, *,
-            bound: np.ndarray | None = None, iterations: int = BALANCE_ITERATIONS,
-            tol: float = BALANCE_TOL, max_scale: float = MAX_SCALE) -> Balance:
+            bound: np.ndarray | None = None, frozen: np.ndarray | None = None,
+            iterations: int = BALANCE_ITERATIONS, tol: float = BALANCE_TOL,
+            max_scale: float = MAX_SCALE) -> Balance:
     """Scales ``d`` (N,) so that every row ``d_i (K d)_i`` lies in [hits_i, bound_i] (bound
     defaults to hits: equality), as nearly as ``iterations`` damped symmetric Sinkhorn steps
     reach, then lowered where a row still exceeds its bound, so that ``d_i (K d)_i ≤
     bound_i`` holds exactly. ``apply``: x (N, 3) -> K x (N, 3), K ≥ 0 with diag(A) K
-    symmetric; ``hits``, ``bound``: shares of each surfel's hemisphere, in [0, 1]."""
+    symmetric; ``hits``, ``bound``: shares of each surfel's hemisphere, in [0, 1].
+
+    ``frozen`` (N,) bool: surfels that reflect nothing (albedo 0: emitters, black
+    surfaces) keep d = 1. Their rows carry no light on, so their sums do not matter, and
+    scaling them would only change how much of their emission the others receive. A row K
+    couples too little to reach its share within ``max_scale`` (a face 1 mm under another,
+    whose near field the share sees whole) is never raised: chasing it only dragged its
+    partners along and kept the iteration from settling."""
     h = np.asarray(hits, dtype=np.float64)
     hi = h if bound is None else np.maximum(np.asarray(bound, dtype=np.float64), h)
+    fixed = (np.zeros(len(h), dtype=bool) if frozen is None
+             else np.asarray(frozen, dtype=bool).reshape(-1))
     rows_before = _rows(apply, np.ones_like(h))
-    d = np.where(hi > 0.0, 1.0, 0.0)
+    lo = np.where(rows_before * max_scale ** 2 < h, np.minimum(h, rows_before), h)
+    d = np.where((hi > 0.0) | fixed, 1.0, 0.0)
     applications = 1
     kd = rows_before * 1.0
     for _ in range(int(iterations)):
         rows = d * kd
-        target = np.clip(rows, h, hi)
-        gap = np.abs(rows - target)
+        target = np.clip(rows, lo, hi)
+        gap = np.where(fixed, 0.0, np.abs(rows - target))
         reachable = (d < max_scale) | (rows > target)   # a capped row cannot rise further
         if not np.any((gap > tol) & reachable):
             break
-        live = (kd > 0.0) & (d > 0.0)
+        live = (kd > 0.0) & (d > 0.0) & ~fixed
         d = np.where(live, np.sqrt(d * target / np.where(live, kd, 1.0)), d)
         d = np.minimum(d, max_scale)
         kd = _rows(apply, d)
         applications += 1
     rows = d * kd
-    over = rows > hi
+    over = (rows > hi) & ~fixed
     if over.any():
         # Lowering d_i lowers row i to its bound and every other row with it: exact.
         d = np.where(over, d * hi / np.where(over, rows, 1.0), d)
         kd = _rows(apply, d)
         applications += 1
         rows = d * kd
-    return Balance(scale=d, hits=hi, rows_before=rows_before, rows_after=rows,
-                   applications=applications)
+    return Balance(scale=d, hits=np.where(fixed, np.inf, hi), rows_before=rows_before,
+                   rows_after=rows, applications=applications)
 
 
 @dataclass
@@ -154,40 +167,41 @@ class Hemisphere:
     rays: int
 
 
-def hemisphere_hits(occluders, positions, normals, back, *, two_sided=None, owners=None,
-                    back_owners=None, rays: int = HEMISPHERE_RAYS,
-                    partial_rays: int = PARTIAL_RAYS, inset=None, seed: int = 0,
-                    threads: int = 0, progress=None) -> Hemisphere:
-    """Each surfel's cosine-weighted share (N,) of its hemisphere whose first hit is a face
-    that carries surfels, and the share that meets nothing: rays from ``positions`` (N, 3,
-    m) about unit ``normals`` against ``occluders`` (``receivers.MeshOccluders``: the
-    scene's triangles and splats), as the final gather casts them. ``back`` (N,) bool marks
-    the surfels of back faces (open meshes, two-sided points); ``two_sided``, ``owners`` and
-    ``back_owners`` as in ``receivers.gather``. A hit on a face none of whose surfels exist
-    (the inside of a closed part) counts in neither. ``rays`` per surfel, and
-    ``partial_rays`` afresh from each whose rays did not all meet one kind of thing.
-    ``inset`` (N,) bool: the surfels whose rays start off their surface's edges
-    (``inset_origins``; a scan's points, which lie on the edges themselves; a mesh's surfels
-    lie inside their triangles).
+def hemisphere_hits(occluders, positions, normals, *, lit_backs=None,
+                    rays: int = HEMISPHERE_RAYS, partial_rays: int = PARTIAL_RAYS, inset=None,
+                    ids=None, seed: int = 0, threads: int = 0, progress=None) -> Hemisphere:
+    """Each surfel's cosine-weighted share (N,) of its hemisphere whose first hit is a lit
+    face, and the share that meets nothing: rays from ``positions`` (N, 3, m) about unit
+    ``normals`` against ``occluders`` (``receivers.MeshOccluders``: the scene's triangles
+    and splats), as the final gather casts them. A front face is lit; a back face where
+    ``lit_backs`` (T,) bool says so (None: every one). A closed mesh's back faces, its inside,
+    are not: a surfel buried there sees nothing that sends light. A scan's splats should be
+    lit on both faces: a ray meets one from behind only where the fitted normals bend round
+    an edge, and a scan given its normals must see what the same scan without them sees.
+    ``rays`` per surfel, and ``partial_rays`` afresh from each whose rays did not all meet
+    one kind of thing. ``inset`` (N,) bool: the surfels whose rays start off their surface's
+    edges (``inset_origins``; a scan's points, which lie on the edges themselves; a mesh's
+    surfels lie inside their triangles). ``ids`` (N,) int name each surfel's random stream
+    (default: its row): a surfel keeps its rays when others are added or removed.
     Dimensionless, in [0, 1]."""
     from . import receivers as rc
     p = np.ascontiguousarray(positions, dtype=np.float64)
     n = np.ascontiguousarray(normals, dtype=np.float64)
-    back = np.asarray(back, dtype=bool)
+    if len(p) == 0:
+        return Hemisphere(np.zeros(0), np.zeros(0), 0)
     origins = p
     if inset is not None and np.any(inset):
         rows = np.flatnonzero(np.asarray(inset, dtype=bool))
         origins = p.copy()
         origins[rows] = inset_origins(p[rows], n[rows])
-    if not (~back).any():
-        return Hemisphere(np.zeros(len(p)), np.ones(len(p)), 0)
-    ones = lambda k: np.ones((int(k), 3))  # noqa: E731
-    front_field = rc.SurfelField(p[~back], n[~back], ones((~back).sum()))
-    back_field = rc.SurfelField(p[back], n[back], ones(back.sum())) if back.any() else None
-    g = rc.Gatherer(occluders, front_field, back_field=back_field, two_sided=two_sided,
-                    owners=owners, back_owners=back_owners, tabulate=False, threads=threads,
-                    progress=progress)
-    ids = np.arange(len(p), dtype=np.int64)
+    # Every face's value is 1: a lit hit counts 1, a miss (black background) 0, a dark back 0.
+    ones = rc.SurfelField(p, n, np.ones((len(p), 3)))
+    g = rc.Gatherer(occluders, ones, back_field=ones, two_sided=lit_backs, tabulate=False,
+                    threads=threads, progress=progress)
+    ids = (np.arange(len(p), dtype=np.int64) if ids is None
+           else np.ascontiguousarray(ids, dtype=np.int64).reshape(-1))
+    if len(ids) != len(p):
+        raise InputError(f"ids must have {len(p)} entries, got {len(ids)}")
     seed = int(seed) + 0x51ED
     got = g.gather(origins, n, rays=int(rays), ids=ids, seed=seed, threads=threads,
                    progress=progress)
@@ -208,19 +222,19 @@ def hemisphere_hits(occluders, positions, normals, back, *, two_sided=None, owne
 def inset_origins(positions: np.ndarray, normals: np.ndarray, *, share: float = INSET_SHARE,
                   k: int = INSET_NEIGHBOURS) -> np.ndarray:
     """Where each surfel's hemisphere rays start (N, 3, m): ``share`` of the way to the
-    centroid of its ``k`` nearest same-side neighbours, in its tangent plane. Inside a
-    surface the centroid is the surfel itself; at a surface's edge it lies inward, off the
-    plane of the surface that meets it there."""
+    centroid of the ``k`` nearest distinct points around it, in its tangent plane. Inside a
+    surface the centroid is the point itself; at a surface's edge it lies inward, off the
+    plane of the surface that meets it there. A point's two sides (a scan without normals)
+    are one point here, so both start from the same place as a one-sided scan's would."""
     p, n = positions, normals
-    if len(p) < 2:
+    unique, back = np.unique(p, axis=0, return_inverse=True)
+    back = back.reshape(-1)
+    if len(unique) < 2:
         return p.copy()
     from . import _core
-    kk = min(int(k) + 1, len(p))
-    idx, _ = _core.knn(np.ascontiguousarray(p), np.ascontiguousarray(p), kk)
-    same = np.einsum("ij,ikj->ik", n, n[idx]) >= INSET_MIN_COS
-    weight = same.astype(np.float64)
-    count = np.maximum(weight.sum(axis=1), 1.0)
-    centroid = np.einsum("ik,ikj->ij", weight, p[idx]) / count[:, None]
+    kk = min(int(k) + 1, len(unique))
+    idx, _ = _core.knn(np.ascontiguousarray(unique), np.ascontiguousarray(unique), kk)
+    centroid = unique[idx].mean(axis=1)[back]
     shift = centroid - p
     shift -= np.einsum("ij,ij->i", shift, n)[:, None] * n
-    return p + share * np.where((weight.sum(axis=1) > 0)[:, None], shift, 0.0)
+    return p + share * shift

@@ -313,7 +313,9 @@ class TransportOperator:
             hits = conservation.check_hits(hemisphere_hits, surfels.n)
             bound = (None if hemisphere_bound is None
                      else conservation.check_hits(hemisphere_bound, surfels.n, "hemisphere_bound"))
-            self.balance = conservation.balance(self._op.apply, hits, bound=bound)
+            # Surfels that reflect nothing keep their scale (conservation.balance).
+            self.balance = conservation.balance(self._op.apply, hits, bound=bound,
+                                                frozen=~(surfels.albedo.max(axis=1) > 0.0))
             self._scale = self.balance.scale[:, None]
 
     @property
