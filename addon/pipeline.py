@@ -795,11 +795,6 @@ def _assembled(parts: _SurfelParts, settings: Settings, lamp_list: list, world,
                lamps=list(lamp_list), world=world)
 
 
-def has_splats(job: Job) -> bool:
-    """Whether the job's triangles include point clouds' splats."""
-    return job.splat_point is not None and bool((job.splat_point >= 0).any())
-
-
 def triangles_occlude(job: Job) -> bool:
     """Whether triangles are this job's occluders (lamp shadows, exact visibility,
     receivers): the meshes' own and the point clouds' splats (``_surface_triangles``)."""
@@ -1000,11 +995,6 @@ def run(job: Job, progress: Progress | None = None) -> Result:
                 kwargs.update(coverage=SURFEL_COVERAGE, visibility_shape=shape)
     if job.hemisphere is not None:
         kwargs["hemisphere_hits"] = job.hemisphere.hits
-        if job.world is None and has_splats(job):
-            # Rays slip between a scan's splats where they meet at an edge (a closed box
-            # scanned read 0.90 of its light with rows held to the hits alone): in a black
-            # world what leaves carries nothing, so the rows may keep up to hits + open.
-            kwargs["hemisphere_bound"] = job.hemisphere.hits + job.hemisphere.open
     t0 = time.perf_counter()
     try:
         sol = solve(surfels, **kwargs)

@@ -26,13 +26,49 @@ def _a_inner(op, areas, x, y):
 
 
 @pytest.mark.parametrize("sampling", ["grid", "random"])
-def test_rows_never_exceed_the_hemisphere(sampling):
-    """A share below the kernel's rows (half the hemisphere) lowers every row to at most it,
-    and the scaled operator stays reciprocal (diag(A) K' symmetric), so CG still applies."""
+def test_each_row_is_its_share(sampling):
+    """Rows scaled one by one (the default) sum to their share exactly, and the operator is
+    then not reciprocal: the solve takes GMRES."""
     s = scenes.closed_box(10, sampling=sampling, seed=3)
     rng = np.random.default_rng(1)
     hits = rng.uniform(0.2, 0.6, s.n)
     op = illumap.TransportOperator(s, hemisphere_hits=hits)
+    rows = op.apply(np.ones((s.n, 3)))[:, 0]
+    assert np.allclose(rows, hits, rtol=1e-9, atol=0)
+    assert op.stats["balance_max_row_after"] <= hits.max() * (1 + 1e-12)
+    assert not op.symmetric
+    assert illumap.solve(s, operator=op).stats["solver"] == "gmres"
+
+
+@pytest.mark.parametrize("balance", ["rows", "symmetric"])
+def test_rows_keep_within_a_band(balance):
+    """With a bound above the share, rows already inside [hits, bound] keep their sum and
+    the others are brought to its nearer end."""
+    s = scenes.closed_box(10, sampling="random", seed=3)
+    bare = illumap.TransportOperator(s).apply(np.ones((s.n, 3)))[:, 0]
+    hits, bound = np.full(s.n, 0.9), np.full(s.n, 0.98)
+    op = illumap.TransportOperator(s, hemisphere_hits=hits, hemisphere_bound=bound,
+                                   hemisphere_balance=balance)
+    rows = op.apply(np.ones((s.n, 3)))[:, 0]
+    assert np.all(rows <= bound + 1e-9)
+    inside = (bare >= 0.9) & (bare <= 0.98)
+    assert inside.any() and (~inside).any()
+    if balance == "rows":
+        assert np.allclose(rows[inside], bare[inside], rtol=1e-12)
+        assert np.allclose(rows[~inside], np.clip(bare[~inside], 0.9, 0.98), rtol=1e-9)
+    else:
+        assert np.all(rows >= hits - 1e-3)
+
+
+@pytest.mark.parametrize("sampling", ["grid", "random"])
+def test_rows_never_exceed_the_hemisphere(sampling):
+    """Scaled symmetrically, a share below the kernel's rows (half the hemisphere) lowers
+    every row to at most it, and the operator stays reciprocal (diag(A) K' symmetric), so CG
+    still applies."""
+    s = scenes.closed_box(10, sampling=sampling, seed=3)
+    rng = np.random.default_rng(1)
+    hits = rng.uniform(0.2, 0.6, s.n)
+    op = illumap.TransportOperator(s, hemisphere_hits=hits, hemisphere_balance="symmetric")
     rows = op.apply(np.ones((s.n, 3)))[:, 0]
     assert np.all(rows <= hits + 1e-9)
     assert op.stats["balance_max_row_after"] <= hits.max() + 1e-9
@@ -47,38 +83,40 @@ def test_a_sealed_surfel_neither_receives_nor_sends():
     s = scenes.closed_box(6)
     hits = np.ones(s.n)
     hits[5] = 0.0
-    op = illumap.TransportOperator(s, hemisphere_hits=hits)
+    op = illumap.TransportOperator(s, hemisphere_hits=hits, hemisphere_balance="symmetric")
     e = np.zeros((s.n, 3))
     e[5] = 1.0
     assert np.all(op.apply(e) == 0.0)
     assert np.all(op.apply(np.ones((s.n, 3)))[5] == 0.0)
 
 
+@pytest.mark.parametrize("balance", ["rows", "symmetric"])
 @pytest.mark.parametrize("rho", [0.9, 0.99])
 @pytest.mark.parametrize("sampling", ["grid", "random"])
-def test_closed_furnace_is_exact_at_every_surfel(rho, sampling):
+def test_closed_furnace_is_exact_at_every_surfel(rho, sampling, balance):
     """Uniform E and ρ inside a closed box: B = E/(1 − ρ) at every surfel, however the
     surfels are jittered. The kernel's own rows (0.95-1.08 on the random box) put single
     surfels tens of percent off at ρ 0.99; rows balanced to the share every ray meets (1)
     leave at most 1%."""
     s = scenes.closed_box(16, sampling=sampling, albedo=rho, emission=1.0, seed=5)
     bare = illumap.solve(s, tol=1e-10)
-    sol = illumap.solve(s, tol=1e-10, hemisphere_hits=np.ones(s.n))
-    assert sol.converged and sol.stats["solver"] == "cg"
+    sol = illumap.solve(s, tol=1e-10, hemisphere_hits=np.ones(s.n), hemisphere_balance=balance)
+    assert sol.converged and sol.stats["solver"] == ("cg" if balance == "symmetric" else "gmres")
     worst = float(np.max(np.abs(sol.radiosity * (1 - rho) - 1.0)))
     worst_bare = float(np.max(np.abs(bare.radiosity * (1 - rho) - 1.0)))
-    print(f"\n{sampling} rho {rho}: worst surfel {worst:.4%} (kernel's rows: {worst_bare:.2%})")
+    print(f"\n{sampling} rho {rho} {balance}: worst surfel {worst:.4%} (kernel's rows: {worst_bare:.2%})")
     assert worst <= 0.01
 
 
+@pytest.mark.parametrize("balance", ["rows", "symmetric"])
 @pytest.mark.parametrize("sampling, areas", [("fibonacci", "uniform"), ("random", "random")])
-def test_sphere_at_default_settings(sampling, areas):
+def test_sphere_at_default_settings(sampling, areas, balance):
     """The sphere's closed form at ρ 0.95 with the default FMM and near field: within 0.2%
     once the rows follow the hemisphere (1.7-2.1% on the kernel's own rows)."""
     s = scenes.sphere_interior(12000, radius=1.0, sampling=sampling, areas=areas, albedo=0.95,
                                seed=7)
     exact = scenes.sphere_exact_radiosity(s, 1.0)
-    sol = illumap.solve(s, tol=1e-9, hemisphere_hits=np.ones(s.n))
+    sol = illumap.solve(s, tol=1e-9, hemisphere_hits=np.ones(s.n), hemisphere_balance=balance)
     err = np.linalg.norm(sol.radiosity - exact) / np.linalg.norm(exact)
     assert sol.converged
     assert err <= 0.002, err

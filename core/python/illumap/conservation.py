@@ -43,10 +43,8 @@ HEMISPHERE_RAYS = 64
 #: millimetre (a closed box scanned, lit inside: 0.90 of Cycles' light, 0.97 inset).
 INSET_SHARE = 0.25
 INSET_NEIGHBOURS = 8
-#: Rays cast again from a surfel whose first rays did not all meet one kind of thing (a lit
-#: face, the sky, a dark face): one ray grazing an edge then moves its share by 1/256, not
-#: 1/64, and the share's noise, which the solve passes on, falls by half.
-PARTIAL_RAYS = 256
+#: Surfels whose rays are cast in one batch (64 rays each: 200 MB of rays and hits).
+HEMISPHERE_CHUNK = 16384
 #: At most this many Sinkhorn iterations of ``balance`` (one operator application each);
 #: a closed box of grid surfels needs 14, of uniform random ones 31. An open room whose
 #: parts touch (a box on a floor, an emitter 1 mm under a ceiling) does not converge in 40:
@@ -55,6 +53,9 @@ BALANCE_ITERATIONS = 40
 #: The iteration stops once every row is within this of its share (ρ/(1 − ρ) amplifies it:
 #: 0.01% at ρ 0.99).
 BALANCE_TOL = 1e-6
+#: The iteration stops once no row still off its target by more than ``BALANCE_TOL`` closed
+#: in on it by at least this factor in the last step.
+STALL = 0.8
 #: A surfel's scale stays at most this: one K barely couples (its neighbours all coplanar,
 #: or in contact below the near field's reach) keeps a small row rather than borrowing
 #: light from the few partners it has. Uniform random surfels on a box need 2.4.
@@ -106,6 +107,26 @@ def check_hits(hits, n: int, name: str = "hemisphere_hits") -> np.ndarray:
     return h
 
 
+def scale_rows(apply: Callable[[np.ndarray], np.ndarray], hits: np.ndarray, *,
+               bound: np.ndarray | None = None, max_scale: float = MAX_SCALE) -> Balance:
+    """Per-receiver scales ``s`` (N,) for ``K' = diag(s) K``: each row of K is brought into
+    [hits_i, bound_i] (bound defaults to hits: equality) by its own factor, at most
+    ``max_scale`` up, as a renderer normalises a receiver's gather to the hemisphere it
+    sees (Ritschel et al.'s micro-buffer). One application of K (its row sums); exact,
+    continuous in the input, no iteration. Reciprocity is given up where the factors of a
+    pair differ, so the solve uses GMRES."""
+    h = np.asarray(hits, dtype=np.float64)
+    hi = h if bound is None else np.maximum(np.asarray(bound, dtype=np.float64), h)
+    rows_before = _rows(apply, np.ones_like(h))
+    target = np.clip(rows_before, h, hi)
+    scale = np.where(rows_before > 0.0,
+                     np.minimum(target / np.where(rows_before > 0.0, rows_before, 1.0), max_scale),
+                     0.0)
+    scale = np.where(hi > 0.0, scale, 0.0)
+    return Balance(scale=scale, hits=hi, rows_before=rows_before,
+                   rows_after=scale * rows_before, applications=1)
+
+
 def balance(apply: Callable[[np.ndarray], np.ndarray], hits: np.ndarray, *,
             bound: np.ndarray | None = None, frozen: np.ndarray | None = None,
             iterations: int = BALANCE_ITERATIONS, tol: float = BALANCE_TOL,
@@ -131,13 +152,20 @@ def balance(apply: Callable[[np.ndarray], np.ndarray], hits: np.ndarray, *,
     d = np.where((hi > 0.0) | fixed, 1.0, 0.0)
     applications = 1
     kd = rows_before * 1.0
+    last = None
     for _ in range(int(iterations)):
         rows = d * kd
         target = np.clip(rows, lo, hi)
         gap = np.where(fixed, 0.0, np.abs(rows - target))
         reachable = (d < max_scale) | (rows > target)   # a capped row cannot rise further
-        if not np.any((gap > tol) & reachable):
+        # Rows that stopped closing in on their target (a chain of rows K barely couples)
+        # cost an application each and gain nothing: only the ones still settling count.
+        settling = (gap > tol) & reachable
+        if last is not None:
+            settling &= gap < STALL * last
+        if not np.any(settling):
             break
+        last = gap
         live = (kd > 0.0) & (d > 0.0) & ~fixed
         d = np.where(live, np.sqrt(d * target / np.where(live, kd, 1.0)), d)
         d = np.minimum(d, max_scale)
@@ -168,8 +196,8 @@ class Hemisphere:
 
 
 def hemisphere_hits(occluders, positions, normals, *, lit_backs=None,
-                    rays: int = HEMISPHERE_RAYS, partial_rays: int = PARTIAL_RAYS, inset=None,
-                    ids=None, seed: int = 0, threads: int = 0, progress=None) -> Hemisphere:
+                    rays: int = HEMISPHERE_RAYS, inset=None, ids=None, seed: int = 0,
+                    progress=None) -> Hemisphere:
     """Each surfel's cosine-weighted share (N,) of its hemisphere whose first hit is a lit
     face, and the share that meets nothing: rays from ``positions`` (N, 3, m) about unit
     ``normals`` against ``occluders`` (``receivers.MeshOccluders``: the scene's triangles
@@ -178,10 +206,10 @@ def hemisphere_hits(occluders, positions, normals, *, lit_backs=None,
     are not: a surfel buried there sees nothing that sends light. A scan's splats should be
     lit on both faces: a ray meets one from behind only where the fitted normals bend round
     an edge, and a scan given its normals must see what the same scan without them sees.
-    ``rays`` per surfel, and ``partial_rays`` afresh from each whose rays did not all meet
-    one kind of thing. ``inset`` (N,) bool: the surfels whose rays start off their surface's
-    edges (``inset_origins``; a scan's points, which lie on the edges themselves; a mesh's
-    surfels lie inside their triangles). ``ids`` (N,) int name each surfel's random stream
+    ``rays`` per surfel (``receivers.cosine_directions``, the gather's lattice), lifted
+    ``occluders.offset`` off the surface. ``inset`` (N,) bool: the surfels whose rays start
+    off their surface's edges (``inset_origins``; a scan's points, which lie on the edges
+    themselves; a mesh's surfels lie inside their triangles). ``ids`` (N,) int name each surfel's random stream
     (default: its row): a surfel keeps its rays when others are added or removed.
     Dimensionless, in [0, 1]."""
     from . import receivers as rc
@@ -194,29 +222,29 @@ def hemisphere_hits(occluders, positions, normals, *, lit_backs=None,
         rows = np.flatnonzero(np.asarray(inset, dtype=bool))
         origins = p.copy()
         origins[rows] = inset_origins(p[rows], n[rows])
-    # Every face's value is 1: a lit hit counts 1, a miss (black background) 0, a dark back 0.
-    ones = rc.SurfelField(p, n, np.ones((len(p), 3)))
-    g = rc.Gatherer(occluders, ones, back_field=ones, two_sided=lit_backs, tabulate=False,
-                    threads=threads, progress=progress)
     ids = (np.arange(len(p), dtype=np.int64) if ids is None
            else np.ascontiguousarray(ids, dtype=np.int64).reshape(-1))
     if len(ids) != len(p):
         raise InputError(f"ids must have {len(p)} entries, got {len(ids)}")
+    backs = None if lit_backs is None else np.asarray(lit_backs, dtype=bool).reshape(-1)
     seed = int(seed) + 0x51ED
-    got = g.gather(origins, n, rays=int(rays), ids=ids, seed=seed, threads=threads,
-                   progress=progress)
-    hits = np.clip(got.radiance[:, 0], 0.0, 1.0)
-    open_ = np.clip(np.asarray(got.open, dtype=np.float64), 0.0, 1.0 - hits)
-    cast = int(got.rays)
-    partial = np.flatnonzero(~((hits == 1.0) | (open_ == 1.0) | (hits + open_ == 0.0)))
-    if partial.size and int(partial_rays) > int(rays):
-        again = g.gather(origins[partial], n[partial], rays=int(partial_rays), ids=ids[partial],
-                         seed=seed + 1, threads=threads, progress=progress)
-        hits[partial] = np.clip(again.radiance[:, 0], 0.0, 1.0)
-        open_[partial] = np.clip(np.asarray(again.open, dtype=np.float64), 0.0,
-                                 1.0 - hits[partial])
-        cast += int(again.rays)
-    return Hemisphere(hits, open_, cast)
+    count = int(rays)
+    hits = np.empty(len(p))
+    open_ = np.empty(len(p))
+    lift = origins + occluders.offset * n
+    for start in range(0, len(p), HEMISPHERE_CHUNK):
+        stop = min(start + HEMISPHERE_CHUNK, len(p))
+        if progress is not None and progress(start / len(p), "hemisphere") is False:
+            from . import Cancelled
+            raise Cancelled("cancelled")
+        dirs = rc.cosine_directions(n[start:stop], count, ids[start:stop], seed)
+        o = np.repeat(lift[start:stop], count, axis=0)
+        tri, _, front = occluders.intersect(o, dirs.reshape(-1, 3))
+        met = tri >= 0
+        lit = met if backs is None else met & (front | backs[np.maximum(tri, 0)])
+        hits[start:stop] = lit.reshape(-1, count).mean(axis=1)
+        open_[start:stop] = (~met).reshape(-1, count).mean(axis=1)
+    return Hemisphere(hits, open_, len(p) * count)
 
 
 def inset_origins(positions: np.ndarray, normals: np.ndarray, *, share: float = INSET_SHARE,

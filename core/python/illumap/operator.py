@@ -61,6 +61,11 @@ VISIBILITIES = {
     "seed": (True, True),
     "exact": (True, True),
 }
+#: How ``hemisphere_hits`` bounds the rows: "rows" scales each receiver's row on its own
+#: (one application, exact; the operator is no longer reciprocal, so GMRES solves it);
+#: "symmetric" scales rows and columns alike, diag(d) K diag(d) (Sinkhorn: tens of
+#: applications; reciprocal, so CG solves it).
+HEMISPHERE_BALANCES = ("rows", "symmetric")
 VISIBILITY_LEAF_MODES = ("per_pair", "per_pair_all", "fractional", "binary")
 #: Shapes a surfel occludes with (``visibility_shape``, ``Occluders(shape=)``), each of its
 #: disc's area.
@@ -85,7 +90,7 @@ VISIBILITY_DEFAULTS = {
 #: The keywords ``solve`` forwards to TransportOperator.
 OPERATOR_KEYWORDS = ("method", "order", "theta", "leaf_size", "near_field", "visibility",
                      "threads", "occluder_triangles", "hemisphere_hits",
-                     "hemisphere_bound") + tuple(VISIBILITY_DEFAULTS)
+                     "hemisphere_bound", "hemisphere_balance") + tuple(VISIBILITY_DEFAULTS)
 
 
 def _require_core():
@@ -138,7 +143,7 @@ def check_values(values, n: int, name: str = "values") -> np.ndarray:
 def validate_keywords(*, method=DEFAULT_METHOD, order=DEFAULT_ORDER, theta=DEFAULT_THETA,
                       leaf_size=DEFAULT_LEAF_SIZE, near_field=DEFAULT_NEAR_FIELD,
                       visibility=DEFAULT_VISIBILITY, threads=0, occluder_triangles=None,
-                      hemisphere_hits=None, hemisphere_bound=None,
+                      hemisphere_hits=None, hemisphere_bound=None, hemisphere_balance="rows",
                       **visibility_keywords) -> dict:
     """Check the operator keywords (raises InputError) and return them normalized."""
     out = {}
@@ -152,6 +157,7 @@ def validate_keywords(*, method=DEFAULT_METHOD, order=DEFAULT_ORDER, theta=DEFAU
     if not VISIBILITIES[out["visibility"]][0]:
         raise InputError(f"visibility={out['visibility']!r} is not implemented")
     out["threads"] = _check("threads", threads)
+    _check_choice("hemisphere_balance", hemisphere_balance, HEMISPHERE_BALANCES)
     unknown = set(visibility_keywords) - set(VISIBILITY_DEFAULTS)
     if unknown:
         raise TypeError(f"unexpected keyword(s) {sorted(unknown)}")
@@ -255,6 +261,9 @@ class TransportOperator:
         With ``hemisphere_hits``: rows may lie anywhere in [hits, bound] (default: bound =
         hits, rows equal to their share). A black world's add-on run bounds a scan's rows by
         hits + open share: a ray that slips between two splats is no window.
+    hemisphere_balance : "rows" | "symmetric"
+        With ``hemisphere_hits``: scale each row on its own (default; one application, and
+        GMRES solves) or rows and columns alike (Sinkhorn; reciprocal, CG solves).
     threads : int
         Worker threads, 0 = all hardware threads.
     progress : callable(fraction, phase) -> bool | None, optional
@@ -267,7 +276,7 @@ class TransportOperator:
                  leaf_size: int = DEFAULT_LEAF_SIZE, near_field: str = DEFAULT_NEAR_FIELD,
                  visibility: str = DEFAULT_VISIBILITY, threads: int = 0, progress=None,
                  occluder_triangles=None, hemisphere_hits=None, hemisphere_bound=None,
-                 **visibility_keywords):
+                 hemisphere_balance: str = "rows", **visibility_keywords):
         if not isinstance(surfels, Surfels):
             raise InputError(
                 f"surfels: expected an illumap.Surfels, got {type(surfels).__name__} "
@@ -308,15 +317,22 @@ class TransportOperator:
                 **self.visibility_options,
             )
         self.balance = None
-        self._scale = None
+        self._scale = None        # left scale (N, 1): rows
+        self._right = None        # right scale (N, 1): columns ("symmetric" only)
+        self.hemisphere_balance = _check_choice("hemisphere_balance", hemisphere_balance,
+                                                HEMISPHERE_BALANCES)
         if hemisphere_hits is not None:
             hits = conservation.check_hits(hemisphere_hits, surfels.n)
             bound = (None if hemisphere_bound is None
                      else conservation.check_hits(hemisphere_bound, surfels.n, "hemisphere_bound"))
-            # Surfels that reflect nothing keep their scale (conservation.balance).
-            self.balance = conservation.balance(self._op.apply, hits, bound=bound,
-                                                frozen=~(surfels.albedo.max(axis=1) > 0.0))
-            self._scale = self.balance.scale[:, None]
+            if self.hemisphere_balance == "rows":
+                self.balance = conservation.scale_rows(self._op.apply, hits, bound=bound)
+                self._scale = self.balance.scale[:, None]
+            else:
+                # Surfels that reflect nothing keep their scale (conservation.balance).
+                self.balance = conservation.balance(self._op.apply, hits, bound=bound,
+                                                    frozen=~(surfels.albedo.max(axis=1) > 0.0))
+                self._scale = self._right = self.balance.scale[:, None]
 
     @property
     def n(self) -> int:
@@ -335,9 +351,8 @@ class TransportOperator:
         with guard:
             if self._scale is None:
                 return self._op.apply(values, progress=guard.native_callback())
-            y = self._op.apply(np.ascontiguousarray(values * self._scale),
-                               progress=guard.native_callback())
-            return y * self._scale
+            x = values if self._right is None else np.ascontiguousarray(values * self._right)
+            return self._op.apply(x, progress=guard.native_callback()) * self._scale
 
     __call__ = apply
 
@@ -350,13 +365,14 @@ class TransportOperator:
             raise InputError(f"rows[{k}] = {rows[k]} is out of range [0, {self.n})")
         if self._scale is None:
             return self._op.apply_rows(values, rows)
-        y = self._op.apply_rows(np.ascontiguousarray(values * self._scale), rows)
-        return y * self._scale[rows]
+        x = values if self._right is None else np.ascontiguousarray(values * self._right)
+        return self._op.apply_rows(x, rows) * self._scale[rows]
 
     @property
     def symmetric(self) -> bool:
         """True when diag(A)·F·V is symmetric (reciprocal kernel and visibility): CG applies."""
-        return bool(self._op.symmetric) and self._reciprocal_visibility
+        one_sided = self._scale is not None and self._right is None
+        return bool(self._op.symmetric) and self._reciprocal_visibility and not one_sided
 
     @property
     def stats(self) -> dict:
@@ -378,7 +394,7 @@ class TransportOperator:
         if self.visibility != "none":
             stats.update(self.visibility_options)
         if self.balance is not None:
-            stats.update(self.balance.stats())
+            stats.update(self.balance.stats(), hemisphere_balance=self.hemisphere_balance)
         return stats
 
     def keywords(self) -> dict:

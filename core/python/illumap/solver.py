@@ -275,11 +275,12 @@ def _make_apply(op, guard, monitor_ref):
                 monitor_ref[0].applications += 1
             if not np.all(np.isfinite(x)):     # never hand NaN/inf to native code
                 raise FloatingPointError("solver iterate became non-finite")
-            scale = op._scale
+            scale, right = op._scale, op._right
             if scale is None:
                 return native.apply(np.ascontiguousarray(x, dtype=np.float64), progress=callback)
-            y = native.apply(np.ascontiguousarray(x * scale, dtype=np.float64), progress=callback)
-            return y * scale
+            if right is not None:
+                x = x * right
+            return native.apply(np.ascontiguousarray(x, dtype=np.float64), progress=callback) * scale
     else:
         def apply(x):
             if monitor_ref[0] is not None:
