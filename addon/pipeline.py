@@ -825,11 +825,11 @@ def _shadows(job: Job, normals: np.ndarray, samples: int, progress: Progress | N
                          progress=progress)
 
 
-#: Balance each surfel's transport row to its measured hemisphere share
+#: Scale each surfel's transport row to its measured hemisphere share
 #: (``illumap.conservation``) and take the world's light at the surfels from the same rays.
 #: White furnace against Cycles (bench/reference/furnace.py --conserve on/off): Suzanne
-#: 0.83 -> 0.22 RMS (max 2.93 -> 1.007, CG converges), bunny scan 2.18 -> 0.10 (max 8.1 ->
-#: 0.999), room scan 0.195 -> 0.0004; bench monkey 4.56% -> 2.3%. False restores the
+#: 0.83 -> 0.23 RMS (max 2.93 -> 1.01, the solve converges), bunny scan 2.18 -> 0.037 (max
+#: 8.1 -> 1.10), room scan 0.195 -> 0.0005; bench monkey 4.56% -> 2.5%. False restores the
 #: kernel's own rows (to compare; light is then created where parts overlap).
 CONSERVE_LIGHT = True
 

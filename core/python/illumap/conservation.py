@@ -235,7 +235,7 @@ def hemisphere_hits(occluders, positions, normals, *, lit_backs=None,
     for start in range(0, len(p), HEMISPHERE_CHUNK):
         stop = min(start + HEMISPHERE_CHUNK, len(p))
         if progress is not None and progress(start / len(p), "hemisphere") is False:
-            from . import Cancelled
+            from ._progress import Cancelled
             raise Cancelled("cancelled")
         dirs = rc.cosine_directions(n[start:stop], count, ids[start:stop], seed)
         o = np.repeat(lift[start:stop], count, axis=0)
