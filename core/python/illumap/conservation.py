@@ -11,18 +11,20 @@ parts), rows exceed 1, ρ·F·V stops being a contraction and the solve creates 
 The share is measured where renderers measure it, by rays from the surfel that take their
 first hit (``hemisphere_hits``: the final gather's own rays, against the scene's triangles
 or a scan's splats; a hit on a face that carries no surfel, such as the inside of a closed
-part, sends nothing). The operator K is then scaled symmetrically, ``K' = D K D``
-(``balance``), so that every row sums to that share:
+part, sends nothing). Each receiver's row of the operator K is then scaled to that share
+(``scale_rows``, the default), as a micro-buffer normalises a receiver's gather to its
+hemisphere:
 
-    d_i Σ_j K_ij d_j = h_i        (h_i: the measured share, 0 for a sealed, buried surfel)
+    K'_ij = s_i K_ij,   s_i = h_i / Σ_j K_ij   (at most MAX_SCALE; 0 for a sealed surfel)
 
-``diag(A) K'`` stays symmetric (D is diagonal), so CG still applies, and since every row of
-K' sums to at most h_i ≤ 1, ``I − ρ K'`` is positive definite for ρ < 1: the solve cannot
-meet an indefinite system. Rows that K undercounts (gaps between discs in a closed room)
-are raised to their share, which makes the closed furnace exact for any sampling. The
-scales come from a damped symmetric Sinkhorn iteration (``d ← sqrt(d h / K d)``, one
-operator application each, until every row is within ``BALANCE_TOL`` of its share) and a closing step that only lowers rows, so that the bound
-holds exactly whatever the iteration reached.
+One application of K gives the row sums; every row of K' then sums to its share exactly, so
+ρ K' is a contraction for ρ < 1 and the solve cannot create light. Rows K undercounts (gaps
+between discs in a closed room) are raised to their share, which makes the closed furnace
+exact for any sampling. The scaling gives up reciprocity where a pair's factors differ, so
+the solve takes GMRES. ``balance`` is the reciprocal alternative, ``K' = D K D`` with
+``d_i Σ_j K_ij d_j = h_i`` from a damped symmetric Sinkhorn iteration and a closing step
+that only lowers rows: CG still applies, but it takes tens of applications and does not
+settle where parts touch.
 """
 
 from __future__ import annotations
@@ -64,7 +66,8 @@ MAX_SCALE = 3.0
 
 @dataclass
 class Balance:
-    """The symmetric scaling of a transport operator: ``K' = diag(scale) K diag(scale)``."""
+    """The scaling of a transport operator: ``K' = diag(scale) K`` (``scale_rows``) or
+    ``diag(scale) K diag(scale)`` (``balance``)."""
 
     scale: np.ndarray         # (N,) d_i ≥ 0
     hits: np.ndarray          # (N,) the bound each row now sums to at most (inf: frozen)

@@ -252,15 +252,13 @@ class TransportOperator:
         "seed": per-pair V is 0/1 after t1 (default) or the attenuation product.
     hemisphere_hits : (N,) array in [0, 1] or None
         Each surfel's measured share of its hemisphere whose first hit is a surface that
-        sends light (``illumap.conservation.hemisphere_hits``). Given, the operator is scaled
-        symmetrically, ``diag(d) K diag(d)``, so that every row sums to that share and never
-        more (``illumap.conservation.balance``; ``stats`` reports it): light is conserved on
-        overlapping, coincident and buried surfels, and the solve meets no indefinite system.
-        None: the kernel's own rows.
+        sends light (``illumap.conservation.hemisphere_hits``). Given, every row of the
+        operator is scaled to sum to that share and never more (``hemisphere_balance``;
+        ``stats`` reports it): light is conserved on overlapping, coincident and buried
+        surfels, and the solve cannot create light. None: the kernel's own rows.
     hemisphere_bound : (N,) array in [0, 1] or None
         With ``hemisphere_hits``: rows may lie anywhere in [hits, bound] (default: bound =
-        hits, rows equal to their share). A black world's add-on run bounds a scan's rows by
-        hits + open share: a ray that slips between two splats is no window.
+        hits, rows equal to their share).
     hemisphere_balance : "rows" | "symmetric"
         With ``hemisphere_hits``: scale each row on its own (default; one application, and
         GMRES solves) or rows and columns alike (Sinkhorn; reciprocal, CG solves).
@@ -349,12 +347,18 @@ class TransportOperator:
             raise InputError(f"progress: expected a callable or None, got {progress!r}")
         guard = ProgressGuard(progress)
         with guard:
-            if self._scale is None:
-                return self._op.apply(values, progress=guard.native_callback())
-            x = values if self._right is None else np.ascontiguousarray(values * self._right)
-            return self._op.apply(x, progress=guard.native_callback()) * self._scale
+            return self.apply_native(values, guard.native_callback())
 
     __call__ = apply
+
+    def apply_native(self, values: np.ndarray, progress=None) -> np.ndarray:
+        """``apply`` without its checks, for callers that checked ``values`` (N×3 float64
+        C-contiguous, finite) themselves: the native application with the hemisphere's
+        scales. ``progress``: a native callback."""
+        if self._scale is None:
+            return self._op.apply(values, progress=progress)
+        x = values if self._right is None else np.ascontiguousarray(values * self._right)
+        return self._op.apply(x, progress=progress) * self._scale
 
     def apply_rows(self, values, rows) -> np.ndarray:
         """Exact direct sums for the selected receivers ``rows`` (int array): len(rows)×3."""

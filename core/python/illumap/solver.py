@@ -262,7 +262,6 @@ class _Monitor:
 def _make_apply(op, guard, monitor_ref):
     """K(x) for N×3 float64 x, with cancellation inside long native applications."""
     if isinstance(op, TransportOperator):
-        native = op._op
 
         def keep_alive(fraction, phase):  # native progress while one apply runs
             monitor = monitor_ref[0]
@@ -275,12 +274,7 @@ def _make_apply(op, guard, monitor_ref):
                 monitor_ref[0].applications += 1
             if not np.all(np.isfinite(x)):     # never hand NaN/inf to native code
                 raise FloatingPointError("solver iterate became non-finite")
-            scale, right = op._scale, op._right
-            if scale is None:
-                return native.apply(np.ascontiguousarray(x, dtype=np.float64), progress=callback)
-            if right is not None:
-                x = x * right
-            return native.apply(np.ascontiguousarray(x, dtype=np.float64), progress=callback) * scale
+            return op.apply_native(np.ascontiguousarray(x, dtype=np.float64), callback)
     else:
         def apply(x):
             if monitor_ref[0] is not None:
