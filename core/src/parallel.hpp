@@ -14,6 +14,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstddef>
+#include <cstdlib>
 #include <exception>
 #include <mutex>
 #include <stdexcept>
@@ -35,7 +36,14 @@ public:
     virtual bool poll(double fraction, const char* phase) = 0;
 };
 
+// The default worker count: ILLUMAP_THREADS when set to a positive integer (a farm's slot, or
+// a test comparing thread counts), else every hardware thread. Results do not depend on it.
 inline int hardware_threads() {
+    if (const char* env = std::getenv("ILLUMAP_THREADS")) {
+        char* end = nullptr;
+        const long n = std::strtol(env, &end, 10);
+        if (end != env && *end == '\0' && n > 0 && n <= 4096) return int(n);
+    }
     unsigned n = std::thread::hardware_concurrency();
     return n ? int(n) : 1;
 }
