@@ -226,8 +226,10 @@ def check_memory(count: int, settings: Settings) -> None:
 def _split_objects(depsgraph, objects) -> tuple[list, list, list[str]]:
     meshes, points, warnings = [], [], []
     from .output import SURFEL_OBJECT
-    for obj in objects:
-        if obj is None or obj.name == SURFEL_OBJECT or obj.type == "LIGHT":
+    # By name, not in selection order: the surfels' rows, and the budget's share where areas
+    # tie, are then the same however the objects were selected.
+    for obj in sorted((o for o in objects if o is not None), key=lambda o: o.name):
+        if obj.name == SURFEL_OBJECT or obj.type == "LIGHT":
             continue
         if obj.type == "POINTCLOUD":
             points.append(obj)
@@ -475,14 +477,13 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
                 budget = _mesh_share(budget, float(mesh_areas.sum()), point_area, len(tri_meshes))
             counts = sampling.allocate(mesh_areas, density=settings.density, budget=budget)
     check_memory(int(counts.sum()), settings)  # before sampling allocates anything big
-    rng = np.random.default_rng(settings.seed)
     # Every point is a receiver; the solve needs only as many surfels as the light does.
     wanted = _point_counts(settings, density, [len(p.areas) for p in read], point_sources,
                            float(mesh_areas.sum()))
-    # The thinning's random order is drawn here, before the meshes' samples, as ever: the
-    # build thins with it.
-    orders = [rng.permutation(len(p.areas)) if n < len(p.areas) else None
-              for p, n in zip(read, wanted)]
+    # Each object's random stream is its own (``sampling.object_rng``): the build thins a
+    # cloud with this order.
+    orders = [sampling.object_rng(settings.seed, p.name, 1).permutation(len(p.areas))
+              if n < len(p.areas) else None for p, n in zip(read, wanted)]
     lamp_list = lamps.read_lamps(depsgraph, warnings) if settings.lamps else []
     world = lamps.world_light(depsgraph.scene, warnings) if settings.world_ambient else None
     refine = None
@@ -497,7 +498,8 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
         refine = _Scene(tri_meshes, counts, [], point_sources, lamp_list, world)   # points: build
         first = np.maximum(np.rint(counts * fraction).astype(np.int64), 1)
     lights = emitters.mesh_lights(tri_meshes, warnings)
-    samples = [sampling.sample_mesh(tm, int(n), rng) for tm, n in zip(tri_meshes, first)]
+    samples = [sampling.sample_mesh(tm, int(n), sampling.object_rng(settings.seed, tm.name))
+               for tm, n in zip(tri_meshes, first)]
     mesh_parts = _surfel_parts(samples, warnings)
     receivers = []
     if settings.transfer:
@@ -905,8 +907,8 @@ def next_pass(job: Job, result: "Result") -> Job | None:
     per_mesh = refined.per_mesh()
     weighted = [float((w * reg.area).sum()) for w, reg in zip(per_mesh, regions)]
     counts = sampling.allocate(np.array(weighted), budget=int(scene.counts.sum()))
-    rng = np.random.default_rng([s.seed, 2])
-    samples = [sampling.sample_mesh(tm, int(n), rng, regions=reg, weights=w)
+    samples = [sampling.sample_mesh(tm, int(n), sampling.object_rng(s.seed, tm.name, 2),
+                                    regions=reg, weights=w)
                for tm, n, reg, w in zip(scene.tri_meshes, counts, regions, per_mesh)]
     stats = dict(job.stats)
     stats.pop("shadow_rays", None)

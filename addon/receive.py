@@ -147,10 +147,16 @@ def _merged_corners(occ, rec, lamps_=()) -> tuple[np.ndarray, np.ndarray]:
     puts its shadow's edge through the floor's vertices: the corners on either side of it,
     all the lead's, had read the vertex fully lit or fully dark, where it is half lit.
     Returns (the rows to evaluate, each corner's row among them)."""
+    if len(rec.points) == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
     key = np.column_stack([rec.corner_vertex, np.round(rec.normals * 1e5).astype(np.int64)])
-    _, first, group = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    _, group = np.unique(key, axis=0, return_inverse=True)
     group = group.ravel()
-    lead = first[group]
+    # The lead is the corner of least identity, not the first in Blender's loop order, which
+    # changes from session to session: the vertex is then evaluated inside the same face.
+    by_group = np.lexsort((rec.ids, group))
+    starts = np.flatnonzero(np.r_[True, np.diff(group[by_group]) != 0])
+    lead = by_group[starts][group]
     others = np.flatnonzero(lead != np.arange(len(lead)))
     joined = np.arange(len(lead))
     if others.size:
@@ -663,7 +669,8 @@ def _rows_of(rec, rows: np.ndarray, normals: np.ndarray | None = None):
     return replace(rec, corner_vertex=rec.corner_vertex[rows], points=rec.points[rows],
                    normals=rec.normals[rows] if normals is None else normals,
                    albedo=rec.albedo[rows], emission=rec.emission[rows],
-                   inward=None if rec.inward is None else rec.inward[rows])
+                   inward=None if rec.inward is None else rec.inward[rows],
+                   corner_id=rec.ids[rows])
 
 
 def _probe_sides(front, back, incident_at, gather_rays: int, shadow_samples: int,
@@ -812,10 +819,12 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
         points = np.concatenate([rec.points[rows] for rec, (rows, _) in zip(batch, merged)])
         normals = np.concatenate([rec.normals[rows] for rec, (rows, _) in zip(batch, merged)])
         offsets = np.cumsum([0] + [len(rows) for rows, _ in merged])
-        # Each receiver's rays follow from its index in its object alone (both sides of a
-        # point alike): not from which other objects are in the batch, nor from their names.
-        ids = np.concatenate([rows if own is None else own[rows]
-                              for own, (rows, _) in zip(batch_ids, merged)]).astype(np.int64)
+        # Each receiver's rays follow from its identity in its object alone (a corner's from
+        # its vertex and face, a point's from its row, both sides of a point alike): not from
+        # which other objects are in the batch, nor from the order Blender keeps faces in.
+        ids = np.concatenate([rec.ids[rows] if own is None else own[rows]
+                              for rec, own, (rows, _) in zip(batch, batch_ids, merged)]
+                             ).astype(np.int64)
         # Each batch row's mesh among the MESH sources (-1: a point cloud's point).
         mesh_index = {src.name: i for i, src in
                       enumerate(x for x in job.sources if x.kind == "MESH")}

@@ -20,6 +20,7 @@ mesh area exactly (up to rounding) whatever the triangle sizes.
 
 from __future__ import annotations
 
+import zlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -179,6 +180,47 @@ def read_instances(depsgraph, instancer_names: set[str]) -> list[TriangleMesh]:
     return out
 
 
+def canonical_triangles(tri_vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The order (T,) and corner rotation (T, 3) that put triangles given by their vertex
+    indices (T, 3) into an order that follows from the vertices alone: each triangle starts at
+    its lowest vertex (its winding kept), and the triangles are sorted by their vertices.
+
+    Blender does not keep the order of faces, nor where a face's loop starts, from one session
+    to the next (a UV sphere made twice has its faces in different orders), while the vertices
+    keep their indices. The samples, laid out along the triangles in this order, are then the
+    same in every session and in every frame where the mesh is the same."""
+    v = np.asarray(tri_vertices, dtype=np.int64).reshape(-1, 3)
+    turn = (v.argmin(axis=1)[:, None] + np.arange(3)) % 3
+    turned = np.take_along_axis(v, turn, axis=1)
+    ranked = np.sort(v, axis=1)
+    order = np.lexsort((turned[:, 2], turned[:, 1], ranked[:, 2], ranked[:, 1], ranked[:, 0]))
+    return order, turn
+
+
+def object_rng(seed: int, name: str, stream: int = 0) -> np.random.Generator:
+    """The random stream of one object's samples: from the run's ``seed`` and the object's
+    name alone, so that adding, moving or resampling another object changes none of them."""
+    return np.random.default_rng([int(seed), zlib.crc32(name.encode("utf-8")), int(stream)])
+
+
+#: Corner identities are kept below 2^40 so that ``id * rays + k`` stays exact in int64.
+_ID_BITS = 40
+
+
+def corner_ids(corner_vertex: np.ndarray, next_vertex: np.ndarray) -> np.ndarray:
+    """A stable identity (L,) int64 per corner (loop): a hash of its vertex and the next vertex
+    around its face, which name one face corner whatever order Blender keeps the faces and
+    loops in. A receiver's rays follow from it."""
+    x = (np.asarray(corner_vertex, dtype=np.uint64) << np.uint64(32)) \
+        ^ np.asarray(next_vertex, dtype=np.uint64)
+    with np.errstate(over="ignore"):   # splitmix64: wrapping arithmetic is the point
+        x = x + np.uint64(0x9E3779B97F4A7C15)
+        x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        x = x ^ (x >> np.uint64(31))
+    return (x >> np.uint64(64 - _ID_BITS)).astype(np.int64)
+
+
 def _read_mesh_data(name: str, obj_eval, mesh, matrix_world, material_slots) -> TriangleMesh:
     mesh.calc_loop_triangles()
     nv, nt, nl = len(mesh.vertices), len(mesh.loop_triangles), len(mesh.loops)
@@ -196,6 +238,10 @@ def _read_mesh_data(name: str, obj_eval, mesh, matrix_world, material_slots) -> 
     tri_v = _get(mesh.loop_triangles, "vertices", nt, 3, np.int32)
     tri_l = _get(mesh.loop_triangles, "loops", nt, 3, np.int32)
     mat_idx = _get(mesh.loop_triangles, "material_index", nt, 1, np.int32).astype(np.int64)
+    order, turn = canonical_triangles(tri_v)
+    tri_v = np.take_along_axis(tri_v, turn, axis=1)[order]
+    tri_l = np.take_along_axis(tri_l, turn, axis=1)[order]
+    mat_idx = mat_idx[order]
     corners = world[tri_v]
     cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     double_area = np.linalg.norm(cross, axis=1)
@@ -265,6 +311,13 @@ class Receivers:
     emission: np.ndarray           # (L, 3) front-face emission per corner (radiance)
     vertex_count: int
     inward: np.ndarray | None = None   # (L, 3) m, from each corner to its triangle's centroid
+    corner_id: np.ndarray | None = None  # (L,) int64 stable identity (``corner_ids``); None: row
+
+    @property
+    def ids(self) -> np.ndarray:
+        """Each receiver's identity (L,) int64, which its rays follow from."""
+        return (np.arange(len(self.points), dtype=np.int64) if self.corner_id is None
+                else self.corner_id)
 
     def per_vertex(self, corner_values: np.ndarray) -> np.ndarray:
         """Mean of the corner values (L, C) of each vertex (V, C); 0 for unused vertices."""
@@ -284,6 +337,10 @@ def read_receivers(obj, warnings: list[str]) -> Receivers | None:
     tm = _read_mesh_data(obj.name, obj, mesh, obj.matrix_world, obj.material_slots)
     nl, nv = len(mesh.loops), len(mesh.vertices)
     corner_vertex = _get(mesh.loops, "vertex_index", nl, 1, np.int32).astype(np.int64)
+    start = _get(mesh.polygons, "loop_start", len(mesh.polygons), 1, np.int32).astype(np.int64)
+    total = _get(mesh.polygons, "loop_total", len(mesh.polygons), 1, np.int32).astype(np.int64)
+    following = np.arange(1, nl + 1, dtype=np.int64)
+    following[start + total - 1] = start
     flat = tm.loops.ravel()
     loops, first = np.unique(flat, return_index=True)
     # Corners of zero-area faces only: evaluated at a neighbouring triangle corner of the
@@ -319,7 +376,8 @@ def read_receivers(obj, warnings: list[str]) -> Receivers | None:
     return Receivers(name=obj.name, corner_vertex=corner_vertex,
                      points=np.ascontiguousarray(positions),
                      normals=np.ascontiguousarray(normals), albedo=albedo,
-                     emission=emission, vertex_count=nv, inward=np.ascontiguousarray(inward))
+                     emission=emission, vertex_count=nv, inward=np.ascontiguousarray(inward),
+                     corner_id=corner_ids(corner_vertex, corner_vertex[following]))
 
 
 def allocate(areas: np.ndarray, *, density: float | None = None,
