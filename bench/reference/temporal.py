@@ -11,6 +11,8 @@ frames as a farm runs it, scored where the true light did not change.
   says it changes there, plus 0.1% (of the scene's mean value). Cycles bakes frames 1 and 2
   with one seed and ``--samples``: its change is the reference (its noise, correlated between
   the two bakes, is reported by baking frame 1 with a second seed).
+* ``identical_runs``: each bench scene (``scenes.SCENES``) saved once and run twice through the
+  batch, with the world on and off: the two runs must agree bit for bit.
 
 Writes ``bench/results/temporal.json`` and prints a table.
 
@@ -81,12 +83,13 @@ def build(sequence: str, frames: int) -> list[str]:
     return [o.name for o in scene.scored]
 
 
-def run_batch(blend: str, frames: int, folder: str) -> tuple[list[str], float]:
+def run_batch(blend: str, frames: int, folder: str, extra=(), tag: str = "") -> tuple[list[str], float]:
     """One batch job over the frames; the output .blend of each frame and the job's seconds."""
-    pattern = os.path.join(folder, os.path.basename(blend)[:-6] + "_####.blend")
+    pattern = os.path.join(folder, os.path.basename(blend)[:-6] + tag + "_####.blend")
     cmd = [os.path.join(REPO_ROOT, "scripts", "blender"), "-b", blend, "--python",
            os.path.join(REPO_ROOT, "scripts", "illumap_batch.py"), "--",
-           "--frames", f"1-{frames}", "--output", pattern, "--transfer", "point", "--overwrite"]
+           "--frames", f"1-{frames}", "--output", pattern, "--transfer", "point", "--overwrite",
+           *extra]
     start = time.perf_counter()
     done = subprocess.run(cmd, capture_output=True, text=True)
     seconds = time.perf_counter() - start
@@ -131,10 +134,33 @@ def outgoing(names: list[str], samples: int, seed: int) -> dict[str, np.ndarray]
     return out
 
 
+def identical_runs(names: list[str], folder: str) -> dict:
+    """Each bench scene saved once and run twice through the batch in fresh processes, with
+    the world on and off: the largest |difference| between the two runs' vertex values."""
+    out = {}
+    for name in names:
+        for world in (True, False):
+            scene = scenes.build(name)
+            scored = [o.name for o in scene.scored]
+            blend = os.path.join(folder, f"{name}.blend")
+            bpy.ops.wm.save_as_mainfile(filepath=blend)
+            runs = []
+            for k in range(2):
+                extra = [] if world else ["--no-world"]
+                outputs, _ = run_batch(blend, 1, folder, extra + ["--seed", "0"], tag=f"_{k}")
+                runs.append(frame_values(outputs[0], scored))
+            diff = max(float(np.abs(runs[0][n] - runs[1][n]).max()) for n in scored)
+            out[f"{name}/{'world' if world else 'no world'}"] = diff
+            print(f"  {name:8s} world {'on ' if world else 'off'}: largest difference {diff:.3g}")
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--frames", type=int, default=4)
     ap.add_argument("--samples", type=int, default=1024, help="Cycles samples of each bake")
+    ap.add_argument("--scenes", nargs="*", choices=list(scenes.SCENES), default=list(scenes.SCENES),
+                    help="bench scenes run twice each (world on and off) and compared bit for bit")
     ap.add_argument("--out", default=DEFAULT_OUT)
     args = ap.parse_args(argv)
     if args.frames < 2:
@@ -186,6 +212,9 @@ def main(argv: list[str] | None = None) -> int:
               f"max {cycles_change['max']:.2e}; its noise (two seeds) RMS {cycles_noise['rms']:.2e}")
         print(f"  target: Illumap <= Cycles + {ALLOWANCE:.1%}: "
               f"{'met' if doc['moving']['met'] else 'MISSED'}")
+        if args.scenes:
+            print("two runs of each bench scene in fresh processes:")
+            doc["identical_runs"] = identical_runs(args.scenes, folder)
     os.makedirs(os.path.dirname(args.out), exist_ok=True)
     with open(args.out, "w") as f:
         json.dump(doc, f, indent=1)
