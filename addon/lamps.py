@@ -48,7 +48,8 @@ import numpy as np
 
 from illumap.refinement import LUMINANCE_WEIGHTS
 
-from .errors import IllumapCancelled, IllumapError
+from .errors import ExitCode, IllumapCancelled, IllumapError
+from .materials import describe_not_finite, not_finite
 
 #: A segment query: origins (M, 3), targets (M, 3), skip (M,) surfel index to ignore per ray
 #: (-1: none) → (M,) visibility in [0, 1] (1: the segment is free).
@@ -145,6 +146,7 @@ def read_lamps(depsgraph, warnings: list[str]) -> list[Lamp]:
                             "emits no light; ignored")
             continue
         direction /= length
+        _check_lamp_values(obj.name, light)
         color = np.array(light.color, dtype=np.float64) * float(light.energy)
         if not np.all(np.isfinite(color)):
             raise IllumapError(f"Lamp '{obj.name}': colour × power {tuple(color)} is not finite")
@@ -185,6 +187,16 @@ def read_lamps(depsgraph, warnings: list[str]) -> list[Lamp]:
     return lamps
 
 
+def _check_lamp_values(name: str, light) -> None:
+    """Refuse a lamp whose power or colour is NaN or infinite (Blender stores an infinite
+    field as inf, or as 3.4e38): it would light everything with infinite light."""
+    for label, values in (("power (Power/Strength)", [float(light.energy)]),
+                          ("colour", list(light.color))):
+        if not_finite(values).any():
+            raise IllumapError(f"Lamp '{name}': its {label} is {describe_not_finite(values)}; "
+                               "give it a finite value", ExitCode.INPUT)
+
+
 #: Rays per surfel that estimate how much of the sky a surfel sees (at most; fewer when the
 #: shadow samples are fewer). Surfels only carry the world light on to the receivers, which
 #: gather the sky with their own rays, so their noise averages out.
@@ -203,7 +215,11 @@ def world_light(scene, warnings: list[str]) -> Lamp | None:
     if world is None:
         return None
     radiance = _world_radiance(world, warnings)
-    if radiance is None or not np.all(np.isfinite(radiance)) or radiance.max() <= 0:
+    if radiance is not None and not_finite(radiance).any():
+        raise IllumapError(f"World '{world.name}': its light (colour × strength) is "
+                           f"{describe_not_finite(radiance)}; give it a finite colour and "
+                           "strength", ExitCode.INPUT)
+    if radiance is None or radiance.max() <= 0:
         return None
     return Lamp(f"World '{world.name}'", "WORLD", radiance, np.zeros(3), np.array([0.0, 0.0, -1.0]))
 
@@ -227,6 +243,9 @@ def _world_radiance(world, warnings: list[str]) -> np.ndarray | None:
         warnings.append(f"{where}: the Background strength is linked, which Illumap does not "
                         "evaluate: its unlinked value is used")
     strength = float(strength_socket.default_value)
+    if not_finite(strength):    # inf is stored as 3.4e38, which a dim colour would hide
+        raise IllumapError(f"{where}: its Strength is {describe_not_finite(strength)}; give it a "
+                           "finite value", ExitCode.INPUT)
     color_socket = node.inputs["Color"]
     if not color_socket.is_linked:
         return np.array(color_socket.default_value[:3], dtype=np.float64) * strength

@@ -20,7 +20,8 @@ What is understood, after the active Material Output's Surface input:
   factor) of any of these. Reroutes are followed.
 
 Anything else falls back to ``DEFAULT_ALBEDO`` (grey 0.8, Blender's default surface) and no
-emission, with a warning that names the material. Objects without a material use the same grey
+emission, with a warning that names the material. A NaN or infinite colour or strength (Blender
+stores inf as 3.4e38) is refused with an IllumapError naming the material and the object. Objects without a material use the same grey
 silently. Albedo is clamped to ``MAX_ALBEDO`` (< 1: the solver refuses albedo ≥ 1), with a
 warning. Emission is radiance in Blender's units (strength 1, colour c ⇒ radiance c).
 """
@@ -32,6 +33,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from illumap.limits import limit
 
+from .errors import ExitCode, IllumapError
+
 if TYPE_CHECKING:   # annotations only: sampling imports this module to read receivers
     from .sampling import MeshSamples
 
@@ -39,8 +42,36 @@ DEFAULT_ALBEDO = (0.8, 0.8, 0.8)
 MAX_ALBEDO = limit("material_albedo").high
 
 
+#: Blender stores an infinite float socket value (typing "inf") as the largest float32:
+#: a value this large stands for infinity.
+FLT_MAX = 3.4028234663852886e38
+
+
 class Unsupported(Exception):
     """A node setup that is not understood; the message says which node."""
+
+
+class NotFinite(Exception):
+    """A colour or value that is NaN or infinite; the message says which input."""
+
+
+def not_finite(values) -> np.ndarray:
+    """Per value: NaN, infinite, or at Blender's stand-in for infinity (``FLT_MAX``)."""
+    values = np.asarray(values, dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        return ~(np.abs(values) < FLT_MAX)
+
+
+def _finite(values) -> bool:
+    return not not_finite(values).any()
+
+
+def describe_not_finite(values) -> str:
+    """What is wrong with ``values``: NaN, or infinite."""
+    values = np.asarray(values, dtype=np.float64)
+    if np.isnan(values).any():
+        return "NaN"
+    return "infinite (Blender stores inf as 3.4e38)"
 
 
 def srgb_to_linear(c: np.ndarray) -> np.ndarray:
@@ -132,7 +163,14 @@ class _Evaluator:
         return uv[self.rows]
 
     def color(self, socket) -> np.ndarray:
-        """(n, 3) linear colour on a colour input."""
+        """(n, 3) linear colour on a colour input; NotFinite where it is NaN or infinite."""
+        rgb = self._color(socket)
+        if not _finite(rgb):
+            raise NotFinite(f"'{socket.name}' of node '{socket.node.name}' is "
+                            f"{describe_not_finite(rgb)}")
+        return rgb
+
+    def _color(self, socket) -> np.ndarray:
         out = _follow(socket)
         if out is None:
             value = np.array(socket.default_value, dtype=np.float64).ravel()
@@ -193,10 +231,15 @@ class _Evaluator:
 
     def scalar(self, socket) -> float:
         """A constant float input, or Geometry ▸ Backfacing (per ``side``) or Light Path ▸ Is
-        Camera Ray (0) feeding it; other links are not understood."""
+        Camera Ray (0) feeding it; other links are not understood. NotFinite where the
+        constant is NaN or infinite."""
         out = _follow(socket)
         if out is None:
-            return float(socket.default_value)
+            value = float(socket.default_value)
+            if not _finite(value):
+                raise NotFinite(f"'{socket.name}' of node '{socket.node.name}' is "
+                                f"{describe_not_finite(value)}")
+            return value
         if out.node.type == "NEW_GEOMETRY" and out.name == "Backfacing":
             return 1.0 if self.side == "back" else 0.0
         if out.node.type == "LIGHT_PATH" and out.name == "Is Camera Ray":
@@ -241,26 +284,43 @@ class _Evaluator:
 
 
 def material_values(material, samples: MeshSamples, rows: np.ndarray,
-                    warnings: list[str], side: str = "front") -> tuple[np.ndarray, np.ndarray]:
+                    warnings: list[str], side: str = "front",
+                    owner: str | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Albedo and emission (n, 3) for the surfels ``rows`` of ``samples`` that use ``material``,
-    seen from ``side`` ('front' or 'back') of the surface."""
+    seen from ``side`` ('front' or 'back') of the surface. A colour or strength that is NaN
+    or infinite (an Emission Strength of inf, a NaN Base Color, a texture or colour attribute
+    holding such values) is refused with an IllumapError naming the material and ``owner``
+    (the object): no light can be computed from it."""
     n = len(rows)
     default = np.broadcast_to(np.array(DEFAULT_ALBEDO), (n, 3)).copy()
     if material is None:
         return default, np.zeros((n, 3))
     tree = material.node_tree
+    where = f"Material '{material.name}'" + (f" on object '{owner}'" if owner else "")
     if tree is None:
-        return np.broadcast_to(np.array(material.diffuse_color[:3]), (n, 3)).copy(), np.zeros((n, 3))
+        colour = np.array(material.diffuse_color[:3], dtype=np.float64)
+        if not _finite(colour):
+            raise IllumapError(f"{where}: its colour is {describe_not_finite(colour)}; give it "
+                               "a finite colour", ExitCode.INPUT)
+        return np.broadcast_to(colour, (n, 3)).copy(), np.zeros((n, 3))
     output = tree.get_output_node("CYCLES")
     if output is None:
         warnings.append(f"Material '{material.name}': no Material Output node; using grey {DEFAULT_ALBEDO[0]}")
         return default, np.zeros((n, 3))
     try:
-        return _Evaluator(samples, rows, side=side).shader(output.inputs["Surface"])
+        albedo, emission = _Evaluator(samples, rows, side=side).shader(output.inputs["Surface"])
     except Unsupported as exc:
         warnings.append(f"Material '{material.name}': unsupported {exc}; using grey {DEFAULT_ALBEDO[0]} "
                         "and no emission")
         return default, np.zeros((n, 3))
+    except NotFinite as exc:
+        raise IllumapError(f"{where}: {exc}; give it a finite value", ExitCode.INPUT) from None
+    for name, values in (("albedo", albedo), ("emission", emission)):
+        if not _finite(values):     # finite inputs whose product overflows
+            raise IllumapError(f"{where}: its {name} is {describe_not_finite(values)} (a colour "
+                               "times a strength beyond any float); give it finite values",
+                               ExitCode.INPUT)
+    return albedo, emission
 
 
 def surfel_materials(samples: MeshSamples, warnings: list[str],
@@ -276,7 +336,8 @@ def surfel_materials(samples: MeshSamples, warnings: list[str],
     for index in np.unique(samples.material_index):
         rows = np.flatnonzero(samples.material_index == index)
         material = mats[index] if 0 <= index < len(mats) else None
-        albedo[rows], emission[rows] = material_values(material, samples, rows, warnings, side)
+        albedo[rows], emission[rows] = material_values(material, samples, rows, warnings, side,
+                                                       owner=samples.mesh.name)
     name = samples.mesh.name
     if (albedo > MAX_ALBEDO).any():
         warnings.append(f"Object '{name}': albedo above {MAX_ALBEDO} clamped (energy would not converge)")

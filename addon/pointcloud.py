@@ -3,7 +3,9 @@
 * Positions: the points (world space, m).
 * Area: π r² from a ``radius`` attribute (scaled by the object's transform). Without one, the
   spacing is estimated from the k = 8 nearest neighbours: for points spread with density ρ over
-  a surface, E[d_j²] = j/(πρ), so 1/ρ ≈ 2π·mean_j(d_j²)/(k+1). A warning says so.
+  a surface, E[d_j²] = j/(πρ), so 1/ρ ≈ 2π·mean_j(d_j²)/(k+1). A warning says so. A stray
+  point far from the rest would get a disc as wide as that distance: it gets the typical
+  point's area instead (``bound_stray_areas``), and a warning gives the count.
 * Normals: a ``normal`` or ``N`` FLOAT_VECTOR attribute. Without one, PCA over the k nearest
   neighbours (smallest eigenvector of the local covariance), oriented consistently along a
   minimum spanning tree of the neighbour graph (``illumap.pointcloud``). No rule can tell the
@@ -26,6 +28,13 @@ from .errors import IllumapError
 from .neighbours import knn
 
 K_NEIGHBOURS = 8
+#: A point whose estimated spacing exceeds the cloud's median by this factor is stray
+#: (``bound_stray_areas``): 10 lets a scan's density vary a hundredfold in area...
+STRAY_SPACING = 10.0
+#: ... and, in a cloud whose density varies more, by this many robust deviations of the log
+#: spacing as well (a normal distribution leaves 1 in 30,000 beyond 4; a scan's range from
+#: 0.2 to 6 m, spacing 1 to 40 cm, sets the bound at 180 times the median).
+STRAY_MADS = 4.0
 _COLOR_NAMES = ("Col", "Cd", "color", "Color")
 
 
@@ -82,6 +91,33 @@ def estimate_areas(positions: np.ndarray, k: int = K_NEIGHBOURS) -> np.ndarray:
     return 2 * np.pi * d2.mean(axis=1) / (d2.shape[1] + 1)
 
 
+def bound_stray_areas(areas: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """``areas`` (estimated from the spacing) with stray points' bounded: (areas, stray mask,
+    the area given to them, m²).
+
+    A stray point (a scanner's spurious return, a point dragged away by mistake) lies far from
+    its neighbours, so its area, estimated from their distances, is the square of that
+    distance: a disc kilometres wide for a point 1 km from a 1 m scan, which would occlude
+    and reflect as a surface that is not there (and stalled the native build). A point is
+    stray where its spacing (√area) exceeds the cloud's median spacing by more than
+    ``STRAY_SPACING`` times and by more than ``STRAY_MADS`` median absolute deviations of the
+    log spacing (a terrestrial scan's far walls are legitimately sparse). It gets the
+    typical (median) point's area: it stands for one sample, and so changes the light of
+    the rest no more than any one point does.
+    """
+    areas = np.asarray(areas, dtype=np.float64)
+    positive = areas > 0
+    if positive.sum() < 2:
+        return areas, np.zeros(len(areas), dtype=bool), float("nan")
+    log_spacing = 0.5 * np.log(areas[positive])
+    median = float(np.median(log_spacing))
+    mad = 1.4826 * float(np.median(np.abs(log_spacing - median)))
+    limit = median + max(np.log(STRAY_SPACING), STRAY_MADS * mad)
+    stray = areas > np.exp(2.0 * limit)
+    typical = float(np.exp(2.0 * median))
+    return np.where(stray, typical, areas), stray, typical
+
+
 def estimate_normals(positions: np.ndarray, k: int = K_NEIGHBOURS) -> np.ndarray:
     """Unit normals (N, 3) by PCA over k neighbours, oriented consistently (module docstring)."""
     from illumap import pointcloud as core_pointcloud  # noqa: PLC0415 - native, loaded on use
@@ -133,6 +169,17 @@ def _check_spacing(name: str, pos: np.ndarray, areas: np.ndarray, k: int) -> Non
             "estimated: remove the duplicates (Merge by Distance) or add a 'radius' attribute")
 
 
+def _stray_warning(name: str, pos: np.ndarray, stray: np.ndarray, typical: float) -> str:
+    count = int(stray.sum())
+    i = int(np.flatnonzero(stray)[0])
+    where = ", ".join(f"{c:.6g}" for c in pos[i])
+    points = "1 point lies far from its" if count == 1 else f"{count} points lie far from their"
+    return (f"Point cloud '{name}': {points} neighbours (more than {STRAY_SPACING:g} times the "
+            f"typical spacing; e.g. point {i} at ({where})): stray points, given the typical "
+            f"point's area ({typical:.3g} m²) instead of a disc as wide as that gap. Delete "
+            "them, or give the cloud a 'radius' attribute")
+
+
 def _point_attrs(attributes, count: int) -> dict:
     out = {"radius": _read_attr(attributes, "radius", count, 1), "normal": None, "colors": {}}
     for nm in ("normal", "N"):
@@ -175,6 +222,9 @@ def _finish(obj, obj_eval, name, pos, extra, active, mats, warnings) -> PointSam
         _check_spacing(name, pos, areas, k)
         warnings.append(f"Point cloud '{name}': no 'radius' attribute; areas estimated from the "
                         f"spacing of {k} nearest neighbours")
+        areas, stray, typical = bound_stray_areas(areas)
+        if stray.any():
+            warnings.append(_stray_warning(name, pos, stray, typical))
     if normal is not None:
         normal = normal @ np.linalg.inv(lin)
         length = np.linalg.norm(normal, axis=1)
@@ -190,9 +240,15 @@ def _finish(obj, obj_eval, name, pos, extra, active, mats, warnings) -> PointSam
     key = active if active in colors else next((c for c in _COLOR_NAMES if c in colors), None)
     material = mats[0].material if mats else None
     rows = np.arange(count)
-    albedo, emission = materials.material_values(material, _Attributes(colors, key), rows, warnings)
+    albedo, emission = materials.material_values(material, _Attributes(colors, key), rows, warnings,
+                                                 owner=name)
     if key is not None:
         albedo = colors[key][:, :3].copy()
+        bad = materials.not_finite(albedo).any(axis=1)
+        if bad.any():
+            raise IllumapError(f"Point cloud '{name}': colour attribute '{key}' is "
+                               f"{materials.describe_not_finite(albedo[bad])} at {int(bad.sum())} "
+                               "points; give it finite colours")
     if (albedo > materials.MAX_ALBEDO).any():
         warnings.append(f"Point cloud '{name}': albedo above {materials.MAX_ALBEDO} clamped")
     albedo = np.clip(np.nan_to_num(albedo), 0.0, materials.MAX_ALBEDO)

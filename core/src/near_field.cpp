@@ -209,14 +209,27 @@ NearCorrection build_near_correction(Context& ctx, const SurfelSoA& s,
         lo[1] = std::min(lo[1], s.py[i]);
         lo[2] = std::min(lo[2], s.pz[i]);
     }
+    // Cell coordinates are clamped to ±2^40 cells (a cloud of any use spans far fewer median
+    // reaches), so that no search box, however wide, overflows them; the pair test below
+    // still measures every distance.
+    constexpr double kMaxCell = 1099511627776.0;  // 2^40
+    auto coord = [&](double v, double origin) {
+        const double c = std::floor((v - origin) / cell);
+        return std::int64_t(std::max(-kMaxCell, std::min(kMaxCell, c)));
+    };
     auto key_of = [&](double x, double y, double z) {
-        return CellKey{std::int64_t(std::floor((x - lo[0]) / cell)),
-                       std::int64_t(std::floor((y - lo[1]) / cell)),
-                       std::int64_t(std::floor((z - lo[2]) / cell))};
+        return CellKey{coord(x, lo[0]), coord(y, lo[1]), coord(z, lo[2])};
     };
     std::unordered_map<CellKey, std::vector<std::uint32_t>, CellHash> grid;
     grid.reserve(n);
     for (std::size_t i = 0; i < n; ++i) grid[key_of(s.px[i], s.py[i], s.pz[i])].push_back(std::uint32_t(i));
+    // The occupied cells, for a search box with more cells than there are occupied ones (a
+    // surfel far larger than the median, such as a scan's stray point whose disc was
+    // estimated from neighbours kilometres away): its box is then searched by visiting these
+    // instead of every cell of the box, so the work per surfel is bounded by the cloud's size.
+    std::vector<const std::pair<const CellKey, std::vector<std::uint32_t>>*> occupied;
+    occupied.reserve(grid.size());
+    for (const auto& entry : grid) occupied.push_back(&entry);
 
     const std::size_t grain = 2048;
     const std::size_t nchunks = (n + grain - 1) / grain;
@@ -232,57 +245,76 @@ NearCorrection build_near_correction(Context& ctx, const SurfelSoA& s,
             const double R = reach[i];
             const CellKey k0 = key_of(xi[0] - R, xi[1] - R, xi[2] - R);
             const CellKey k1 = key_of(xi[0] + R, xi[1] + R, xi[2] + R);
-            for (std::int64_t cx = k0.x; cx <= k1.x; ++cx)
-                for (std::int64_t cy = k0.y; cy <= k1.y; ++cy)
-                    for (std::int64_t cz = k0.z; cz <= k1.z; ++cz) {
-                        auto it = grid.find(CellKey{cx, cy, cz});
-                        if (it == grid.end()) continue;
-                        for (std::uint32_t j : it->second) {
-                            const double Aj = s.area[j];
-                            if (Aj > Ai || (Aj == Ai && j <= i)) continue;  // once per pair
-                            const double d[3] = {xi[0] - s.px[j], xi[1] - s.py[j], xi[2] - s.pz[j]};
-                            const double r2 = dot(d, d);
-                            const double t = kPi * r2 / (0.5 * (Ai + Aj));
-                            if (t > 2.0 * kT0) continue;
-                            ++count;
-                            const double xj[3] = {s.px[j], s.py[j], s.pz[j]};
-                            const double nj[3] = {s.nx[j], s.ny[j], s.nz[j]};
-                            const double p_ij = pair_factor(d[0], d[1], d[2], ni[0], ni[1], ni[2],
-                                                           nj[0], nj[1], nj[2], Aj);
-                            const double p_ji = pair_factor(-d[0], -d[1], -d[2], nj[0], nj[1], nj[2],
-                                                           ni[0], ni[1], ni[2], Ai);
-                            // Centres that do not face stay at zero, as in the far field:
-                            // otherwise octagons overhanging an edge, or tilted neighbours on
-                            // a convex surface, would let a surface light itself. Coplanar
-                            // pairs count as not facing even when rounding tilts them by
-                            // 1e-16 (a box standing on a floor would otherwise flip between
-                            // seeing a full hemisphere and nothing with the scene's scale).
-                            // Planes within kContactHeight of each other are in contact.
-                            const double rr = std::sqrt(r2);
-                            const double cos_i = -dot(ni, d) / rr, cos_j = dot(nj, d) / rr;
-                            const double contact = kContactHeight * std::sqrt(std::min(Ai, Aj));
-                            if (p_ij == 0.0 || cos_i <= kCoplanarCos || cos_j <= kCoplanarCos ||
-                                std::max(cos_i, cos_j) * rr <= contact)
-                                continue;
-                            const double f_ij = point_to_polygon(xi, ni, xj, nj, Aj);
-                            const double f_ji = point_to_polygon(xj, nj, xi, ni, Ai);
-                            const double g = 0.5 * (Ai * f_ij + Aj * f_ji);  // symmetric
-                            const double w = polygon_weight(t);
-                            double c_ij = w * (g / Ai - p_ij);
-                            double c_ji = w * (g / Aj - p_ji);
-                            double vis_ij = 1.0;
-                            if (vis && (c_ij != 0.0 || c_ji != 0.0)) {
-                                vis_ij = (*vis)(std::uint32_t(i), j);
-                                c_ij *= vis_ij;
-                                c_ji *= vis_ij;
-                            }
-                            const double v = vis_ij;
-                            if (c_ij != 0.0)
-                                mine.push_back({std::int64_t(i), std::int64_t(j), c_ij, v * p_ij + c_ij});
-                            if (c_ji != 0.0)
-                                mine.push_back({std::int64_t(j), std::int64_t(i), c_ji, v * p_ji + c_ji});
-                        }
+            const double box_cells = double(k1.x - k0.x + 1) * double(k1.y - k0.y + 1) *
+                                     double(k1.z - k0.z + 1);
+            const bool scan_occupied = box_cells > double(occupied.size());
+            auto inside = [&](const CellKey& c) {
+                return c.x >= k0.x && c.x <= k1.x && c.y >= k0.y && c.y <= k1.y &&
+                       c.z >= k0.z && c.z <= k1.z;
+            };
+            // One visit per cell: the box's cells in order, or the occupied cells in the box.
+            const std::int64_t visits = scan_occupied
+                ? std::int64_t(occupied.size())
+                : (k1.x - k0.x + 1) * (k1.y - k0.y + 1) * (k1.z - k0.z + 1);
+            for (std::int64_t visit = 0; visit < visits; ++visit) {
+                const std::vector<std::uint32_t>* members = nullptr;
+                if (scan_occupied) {
+                    if (!inside(occupied[std::size_t(visit)]->first)) continue;
+                    members = &occupied[std::size_t(visit)]->second;
+                } else {
+                    const std::int64_t ny = k1.y - k0.y + 1, nz = k1.z - k0.z + 1;
+                    const CellKey c{k0.x + visit / (ny * nz), k0.y + (visit / nz) % ny,
+                                    k0.z + visit % nz};
+                    auto it = grid.find(c);
+                    if (it == grid.end()) continue;
+                    members = &it->second;
+                }
+                for (std::uint32_t j : *members) {
+                    const double Aj = s.area[j];
+                    if (Aj > Ai || (Aj == Ai && j <= i)) continue;  // once per pair
+                    const double d[3] = {xi[0] - s.px[j], xi[1] - s.py[j], xi[2] - s.pz[j]};
+                    const double r2 = dot(d, d);
+                    const double t = kPi * r2 / (0.5 * (Ai + Aj));
+                    if (t > 2.0 * kT0) continue;
+                    ++count;
+                    const double xj[3] = {s.px[j], s.py[j], s.pz[j]};
+                    const double nj[3] = {s.nx[j], s.ny[j], s.nz[j]};
+                    const double p_ij = pair_factor(d[0], d[1], d[2], ni[0], ni[1], ni[2],
+                                                   nj[0], nj[1], nj[2], Aj);
+                    const double p_ji = pair_factor(-d[0], -d[1], -d[2], nj[0], nj[1], nj[2],
+                                                   ni[0], ni[1], ni[2], Ai);
+                    // Centres that do not face stay at zero, as in the far field:
+                    // otherwise octagons overhanging an edge, or tilted neighbours on
+                    // a convex surface, would let a surface light itself. Coplanar
+                    // pairs count as not facing even when rounding tilts them by
+                    // 1e-16 (a box standing on a floor would otherwise flip between
+                    // seeing a full hemisphere and nothing with the scene's scale).
+                    // Planes within kContactHeight of each other are in contact.
+                    const double rr = std::sqrt(r2);
+                    const double cos_i = -dot(ni, d) / rr, cos_j = dot(nj, d) / rr;
+                    const double contact = kContactHeight * std::sqrt(std::min(Ai, Aj));
+                    if (p_ij == 0.0 || cos_i <= kCoplanarCos || cos_j <= kCoplanarCos ||
+                        std::max(cos_i, cos_j) * rr <= contact)
+                        continue;
+                    const double f_ij = point_to_polygon(xi, ni, xj, nj, Aj);
+                    const double f_ji = point_to_polygon(xj, nj, xi, ni, Ai);
+                    const double g = 0.5 * (Ai * f_ij + Aj * f_ji);  // symmetric
+                    const double w = polygon_weight(t);
+                    double c_ij = w * (g / Ai - p_ij);
+                    double c_ji = w * (g / Aj - p_ji);
+                    double vis_ij = 1.0;
+                    if (vis && (c_ij != 0.0 || c_ji != 0.0)) {
+                        vis_ij = (*vis)(std::uint32_t(i), j);
+                        c_ij *= vis_ij;
+                        c_ji *= vis_ij;
                     }
+                    const double v = vis_ij;
+                    if (c_ij != 0.0)
+                        mine.push_back({std::int64_t(i), std::int64_t(j), c_ij, v * p_ij + c_ij});
+                    if (c_ji != 0.0)
+                        mine.push_back({std::int64_t(j), std::int64_t(i), c_ji, v * p_ji + c_ji});
+                }
+            }
         }
         examined[b / grain] = count;
     });

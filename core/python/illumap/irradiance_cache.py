@@ -16,9 +16,10 @@ under a box the hits are near, R_i is small and records crowd there: contact sha
 their edge. A record's reach says nothing of what lies near x, though: a ceiling's record
 beside an emitter hung 1 mm under it would light the ceiling behind the emitter. So every
 receiver first measures its own reach R_x with a few rays (``PROBE_RAYS``), and ε_i uses
-min(R_i, R_x). Records are placed coarse to fine, one per cell of a grid of side a·R_max, then
-half that, and so on; each level places records only among the points that the records so
-far leave uncovered (valid records fewer than ``MIN_RECORDS``), and at the receivers' own spacing every point still uncovered gathers
+min(R_i, R_x). Records are placed coarse to fine, one per cell of a grid of side a·R_max
+(R_max: the scene's size or the receivers' own, the smaller; a receiver far from the rest
+gathers itself), then half that, and so on; each level places records only among the points
+that the records so far leave uncovered (valid records fewer than ``MIN_RECORDS``), and at the receivers' own spacing every point still uncovered gathers
 itself. The records depend on the points alone and each gathers with its own id (the rays it
 would cast uncached), so results do not depend on threads or timing.
 """
@@ -50,6 +51,10 @@ MIN_RECORDS = 3
 RECORD_NEIGHBOURS = 16
 #: A record counts only where x is above its tangent plane, to within this share of |x − x_i|.
 BEHIND_SLACK = 0.05
+#: A receiver whose ISOLATED_NEIGHBOUR-th nearest neighbour in its group lies more than
+#: ISOLATED_SPACING times as far as the group's median gathers itself (``_isolated``).
+ISOLATED_NEIGHBOUR = 4
+ISOLATED_SPACING = 10.0
 #: Rays each receiver measures its own reach with: one in 16 that meets a surface nearby
 #: brings its reach down to that distance × 16.
 PROBE_RAYS = 16
@@ -74,10 +79,11 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
     full only at records: ``gather_rows(rows, rays=None)`` gathers at the receivers ``rows``
     (int64) with the gather's own ray count or ``rays``, and returns their ``GatherResult``
     with its ``reach``. ``max_reach`` (m) bounds a record's
-    reach (what a record that hits nothing gets; the scene's size is a safe value).
+    reach (what a record that hits nothing gets; the scene's size is a safe value), as does
+    the largest side of the box of the receivers that share records.
     ``groups`` (M,) int: a record serves only receivers of its own group (an object, a side);
-    -1: the receiver always gathers itself. ``accuracy``: Ward's a (0 < a ≤ 1; smaller is
-    more records)."""
+    -1: the receiver always gathers itself, as does one far from the rest of its group
+    (``_isolated``). ``accuracy``: Ward's a (0 < a ≤ 1; smaller is more records)."""
     p = np.ascontiguousarray(points, dtype=np.float64)
     n = np.ascontiguousarray(normals, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 3 or n.shape != p.shape:
@@ -91,13 +97,25 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
              else np.ascontiguousarray(groups, dtype=np.int64).reshape(-1))
     if len(group) != m:
         raise InputError(f"groups must have {m} entries, got {len(group)}")
+    # A receiver far from the rest of its group (a scan's stray point) gathers itself, and
+    # the records' grid and reach follow from the others alone: else that one point would
+    # move the grid's origin and coarsen its cells, and every other receiver's light with
+    # them (by 1.4% on a scan beside two walls, for a point 1 km off).
+    group = np.where(_isolated(p, group), -1, group)
     radiance, stderr, sky, halves = np.zeros((m, 3)), np.zeros(m), np.zeros(m), np.zeros(m)
-    reach = np.full(m, max_reach)
     record = group < 0
     covered = np.zeros(m, dtype=bool)
     rays = 0
     spacing = _spacing(p[~record])
     shared = np.flatnonzero(~record)
+    # No record reaches farther than the receivers that share records extend: the grid
+    # starts at that size, and a record whose rays meet nothing (an open sky) is valid as
+    # far across them as it would be with the scene's size, which a far object changes.
+    span = float(np.ptp(p[shared], axis=0).max()) if len(shared) > 1 else 0.0
+    if span > 0:
+        max_reach = min(max_reach, span)
+    origin = p[shared].min(axis=0) if len(shared) else np.zeros(3)
+    reach = np.full(m, max_reach)
     if len(shared):
         probe = gather_rows(shared, rays=PROBE_RAYS)
         reach[shared] = _bounded(probe.reach, max_reach)
@@ -108,7 +126,8 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
     while True:
         open_ = np.flatnonzero(~record & ~covered)
         finest = cell <= 2.0 * spacing
-        rows = np.concatenate([pending, open_ if finest else _one_per_cell(p, open_, group, cell)])
+        rows = np.concatenate([pending, open_ if finest else
+                               _one_per_cell(p, open_, group, cell, origin)])
         pending = pending[:0]
         if len(rows):
             g = gather_rows(rows)
@@ -183,12 +202,34 @@ def _spacing(points: np.ndarray) -> float:
     return float(np.median(d)) if len(d) else np.inf
 
 
-def _one_per_cell(p: np.ndarray, rows: np.ndarray, group: np.ndarray, cell: float) -> np.ndarray:
-    """Of ``rows``, the one nearest the centre of each grid cell of side ``cell`` (m) that
-    holds any, per group."""
+def _isolated(p: np.ndarray, group: np.ndarray) -> np.ndarray:
+    """(M,) bool: receivers of a group (≥ 0) whose ``ISOLATED_NEIGHBOUR``-th nearest other
+    receiver of that group lies more than ``ISOLATED_SPACING`` times farther than is typical
+    for the group (the median): points, and clusters of fewer than that many, far from the
+    rest; and every receiver of a group too small to tell (2·ISOLATED_NEIGHBOUR or fewer),
+    which would share a record or two at most."""
+    out = np.zeros(len(p), dtype=bool)
+    for g in np.unique(group[group >= 0]):
+        rows = np.flatnonzero(group == g)
+        if len(rows) <= 2 * ISOLATED_NEIGHBOUR:
+            out[rows] = True
+            continue
+        q = np.ascontiguousarray(p[rows])
+        _, dist = _core.knn(q, q, ISOLATED_NEIGHBOUR + 1)
+        d = np.asarray(dist)[:, ISOLATED_NEIGHBOUR]
+        typical = float(np.median(d))
+        if typical > 0:
+            out[rows] = d > ISOLATED_SPACING * typical
+    return out
+
+
+def _one_per_cell(p: np.ndarray, rows: np.ndarray, group: np.ndarray, cell: float,
+                  origin: np.ndarray) -> np.ndarray:
+    """Of ``rows``, the one nearest the centre of each cell that holds any, per group, of
+    the grid of side ``cell`` (m) with a corner at ``origin``."""
     if len(rows) == 0:
         return rows
-    scaled = (p[rows] - p.min(axis=0)) / cell
+    scaled = (p[rows] - origin) / cell
     key = np.floor(scaled).astype(np.int64)
     off = np.linalg.norm(scaled - key - 0.5, axis=1)
     order = np.lexsort((rows, off, key[:, 2], key[:, 1], key[:, 0], group[rows]))
