@@ -13,7 +13,10 @@ refused with exit code 2 rather than ignored.
 
 Exit codes follow Blender: 0 at the end of the arguments; ``sys.exit(n)`` inside a script exits
 with n; an exception in a script exits with the value of ``--python-exit-code`` (default 0, as in
-Blender, which only prints the traceback).
+Blender, which only prints the traceback). A ``.blend`` that exists but cannot be read (corrupt,
+truncated) stops the arguments there, as in Blender, with one line naming the file and exit code
+3, the batch's "bad scene or input" (a Blender binary stops there too, with its own message and
+non-zero exit code).
 """
 
 from __future__ import annotations
@@ -29,6 +32,22 @@ USAGE = __doc__
 def _fail(message: str) -> "NoReturn":  # noqa: F821
     print(f"blender (bpy launcher): {message}", file=sys.stderr)
     raise SystemExit(2)
+
+
+#: Exit code for a .blend that cannot be read (corrupt, truncated, not a .blend): the batch's
+#: "bad scene or input" (addon/errors.py, ExitCode.INPUT).
+UNREADABLE_FILE = 3
+
+
+def _unreadable(path: str, exc: BaseException) -> "NoReturn":  # noqa: F821
+    """A .blend that exists but cannot be read. Blender stops processing its arguments there
+    in the background, so no script runs on a scene that is not there; the launcher says so
+    in one line and exits with ``UNREADABLE_FILE`` (Blender's own message is printed above)."""
+    reason = " ".join(str(exc).split())
+    reason = reason[len("Error:"):].strip() if reason.startswith("Error:") else reason
+    print(f"blender (bpy launcher): cannot read {path}: not a readable .blend file ({reason})",
+          file=sys.stderr)
+    raise SystemExit(UNREADABLE_FILE)
 
 
 def _run_python(run, exit_code_on_error: int) -> None:
@@ -102,7 +121,10 @@ def main(argv: list[str]) -> int:
             path = os.path.abspath(arg)
             if not os.path.isfile(path):
                 _fail(f"cannot read file: {path}")
-            bpy.ops.wm.open_mainfile(filepath=path)
+            try:
+                bpy.ops.wm.open_mainfile(filepath=path)
+            except RuntimeError as exc:
+                _unreadable(path, exc)
         else:
             _fail(f"unsupported option {arg!r} (this launcher stands in for Blender; see --help)")
         i += 1

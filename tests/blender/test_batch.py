@@ -221,3 +221,24 @@ def test_occluder_shape_option(capsys):
     assert batch.main(["--quality", "high", "--density", "100", "--occluder-shape", "quad"]) == 0
     out = capsys.readouterr().out
     assert "visibility       exact, triangles" in out and "(triangles)" in out, out
+
+
+@pytest.mark.parametrize("kind", ["random bytes", "truncated"])
+def test_cli_an_unreadable_blend_is_one_line_and_exit_3(tmp_path, kind):
+    """A corrupt .blend (random bytes, or a real scene cut short) stops the command line where
+    it is read, as Blender does: one line on stderr naming the file, no traceback, the batch's
+    "bad scene or input" exit code, and nothing written."""
+    bad = tmp_path / "scene.blend"
+    if kind == "random bytes":
+        bad.write_bytes(np.random.default_rng(0).integers(0, 256, 5000, dtype=np.uint8).tobytes())
+    else:
+        good = tmp_path / "good.blend"
+        animated_scene(good)
+        bad.write_bytes(good.read_bytes()[:20000])
+    out = tmp_path / "out" / "lit.blend"
+    proc = run_cli(bad, "--quality", "draft", "--output", str(out))
+    assert proc.returncode == int(batch.ExitCode.INPUT), proc.stdout + proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and str(bad) in lines[0] and "cannot read" in lines[0], proc.stderr
+    assert "Traceback" not in proc.stdout + proc.stderr
+    assert not (tmp_path / "out").exists()
