@@ -392,3 +392,43 @@ def test_a_kept_operator_comes_with_what_the_solve_applied_it_to(box8, solver):
     np.testing.assert_allclose(sol.radiosity, s.emission + p["rho_k_iterate"], atol=1e-9)
     assert not np.allclose(p["iterate"], sol.radiosity, atol=1e-9)   # a step apart
     assert illumap.solve(s, operator=op, solver=solver, tol=1e-5).products is None
+
+
+class _Overshooting(ReferenceOperator):
+    """The disc near field's operator with every row scaled above 1 (what overlapping or
+    crossing surfaces do): the solvers fail on it with the disc rule already in use."""
+
+    def apply(self, values, progress=None):
+        return 1.3 * super().apply(values, progress)
+
+
+def test_row_sum_advice_names_only_settings_that_would_change_something():
+    """Issue 57: a bevelled curve's warning suggested near_field='point', the bare kernel
+    that causes the failure, where the disc rule was in use. The advice follows the
+    operator's own settings."""
+    s = scenes.closed_box(8, albedo=0.99, emission=1.0)
+    point = illumap.solve(s, operator=ReferenceOperator(s, "point"), solver="jacobi", tol=1e-6)
+    assert "near_field='disc' bounds them" in point.stats["warning"]
+    for solver, failure in (("cg", "positive definite"), ("jacobi", "diverged")):
+        sol = illumap.solve(s, operator=_Overshooting(s, "disc"), solver=solver, tol=1e-6)
+        warning = sol.stats["warning"]
+        assert not sol.converged and failure in warning
+        assert "near_field" not in warning and "overlap" in warning, warning
+
+
+@requires_native
+def test_row_sum_advice_follows_the_native_operators_settings():
+    from illumap.solver import row_sum_cause
+    s = scenes.closed_box(4, albedo=0.5, emission=1.0)
+    cause = {kw: row_sum_cause(illumap.TransportOperator(s, method="direct", **dict(kw)))
+             for kw in ((("near_field", "point"),), (("visibility", "none"),),
+                        (("visibility", "exact"),))}
+    assert "near_field='disc'" in cause[(("near_field", "point"),)]
+    none = cause[(("visibility", "none"),)]
+    assert "visibility='exact'" in none and "near_field" not in none
+    exact = cause[(("visibility", "exact"),)]
+    assert "hemisphere_hits" in exact and "near_field" not in exact and "visibility=" not in exact
+    hits = np.ones(s.n)
+    balanced = row_sum_cause(illumap.TransportOperator(s, method="direct", visibility="exact",
+                                                       hemisphere_hits=hits))
+    assert not any(k in balanced for k in ("near_field", "visibility=", "hemisphere_hits"))

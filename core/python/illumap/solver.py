@@ -173,6 +173,7 @@ class _Monitor:
     def __init__(self, e_norm, tol, max_iterations, guard, start_fraction, *,
                  error_tol=None, non_emitting=None, amplification=1.0, emission=None):
         self.e_norm = e_norm
+        self.row_sum_cause = ""   # why rows may sum above 1, for warnings (row_sum_cause)
         self.active = e_norm > 0
         self.safe_norm = np.where(self.active, e_norm, 1.0)
         self.tol = tol
@@ -287,6 +288,28 @@ def _make_apply(op, guard, monitor_ref):
 
 
 # ------------------------------------------------------------------------------------------------
+def row_sum_cause(operator) -> str:
+    """Why the operator's rows may sum above 1, and the setting that would change it, for
+    the solvers' warnings: only what differs from the settings ``operator`` was built with
+    (its ``near_field``, ``visibility`` and ``balance``, where it has them), as text that
+    starts with ": "."""
+    near_field = getattr(operator, "near_field", None)
+    if near_field == "point":
+        return (": the bare point kernel near_field='point' overshoots for close pairs; "
+                "near_field='disc' bounds them")
+    visibility = getattr(operator, "visibility", None)
+    if visibility == "none":
+        return (": without visibility every surfel sees through the others, so surfaces "
+                "behind each other add up; visibility='exact' hides them")
+    if hasattr(operator, "balance") and getattr(operator, "balance") is None:
+        return (": surfaces that overlap, touch or cross each other see more than their "
+                "hemisphere; hemisphere_hits (illumap.conservation.hemisphere_hits) bounds "
+                "every row by the share of it that is lit")
+    return (": surfaces that overlap, touch or cross each other (coincident faces, "
+            "interpenetrating or very thin parts) see more than their hemisphere; separate "
+            "them, or sample them more densely")
+
+
 # the three solvers; each returns (B, true residual N×3, warning or None)
 
 def _jacobi(K, E, rho, mon: _Monitor):
@@ -315,8 +338,7 @@ def _jacobi(K, E, rho, mon: _Monitor):
                 rising >= DIVERGENCE_PATIENCE and value > mon.history[0]):
             warning = (f"jacobi diverged: relative residual grew to {value:.3g} after "
                        f"{mon.iterations} iterations (best {best:.3g}); the spectral radius of "
-                       "ρ·K is ≥ 1 (row sums of K above 1, e.g. near_field='point' in a closed "
-                       "scene)")
+                       f"ρ·K is ≥ 1 (row sums of K above 1{mon.row_sum_cause})")
             break
         if mon.out_of_iterations():
             break
@@ -359,7 +381,7 @@ def _cg(K, E, rho, areas, mon: _Monitor):
                 c = int(np.flatnonzero(live & ~(pAp > 0))[0])
                 warning = (f"cg stopped: the symmetrized system is not positive definite "
                            f"(pᵀAp = {pAp[c]:.3g} in channel {c}); the operator's row sums "
-                           "exceed 1/ρ (e.g. near_field='point' in a closed scene)")
+                           f"exceed 1/ρ{mon.row_sum_cause}")
                 break
             alpha = np.where(live, rr / np.where(live, pAp, 1.0), 0.0)
             z += alpha * p
@@ -616,6 +638,7 @@ def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float =
         amplification = 1.0 / (1.0 - min(float(rho.max()), MAX_BOUND_ALBEDO))
         mon = _Monitor(_norms(E), tol, limit, guard, start_fraction, error_tol=error_tol,
                        non_emitting=non_emitting, amplification=amplification, emission=E)
+        mon.row_sum_cause = row_sum_cause(operator)
         monitor_ref[0] = mon
 
         t = time.perf_counter()
