@@ -24,6 +24,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty
 
 from . import mesh_preview, output, preferences, preview, properties, solid_preview
+from .kinds import HELPER_TYPES, is_instancer
 from .kinds import RESULT_TYPES as _RESULT_TYPES, SUPPORTED_TYPES as _SUPPORTED_TYPES
 
 
@@ -68,9 +69,12 @@ def input_objects(context):
     """Selected objects Illumap can compute on, and a message when there are none."""
     selected = list(context.selected_objects) if hasattr(context, "selected_objects") else []
     surfels = set(o.name for o in surfel_objects())
-    objects = [o for o in selected if o.type in _SUPPORTED_TYPES and o.name not in surfels]
+    objects = [o for o in selected if (o.type in _SUPPORTED_TYPES or is_instancer(o))
+               and o.name not in surfels]
     if objects:
-        return objects, None
+        # What the run cannot read goes along, to be named in its warnings.
+        return objects + [o for o in selected if o.type not in HELPER_TYPES
+                          and o.type not in _SUPPORTED_TYPES], None
     if not selected:
         return [], "Nothing selected: select the mesh or point-cloud objects to light"
     if all(o.name in surfels for o in selected):

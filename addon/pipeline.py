@@ -30,7 +30,7 @@ import numpy as np
 
 from . import checks, emitters, lamps, materials, pointcloud, sampling
 from .errors import ExitCode, IllumapCancelled, IllumapError, core_cancelled
-from .kinds import MESH_TYPES, OCCLUDER_SHAPES
+from .kinds import HELPER_TYPES, MESH_TYPES, OCCLUDER_SHAPES, is_instancer
 from .presets import DEFAULT_BUDGET, QUALITY_PRESETS
 from .receive import hemisphere_hits, mesh_occluders, receive, target_shadow_samples
 
@@ -239,8 +239,9 @@ def _split_objects(depsgraph, objects) -> tuple[list, list, list[str]]:
                 points.append(obj)  # vertex-only mesh: a point cloud
             else:
                 meshes.append(obj)
-        elif obj.type != "EMPTY":  # empties may instance collections (read_instances)
-            warnings.append(f"Object '{obj.name}' ({obj.type}) is not a mesh or point cloud; skipped")
+        elif obj.type not in HELPER_TYPES:  # empties may instance collections (read_instances)
+            warnings.append(f"Object '{obj.name}' ({obj.type.replace('_', ' ').lower()}) is not "
+                            "a mesh, point cloud or collection instance: left out of the light")
     return meshes, points, warnings
 
 
@@ -436,6 +437,17 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
     # Python loop over the scene's instances, not over any geometry.
     instances = sampling.read_instances(depsgraph, {o.name for o in objects if o is not None})
     instancers = {tm.instancer for tm in instances}
+    for obj in objects:
+        if obj is not None and is_instancer(obj) and obj.name not in instancers:
+            warnings.append(f"Object '{obj.name}' instances collection "
+                            f"'{obj.instance_collection.name}', which holds no mesh: left out "
+                            "of the light")
+    if settings.transfer:
+        for name in sorted(instancers):
+            count = sum(tm.instancer == name for tm in instances)
+            warnings.append(f"Object '{name}': its {count} instance(s) take part in the light "
+                            "but get no illumination attribute (instances share their mesh); "
+                            "the surfel object holds their light")
     if not meshes and not points and not instances:
         raise IllumapError("Nothing to compute: select mesh or point-cloud objects "
                            f"({len(objects)} object(s) given, none usable)")
@@ -504,7 +516,7 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
     receivers = []
     if settings.transfer:
         scratch: list[str] = []   # material warnings were given for the surfels already
-        receivers = [r for r in (sampling.read_receivers(obj, scratch)
+        receivers = [r for r in (sampling.read_receivers(obj, warnings, depsgraph, scratch)
                                  for obj in meshes if obj.type == "MESH") if r is not None]
     mesh_surfaces = [_MeshSurface(tm.corners, tm.two_sided) for tm in tri_meshes]
 
@@ -1022,6 +1034,10 @@ def run(job: Job, progress: Progress | None = None) -> Result:
     radiosity = np.asarray(sol.radiosity, dtype=np.float64) + (job.emission - job.solve_emission)
     if not np.all(np.isfinite(radiosity)):
         raise IllumapError("Solver returned non-finite values", ExitCode.SOLVER)
+    # Light is never negative: what the approximations leave below 0 (a few surfels of
+    # interpenetrating solids) is 0, here and at the receivers (``_final_values``).
+    negative = int((radiosity < 0).any(axis=1).sum())
+    np.maximum(radiosity, 0.0, out=radiosity)
     stats = dict(getattr(sol, "stats", {}) or {})
     stats.update(job.stats)
     stats["occluder_shape"] = shape
@@ -1031,9 +1047,60 @@ def run(job: Job, progress: Progress | None = None) -> Result:
     result = Result(radiosity=radiosity, iterations=int(sol.iterations),
                     residuals=list(sol.residuals), converged=bool(sol.converged),
                     timings=timings, stats=stats, count=job.count, warnings=warnings)
+    stats["negative_surfels"] = negative
     if job.refine is None:   # the last pass: evaluate the light where the user sees it
         receive(job, result, progress)
+        _final_values(result)
+        dark = _lit_only_inside(job, result)
+        if dark:
+            result.warnings.append(dark)
     return result
+
+
+def _final_values(result: Result) -> None:
+    """The receivers' values as written: never negative (counted in ``stats``); a non-finite
+    value is a failure, and nothing is written."""
+    negative = 0
+    for kind in (result.receiver_values, result.point_receiver_values):
+        for name, values in kind.items():
+            if not np.all(np.isfinite(values)):
+                bad = int((~np.isfinite(values)).any(axis=1).sum())
+                raise IllumapError(f"Evaluating the light at '{name}' gave {bad} non-finite "
+                                   "value(s): nothing was written", ExitCode.SOLVER)
+            negative += int((values < 0).any(axis=1).sum())
+            np.maximum(values, 0.0, out=values)
+    result.stats["negative_receivers"] = negative
+
+
+def _lit_only_inside(job: Job, result: Result) -> str | None:
+    """A warning for closed meshes that no light reaches although a lamp or an emitter lies
+    within their bounds: their normals face out while the light is inside them, and Illumap,
+    as a renderer does for a closed surface, takes the inside of a closed mesh for its back,
+    which is never lit. Cycles would light the back faces; flipping the normals does here."""
+    two_sided = {src.name for src in job.sources if src.kind == "BACK"}
+    lights = [(lamp.name, lamp.position[None] if lamp.triangles is None
+               else lamp.triangles.mean(axis=1)) for lamp in list(job.lamps) + list(job.emitters)
+              if lamp.kind != "WORLD" and lamp.kind != "SUN"]
+    names = []
+    for src in job.sources:
+        if src.kind != "MESH" or src.name in two_sided or src.stop <= src.start:
+            continue
+        rows = slice(src.start, src.stop)
+        if result.radiosity[rows].max() > 0 or job.emission[rows].max() > 0:
+            continue
+        lo, hi = job.positions[rows].min(axis=0), job.positions[rows].max(axis=0)
+        inside = [name for name, at in lights if name != src.name
+                  and np.any(np.all((at > lo) & (at < hi), axis=1))]
+        if inside:
+            names.append((src.name, inside[0]))
+    if not names:
+        return None
+    obj, light_name = names[0]
+    more = f" (and {len(names) - 1} more)" if len(names) > 1 else ""
+    return (f"Object '{obj}'{more} is closed and receives no light, while '{light_name}' lies "
+            "inside it: its normals face outward, and the inside of a closed mesh is its back, "
+            "which Illumap does not light (Cycles would). Flip its normals (Edit Mode, Mesh > "
+            "Normals > Flip) to light it from inside")
 
 
 def write(context, job: Job, result: Result):

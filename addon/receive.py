@@ -354,6 +354,15 @@ def _splat_owners(job: Job, back: np.ndarray) -> tuple[np.ndarray | None, np.nda
     return owner_front, owner_back
 
 
+def surfel_ids(job: Job) -> np.ndarray:
+    """Each surfel's identity (N,) int64, which its rays follow from: its object's name and its
+    row within the object (both sides of a point alike), whatever else the scene holds."""
+    ids = np.zeros(job.count, dtype=np.int64)
+    for src in job.sources:
+        ids[src.start:src.stop] = sampling.object_ids(src.name, np.arange(src.stop - src.start))
+    return ids
+
+
 def hemisphere_hits(job: Job, progress: Progress | None = None):
     """What each surfel's hemisphere meets (``illumap.conservation.Hemisphere``: the share
     whose first hit is a lit face, and the share open to the world), against the scene's
@@ -373,11 +382,10 @@ def hemisphere_hits(job: Job, progress: Progress | None = None):
     report = None if progress is None else (lambda f, _p="": progress(0.0, lamps.PHASE))
     clouds = {cloud.name for cloud in job.clouds}
     points = np.zeros(job.count, dtype=bool)
-    # A surfel's rays follow from its row within its object (both sides of a point alike),
+    # A surfel's rays follow from its object and its row there (both sides of a point alike),
     # so that adding, removing or turning another object changes none of its rays.
-    ids = np.zeros(job.count, dtype=np.int64)
+    ids = surfel_ids(job)
     for src in job.sources:
-        ids[src.start:src.stop] = np.arange(src.stop - src.start)
         if src.name in clouds:
             points[src.start:src.stop] = True
     return hits(occ, job.positions, job.normals, lit_backs=lit_backs, inset=points, ids=ids,
@@ -434,7 +442,7 @@ def _regather_straddling(job: Job, result: "Result", occ, sent: np.ndarray, back
     untabled = sum(int((o < 0).sum()) for o in (own_front, own_back) if o is not None) \
         if own_front is not None else 2 * len(job.triangles)
     g = rc.gather(occ, front_field, job.positions[rows], job.normals[rows], rays=rays,
-                  seed=job.settings.seed, ids=rows.astype(np.int64),
+                  seed=job.settings.seed, ids=surfel_ids(job)[rows],
                   background=background, back_field=back_field_, two_sided=sides, owners=own_front,
                   back_owners=own_back, tabulate=3 * untabled <= rows.size * rays)
     sent[rows] = job.solve_emission[rows] + direct[rows] + job.albedo[rows] * g.radiance
@@ -491,16 +499,17 @@ def _exact_direct(job: Job, occ, sent: np.ndarray, front: np.ndarray, field_,
     sharp = np.flatnonzero(weight > 0)
     if sharp.size:
         p_, n_ = points[sharp], normals[sharp]
+        ids = sampling.point_ids(p_)   # not their place in the list, which other objects shift
         albedo = rc.SurfelField(pos, nrm, job.albedo[front]).at(p_, n_, occ)
         query = occ.segment_query(n_)
         shadows = (lamps.Shadows(query, samples=LATTICE_SHADOW_SAMPLES, seed=s.seed,
-                                 extent=occ.extent, ids=sharp)
+                                 extent=occ.extent, ids=ids)
                    if all_lamps and s.lamp_shadows else None)
         exact = albedo * lamps.incident_radiance(all_lamps, p_, n_, shadows=shadows)
         if sky:
             rays = min(max(int(shadow_samples), MIN_LATTICE_WORLD_SAMPLES), lamps.WORLD_SAMPLES)
             sky_shadows = (lamps.Shadows(query, samples=rays, seed=s.seed, extent=occ.extent,
-                                         ids=sharp) if s.lamp_shadows else None)
+                                         ids=ids) if s.lamp_shadows else None)
             exact += albedo * lamps.incident_radiance([job.world], p_, n_, shadows=sky_shadows)
         values[sharp] += weight[sharp, None] * (exact - values[sharp])
     return rc.ExactPart(rest=rc.SurfelField(pos, nrm, (sent - lit)[front]),
@@ -555,7 +564,7 @@ def _gathered_at_contacts(job: Job, occ, exact, front: np.ndarray, field_, back_
         return exact, 0
     p_, n_ = points[beside], normals[beside]
     gathered = rc.gather(occ, field_, p_, n_, rays=rays, seed=job.settings.seed,
-                         ids=beside.astype(np.int64), back_field=back_field, two_sided=sides,
+                         ids=sampling.point_ids(p_), back_field=back_field, two_sided=sides,
                          owners=owners, back_owners=back_owners, exact=exact,
                          tabulate=False)
     albedo = rc.SurfelField(job.positions[front], job.normals[front],

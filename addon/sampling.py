@@ -207,18 +207,96 @@ def object_rng(seed: int, name: str, stream: int = 0) -> np.random.Generator:
 _ID_BITS = 40
 
 
-def corner_ids(corner_vertex: np.ndarray, next_vertex: np.ndarray) -> np.ndarray:
-    """A stable identity (L,) int64 per corner (loop): a hash of its vertex and the next vertex
-    around its face, which name one face corner whatever order Blender keeps the faces and
-    loops in. A receiver's rays follow from it."""
-    x = (np.asarray(corner_vertex, dtype=np.uint64) << np.uint64(32)) \
-        ^ np.asarray(next_vertex, dtype=np.uint64)
+def corner_ids(corner_vertex: np.ndarray, next_vertex: np.ndarray,
+               previous_vertex: np.ndarray | None = None) -> np.ndarray:
+    """A stable identity (L,) int64 per corner (loop): a hash of its vertex and its two
+    neighbours around its face (unordered, so that a mirror's reversed winding keeps it),
+    which name one face corner whatever order Blender keeps the faces and loops in. A
+    receiver's rays follow from it. Without ``previous_vertex``: its vertex and the next."""
+    v = np.asarray(corner_vertex, dtype=np.uint64)
+    a = np.asarray(next_vertex, dtype=np.uint64)
+    b = a if previous_vertex is None else np.asarray(previous_vertex, dtype=np.uint64)
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
     with np.errstate(over="ignore"):   # splitmix64: wrapping arithmetic is the point
-        x = x + np.uint64(0x9E3779B97F4A7C15)
-        x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-        x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-        x = x ^ (x >> np.uint64(31))
+        x = _mix((v << np.uint64(32)) ^ lo)
+        x = _mix(x ^ hi)
     return (x >> np.uint64(64 - _ID_BITS)).astype(np.int64)
+
+
+def object_ids(name: str, rows: np.ndarray) -> np.ndarray:
+    """Stable identities (N,) int64 of an object's elements (``rows`` within it, e.g. its
+    surfels): a hash of the object's name and the row, the same whatever else the scene holds."""
+    key = np.uint64(zlib.crc32(name.encode("utf-8")))
+    with np.errstate(over="ignore"):
+        x = _mix((key << np.uint64(32)) ^ np.asarray(rows, dtype=np.uint64))
+    return (x >> np.uint64(64 - _ID_BITS)).astype(np.int64)
+
+
+def point_ids(points: np.ndarray) -> np.ndarray:
+    """Stable identities (M,) int64 of points (M, 3) from their coordinates' bits: the same
+    point, wherever in a list it comes, draws the same rays."""
+    bits = np.ascontiguousarray(points, dtype=np.float64).view(np.uint64).reshape(-1, 3)
+    with np.errstate(over="ignore"):
+        x = _mix(_mix(_mix(bits[:, 0]) ^ bits[:, 1]) ^ bits[:, 2])
+    return (x >> np.uint64(64 - _ID_BITS)).astype(np.int64)
+
+
+def _mix(x: np.ndarray) -> np.ndarray:
+    x = x + np.uint64(0x9E3779B97F4A7C15)
+    x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return x ^ (x >> np.uint64(31))
+
+
+#: A polygon of four or more corners is cut into a fan from its lowest vertex where every fan
+#: triangle faces the polygon's way within this cosine (it is flat and the fan stays inside it).
+FAN_FLAT_COS = 1.0 - 1e-9
+
+
+def _fanned(mesh, world: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The mesh's triangles: vertices (T, 3), loops (T, 3), material index (T,).
+
+    Blender cuts a polygon starting from its first loop, which a mirror applied (it reverses
+    the loops) or an edit moves: a flat, convex polygon is the same surface whichever way it
+    is cut, so it is cut here into a fan from its lowest vertex, and its samples do not depend
+    on where its loops start. Other polygons keep Blender's triangles (a bent quad's diagonal
+    is the surface Blender renders)."""
+    nt, nl, nf = len(mesh.loop_triangles), len(mesh.loops), len(mesh.polygons)
+    tri_v = _get(mesh.loop_triangles, "vertices", nt, 3, np.int32).astype(np.int64)
+    tri_l = _get(mesh.loop_triangles, "loops", nt, 3, np.int32).astype(np.int64)
+    mat_idx = _get(mesh.loop_triangles, "material_index", nt, 1, np.int32).astype(np.int64)
+    total = _get(mesh.polygons, "loop_total", nf, 1, np.int32).astype(np.int64)
+    if not (total > 3).any():
+        return tri_v, tri_l, mat_idx
+    start = _get(mesh.polygons, "loop_start", nf, 1, np.int32).astype(np.int64)
+    face_material = _get(mesh.polygons, "material_index", nf, 1, np.int32).astype(np.int64)
+    tri_face = _get(mesh.loop_triangles, "polygon_index", nt, 1, np.int32).astype(np.int64)
+    loop_vertex = _get(mesh.loops, "vertex_index", nl, 1, np.int32).astype(np.int64)
+    fanned = np.zeros(nf, dtype=bool)
+    fans_v, fans_l, fans_m = [], [], []
+    for n in np.unique(total[total > 3]):
+        faces = np.flatnonzero(total == n)
+        loops = start[faces][:, None] + np.arange(n)
+        apex = loop_vertex[loops].argmin(axis=1)
+        loops = np.take_along_axis(loops, (apex[:, None] + np.arange(n)) % n, axis=1)
+        k = np.arange(1, n - 1)
+        fan = np.stack([np.repeat(loops[:, :1], n - 2, axis=1), loops[:, k], loops[:, k + 1]],
+                       axis=2)                                            # (F, n-2, 3) loops
+        p = world[loop_vertex[fan]]
+        cross = np.cross(p[..., 1, :] - p[..., 0, :], p[..., 2, :] - p[..., 0, :])
+        whole = cross.sum(axis=1)
+        size = np.linalg.norm(cross, axis=2)
+        facing = np.einsum("fkc,fc->fk", cross, whole)
+        flat = (facing >= FAN_FLAT_COS * size * np.linalg.norm(whole, axis=1)[:, None]) \
+            & (size > 0)
+        good = flat.all(axis=1)
+        fanned[faces[good]] = True
+        fans_l.append(fan[good].reshape(-1, 3))
+        fans_v.append(loop_vertex[fans_l[-1]])
+        fans_m.append(np.repeat(face_material[faces[good]], n - 2))
+    keep = ~fanned[tri_face]
+    return (np.concatenate([tri_v[keep]] + fans_v), np.concatenate([tri_l[keep]] + fans_l),
+            np.concatenate([mat_idx[keep]] + fans_m))
 
 
 def _read_mesh_data(name: str, obj_eval, mesh, matrix_world, material_slots) -> TriangleMesh:
@@ -235,10 +313,12 @@ def _read_mesh_data(name: str, obj_eval, mesh, matrix_world, material_slots) -> 
     with np.errstate(over="ignore", invalid="ignore"):
         world = co @ lin.T + trans
     check_coordinates(name, world)
-    tri_v = _get(mesh.loop_triangles, "vertices", nt, 3, np.int32)
-    tri_l = _get(mesh.loop_triangles, "loops", nt, 3, np.int32)
-    mat_idx = _get(mesh.loop_triangles, "material_index", nt, 1, np.int32).astype(np.int64)
+    tri_v, tri_l, mat_idx = _fanned(mesh, world)
     order, turn = canonical_triangles(tri_v)
+    if np.linalg.det(m[:3, :3]) < 0:
+        # A mirroring transform turns the winding inside out: Blender flips it back, so that
+        # the front faces stay the ones the normals point out of.
+        turn = turn[:, [0, 2, 1]]
     tri_v = np.take_along_axis(tri_v, turn, axis=1)[order]
     tri_l = np.take_along_axis(tri_l, turn, axis=1)[order]
     mat_idx = mat_idx[order]
@@ -327,36 +407,137 @@ class Receivers:
         return out / np.maximum(count, 1.0)[:, None]
 
 
-def read_receivers(obj, warnings: list[str]) -> Receivers | None:
-    """The receivers of ``obj``'s own (unevaluated) mesh in world space, with materials
-    evaluated at every corner (``materials.surfel_materials``); None without faces."""
+#: Modifiers that move, smooth or subdivide a mesh but keep its vertices as the first of the
+#: result's, in their order (Subdivision Surface and Multires put the limit points of the
+#: original vertices first): the light at each of the mesh's corners is then evaluated where
+#: its vertex ends up, inside the part of its face that touches that vertex.
+VERTEX_KEEPING_MODIFIERS = frozenset({
+    "SUBSURF", "MULTIRES", "ARMATURE", "CAST", "CURVE", "DISPLACE", "HOOK", "LAPLACIANDEFORM",
+    "LATTICE", "MESH_DEFORM", "SHRINKWRAP", "SIMPLE_DEFORM", "SMOOTH", "CORRECTIVE_SMOOTH",
+    "LAPLACIANSMOOTH", "SURFACE_DEFORM", "WARP", "WAVE", "WEIGHTED_NORMAL", "NORMAL_EDIT",
+    "MESH_CACHE", "MESH_SEQUENCE_CACHE", "UV_PROJECT", "UV_WARP", "VERTEX_WEIGHT_EDIT",
+    "VERTEX_WEIGHT_MIX", "VERTEX_WEIGHT_PROXIMITY", "DATA_TRANSFER"})
+
+
+def _polygon_loops(mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each loop's face (L,), and the next and the previous loop around that face (L,)."""
+    nl, nf = len(mesh.loops), len(mesh.polygons)
+    start = _get(mesh.polygons, "loop_start", nf, 1, np.int32).astype(np.int64)
+    total = _get(mesh.polygons, "loop_total", nf, 1, np.int32).astype(np.int64)
+    face = np.zeros(nl, dtype=np.int64)
+    face[start] = 1
+    face = np.cumsum(face) - 1
+    following = np.arange(1, nl + 1, dtype=np.int64)
+    following[start + total - 1] = start
+    preceding = np.arange(-1, nl - 1, dtype=np.int64)
+    preceding[start] = start + total - 1
+    return np.argsort(start, kind="stable")[face], following, preceding
+
+
+def _face_centroids(mesh, positions: np.ndarray, vertex: np.ndarray, face: np.ndarray) -> np.ndarray:
+    """Each face's centroid (F, 3) of ``positions`` at its loops' ``vertex``."""
+    count = np.bincount(face, minlength=len(mesh.polygons)).astype(np.float64)
+    out = np.zeros((len(mesh.polygons), 3))
+    np.add.at(out, face, positions[vertex])
+    return out / np.maximum(count, 1.0)[:, None]
+
+
+def _evaluated_corners(obj, mesh, evaluated) -> np.ndarray | str:
+    """For each corner of ``obj``'s own ``mesh``, the loop of its ``evaluated`` mesh where its
+    light is to be evaluated (L,); or why there is none (a message). The same topology maps
+    corner to corner (shape keys, deforming modifiers, mirroring by scale); subdivision maps
+    each corner to the evaluated corner at its vertex that lies toward its own face."""
+    nl = len(mesh.loops)
+    vertex = _get(mesh.loops, "vertex_index", nl, 1, np.int32).astype(np.int64)
+    ne = len(evaluated.loops)
+    ev_vertex = _get(evaluated.loops, "vertex_index", ne, 1, np.int32).astype(np.int64)
+    if ne == nl and len(evaluated.polygons) == len(mesh.polygons) and np.array_equal(vertex, ev_vertex):
+        return np.arange(nl, dtype=np.int64)
+    from .output import OWN_MODIFIERS, repeat_problem
+    repeated = repeat_problem(obj)
+    if repeated is not None:
+        return repeated
+    changing = [mod for mod in obj.modifiers if (mod.show_viewport or mod.show_render)
+                and mod.name not in OWN_MODIFIERS and mod.type not in VERTEX_KEEPING_MODIFIERS]
+    if changing or len(evaluated.vertices) < len(mesh.vertices):
+        culprit = (f"its {changing[0].type.replace('_', ' ').title()} modifier "
+                   f"'{changing[0].name}'" if changing else "its modifiers")
+        return (f"Object '{obj.name}': {culprit} changes the mesh's faces, so its corners have no "
+                "place on the surface Blender shows: no illumination written to it. The surfel "
+                "object holds its light; apply the modifier to transfer onto the mesh")
+    nv = len(evaluated.vertices)
+    co = _get(evaluated.vertices, "co", nv, 3, np.float64)
+    face, _, _ = _polygon_loops(mesh)
+    ev_face, _, _ = _polygon_loops(evaluated)
+    toward = _face_centroids(mesh, co, vertex, face)[face] - co[vertex]
+    ev_toward = _face_centroids(evaluated, co, ev_vertex, ev_face)[ev_face] - co[ev_vertex]
+    toward /= np.maximum(np.linalg.norm(toward, axis=1, keepdims=True), 1e-300)
+    ev_toward /= np.maximum(np.linalg.norm(ev_toward, axis=1, keepdims=True), 1e-300)
+    # The evaluated corners at each original vertex, as a padded table (vertices × valence).
+    at = np.flatnonzero(ev_vertex < len(mesh.vertices))
+    at = at[np.argsort(ev_vertex[at], kind="stable")]
+    count = np.bincount(ev_vertex[at], minlength=len(mesh.vertices))
+    begin = np.concatenate([[0], np.cumsum(count)[:-1]])
+    width = max(int(count.max(initial=0)), 1)
+    k = np.arange(width)
+    valid = k[None, :] < count[vertex][:, None]
+    candidate = np.where(valid, at[np.minimum(begin[vertex][:, None] + k[None, :], len(at) - 1)], 0)
+    score = np.where(valid, np.einsum("lc,lkc->lk", toward, ev_toward[candidate]), -np.inf)
+    best = candidate[np.arange(nl), score.argmax(axis=1)]
+    if not valid.any(axis=1).all():
+        return (f"Object '{obj.name}': its modifiers drop some of its vertices, so their corners "
+                "have no place on the surface Blender shows: no illumination written to it")
+    return best
+
+
+def read_receivers(obj, warnings: list[str], depsgraph=None,
+                   material_warnings: list[str] | None = None) -> Receivers | None:
+    """The receivers of ``obj``'s mesh corners in world space, on the surface Blender shows
+    (its evaluated mesh with ``depsgraph``: shape keys, modifiers, a mirroring scale), with
+    materials evaluated at every corner (``materials.surfel_materials``); None without faces,
+    or (with a warning) where a modifier changes the faces so that the corners have no place
+    on the evaluated surface (``_evaluated_corners``). Material warnings go to
+    ``material_warnings`` when given (the surfels' reading gave them already)."""
     from .materials import surfel_materials
     mesh = obj.data
     if mesh is None or len(mesh.polygons) == 0:
         return None
-    tm = _read_mesh_data(obj.name, obj, mesh, obj.matrix_world, obj.material_slots)
+    obj_eval = obj.evaluated_get(depsgraph) if depsgraph is not None else obj
+    evaluated = obj_eval.to_mesh() if depsgraph is not None else mesh
+    try:
+        if evaluated is None or len(evaluated.polygons) == 0:
+            return None
+        at = _evaluated_corners(obj, mesh, evaluated)
+        if isinstance(at, str):
+            warnings.append(at)
+            return None
+        tm = _read_mesh_data(obj.name, obj_eval, evaluated, obj_eval.matrix_world,
+                             obj.material_slots)
+        ne, nve = len(evaluated.loops), len(evaluated.vertices)
+        ev_vertex = _get(evaluated.loops, "vertex_index", ne, 1, np.int32).astype(np.int64)
+    finally:
+        if depsgraph is not None:
+            obj_eval.to_mesh_clear()
     nl, nv = len(mesh.loops), len(mesh.vertices)
     corner_vertex = _get(mesh.loops, "vertex_index", nl, 1, np.int32).astype(np.int64)
-    start = _get(mesh.polygons, "loop_start", len(mesh.polygons), 1, np.int32).astype(np.int64)
-    total = _get(mesh.polygons, "loop_total", len(mesh.polygons), 1, np.int32).astype(np.int64)
-    following = np.arange(1, nl + 1, dtype=np.int64)
-    following[start + total - 1] = start
+    _, following, preceding = _polygon_loops(mesh)
     flat = tm.loops.ravel()
     loops, first = np.unique(flat, return_index=True)
     # Corners of zero-area faces only: evaluated at a neighbouring triangle corner of the
     # same vertex where there is one (the light at a point does not depend on the face).
-    owner = np.full(nl, -1, dtype=np.int64)
+    owner = np.full(ne, -1, dtype=np.int64)
     owner[loops] = first
     orphan = np.flatnonzero(owner < 0)
     if orphan.size:
-        by_vertex = np.full(nv, -1, dtype=np.int64)
+        by_vertex = np.full(nve, -1, dtype=np.int64)
         by_vertex[tm.vertices.ravel()[::-1]] = np.arange(flat.size)[::-1]
-        owner[orphan] = by_vertex[corner_vertex[orphan]]
-        missing = owner < 0
-        if missing.any():
-            warnings.append(f"Object '{obj.name}': {int(missing.sum())} corner(s) of degenerate "
-                            "faces get no illumination")
-            owner[missing] = 0
+        owner[orphan] = by_vertex[ev_vertex[orphan]]
+    owner = owner[at]
+    missing = owner < 0
+    if missing.any():
+        warnings.append(f"Object '{obj.name}': {int(missing.sum())} corner(s) of degenerate "
+                        "faces get no illumination")
+        owner[missing] = 0
     tri, slot = owner // 3, owner % 3
     bary = np.zeros((nl, 3))
     bary[np.arange(nl), slot] = 1.0
@@ -369,7 +550,8 @@ def read_receivers(obj, warnings: list[str]) -> Receivers | None:
     normals = tm.corner_normals[tri, slot]
     samples = MeshSamples(mesh=tm, positions=positions, normals=normals, areas=np.ones(nl),
                           triangle=tri, bary=bary, material_index=tm.material_index[tri])
-    albedo, emission = surfel_materials(samples, warnings)
+    albedo, emission = surfel_materials(samples, warnings if material_warnings is None
+                                        else material_warnings)
     # Every corner is its own receiver: the corners of one vertex lie inside different faces,
     # which a wall standing on that vertex separates (a floor vertex under a box's side is
     # half in its shadow, as a bake finds averaging the corners).
@@ -377,7 +559,8 @@ def read_receivers(obj, warnings: list[str]) -> Receivers | None:
                      points=np.ascontiguousarray(positions),
                      normals=np.ascontiguousarray(normals), albedo=albedo,
                      emission=emission, vertex_count=nv, inward=np.ascontiguousarray(inward),
-                     corner_id=corner_ids(corner_vertex, corner_vertex[following]))
+                     corner_id=corner_ids(corner_vertex, corner_vertex[following],
+                                          corner_vertex[preceding]))
 
 
 def allocate(areas: np.ndarray, *, density: float | None = None,

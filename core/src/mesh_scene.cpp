@@ -39,7 +39,7 @@ MeshScene::MeshScene(Context& ctx, const double* corners, std::size_t n_tri) : n
     }
     frame_ = make_local_frame(3 * n_tri, [&](std::size_t i, double* p) {
         for (int d = 0; d < 3; ++d) p[d] = corners[3 * i + d];
-    });
+    }, [&](std::size_t i) { return triangle_area(corners + 9 * (i / 3)) / 3.0; });
     for (int d = 0; d < 3; ++d) {
         lo_[d] = n_tri ? lo[d] : 0.0;
         hi_[d] = n_tri ? hi[d] : 0.0;

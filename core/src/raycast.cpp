@@ -111,6 +111,8 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
         } else {
             for (int d = 0; d < 3; ++d) p[d] = triangles[3 * (i - n) + d];
         }
+    }, [&](std::size_t i) {
+        return i < n ? s.area[i] : triangle_area(triangles + 9 * ((i - n) / 3)) / 3.0;
     });
     for (int d = 0; d < 3; ++d) {
         center_[d] = frame.center[d];
@@ -207,8 +209,11 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
             // triangles about the centre. Each triangle's rim edge is lengthened by kWiden of
             // itself at both ends, so that it covers its two spokes inside (as the quad's two
             // triangles overlap along the diagonal: Embree's triangle test is not watertight).
-            constexpr double kWiden = 0.02;
-            constexpr int kSides = 8, kVerts = 1 + 2 * kSides;
+            // Each triangle's apex also sits kBehind of the corner radius past the centre,
+            // away from its rim, so that neighbours overlap along their spokes too: with one
+            // shared apex a ray through the centre could pass between all eight.
+            constexpr double kWiden = 0.02, kBehind = 0.04;
+            constexpr int kSides = 8, kVerts = 3 * kSides;
             const double kCorner = std::sqrt(kPi / (kSides * 0.5 * std::sin(2 * kPi / kSides)));
             g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
             float* v = static_cast<float*>(rtcSetNewGeometryBuffer(
@@ -235,16 +240,15 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
                         for (int d = 0; d < 3; ++d)
                             out[3 * slot + d] = float(c[d] + r * (x * t[d] + y * u[d]));
                     };
-                    put(0, 0.0, 0.0);
                     const unsigned o = unsigned(kVerts * i);
                     for (int k = 0; k < kSides; ++k) {
                         const double wx = kWiden * (rim[k + 1][0] - rim[k][0]);
                         const double wy = kWiden * (rim[k + 1][1] - rim[k][1]);
-                        put(1 + 2 * k, rim[k][0] - wx, rim[k][1] - wy);
-                        put(2 + 2 * k, rim[k + 1][0] + wx, rim[k + 1][1] + wy);
-                        ib[3 * (kSides * i + k) + 0] = o;
-                        ib[3 * (kSides * i + k) + 1] = o + 1 + 2 * k;
-                        ib[3 * (kSides * i + k) + 2] = o + 2 + 2 * k;
+                        const double back = -0.5 * kBehind / kCorner;
+                        put(3 * k, back * (rim[k][0] + rim[k + 1][0]), back * (rim[k][1] + rim[k + 1][1]));
+                        put(3 * k + 1, rim[k][0] - wx, rim[k][1] - wy);
+                        put(3 * k + 2, rim[k + 1][0] + wx, rim[k + 1][1] + wy);
+                        for (int j = 0; j < 3; ++j) ib[3 * (kSides * i + k) + j] = o + 3 * k + j;
                     }
                 }
             });

@@ -25,7 +25,9 @@ def corner_keys(mesh) -> np.ndarray:
     mesh.polygons.foreach_get("loop_total", total)
     following = np.arange(1, nl + 1)
     following[start + total - 1] = start
-    return sampling.corner_ids(vertex, vertex[following])
+    preceding = np.arange(-1, nl - 1)
+    preceding[start] = start + total - 1
+    return sampling.corner_ids(vertex, vertex[following], vertex[preceding])
 
 
 def solve(objects, target=None):

@@ -226,3 +226,13 @@ def test_corner_ids_name_one_corner_each():
     assert ids.min() >= 0 and ids.max() < 2 ** 40
     assert np.array_equal(ids, corner_ids(vertex.copy(), following.copy()))
     assert corner_ids(np.array([3]), np.array([4]))[0] != corner_ids(np.array([4]), np.array([3]))[0]
+    # With both neighbours, on a grid of quads: one identity per corner, and a face's reversed
+    # winding (a mirror applied) keeps each.
+    n = 30
+    k = lambda i, j: i * (n + 1) + j  # noqa: E731
+    faces = np.array([[k(i, j), k(i + 1, j), k(i + 1, j + 1), k(i, j + 1)]
+                      for i in range(n) for j in range(n)])
+    here, after, before = faces.ravel(), np.roll(faces, -1, 1).ravel(), np.roll(faces, 1, 1).ravel()
+    ids = corner_ids(here, after, before)
+    assert len(np.unique(ids)) == len(ids)
+    assert np.array_equal(ids, corner_ids(here, before, after))
