@@ -27,8 +27,11 @@ Options (after ``--``)::
     --frames A-B[,C...]    frames to compute, one result per frame (default: the current frame)
     --output out.blend     save the result (#### → frame number; added before the extension
                            when several frames are computed and the name has no #)
-    --render out.png       Cycles render of the point-instanced preview (same # rules)
-    --render-preview meshes  render the meshes with their illumination instead of the discs
+    --render out.png       Cycles render of the preview from the scene camera (same # rules)
+    --render-preview WHAT  what --render shows: objects (default: the lit meshes and scans
+                           themselves, as the Object Preview shows them after Compute; with
+                           --no-transfer, surfels), or surfels (the solve's discs, a
+                           diagnostic); "meshes" and "points" are the older names of the two
     --resolution PX        render size of the longer side (default 256)
     --samples S            Cycles samples (default 16)
     --export-npz PATH      surfel data per frame;  --export-exr PATH  illumination as EXR
@@ -146,9 +149,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--frames", help=f"e.g. 1-3 or 1,5,7-9 (at most {MAX_FRAMES:,} frames)")
     p.add_argument("--output", help="output .blend (#### = frame)")
     p.add_argument("--render", help="output PNG of the preview (#### = frame)")
-    p.add_argument("--render-preview", choices=["points", "meshes"], default="points",
-                   type=str.lower, help="what --render shows: the surfels' discs, or the "
-                                        "meshes with the light evaluated at their corners")
+    p.add_argument("--render-preview", choices=["objects", "surfels", "meshes", "points"],
+                   default=None, type=str.lower,
+                   help="what --render shows: the lit objects themselves (default), or the "
+                        "solve's surfels as discs (a diagnostic); 'meshes' and 'points' are "
+                        "their older names")
     p.add_argument("--resolution", type=int, default=256, help=_range("--resolution"))
     p.add_argument("--samples", type=int, default=16, help=_range("--samples"))
     p.add_argument("--export-npz")
@@ -271,9 +276,9 @@ def make_settings(args) -> pipeline.Settings:
         value = getattr(args, option[2:].replace("-", "_"))
         if value is not None and not limit(name).contains(value):
             raise UsageError(f"{option} must lie in {_range(option)}, got {value}")
-    if args.render_preview == "meshes" and args.no_transfer:
-        raise UsageError("--render-preview meshes shows the light transferred to the meshes: "
-                         "it cannot be combined with --no-transfer")
+    if args.render_preview in ("meshes", "objects") and args.no_transfer:
+        raise UsageError(f"--render-preview {args.render_preview} shows the light transferred "
+                         "to the meshes: it cannot be combined with --no-transfer")
     if args.transfer and args.no_transfer:
         raise UsageError("--transfer and --no-transfer exclude each other")
     if args.target_error is not None and args.density is not None:
@@ -295,42 +300,55 @@ def make_settings(args) -> pipeline.Settings:
     return settings
 
 
-def add_preview(context, surfel_object) -> bool:
-    """Build the point-instanced preview on the surfel object, if the add-on has one."""
+def preview_kind(args) -> str:
+    """What ``--render`` shows and the saved file opens with: "objects" (the Object Preview
+    on the lit objects, the default) or "surfels" (the solve's discs; the default where
+    --no-transfer leaves the objects without light)."""
+    kind = {"meshes": "objects", "points": "surfels"}.get(args.render_preview,
+                                                            args.render_preview)
+    if kind is None:
+        kind = "surfels" if args.no_transfer else "objects"
+    return kind
+
+
+def add_preview(context, surfel_object, lit=(), kind: str = "objects") -> list[str]:
+    """The preview the UI shows after Compute (``mesh_preview.show_result``): the lit objects
+    through the Object Preview and the surfel object hidden, or with ``kind="surfels"`` the
+    surfels' discs. Returns the names of the objects shown; a preview that cannot be built
+    is said and skipped."""
+    from . import mesh_preview
     try:
-        from .preview import build_preview
-    except ImportError:
-        return False
-    try:
-        build_preview(context, surfel_object)
+        return mesh_preview.show_result(context, [o for o in lit if o is not None],
+                                        surfel_object, objects=kind == "objects",
+                                        surfels=kind == "surfels")
     except (ValueError, RuntimeError) as exc:
         print(f"  preview not built: {exc}")
-        return False
-    return True
+        return []
 
 
 def render_preview(context, surfel_object, sources, path: str, resolution: int, samples: int,
-                   what: str = "points") -> str:
-    """Render the preview with Cycles to ``path`` (PNG): the point-instanced discs, or with
-    ``what="meshes"`` the source meshes through the mesh preview (mesh_preview.py), which
-    stays on in the saved file. Returns a message; raises OutputError when nothing could be
-    rendered or written."""
+                   what: str = "objects") -> str:
+    """Render the scene camera's view with Cycles to ``path`` (PNG), with the preview that
+    ``add_preview`` put in place: the lit objects themselves (``what="objects"``), or the
+    surfels' discs standing in for the source geometry (``"surfels"``). Returns a message;
+    raises OutputError when nothing could be rendered or written."""
     from . import mesh_preview
     scene = context.scene
-    if what == "meshes":
-        if not mesh_preview.build_mesh_preview(sources):
-            raise OutputError(f"--render {path!r} not rendered: no mesh has an 'illumination' "
-                              "attribute (--render-preview meshes needs the transfer)")
-        surfel_object.hide_render = True
-    elif not add_preview(context, surfel_object):
-        raise OutputError(f"--render {path!r} not rendered: the point preview is not "
+    if what == "objects":
+        if not any(mesh_preview.has_mesh_preview(o) for o in sources if o is not None):
+            raise OutputError(f"--render {path!r} not rendered: no object has an "
+                              "'illumination' attribute (the Object Preview needs the "
+                              "transfer)")
+    elif surfel_object is None or surfel_object.hide_render or \
+            preview_module().find_preview_modifier(surfel_object) is None:
+        raise OutputError(f"--render {path!r} not rendered: the surfel preview is not "
                           "available")
     if scene.camera is None:
         raise OutputError(f"--render {path!r} not rendered: the scene has no camera")
     r = scene.render
     saved = (r.engine, r.resolution_x, r.resolution_y, r.resolution_percentage, r.filepath,
              r.image_settings.file_format, scene.cycles.samples, scene.cycles.device)
-    hidden = [o for o in sources if not o.hide_render] if what == "points" else []
+    hidden = [o for o in sources if not o.hide_render] if what == "surfels" else []
     aspect = r.resolution_y / max(r.resolution_x, 1)
     try:
         for o in hidden:  # the discs stand in for the source geometry
@@ -357,6 +375,11 @@ def render_preview(context, surfel_object, sources, path: str, resolution: int, 
         (r.engine, r.resolution_x, r.resolution_y, r.resolution_percentage, r.filepath,
          r.image_settings.file_format, scene.cycles.samples, scene.cycles.device) = saved
     return f"rendered {path}"
+
+
+def preview_module():
+    from . import preview
+    return preview
 
 
 def _report(frame: int, result: pipeline.Result, out) -> None:
@@ -555,7 +578,10 @@ def run_frames(args, out=None) -> int:
         result.timings["total"] = time.perf_counter() - t0
         _report(frame, result, out)
         surfels = bpy.data.objects.get(result.object_name or output.SURFEL_OBJECT)
-        add_preview(context, surfels)  # the saved file opens with the preview in place
+        lit = [bpy.data.objects.get(n) for n in
+               list(result.receiver_values) + list(result.point_receiver_values)]
+        # The saved file opens with the preview in place, as the UI shows it after Compute.
+        add_preview(context, surfels, lit, preview_kind(args))
         # While the file's Solid Preview is on, the meshes this frame lit show it too.
         solid_preview.after_run(context, list(result.receiver_values.keys()))
         if outputs["output"]:
@@ -567,8 +593,10 @@ def run_frames(args, out=None) -> int:
                                   f"{str(exc).strip()}") from None
             print(f"  saved {outputs['output']}", file=out)
         if outputs["render"]:
-            msg = render_preview(context, surfels, objects, outputs["render"], args.resolution,
-                                 args.samples, args.render_preview)
+            msg = render_preview(context, surfels, [o for o in lit if o is not None]
+                                 if preview_kind(args) == "objects" else objects,
+                                 outputs["render"], args.resolution, args.samples,
+                                 preview_kind(args))
             print(f"  {msg}", file=out)
     return ExitCode.OK
 

@@ -9,35 +9,49 @@ show it.
 
 * Meshes with faces: a Set Material node (``Illumap Mesh Preview``); the renderer interpolates
   the corner or point values across the faces like any colour attribute.
-* Point clouds and vertex-only meshes (scans): every point of the object is a display point,
-  coloured by the light evaluated at that very point, whatever number of surfels the solve
-  used (``Illumap Point Preview``: Mesh to Points for a mesh's vertices, each point's
-  ``radius`` attribute or else the modifier's Radius, then Set Material). Points render as
-  small spheres in Cycles and EEVEE; the Radius given (``point_radius``) is the median
-  distance to the 6th nearest neighbour: about 1.4 spacings, so spheres close a regularly
-  scanned surface with room to spare, and leave ~0.3% of a randomly sampled one open
-  (exp(−5.7), the chance that a disc of that radius holds no point).
+* Point clouds and vertex-only meshes (scans): every point of the object is a splat, coloured
+  by the light evaluated at that very point, whatever number of surfels the solve used
+  (``Illumap Point Preview``): an ellipse in the point's tangent plane, sized from its
+  neighbours and cut back at creases and rims (``point_splats.splat_frames``), instanced from
+  four hidden point attributes (``SPLAT_ATTRIBUTES``) that ``build_mesh_preview`` writes and
+  ``remove_mesh_preview`` removes; its material reads the point's ``illumination`` through
+  an INSTANCER Attribute node. Where those attributes cannot be written (linked data), the
+  points render as spheres instead (``point_node_group``): each point's ``radius``, else
+  ``point_radius``, the median distance to the 6th nearest neighbour.
 
-The user's material slots and data are never touched: removing the modifier
-(``remove_mesh_preview``) gives the objects back exactly as they were. The material and the
+The user's material slots are never touched, and removing the modifier (``remove_mesh_preview``,
+which removes a scan's splat attributes too) gives the objects back exactly as they were. The material and the
 node groups carry the custom property ``illumap_generated``: a user's own datablock that
 happens to bear one of these names is left alone.
 """
 
 from __future__ import annotations
 
-import bpy
+import math
 
-from . import compat
+import bpy
+import numpy as np
+
+from . import compat, point_splats
 from .kinds import RESULT_TYPES
 from .output import ATTRIBUTE, MARKER
-
-import numpy as np
 
 MODIFIER_NAME = "Illumap Mesh Preview"
 NODE_GROUP_NAME = "Illumap Mesh Preview"
 POINT_MODIFIER_NAME = "Illumap Point Preview"
 POINT_NODE_GROUP_NAME = "Illumap Point Preview"
+#: The spheres a scan falls back to where its splats' attributes cannot be written (linked).
+SPHERE_NODE_GROUP_NAME = "Illumap Point Preview (Spheres)"
+SPLAT_MATERIAL_NAME = "Illumap Splat Illumination"
+#: The hidden point attributes (a leading dot: Blender lists them nowhere) that shape each
+#: point's splat (``point_splats.splat_frames``); written by ``build_mesh_preview`` and
+#: removed with the preview.
+SPLAT_ATTRIBUTES = {key: f".illumap_splat_{key}" for key in ("normal", "axis", "scale", "offset")}
+#: Custom property on a scan's data: what its splats were computed from (``_fingerprint``),
+#: so that a refresh of an unchanged scan writes nothing again.
+SPLAT_KEY = "illumap_splats"
+#: Sides of the polygon each splat is drawn as.
+SPLAT_SIDES = 16
 MODIFIER_NAMES = (MODIFIER_NAME, POINT_MODIFIER_NAME)
 MATERIAL_NAME = "Illumap Illumination"
 # The material and node groups Illumap made carry MARKER (as its objects do): a user's own
@@ -131,14 +145,12 @@ def node_group() -> bpy.types.NodeTree:
 def point_node_group() -> bpy.types.NodeTree:
     """The shared node group for points: a mesh's vertices as points (Mesh to Points), each
     point's ``radius`` attribute where it has one, else the Radius input, then Set Material to
-    ``preview_material()``."""
-    ng = _empty_group(POINT_NODE_GROUP_NAME, radius=True)
+    ``preview_material()``: spheres. Used where the splats' attributes cannot be written (a
+    linked scan); ``splat_node_group`` otherwise."""
+    ng = _empty_group(SPHERE_NODE_GROUP_NAME, radius=True)
     nodes, links = ng.nodes, ng.links
     group_in = nodes.new("NodeGroupInput")
-    to_points = nodes.new("GeometryNodeMeshToPoints")
-    to_points.mode = "VERTICES"
-    clouds = nodes.new("GeometryNodeSeparateComponents")
-    join = nodes.new("GeometryNodeJoinGeometry")
+    points = _points(ng, group_in)
     given = nodes.new("GeometryNodeInputNamedAttribute")
     given.data_type = "FLOAT"
     given.inputs["Name"].default_value = "radius"
@@ -148,20 +160,110 @@ def point_node_group() -> bpy.types.NodeTree:
     set_material = nodes.new("GeometryNodeSetMaterial")
     set_material.inputs["Material"].default_value = preview_material()
     group_out = nodes.new("NodeGroupOutput")
-    for x, node in enumerate((group_in, to_points, join, set_radius, set_material, group_out)):
-        node.location = (250 * x - 500, 0)
-    clouds.location, given.location, switch.location = (-250, -200), (0, -250), (250, -250)
-    links.new(group_in.outputs["Geometry"], to_points.inputs["Mesh"])
-    links.new(group_in.outputs["Radius"], to_points.inputs["Radius"])
-    links.new(group_in.outputs["Geometry"], clouds.inputs["Geometry"])
-    links.new(to_points.outputs["Points"], join.inputs["Geometry"])
-    links.new(clouds.outputs["Point Cloud"], join.inputs["Geometry"])
+    for x, node in enumerate((set_radius, set_material, group_out)):
+        node.location = (250 * x + 250, 0)
+    given.location, switch.location = (0, -250), (250, -250)
     links.new(given.outputs["Exists"], switch.inputs["Switch"])
     links.new(group_in.outputs["Radius"], switch.inputs["False"])
     links.new(given.outputs["Attribute"], switch.inputs["True"])
-    links.new(join.outputs["Geometry"], set_radius.inputs["Points"])
+    links.new(points, set_radius.inputs["Points"])
     links.new(switch.outputs["Output"], set_radius.inputs["Radius"])
     links.new(set_radius.outputs["Points"], set_material.inputs["Geometry"])
+    links.new(set_material.outputs["Geometry"], group_out.inputs["Geometry"])
+    return ng
+
+
+def _points(ng, group_in):
+    """The group's input as points: a mesh's vertices (Mesh to Points) joined with any point
+    cloud; returns the socket that carries them (with every point attribute)."""
+    nodes, links = ng.nodes, ng.links
+    group_in.location = (-500, 0)
+    to_points = nodes.new("GeometryNodeMeshToPoints")
+    to_points.mode = "VERTICES"
+    to_points.location = (-250, 0)
+    clouds = nodes.new("GeometryNodeSeparateComponents")
+    clouds.location = (-250, -200)
+    join = nodes.new("GeometryNodeJoinGeometry")
+    join.location = (0, 0)
+    links.new(group_in.outputs["Geometry"], to_points.inputs["Mesh"])
+    if "Radius" in group_in.outputs:
+        links.new(group_in.outputs["Radius"], to_points.inputs["Radius"])
+    links.new(group_in.outputs["Geometry"], clouds.inputs["Geometry"])
+    links.new(to_points.outputs["Points"], join.inputs["Geometry"])
+    links.new(clouds.outputs["Point Cloud"], join.inputs["Geometry"])
+    return join.outputs["Geometry"]
+
+
+def splat_material() -> bpy.types.Material:
+    """The splats' material: the instancing point's ``illumination`` (Attribute, INSTANCER)
+    → Emission (strength 1)."""
+    mat = _own(bpy.data.materials, SPLAT_MATERIAL_NAME,
+               lambda: bpy.data.materials.new(SPLAT_MATERIAL_NAME))
+    tree = compat.node_tree(mat)
+    nodes, links = tree.nodes, tree.links
+    nodes.clear()
+    out = nodes.new("ShaderNodeOutputMaterial")
+    out.location = (400, 0)
+    emission = nodes.new("ShaderNodeEmission")
+    emission.location = (200, 0)
+    emission.inputs["Strength"].default_value = 1.0
+    attr = nodes.new("ShaderNodeAttribute")
+    attr.attribute_type = "INSTANCER"
+    attr.attribute_name = ATTRIBUTE
+    links.new(attr.outputs["Color"], emission.inputs["Color"])
+    links.new(emission.outputs["Emission"], out.inputs["Surface"])
+    return mat
+
+
+def splat_node_group() -> bpy.types.NodeTree:
+    """The shared node group for scans: every point (a mesh's vertices, a point cloud's
+    points) instances a unit disc, turned into its tangent plane (Z to the splat normal, X to
+    its axis), scaled to its ellipse and moved to its centre, from the hidden attributes
+    ``SPLAT_ATTRIBUTES`` that ``build_mesh_preview`` writes (``point_splats.splat_frames``);
+    the discs read the point's ``illumination`` through ``splat_material()``."""
+    ng = _empty_group(POINT_NODE_GROUP_NAME)
+    nodes, links = ng.nodes, ng.links
+    group_in = nodes.new("NodeGroupInput")
+    points = _points(ng, group_in)
+
+    def attribute(key, y):
+        node = nodes.new("GeometryNodeInputNamedAttribute")
+        node.data_type = "FLOAT_VECTOR"
+        node.inputs["Name"].default_value = SPLAT_ATTRIBUTES[key]
+        node.location = (0, y)
+        return node.outputs["Attribute"]
+
+    move = nodes.new("GeometryNodeSetPosition")
+    move.location = (250, 0)
+    links.new(points, move.inputs["Geometry"])
+    links.new(attribute("offset", -200), move.inputs["Offset"])
+    normal = nodes.new("FunctionNodeAlignRotationToVector")
+    normal.axis = "Z"
+    normal.location = (250, -350)
+    links.new(attribute("normal", -400), normal.inputs["Vector"])
+    axis = nodes.new("FunctionNodeAlignRotationToVector")
+    axis.axis, axis.pivot_axis = "X", "Z"
+    axis.location = (450, -350)
+    links.new(normal.outputs["Rotation"], axis.inputs["Rotation"])
+    links.new(attribute("axis", -550), axis.inputs["Vector"])
+    circle = nodes.new("GeometryNodeMeshCircle")
+    circle.fill_type = "NGON"
+    circle.inputs["Vertices"].default_value = SPLAT_SIDES
+    # The polygon circumscribes the unit disc: it covers all of the ellipse.
+    circle.inputs["Radius"].default_value = 1.0 / math.cos(math.pi / SPLAT_SIDES)
+    circle.location = (450, -150)
+    instance = nodes.new("GeometryNodeInstanceOnPoints")
+    instance.location = (700, 0)
+    links.new(move.outputs["Geometry"], instance.inputs["Points"])
+    links.new(circle.outputs["Mesh"], instance.inputs["Instance"])
+    links.new(axis.outputs["Rotation"], instance.inputs["Rotation"])
+    links.new(attribute("scale", -700), instance.inputs["Scale"])
+    set_material = nodes.new("GeometryNodeSetMaterial")
+    set_material.location = (950, 0)
+    set_material.inputs["Material"].default_value = splat_material()
+    group_out = nodes.new("NodeGroupOutput")
+    group_out.location = (1200, 0)
+    links.new(instance.outputs["Instances"], set_material.inputs["Geometry"])
     links.new(set_material.outputs["Geometry"], group_out.inputs["Geometry"])
     return ng
 
@@ -206,10 +308,79 @@ def has_mesh_preview(obj) -> bool:
     return obj.type in RESULT_TYPES and any(n in obj.modifiers for n in MODIFIER_NAMES)
 
 
+def _point_vectors(obj, names) -> np.ndarray | None:
+    """The first FLOAT_VECTOR point attribute of ``obj`` among ``names`` (n, 3), or None."""
+    for name in names:
+        attr = obj.data.attributes.get(name)
+        if attr is not None and attr.data_type == "FLOAT_VECTOR" and attr.domain == "POINT":
+            out = np.empty(len(attr.data) * 3, np.float32)
+            attr.data.foreach_get("vector", out)
+            return out.reshape(-1, 3)
+    return None
+
+
+def _point_floats(obj, name) -> np.ndarray | None:
+    attr = obj.data.attributes.get(name)
+    if attr is None or attr.data_type != "FLOAT" or attr.domain != "POINT":
+        return None
+    out = np.empty(len(attr.data), np.float32)
+    attr.data.foreach_get("value", out)
+    return out
+
+
+def _fingerprint(pos, normals, radius) -> str:
+    """What a scan's splats depend on, in a few numbers (its points, given normals, radii)."""
+    parts = [len(pos), float(pos.sum(dtype=np.float64)), float(np.square(pos, dtype=np.float64).sum())]
+    for extra in (normals, radius):
+        parts.append(None if extra is None else float(extra.sum(dtype=np.float64)))
+    return repr(parts)
+
+
+def write_splats(obj) -> bool:
+    """Compute ``obj``'s splats (``point_splats.splat_frames``) and store them in its hidden
+    point attributes ``SPLAT_ATTRIBUTES``; nothing is written when they already hold the
+    splats of these very points. False where the data cannot take attributes (linked)."""
+    data = obj.data
+    if data.library is not None or getattr(data, "override_library", None) is not None:
+        return False
+    pos = _positions(obj).astype(np.float32)
+    normals = _point_vectors(obj, ("normal", "N"))
+    radius = _point_floats(obj, "radius")
+    key = _fingerprint(pos, normals, radius)
+    attrs = data.attributes
+    if data.get(SPLAT_KEY) == key and all(
+            name in attrs and len(attrs[name].data) == len(pos) for name in SPLAT_ATTRIBUTES.values()):
+        return True
+    frames = point_splats.splat_frames(pos, normals, radius)
+    for name_key, name in SPLAT_ATTRIBUTES.items():
+        attr = attrs.get(name)
+        if attr is not None and (attr.data_type != "FLOAT_VECTOR" or attr.domain != "POINT"):
+            attrs.remove(attr)
+            attr = None
+        if attr is None:
+            attr = attrs.new(name, "FLOAT_VECTOR", "POINT")
+        attr.data.foreach_set("vector", frames[name_key].ravel())
+    data[SPLAT_KEY] = key
+    return True
+
+
+def remove_splats(data) -> None:
+    """Remove the splats' hidden attributes and record from a scan's data."""
+    if data is None or data.library is not None:
+        return
+    for name in SPLAT_ATTRIBUTES.values():
+        attr = data.attributes.get(name)
+        if attr is not None:
+            data.attributes.remove(attr)
+    if SPLAT_KEY in data:
+        del data[SPLAT_KEY]
+
+
 def build_mesh_preview(objects) -> list[str]:
     """Show each mesh or point cloud of ``objects`` that has an ``illumination`` attribute
-    through the preview material (a modifier added last, or refreshed). Returns the names of
-    the objects shown."""
+    through the preview material (a modifier added last, or refreshed): meshes with faces
+    through their own faces, scans as one splat per point. Returns the names of the objects
+    shown."""
     groups = {}
     shown = []
     for obj in objects:
@@ -219,15 +390,19 @@ def build_mesh_preview(objects) -> list[str]:
         points = is_point_source(obj)
         name, other = ((POINT_MODIFIER_NAME, MODIFIER_NAME) if points
                        else (MODIFIER_NAME, POINT_MODIFIER_NAME))
-        if name not in groups:
-            groups[name] = point_node_group() if points else node_group()
+        group = NODE_GROUP_NAME
+        if points:
+            group = POINT_NODE_GROUP_NAME if write_splats(obj) else SPHERE_NODE_GROUP_NAME
+        if group not in groups:
+            groups[group] = {NODE_GROUP_NAME: node_group, POINT_NODE_GROUP_NAME: splat_node_group,
+                             SPHERE_NODE_GROUP_NAME: point_node_group}[group]()
         if other in obj.modifiers:
             obj.modifiers.remove(obj.modifiers[other])
         mod = obj.modifiers.get(name)
         if mod is None:
             mod = obj.modifiers.new(name, "NODES")
-        mod.node_group = groups[name]
-        if points and "radius" not in obj.data.attributes:   # else the points' own radii
+        mod.node_group = groups[group]
+        if group == SPHERE_NODE_GROUP_NAME and "radius" not in obj.data.attributes:
             radius = next(item.identifier for item in mod.node_group.interface.items_tree
                           if getattr(item, "in_out", None) == "INPUT" and item.name == "Radius")
             compat.set_modifier_input(mod, radius, point_radius(obj))
@@ -237,7 +412,8 @@ def build_mesh_preview(objects) -> list[str]:
 
 
 def remove_mesh_preview(objects) -> int:
-    """Remove the preview modifiers from ``objects``; returns from how many objects."""
+    """Remove the preview modifiers (and a scan's splat attributes) from ``objects``; returns
+    from how many objects."""
     removed = 0
     for obj in objects:
         if obj is None or obj.type not in RESULT_TYPES:
@@ -245,8 +421,35 @@ def remove_mesh_preview(objects) -> int:
         mods = [obj.modifiers[n] for n in MODIFIER_NAMES if n in obj.modifiers]
         for mod in mods:
             obj.modifiers.remove(mod)
+        if mods or SPLAT_KEY in obj.data:
+            remove_splats(obj.data)
         removed += bool(mods)
     return removed
+
+
+def show_result(context, lit, surfel_object, *, objects=True, surfels=False,
+                mode="ILLUMINATION", disc_scale=None) -> list[str]:
+    """What a run shows when it has written its result (the Compute operator and the batch):
+
+    * ``objects``: the lit objects ``lit`` themselves, through the Object Preview
+      (``build_mesh_preview``);
+    * the solve's surfels (``preview.build_preview`` on ``surfel_object``) only with
+      ``surfels``, or where ``objects`` is asked for and no object could show its light (a
+      run without Transfer); otherwise the surfel object is hidden in the viewport and in
+      renders, a diagnostic the user asks for.
+
+    Returns the names of the objects shown."""
+    from . import preview  # noqa: PLC0415
+    shown = build_mesh_preview(lit) if objects else []
+    if surfel_object is None:
+        return shown
+    if surfels or (objects and not shown):
+        kwargs = {} if disc_scale is None else {"disc_scale": disc_scale}
+        preview.build_preview(context, surfel_object, mode=mode, **kwargs)
+        surfel_object.hide_viewport = surfel_object.hide_render = False
+    else:
+        surfel_object.hide_viewport = surfel_object.hide_render = True
+    return shown
 
 
 class suspended:

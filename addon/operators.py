@@ -173,21 +173,22 @@ def _count(n: int, noun: str) -> str:
     return f"{n} {noun}{'' if n == 1 else 'es' if noun.endswith(('s', 'sh', 'ch', 'x')) else 's'}"
 
 
+def lit_objects(context, result) -> list:
+    """The objects a run wrote ``illumination`` to: its meshes, then its point clouds."""
+    names = list((getattr(result, "receiver_values", None) or {}).keys())
+    names += [n for n in (getattr(result, "point_receiver_values", None) or {}) if n not in names]
+    objects = context.blend_data.objects
+    return [objects[n] for n in names if n in objects]
+
+
 def after_write(context, props, surfel_object, result=None):
-    """Build the preview when the settings ask for it: on the point clouds themselves when
-    only point clouds were lit (every point shown, the surfel object hidden: its thinned
-    surfels would only overlap them), else the discs on a freshly written surfel object."""
-    if surfel_object is None or not props.build_preview:
-        return None
-    meshes = getattr(result, "receiver_values", None)
-    points = getattr(result, "point_receiver_values", None) or {}
-    clouds = [] if meshes else [context.blend_data.objects.get(name) for name in points]
-    if props.preview_mode == "ILLUMINATION" and clouds and \
-            mesh_preview.build_mesh_preview([c for c in clouds if c is not None]):
-        surfel_object.hide_viewport = surfel_object.hide_render = True
-        return None
-    return preview.build_preview(context, surfel_object, mode=props.preview_mode,
-                                 disc_scale=props.disc_scale)
+    """What the user sees after a run (``mesh_preview.show_result``): with Preview After
+    Compute on, the lit objects themselves through the Object Preview; the solve's surfels
+    only when asked for (Show Surfels), or where no object was lit (Transfer off), else
+    hidden in the viewport and in renders. Returns the names of the objects shown."""
+    return mesh_preview.show_result(
+        context, lit_objects(context, result), surfel_object, objects=props.build_preview,
+        surfels=props.show_surfels, mode=props.preview_mode, disc_scale=props.disc_scale)
 
 
 def after_run(context, result):
@@ -553,15 +554,17 @@ class ILLUMAP_OT_compute_illumination_map(bpy.types.Operator):
 
 
 class ILLUMAP_OT_build_preview(bpy.types.Operator):
-    """Instance oriented discs on the surfels, coloured by the illumination map"""
+    """Diagnostic: show the solve's surfels as oriented discs coloured by their light (the
+    'Illumap Surfels' object, shown in the viewport and in renders), or hide them again"""
 
     bl_idname = "illumap.build_preview"
-    bl_label = "Build Preview"
+    bl_label = "Surfel Preview"
     bl_options = {"REGISTER", "UNDO"}
 
     mode: EnumProperty(name="Shading", items=properties.PREVIEW_MODE_ITEMS,
                        options={"SKIP_SAVE"}, default="ILLUMINATION")
     use_scene_mode: BoolProperty(name="Use Scene Setting", default=True, options={"SKIP_SAVE", "HIDDEN"})
+    show: BoolProperty(name="Show", default=True, options={"SKIP_SAVE"})
 
     def execute(self, context):
         props = context.scene.illumap
@@ -574,11 +577,17 @@ class ILLUMAP_OT_build_preview(bpy.types.Operator):
                                    "illumination map first")
             return {"CANCELLED"}
         for obj in targets:
+            if not self.show:
+                preview.remove_preview(obj)
+                obj.hide_viewport = obj.hide_render = True
+                continue
             try:
                 preview.build_preview(context, obj, mode=mode, disc_scale=props.disc_scale)
             except ValueError as error:
                 self.report({"ERROR"}, str(error))
                 return {"CANCELLED"}
+            # Asked for: the diagnostic shows in the viewport and in renders.
+            obj.hide_viewport = obj.hide_render = False
         return {"FINISHED"}
 
 

@@ -1,7 +1,8 @@
 """The Illumap sidebar panel (3D Viewport > Sidebar > Illumap).
 
-With the native module: quality preset, Compute, advanced settings (closed by default), the
-preview and the last run's statistics. Without it: a reduced panel that says why and what to do.
+With the native module: quality preset, Compute and the Object Preview's switch, advanced
+settings (closed by default), the preview (open: the Object Preview after Compute, Solid
+Preview, and the solve's surfels as a diagnostic) and the last run's statistics. Without it: a reduced panel that says why and what to do.
 The draw code is written against a ``layout`` argument so that tests can draw into a recorder.
 """
 
@@ -38,6 +39,15 @@ def draw_main(layout, context):
     row.operator("illumap.compute_illumination_map", icon="LIGHT_SUN")
     n_selected = len(context.selected_objects) if hasattr(context, "selected_objects") else 0
     layout.label(text=f"{n_selected} object{'s' * (n_selected != 1)} selected")
+    draw_object_preview(layout, context)
+
+
+def draw_object_preview(layout, context):
+    """The preview a user meets: the light on their own objects (on after every Compute
+    while Preview After Compute is set), and Off, which gives the objects back."""
+    row = layout.row(align=True)
+    row.operator("illumap.mesh_preview", icon="SHADING_RENDERED", text="Object Preview").show = True
+    row.operator("illumap.mesh_preview", icon="X", text="Off").show = False
 
 
 def draw_advanced(layout, context):
@@ -97,19 +107,22 @@ def draw_preview(layout, context):
     layout.use_property_split = True
     layout.use_property_decorate = False
     layout.prop(props, "build_preview")
-    layout.prop(props, "preview_mode")
-    layout.prop(props, "disc_scale")
-    row = layout.row(align=True)
-    row.operator("illumap.build_preview", icon="MESH_CIRCLE")
-    row.operator("illumap.clear_results", icon="TRASH", text="Clear")
-    row = layout.row(align=True)
-    row.operator("illumap.mesh_preview", icon="SHADING_RENDERED", text="Object Preview").show = True
-    row.operator("illumap.mesh_preview", icon="X", text="Off").show = False
+    draw_object_preview(layout, context)
     row = layout.row(align=True)
     on = solid_preview.is_on(context.blend_data)
     row.operator("illumap.solid_preview", icon="SHADING_SOLID", text="Solid Preview",
                  depress=on).show = True
     row.operator("illumap.solid_preview", icon="X", text="Off").show = False
+    # The solve's own surfels: a diagnostic, hidden unless asked for.
+    col = layout.column(heading="Surfels")
+    col.prop(props, "show_surfels")
+    sub = col.column()
+    sub.prop(props, "preview_mode")
+    sub.prop(props, "disc_scale")
+    row = layout.row(align=True)
+    row.operator("illumap.build_preview", icon="MESH_CIRCLE", text="Show Surfels").show = True
+    row.operator("illumap.build_preview", icon="HIDE_ON", text="Hide").show = False
+    layout.operator("illumap.clear_results", icon="TRASH", text="Clear Results")
 
 
 def draw_stats(layout, context):
@@ -186,7 +199,6 @@ class VIEW3D_PT_illumap_advanced(_SubPanel, bpy.types.Panel):
 class VIEW3D_PT_illumap_preview(_SubPanel, bpy.types.Panel):
     bl_label = "Preview"
     bl_idname = "VIEW3D_PT_illumap_preview"
-    bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
         draw_preview(self.layout, context)

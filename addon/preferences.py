@@ -44,7 +44,7 @@ class IllumapPreferences(bpy.types.AddonPreferences):
                                        description="Shadow lamp light in new scenes")
     default_world_ambient: BoolProperty(name="World Light", default=True,
                                         description="Light from the world in new scenes")
-    default_build_preview: BoolProperty(name="Build Preview After Compute", default=True)
+    default_build_preview: BoolProperty(name="Preview After Compute", default=True)
     default_disc_scale: FloatProperty(name="Disc Scale", default=preview.DEFAULT_DISC_SCALE,
                                        **properties.field_bounds("disc_scale"))
 

@@ -285,9 +285,17 @@ class IllumapSettings(bpy.types.PropertyGroup):
     transfer_domain: EnumProperty(name="Domain", items=DOMAIN_ITEMS, default="CORNER",
                                   update=_field_update)
     # Preview
-    build_preview: BoolProperty(name="Build Preview",
-                                description="Instance discs on the surfels after computing",
-                                default=True, update=_touch)
+    build_preview: BoolProperty(
+        name="Preview After Compute", default=True, update=_touch,
+        description="After Compute, show the light on the computed objects themselves (Object "
+                    "Preview): meshes through their 'illumination' attribute, scans as a splat "
+                    "in each point's tangent plane. Renders (F12) show it too; Off in the "
+                    "Preview panel gives the objects back as they were")
+    show_surfels: BoolProperty(
+        name="Show Surfels", default=False, update=_touch,
+        description="Diagnostic: after Compute, also show the solve's surfels as discs (the "
+                    "'Illumap Surfels' object). Off, that object stays hidden in the viewport "
+                    "and in renders")
     preview_mode: EnumProperty(name="Shading", items=PREVIEW_MODE_ITEMS, default="ILLUMINATION",
                                update=_touch)
     disc_scale: FloatProperty(name="Disc Scale",

@@ -68,8 +68,12 @@ def test_cli_frame_range_outputs_and_idempotence(tmp_path):
     assert "surfels" in proc.stdout and "iterations" in proc.stdout and "residual" in proc.stdout
     # One result per frame: the emitter rises, so the floor centre gets darker.
     values = [floor_centre_value(tmp_path / "out" / f"lit_{f:04d}.blend") for f in (1, 2, 3)]
-    # The saved file carries the preview modifier (Geometry Nodes) on the surfel object.
-    assert any(m.type == "NODES" for m in bpy.data.objects["Illumap Surfels"].modifiers)
+    # The saved file opens as the UI shows a result: the lit meshes through the Object
+    # Preview, the surfels (a diagnostic) hidden in the viewport and in renders.
+    lit = [o for o in bpy.data.objects if "Illumap Mesh Preview" in o.modifiers]
+    assert lit and all("illumination" in o.data.attributes for o in lit)
+    surfels = bpy.data.objects["Illumap Surfels"]
+    assert surfels.hide_render and surfels.hide_viewport
     assert values[0] > values[1] > values[2] > 0
     # The rendered preview shows the illumination (not black).
     img = bpy.data.images.load(str(tmp_path / "out" / "lit_0001.png"))

@@ -152,8 +152,12 @@ def test_installed_extension_runs_the_operator_with_defaults(extension_zip: Path
     surfels.data.attributes["illumination"].data.foreach_get("color", illum)
     illum = illum.reshape(n, 4)[:, :3]
     assert n > 50 and np.isfinite(illum).all() and illum.max() > 0.0, (n, illum.max())
-    # The preview: one Geometry Nodes modifier that instances a disc per surfel at the default
-    # scale.
+    # What the user meets: the floor shows its light through the Object Preview; the surfels
+    # are a diagnostic, hidden until asked for.
+    assert "Illumap Mesh Preview" in floor.modifiers, list(floor.modifiers)
+    assert surfels.hide_render and surfels.hide_viewport and not surfels.modifiers
+    # Asked for: one Geometry Nodes modifier that instances a disc per surfel.
+    assert bpy.ops.illumap.build_preview() == {{"FINISHED"}}
     (mod,) = surfels.modifiers
     assert mod.type == "NODES" and mod.node_group is not None, mod
     depsgraph = bpy.context.evaluated_depsgraph_get()

@@ -26,49 +26,107 @@ def scan_mesh(n, size=1.0, seed=0, name="Scan"):
     return link(bpy.data.objects.new(name, mesh)), pts, colors[:, :3]
 
 
-def evaluated_points(obj):
-    """(positions (n, 3), radius (n,), material names) of obj's evaluated point cloud."""
-    ev = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    geometry = ev.evaluated_geometry()      # owns the point cloud below
-    cloud = geometry.pointcloud
-    pos = np.empty(len(cloud.points) * 3)
-    cloud.attributes["position"].data.foreach_get("vector", pos)
-    radius = np.empty(len(cloud.points))
-    cloud.attributes["radius"].data.foreach_get("value", radius)
-    return pos.reshape(-1, 3), radius, [m.name for m in cloud.materials if m is not None]
+def splats(obj):
+    """The evaluated splats of obj: (centres (n, 3), first semi-axis vectors (n, 3), second
+    (n, 3), normals (n, 3)), from the instances' matrices (the unit disc scaled by the
+    ellipse's semi-axes), and the materials of the instanced geometry."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    mats = [np.array(inst.matrix_world) for inst in depsgraph.object_instances
+            if inst.is_instance and inst.parent is not None and inst.parent.original == obj]
+    m = np.array(mats).reshape(-1, 4, 4)
+    return m[:, :3, 3], m[:, :3, 0], m[:, :3, 1], m[:, :3, 2]
 
 
-def test_every_point_of_a_scan_is_shown_with_its_own_light_and_a_closing_radius():
+def covered(q, centres, ax, bx):
+    """Which of the points q (m, 3) in the splats' planes lie inside some splat."""
+    from illumap import _core
+    idx, _ = _core.knn(np.ascontiguousarray(centres, np.float64), np.ascontiguousarray(q, np.float64), 16)
+    idx = np.asarray(idx)
+    d = q[:, None, :] - centres[idx]
+    u = (d * ax[idx]).sum(-1) / (ax[idx] ** 2).sum(-1)
+    v = (d * bx[idx]).sum(-1) / (bx[idx] ** 2).sum(-1)
+    return (u ** 2 + v ** 2 <= 1.0).any(axis=1)
+
+
+@requires_core
+def test_every_point_of_a_scan_is_a_splat_in_its_plane_that_closes_the_surface():
+    """A flat scan without normals: one splat per point, in the plane (estimated normal ±z),
+    covering the square but for a few holes (exp(-8) of a random sampling's area at the
+    default size), no larger than 2 spacings; Off gives the data back exactly."""
     obj, pts, _ = scan_mesh(4000)
+    before = sorted(a.name for a in obj.data.attributes)
     assert mesh_preview.build_mesh_preview([obj]) == ["Scan"]
     assert [m.name for m in obj.modifiers] == [mesh_preview.POINT_MODIFIER_NAME]
-    pos, radius, mats = evaluated_points(obj)
-    assert len(pos) == len(pts)
-    np.testing.assert_allclose(np.sort(pos[:, 0]), np.sort(pts[:, 0]), atol=1e-6)
-    assert mats == [mesh_preview.MATERIAL_NAME]
-    # Spheres of this radius about random points cover the square but for a few holes
-    # (exp(-5.7) ~ 0.3% of it), without swelling far beyond the spacing.
+    centres, ax, bx, normal = splats(obj)
+    assert len(centres) == len(pts)
+    np.testing.assert_allclose(np.abs(normal[:, 2]), 1.0, atol=1e-5)
+    np.testing.assert_allclose(centres[:, 2], 0.0, atol=1e-6)
     grid = np.stack(np.meshgrid(np.linspace(-0.45, 0.45, 60), np.linspace(-0.45, 0.45, 60)), -1)
-    grid = grid.reshape(-1, 2)
-    d = np.sqrt(((grid[:, None, :] - pts[None, :, :2]) ** 2).sum(-1)).min(axis=1)
-    assert np.mean(d > radius[0]) < 0.01
-    assert radius[0] < 2.0 * np.sqrt(1.0 / len(pts))
+    q = np.column_stack([grid.reshape(-1, 2), np.zeros(3600)])
+    assert np.mean(~covered(q, centres, ax, bx)) < 0.01
+    radius = 1.0 / np.cos(np.pi / mesh_preview.SPLAT_SIDES) * np.linalg.norm(ax, axis=1)
+    assert np.median(radius) < 2.0 * np.sqrt(1.0 / len(pts))
     assert mesh_preview.remove_mesh_preview([obj]) == 1 and len(obj.modifiers) == 0
+    assert sorted(a.name for a in obj.data.attributes) == before
+    assert mesh_preview.SPLAT_KEY not in obj.data
 
 
-def test_a_point_clouds_own_radius_is_kept():
-    obj = make_surfels(np.random.default_rng(1).random((500, 3)), (0, 0, 1), 0.0123,
-                       (0.3, 0.3, 0.3), name="Cloud", pointcloud=True)
+@requires_core
+def test_splats_end_at_a_convex_edge():
+    """Two faces of a box meeting at a convex edge (top z = 0 for x < 0, side x = 0 below):
+    the top's splats end at the side's plane and the side's at the top's, within a fraction
+    of a spacing for nearly all of them (a sphere or an unclipped disc reaches a whole
+    radius, over one spacing, past the edge), and the faces stay covered up to the edge."""
+    rng = np.random.default_rng(3)
+    n = 6000
+    top = rng.random(n) < 0.5
+    a, b = rng.random((2, n))
+    pts = np.where(top[:, None], np.column_stack([-a, b, np.zeros(n)]),
+                   np.column_stack([np.zeros(n), b, -a]))
+    mesh = bpy.data.meshes.new("Edge")
+    mesh.vertices.add(n)
+    mesh.vertices.foreach_set("co", pts.astype(np.float32).ravel())
+    mesh.color_attributes.new("illumination", "FLOAT_COLOR", "POINT")
+    obj = link(bpy.data.objects.new("Edge", mesh))
+    assert mesh_preview.build_mesh_preview([obj]) == ["Edge"]
+    centres, ax, bx, _ = splats(obj)
+    spacing = np.sqrt(1.0 / (n / 2))
+    scale = 1.0 / np.cos(np.pi / mesh_preview.SPLAT_SIDES)
+    def reach(e):
+        return centres @ e + scale * np.sqrt((ax @ e) ** 2 + (bx @ e) ** 2)
+    over_top = reach(np.array([1.0, 0, 0]))[top] / spacing      # past the side's plane x = 0
+    over_side = reach(np.array([0, 0, 1.0]))[~top] / spacing    # past the top's plane z = 0
+    print(f"\npast the edge, in spacings: top p99 {np.percentile(over_top, 99):.2f} max "
+          f"{over_top.max():.2f}; side p99 {np.percentile(over_side, 99):.2f} max "
+          f"{over_side.max():.2f}")
+    assert np.percentile(over_top, 99) < 0.5 and np.percentile(over_side, 99) < 0.5
+    assert np.mean(over_top > 0.25) < 0.02 and np.mean(over_side > 0.25) < 0.02
+    near = np.column_stack([-rng.random(4000) * 0.05, 0.05 + 0.9 * rng.random(4000), np.zeros(4000)])
+    assert np.mean(~covered(near, centres[top], ax[top], bx[top])) < 0.01
+
+
+@requires_core
+def test_a_point_clouds_own_radius_and_normals_are_kept():
+    obj = make_surfels(np.column_stack([np.random.default_rng(1).random((500, 2)) * 0.1,
+                                        np.zeros(500)]), (0, 0, 1), 0.0123, (0.3, 0.3, 0.3),
+                       name="Cloud", pointcloud=True)
     assert obj.type == "POINTCLOUD"
     assert mesh_preview.build_mesh_preview([obj]) == ["Cloud"]
-    _, radius, mats = evaluated_points(obj)
-    np.testing.assert_allclose(radius, 0.0123, rtol=1e-6)
-    assert mats == [mesh_preview.MATERIAL_NAME]
+    centres, ax, bx, normal = splats(obj)
+    assert len(centres) == 500
+    np.testing.assert_allclose(normal, np.tile([0, 0, 1.0], (500, 1)), atol=1e-5)
+    # Inside the cloud the splats are discs of the given radius (a few that the rim test
+    # takes for the cloud's edge reach less far on one side, never farther).
+    inner = (np.abs(centres[:, :2] - 0.05) < 0.03).all(axis=1)
+    a, b = np.linalg.norm(ax[inner], axis=1), np.linalg.norm(bx[inner], axis=1)
+    np.testing.assert_allclose(a, 0.0123, rtol=1e-5)
+    assert np.all(b <= 0.0123 * (1 + 1e-5)) and np.mean(np.isclose(b, 0.0123, rtol=1e-5)) > 0.9
 
 
+@requires_core
 def test_the_preview_renders_each_points_light():
     """Seen from above, the preview shows the scan's light: red grows from left to right as
-    the attribute does, green and blue are the attribute's."""
+    the attribute does, green and blue are the attribute's."""  # noqa: D401
     obj, _, _ = scan_mesh(20000)
     black_world()
     top_camera(ortho_scale=0.8)
@@ -82,8 +140,8 @@ def test_the_preview_renders_each_points_light():
 
 @requires_core
 def test_a_scan_only_run_previews_the_scan_itself():
-    """Computing a scan with Build Preview on shows every point of the scan (the surfel
-    object, whose thinned surfels would overlap it, is hidden)."""
+    """Computing a scan shows every point of the scan as a splat (the surfel object, whose
+    thinned surfels would overlap it, is hidden in the viewport and in renders)."""
     from illumap_bpy_testing import add_lamp
     obj, pts, _ = scan_mesh(3000, name="Floor Scan")
     obj.data.color_attributes.remove(obj.data.color_attributes["illumination"])
@@ -96,6 +154,5 @@ def test_a_scan_only_run_previews_the_scan_itself():
     assert bpy.ops.illumap.compute_illumination_map() == {"FINISHED"}
     assert mesh_preview.POINT_MODIFIER_NAME in obj.modifiers
     surfels = [o for o in bpy.data.objects if o.get("illumap_generated")]
-    assert surfels and all(o.hide_render for o in surfels)
-    pos, _, _ = evaluated_points(obj)
-    assert len(pos) == len(pts)
+    assert surfels and all(o.hide_render and o.hide_viewport for o in surfels)
+    assert len(splats(obj)[0]) == len(pts)

@@ -240,9 +240,10 @@ def test_cornell_box_preview_renders_red_left_green_right(registered_addon):
     bpy.ops.wm.open_mainfile(filepath=os.path.join(SAMPLES, "cornell_box.blend"))
     scene = bpy.context.scene
     scene.illumap.preset = "DRAFT"
+    scene.illumap.show_surfels = True       # the diagnostic, asked for
     assert bpy.ops.illumap.compute_illumination_map() == {"FINISHED"}
     surfels = bpy.data.objects["Illumap Surfels"]
-    assert len(surfels.modifiers) == 1
+    assert len(surfels.modifiers) == 1 and not surfels.hide_render
     for obj in scene.objects:
         if obj.type == "MESH":
             obj.hide_render = True  # only the discs
@@ -283,6 +284,7 @@ def test_default_discs_close_the_walls_of_the_cornell_box(registered_addon):
         bpy.data.materials["Light"].node_tree.links.remove(link)
     mix.inputs["Fac"].default_value = 0.0
     assert scene.illumap.disc_scale == pytest.approx(preview.DEFAULT_DISC_SCALE)
+    scene.illumap.show_surfels = True
     assert bpy.ops.illumap.compute_illumination_map() == {"FINISHED"}
     surfels = bpy.data.objects["Illumap Surfels"]
     for obj in scene.objects:

@@ -181,6 +181,9 @@ def test_registered(registered_addon):
         assert hasattr(bpy.types, name), name
     assert bpy.types.VIEW3D_PT_illumap.bl_category == "Illumap"
     assert bpy.types.VIEW3D_PT_illumap_advanced.bl_options == {"DEFAULT_CLOSED"}
+    # The preview a user meets is open, not folded away.
+    assert "DEFAULT_CLOSED" not in getattr(bpy.types.VIEW3D_PT_illumap_preview, "bl_options",
+                                           set())
     assert isinstance(bpy.context.scene.illumap, bpy.types.PropertyGroup)
     if registered_addon.core_error() is None:
         assert hasattr(bpy.types, "ILLUMAP_OT_compute_illumination_map")
@@ -303,6 +306,8 @@ def test_reset_settings_operator(registered_addon):
 # --- the Compute operator, synchronous path (stand-in pipeline) ------------------------------
 
 def test_compute_writes_attribute_stats_and_preview(fake_pipeline, two_planes):
+    """The stand-in lights no object (no transfer): the surfels' discs are what there is to
+    show, so they are shown."""
     assert bpy.ops.illumap.compute_illumination_map() == {"FINISHED"}
     obj = bpy.data.objects[SURFELS]
     assert "illumination" in obj.data.attributes
@@ -533,7 +538,23 @@ def test_compute_with_the_real_pipeline(registered_addon, two_planes):
     values = values.reshape(n, 4)
     assert np.isfinite(values).all() and values[:, :3].max() > 0.0
     assert props.stats.valid and props.stats.surfels == n
+    # What the user meets: the light on their own meshes (Object Preview); the surfels are
+    # a diagnostic, hidden in the viewport and in renders, with no preview of their own.
+    assert obj.modifiers[:] == [] and obj.hide_viewport and obj.hide_render
+    for name in ("Floor", "Light"):
+        assert [m.name for m in bpy.data.objects[name].modifiers] == ["Illumap Mesh Preview"]
+    # Asked for, they show (and render); hidden again on request.
+    assert bpy.ops.illumap.build_preview() == {"FINISHED"}
     assert [m.name for m in obj.modifiers] == ["Illumap Preview"]
+    assert not obj.hide_viewport and not obj.hide_render
+    assert bpy.ops.illumap.build_preview(show=False) == {"FINISHED"}
+    assert obj.modifiers[:] == [] and obj.hide_viewport and obj.hide_render
+    # Show Surfels: after the next Compute they show beside the Object Preview.
+    props.show_surfels = True
+    assert bpy.ops.illumap.compute_illumination_map() == {"FINISHED"}
+    obj = bpy.data.objects[SURFELS]
+    assert [m.name for m in obj.modifiers] == ["Illumap Preview"] and not obj.hide_render
+    assert "Illumap Mesh Preview" in bpy.data.objects["Floor"].modifiers
     # Clear Results removes the object and its point cloud, and the stats.
     assert bpy.ops.illumap.clear_results() == {"FINISHED"}
     assert SURFELS not in bpy.data.objects and SURFELS not in bpy.data.pointclouds
@@ -836,6 +857,8 @@ def test_panel_draws_settings_and_stats(fake_pipeline, two_planes):
     panel.draw_main(layout, bpy.context)
     assert "illumap.compute_illumination_map" in layout.texts("operator")
     assert "preset" in layout.texts("prop")
+    # The Object Preview's switch is on the main panel, beside Compute.
+    assert "illumap.mesh_preview" in layout.texts("operator")
     layout = LayoutRecorder()
     panel.draw_advanced(layout, bpy.context)
     props = set(layout.texts("prop"))
@@ -853,6 +876,7 @@ def test_panel_draws_settings_and_stats(fake_pipeline, two_planes):
     layout = LayoutRecorder()
     panel.draw_preview(layout, bpy.context)
     assert "illumap.build_preview" in layout.texts("operator")
+    assert {"build_preview", "show_surfels"} <= set(layout.texts("prop"))
 
 
 def test_reduced_ui_when_the_core_is_missing(registered_addon):

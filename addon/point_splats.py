@@ -1,0 +1,184 @@
+"""The shape of each point's splat in the Object Preview of a scan (no bpy).
+
+A scan's points are drawn as oriented ellipses, one instance per point (mesh_preview.py's
+point node group reads what ``splat_frames`` returns from hidden point attributes):
+
+* **Plane.** Each splat lies in its point's tangent plane: the scan's own ``normal`` (or
+  ``N``) where it has one, else the plane that most of its ``NEIGHBOURS`` nearest points lie
+  on (``illumap.pointcloud.plane_normals``: on a smooth surface PCA; beside an edge the
+  point's own surface, not a tilt between the two).
+* **Size.** A disc of radius ``COVER`` × the mean, over the point and its neighbours, of the
+  distance to the ``NEIGHBOURS``-th nearest point (π ρ d² ≈ NEIGHBOURS, ρ the density):
+  discs of that radius about randomly placed points leave about exp(−π ρ r²) =
+  exp(−COVER² × NEIGHBOURS) ≈ 0.03% of a flat surface open, a regular scan none (measured:
+  under 1% of a random square, tests/blender/test_point_preview.py). A given ``radius``
+  attribute is used as it is.
+* **Creases.** A neighbour whose normal turns from the point's by more than acos
+  ``EDGE_COS`` lies on another surface: its tangent plane cuts the point's plane along a
+  line, and the splat keeps the point's side of that line (for a point on the line, the side
+  its own surface's neighbours are on). Of all such lines the nearest one clips: the disc
+  becomes the ellipse that touches that line (``EDGE_SLACK`` of the radius past it, so no
+  slit opens along the edge: measured, 99% of the splats end within 0.2 spacings of the
+  other plane and the strip along the edge stays covered) and the disc's far side, ``a`` = r along the line and ``b`` =
+  (r + c) / 2 across, its centre moved (r − c) / 2 away from the line. At a box's edge the
+  top's splats end at the side's plane and the side's at the top's: no rim over the edge, no
+  seam in a corner.
+* **Rims.** Where a point's neighbours all lie on one side (their centroid more than
+  ``RIM_SHIFT`` × the neighbour distance off the point, in the tangent plane), the scan ends
+  there: the splat reaches ``RIM_REACH`` × r beyond the point on that side, about where the
+  scanned surface ends, rather than a whole radius past it.
+
+Everything is in the object's own coordinates: the object's transform maps each tangent plane
+to the world's, as it does the points.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Neighbours of each point that size and clip its splat.
+NEIGHBOURS = 8
+#: Disc radius in units of the distance to the NEIGHBOURS-th nearest point (module docstring).
+COVER = 1.0
+#: A neighbour is on another surface when |n·m| is below this (about 25°).
+EDGE_COS = 0.9
+#: A point lies on a neighbour's tangent plane within this fraction of their distance.
+ON_PLANE = 0.05
+#: Splats reach past the line that clips them by this fraction of their radius.
+EDGE_SLACK = 0.15
+#: The neighbours' centroid this far off the point (in units of the neighbour distance) marks
+#: a rim ...
+RIM_SHIFT = 0.4
+#: ... where the splat reaches this fraction of its radius beyond the point.
+RIM_REACH = 0.5
+
+
+def _tangent(n: np.ndarray) -> np.ndarray:
+    """A unit vector perpendicular to each of the unit vectors ``n`` (N, 3)."""
+    helper = np.where((np.abs(n[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    u = np.cross(n, helper)
+    return u / np.linalg.norm(u, axis=1, keepdims=True)
+
+
+def _crease_lines(p, n, nb, sub, other):
+    """For the points ``sub`` and their neighbours on other surfaces (``other``, (S, k)): the
+    distance in each point's plane to the nearest line where such a neighbour's tangent plane
+    cuts it (inf: none), the unit direction toward that line, and that neighbour's plane
+    (normal, offset)."""
+    ps, ns, q = p[sub], n[sub], p[nb[sub]]
+    m = n[nb[sub]]
+    offsets = q - ps[:, None, :]
+    cos = np.einsum("ic,ikc->ik", ns, m)
+    h = -np.einsum("ikc,ikc->ik", m, offsets)                 # m·(p − q)
+    near = np.linalg.norm(offsets, axis=2)
+    same = ~other
+    centroid = (offsets * same[..., None]).sum(1) / np.maximum(same.sum(1), 1)[:, None]
+    on_plane = np.abs(h) <= ON_PLANE * near
+    # A point on the neighbour's plane keeps the side its own surface's neighbours are on.
+    side = np.where(on_plane, ON_PLANE * near * np.sign(np.einsum("ikc,ic->ik", m, centroid)), h)
+    t_len = np.sqrt(np.maximum(1.0 - cos ** 2, 1e-12))
+    c = np.where(other & (side != 0), np.where(on_plane, 0.0, np.abs(h)) / t_len, np.inf)
+    j = np.argmin(c, axis=1)
+    rows = np.arange(len(sub))
+    mj, cj = m[rows, j], cos[rows, j]
+    w = -np.sign(side[rows, j])[:, None] * (mj - cj[:, None] * ns) / t_len[rows, j][:, None]
+    return c[rows, j], w, mj, np.einsum("ic,ic->i", mj, q[rows, j])
+
+
+def _neighbours_planes(p, n, nb, sub, has, plane_n, plane_d):
+    """For the points ``sub``: the nearest line where a clipped neighbour's clipping plane
+    cuts the point's plane (distance, inf: none; unit direction toward it)."""
+    ps, ns, nbs = p[sub], n[sub], nb[sub]
+    pm = plane_n[nbs]
+    cos = np.einsum("ic,ikc->ik", ns, pm)
+    h = np.einsum("ikc,ic->ik", pm, ps) - plane_d[nbs]
+    t_len = np.sqrt(np.maximum(1.0 - cos ** 2, 1e-12))
+    near = np.linalg.norm(p[nbs] - ps[:, None, :], axis=2)
+    usable = has[nbs] & (np.abs(cos) < EDGE_COS) & (np.abs(h) > ON_PLANE * near)
+    c = np.where(usable, np.abs(h) / t_len, np.inf)
+    j = np.argmin(c, axis=1)
+    rows = np.arange(len(sub))
+    w = -np.sign(h[rows, j])[:, None] * (pm[rows, j] - cos[rows, j][:, None] * ns) \
+        / t_len[rows, j][:, None]
+    return c[rows, j], w
+
+
+def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> dict:
+    """Each point's splat (module docstring) as float32 arrays: ``normal`` (N, 3, unit),
+    ``axis`` (N, 3: the in-plane direction of the ellipse's first axis), ``scale`` (N, 3: the
+    semi-axes along ``axis`` and across it, and 1) and ``offset`` (N, 3: from the point to
+    the ellipse's centre), and ``clipped`` (N,) bool: the splats a crease or rim shaped."""
+    from illumap import _core  # noqa: PLC0415 - native, loaded on use
+    from illumap.pointcloud import plane_normals  # noqa: PLC0415
+    p = np.ascontiguousarray(positions, dtype=np.float64)
+    count = len(p)
+    k = min(NEIGHBOURS, count - 1)
+    if k < 2:
+        n = np.tile([0.0, 0.0, 1.0], (count, 1)) if normals is None else np.asarray(normals)
+        r = np.full(count, 0.01) if radius is None else np.asarray(radius, np.float64)
+        return _pack(n, _tangent(n), np.stack([r, r, np.ones(count)], 1), np.zeros((count, 3)),
+                     np.zeros(count, bool))
+    idx, dist = _core.knn(p, p, k + 1, threads=threads)
+    idx, dist = np.asarray(idx), np.asarray(dist)
+    if normals is None:
+        n = np.asarray(plane_normals(p, idx, threads=threads), dtype=np.float64)
+    else:
+        n = np.asarray(normals, dtype=np.float64)
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        n = np.where(length > 0, n / np.maximum(length, 1e-300), [0.0, 0.0, 1.0])
+    far = dist[:, -1]
+    if radius is None:
+        r = COVER * far[idx].mean(axis=1)
+    else:
+        r = np.asarray(radius, dtype=np.float64)
+    r = np.where(r > 0, r, np.maximum(far, 1e-6))
+    nb = idx[:, 1:]
+    rows = np.arange(count)
+    cos = np.einsum("ic,ikc->ik", n, n[nb])
+    other = np.abs(cos) < EDGE_COS
+    # Only the points with a neighbour on another surface (those by an edge) and then those
+    # whose neighbours were clipped do the per-neighbour work below.
+    c_min = np.full(count, np.inf)
+    w = np.zeros((count, 3))
+    plane_n = np.zeros((count, 3))
+    plane_d = np.zeros(count)
+    sub = np.flatnonzero(other.any(axis=1))
+    if len(sub):
+        c_min[sub], w[sub], plane_n[sub], plane_d[sub] = _crease_lines(p, n, nb, sub, other[sub])
+    # The planes that clipped the neighbours clip the point too: one a few spacings from an
+    # edge may have no point of the other surface among its own neighbours, yet its splat
+    # reaches over the edge. Each neighbour's clipping plane (its crease neighbour's tangent
+    # plane) is tried as a crease line of the point's own.
+    has = np.isfinite(c_min)
+    sub = np.flatnonzero(has[nb].any(axis=1))
+    if len(sub):
+        c2, w2 = _neighbours_planes(p, n, nb, sub, has, plane_n, plane_d)
+        better = c2 < c_min[sub]
+        c_min[sub] = np.where(better, c2, c_min[sub])
+        w[sub] = np.where(better[:, None], w2, w[sub])
+    # Rims: the neighbours' centroid (all of them) off the point, in its plane.
+    g = p[nb].mean(axis=1) - p
+    g -= np.einsum("ic,ic->i", g, n)[:, None] * n
+    g_len = np.linalg.norm(g, axis=1)
+    rim = g_len > RIM_SHIFT * far
+    c_rim = np.where(rim, RIM_REACH * r, np.inf)
+    use_rim = c_rim < c_min
+    c_min = np.where(use_rim, c_rim, c_min)
+    w = np.where(use_rim[:, None], -g / np.maximum(g_len, 1e-300)[:, None], w)
+    reach = c_min + EDGE_SLACK * r
+    clipped = reach < r
+    reach = np.where(clipped, reach, r)
+    a = r
+    b = np.where(clipped, 0.5 * (r + reach), r)
+    shift = np.where(clipped, 0.5 * (r - reach), 0.0)
+    offset = -shift[:, None] * np.where(clipped[:, None], w, 0.0)
+    # The ellipse's first axis runs along the clipping line: across it, w.
+    axis = np.where(clipped[:, None], np.cross(w, n), _tangent(n))
+    axis /= np.maximum(np.linalg.norm(axis, axis=1, keepdims=True), 1e-300)
+    return _pack(n, axis, np.stack([a, b, np.ones(count)], 1), offset, clipped)
+
+
+def _pack(n, axis, scale, offset, clipped) -> dict:
+    f = lambda x: np.ascontiguousarray(x, dtype=np.float32)  # noqa: E731
+    return {"normal": f(n), "axis": f(axis), "scale": f(scale), "offset": f(offset),
+            "clipped": np.asarray(clipped, bool)}
