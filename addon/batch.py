@@ -297,6 +297,7 @@ def make_settings(args) -> pipeline.Settings:
         settings.gather_rays = args.gather_rays
     if args.gather_cache is not None:
         settings.gather_cache = args.gather_cache
+    settings.preview_splats = bool(args.render) and args.render_preview in ("objects", "meshes")
     return settings
 
 

@@ -328,12 +328,11 @@ def _point_floats(obj, name) -> np.ndarray | None:
     return out
 
 
-def _fingerprint(pos, normals, radius) -> str:
-    """What a scan's splats depend on, in a few numbers (its points, given normals, radii)."""
-    parts = [len(pos), float(pos.sum(dtype=np.float64)), float(np.square(pos, dtype=np.float64).sum())]
-    for extra in (normals, radius):
-        parts.append(None if extra is None else float(extra.sum(dtype=np.float64)))
-    return repr(parts)
+def splat_inputs(obj) -> tuple:
+    """What a scan's splats are computed from: its points in its own coordinates (float32), its
+    ``normal`` (or ``N``) and ``radius`` point attributes or None."""
+    return (_positions(obj).astype(np.float32), _point_vectors(obj, ("normal", "N")),
+            _point_floats(obj, "radius"))
 
 
 def write_splats(obj) -> bool:
@@ -343,15 +342,13 @@ def write_splats(obj) -> bool:
     data = obj.data
     if data.library is not None or getattr(data, "override_library", None) is not None:
         return False
-    pos = _positions(obj).astype(np.float32)
-    normals = _point_vectors(obj, ("normal", "N"))
-    radius = _point_floats(obj, "radius")
-    key = _fingerprint(pos, normals, radius)
+    pos, normals, radius = splat_inputs(obj)
+    key = point_splats.fingerprint(pos, normals, radius)
     attrs = data.attributes
     if data.get(SPLAT_KEY) == key and all(
             name in attrs and len(attrs[name].data) == len(pos) for name in SPLAT_ATTRIBUTES.values()):
         return True
-    frames = point_splats.splat_frames(pos, normals, radius)
+    frames = point_splats.ready_frames(key) or point_splats.splat_frames(pos, normals, radius)
     for name_key, name in SPLAT_ATTRIBUTES.items():
         attr = attrs.get(name)
         if attr is not None and (attr.data_type != "FLOAT_VECTOR" or attr.domain != "POINT"):

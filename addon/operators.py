@@ -90,7 +90,9 @@ def scene_settings(context):
     props = context.scene.illumap
     if not props.initialized:
         preferences.apply_defaults(props, preferences.get_preferences(context))
-    return properties.make_settings(props, _pipeline().Settings)
+    settings = properties.make_settings(props, _pipeline().Settings)
+    settings.preview_splats = bool(props.build_preview)   # the preview after the run
+    return settings
 
 
 # --- statistics ----------------------------------------------------------------------------

@@ -28,9 +28,9 @@ from typing import Callable
 
 import numpy as np
 
-from . import checks, emitters, lamps, materials, pointcloud, sampling
+from . import checks, emitters, lamps, materials, point_splats, pointcloud, sampling
 from .errors import ExitCode, IllumapCancelled, IllumapError, core_cancelled
-from .kinds import HELPER_TYPES, MESH_TYPES, OCCLUDER_SHAPES, is_instancer
+from .kinds import HELPER_TYPES, MESH_TYPES, OCCLUDER_SHAPES, RESULT_TYPES, is_instancer
 from .presets import DEFAULT_BUDGET, QUALITY_PRESETS
 from .receive import hemisphere_hits, mesh_occluders, receive, target_shadow_samples
 
@@ -68,6 +68,7 @@ class Settings:
     lamp_shadows: bool = True         # shadow lamp light by ray casting against the surfels
     shadow_samples: int = 16          # rays per surfel for lamps with a size (radius/area/angle)
     world_ambient: bool = True        # light from the world (Background), shadowed like lamps
+    preview_splats: bool = False      # compute the scans' preview splats on the worker too
     transfer: bool = True             # evaluate 'illumination' at the source meshes' corners
     gather_rays: int = 512            # final-gather rays per receiver (indirect light)
     gather_cache: float = 0.15        # a point cloud's points share gathers through an
@@ -519,6 +520,12 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
         receivers = [r for r in (sampling.read_receivers(obj, warnings, depsgraph, scratch)
                                  for obj in meshes if obj.type == "MESH") if r is not None]
     mesh_surfaces = [_MeshSurface(tm.corners, tm.two_sided) for tm in tri_meshes]
+    # The preview that follows the run draws each scan from these (the worker computes its
+    # splats, ``point_splats.prepare_frames``).
+    splat_inputs = []
+    if settings.preview_splats and settings.transfer:
+        from .mesh_preview import splat_inputs as read_splat_inputs
+        splat_inputs = [read_splat_inputs(obj) for obj in points if obj.type in RESULT_TYPES]
 
     def build(progress: Progress | None = None) -> Job:
         # numpy and the core only from here: off the main thread for an interactive run
@@ -567,6 +574,9 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
                                  p.albedo, p.emission, owner)
                       for p, (_, owner) in zip(full, thinned)]
         job.receivers = receivers
+        for inputs in splat_inputs:
+            stop_if_cancelled()
+            point_splats.prepare_frames(*inputs)
         return job
     return UnbuiltJob(build)
 

@@ -103,6 +103,38 @@ def _neighbours_planes(p, n, nb, sub, has, plane_n, plane_d):
     return c[rows, j], w
 
 
+#: Splats a run computed on its worker for the scans it lights (``prepare_frames``), by
+#: ``fingerprint``, until the preview takes them (``ready_frames``): the preview that follows
+#: a run then costs the main thread only the attributes' writing.
+_READY: dict[str, dict] = {}
+_READY_MAX = 8
+
+
+def fingerprint(positions, normals=None, radius=None) -> str:
+    """What a scan's splats depend on, in a few numbers: its points (float32, object space),
+    its given normals and radii."""
+    pos = np.asarray(positions, dtype=np.float32)
+    parts = [len(pos), float(pos.sum(dtype=np.float64)), float(np.square(pos, dtype=np.float64).sum())]
+    for extra in (normals, radius):
+        parts.append(None if extra is None else float(np.asarray(extra).sum(dtype=np.float64)))
+    return repr(parts)
+
+
+def prepare_frames(positions, normals=None, radius=None) -> None:
+    """Compute the splats of one scan ahead of its preview (numpy and the core only: safe on
+    a worker thread)."""
+    key = fingerprint(positions, normals, radius)
+    frames = splat_frames(np.asarray(positions, dtype=np.float32), normals, radius)
+    while len(_READY) >= _READY_MAX:
+        _READY.pop(next(iter(_READY)))
+    _READY[key] = frames
+
+
+def ready_frames(key: str) -> dict | None:
+    """The splats ``prepare_frames`` computed for ``key`` (taken out), or None."""
+    return _READY.pop(key, None)
+
+
 def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> dict:
     """Each point's splat (module docstring) as float32 arrays: ``normal`` (N, 3, unit),
     ``axis`` (N, 3: the in-plane direction of the ellipse's first axis), ``scale`` (N, 3: the

@@ -4,7 +4,9 @@ gives, and a point cloud) with an ``illumination`` attribute, shown by
 ``addon.mesh_preview.build_mesh_preview`` (every point a display point), timed with one
 depsgraph evaluation; beside it the disc preview of the same N points as surfels
 (``addon.preview.build_preview``: one instanced disc per point), timed the same way. Both in
-this process, one after the other, so the ratio is measured in one run.
+this process, one after the other, so the ratio is measured in one run. "After a run": the
+splats computed first as a run's worker does (``point_splats.prepare_frames``), then the same
+build on the main thread, which only writes them.
 
     .venv/bin/python bench/micro/preview_build.py [1000000 ...]
 
@@ -24,7 +26,7 @@ sys.path.insert(0, REPO)
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
-from addon import mesh_preview, preview  # noqa: E402
+from addon import mesh_preview, point_splats, preview  # noqa: E402
 
 OUT = os.path.join(REPO, "bench", "results", "preview_build.json")
 
@@ -82,14 +84,26 @@ def main() -> None:
                 bpy.ops.wm.read_factory_settings(use_empty=True)
                 obj = scan(n, kind, radius)
                 points = timed(lambda: mesh_preview.build_mesh_preview([obj]), obj)
+                # After a run: its worker computed the splats (point_splats.prepare_frames),
+                # and the main thread only writes them.
+                bpy.ops.wm.read_factory_settings(use_empty=True)
+                obj = scan(n, kind, radius)
+                t0 = time.perf_counter()
+                point_splats.prepare_frames(*mesh_preview.splat_inputs(obj))
+                worker = time.perf_counter() - t0
+                after = timed(lambda: mesh_preview.build_mesh_preview([obj]), obj)
+                after["worker_s"] = worker
                 bpy.ops.wm.read_factory_settings(use_empty=True)
                 obj = scan(n, kind)
                 discs = timed(lambda: preview.build_preview(bpy.context, obj), obj)
                 rows.append({"points": n, "source": kind, "radius_attribute": radius,
-                             "point_preview": points, "disc_preview": discs})
+                             "point_preview": points, "after_run": after,
+                             "disc_preview": discs})
                 print(f"{n:>9,} {kind:<10} radius {'given' if radius else 'spacing'}: point "
                       f"preview {points['total_s']:.2f} s (build {points['build_s']:.2f}, "
-                      f"evaluate {points['evaluate_s']:.2f}); disc preview "
+                      f"evaluate {points['evaluate_s']:.2f}); after a run "
+                      f"{after['total_s']:.2f} s on the main thread (the worker's splats "
+                      f"{after['worker_s']:.2f} s); disc preview "
                       f"{discs['total_s']:.2f} s; shown {points['shown']:,} / "
                       f"{discs['shown']:,}", flush=True)
     with open(OUT, "w") as f:

@@ -156,3 +156,28 @@ def test_a_scan_only_run_previews_the_scan_itself():
     surfels = [o for o in bpy.data.objects if o.get("illumap_generated")]
     assert surfels and all(o.hide_render and o.hide_viewport for o in surfels)
     assert len(splats(obj)[0]) == len(pts)
+
+
+def test_a_run_computes_its_scans_splats_on_its_worker():
+    """With the preview after Compute on, the run computes each scan's splats while it builds
+    (off the main thread, ``point_splats.prepare_frames``) and the preview only writes them:
+    the same splats as the preview computes by itself."""
+    from addon import point_splats
+    from illumap_bpy_testing import add_lamp
+    obj, pts, _ = scan_mesh(2000, name="Worker Scan")
+    obj.data.color_attributes.remove(obj.data.color_attributes["illumination"])
+    add_lamp("SUN", energy=2.0)
+    key = point_splats.fingerprint(*mesh_preview.splat_inputs(obj))
+    expected = point_splats.splat_frames(*mesh_preview.splat_inputs(obj))
+    settings = pipeline.settings_from_preset("draft", budget=400, transfer=True,
+                                             preview_splats=True)
+    job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), [obj], settings)
+    ready = point_splats._READY.get(key)
+    assert ready is not None
+    for name in ("normal", "axis", "scale", "offset"):
+        assert np.array_equal(ready[name], expected[name]), name
+    result = pipeline.run(job)
+    pipeline.write(bpy.context, job, result)
+    mesh_preview.build_mesh_preview([obj])
+    assert key not in point_splats._READY        # taken by the preview
+    assert len(splats(obj)[0]) == len(pts)
