@@ -12,8 +12,10 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <cstddef>
+#include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <mutex>
@@ -21,6 +23,10 @@
 #include <string>
 #include <thread>
 #include <vector>
+
+#if defined(__linux__)
+#include <sched.h>
+#endif
 
 namespace illumap {
 
@@ -36,16 +42,51 @@ public:
     virtual bool poll(double fraction, const char* phase) = 0;
 };
 
-// The default worker count: ILLUMAP_THREADS when set to a positive integer (a farm's slot, or
-// a test comparing thread counts), else every hardware thread. Results do not depend on it.
+// The CPUs this process may use: its affinity mask and its cgroup's CPU quota (a 4-CPU farm
+// slot or container on a 64-core host), within the hardware's threads. Read once.
+inline int available_cpus() {
+    static const int cpus = [] {
+        unsigned hw = std::thread::hardware_concurrency();
+        int n = hw ? int(hw) : 1;
+#if defined(__linux__)
+        cpu_set_t set;
+        CPU_ZERO(&set);
+        if (sched_getaffinity(0, sizeof(set), &set) == 0 && CPU_COUNT(&set) > 0)
+            n = std::min(n, int(CPU_COUNT(&set)));
+        auto quota = [](const char* path, bool v2) -> double {
+            std::FILE* f = std::fopen(path, "r");
+            if (!f) return 0.0;
+            char a[64] = {0};
+            long long period = 0;
+            const int got = v2 ? std::fscanf(f, "%63s %lld", a, &period) : std::fscanf(f, "%63s", a);
+            std::fclose(f);
+            if (got < 1 || std::string(a) == "max" || a[0] == '-') return 0.0;
+            const double q = std::atof(a);
+            return v2 ? (period > 0 ? q / double(period) : 0.0) : q;
+        };
+        double share = quota("/sys/fs/cgroup/cpu.max", true);
+        if (!(share > 0)) {
+            const double q = quota("/sys/fs/cgroup/cpu/cpu.cfs_quota_us", false);
+            const double p = quota("/sys/fs/cgroup/cpu/cpu.cfs_period_us", false);
+            share = (q > 0 && p > 0) ? q / p : 0.0;
+        }
+        if (share > 0) n = std::min(n, std::max(1, int(std::ceil(share))));
+#endif
+        return std::max(n, 1);
+    }();
+    return cpus;
+}
+
+// The default worker count: ILLUMAP_THREADS when set to a positive integer (Blender's -t, a
+// farm's slot, or a test comparing thread counts), else every CPU this process may use
+// (``available_cpus``). Results do not depend on it.
 inline int hardware_threads() {
     if (const char* env = std::getenv("ILLUMAP_THREADS")) {
         char* end = nullptr;
         const long n = std::strtol(env, &end, 10);
         if (end != env && *end == '\0' && n > 0 && n <= 4096) return int(n);
     }
-    unsigned n = std::thread::hardware_concurrency();
-    return n ? int(n) : 1;
+    return available_cpus();
 }
 
 // Execution context shared by the phases of one call: thread count, monitor, and the slice
