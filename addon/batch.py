@@ -114,57 +114,142 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(message)
 
 
+def _help_range(option: str) -> str:
+    """``option``'s range for ``--help``, as a user reads it: bounds past anything sensible
+    (2³¹ rays, 2⁶² surfels, infinity) are said in words rather than printed."""
+    lim = limit(NUMBER_OPTIONS[option])
+    unit = f" {lim.unit}" if lim.unit else ""
+    if isinstance(lim.high, int) and lim.high >= 2 ** 31 - 1:
+        return f"{lim.low} or more{unit}"
+    if lim.high is None or lim.high == float("inf"):
+        return f"more than {lim.low:g}{unit}"
+    return f"{lim.interval()}{unit}"
+
+
+def budget_help() -> str:
+    """The surfel budget's range for ``--help``: what this machine's memory allows."""
+    most = pipeline.memory_limit(pipeline.Settings()) // pipeline.BYTES_PER_SURFEL
+    return (f"1 to about {most:,} surfels on this machine (its memory at "
+            f"{pipeline.BYTES_PER_SURFEL // 1024} KiB per surfel)")
+
+
+class _HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Wider option column, so each option's help stays on its lines."""
+
+    def __init__(self, prog):
+        super().__init__(prog, max_help_position=30, width=100)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the batch command (documented in the module docstring)."""
-    p = _Parser(prog="illumap_batch.py", description="Compute Illumap illumination maps headless.",
+    presets = pipeline.QUALITY_PRESETS
+    p = _Parser(prog="illumap_batch.py", formatter_class=_HelpFormatter,
+                description="Compute Illumap illumination maps headless: blender -b scene.blend "
+                            "--python scripts/illumap_batch.py -- [options]. At least one "
+                            "output (--output, --render, --export-*) is required. Outputs are "
+                            "overwritten, as Blender overwrites its renders (--skip-existing "
+                            "keeps them).",
                 epilog=exit_code_help() + f" At most {MAX_FRAMES:,} frames per job. Outputs "
                        "are checked before the solve and written atomically.")
-    p.add_argument("--objects", help="comma-separated object names")
-    p.add_argument("--collection", help="collection name")
-    p.add_argument("--quality", default="medium", choices=["draft", "medium", "high"], type=str.lower)
-    p.add_argument("--density", type=float, help=f"surfels per m², {_range('--density')}")
-    p.add_argument("--budget", type=int, help=f"total surfel count, {_range('--budget')}")
-    p.add_argument("--method", choices=["fmm", "direct"], type=str.lower)
-    p.add_argument("--tol", type=float, help=f"solver tolerance, {_range('--tol')}")
-    p.add_argument("--target-error", type=float,
+    g = p.add_argument_group("what to light")
+    g.add_argument("--objects", metavar="A,B", help="comma-separated object names (default: "
+                   "the selected objects, or every visible mesh and point cloud)")
+    g.add_argument("--collection", metavar="NAME", help="every mesh and point cloud in a "
+                   "collection and its children")
+    g.add_argument("--frames", metavar="A-B[,C]",
+                   help=f"frames to compute, e.g. 1-3 or 1,5,7-9 (default: the scene's current "
+                        f"frame; at most {MAX_FRAMES:,})")
+    g = p.add_argument_group("quality")
+    g.add_argument("--quality", default="medium", choices=["draft", "medium", "high"],
+                   type=str.lower,
+                   help="preset (default: medium): draft "
+                        f"{presets['DRAFT']['budget']:,} surfels, medium "
+                        f"{presets['MEDIUM']['budget']:,}, high {presets['HIGH']['budget']:,}")
+    g.add_argument("--target-error", type=float, metavar="E",
                    help=f"relative RMS error wanted, {_range('--target-error')} (e.g. 0.03): "
-                        "Illumap picks the surfel density, order, θ and tolerance, and reports "
-                        "an error estimate")
-    p.add_argument("--transfer", choices=["point", "corner"], type=str.lower)
-    p.add_argument("--no-transfer", action="store_true")
-    p.add_argument("--gather-rays", type=int, help=f"rays per vertex, {_range('--gather-rays')}")
-    p.add_argument("--gather-cache", type=float,
-                   help="irradiance cache accuracy for point clouds' points, "
-                        f"{_range('--gather-cache')}; 0: every point gathers itself")
-    p.add_argument("--no-adaptive", action="store_true")
-    p.add_argument("--no-lamps", action="store_true")
-    p.add_argument("--no-lamp-shadows", action="store_true")
-    p.add_argument("--shadow-samples", type=int, default=16,
-                   help=f"shadow rays per surfel and lamp, {_range('--shadow-samples')}")
-    p.add_argument("--occluder-shape", choices=list(pipeline.OCCLUDER_SHAPES), type=str.lower,
-                   help="the surfels as occluders for exact visibility and lamp shadows "
-                        "(default disc; ignored with --target-error, calibrated on discs)")
-    p.add_argument("--world", action=argparse.BooleanOptionalAction, default=True,
-                   help="light from the world's Background (default on; --no-world: off)")
-    p.add_argument("--frames", help=f"e.g. 1-3 or 1,5,7-9 (at most {MAX_FRAMES:,} frames)")
-    p.add_argument("--output", help="output .blend (#### = frame)")
-    p.add_argument("--render", help="output PNG of the preview (#### = frame)")
-    p.add_argument("--render-preview", choices=["objects", "surfels", "meshes", "points"],
+                        "Illumap picks the surfel count and solver settings and reports an "
+                        "error estimate (default: off, the preset decides)")
+    g.add_argument("--no-adaptive", action="store_true",
+                   help="with --target-error: one uniform pass (default: a first pass with "
+                        "half the surfels, then denser surfels where the light varies)")
+    g.add_argument("--density", type=float, metavar="D",
+                   help=f"surfels per m², {_help_range('--density')} (default: the preset's count)")
+    g.add_argument("--budget", type=int, metavar="N",
+                   help=f"total surfel count, {budget_help()} (default: the preset's)")
+    g.add_argument("--method", choices=["fmm", "direct"], type=str.lower,
+                   help="fmm (default; fast multipole, for any size) or direct (exact sum, "
+                        "a reference for small scenes)")
+    g.add_argument("--tol", type=float, metavar="T",
+                   help=f"solver tolerance, {_range('--tol')} (default: the preset's, "
+                        f"{presets['MEDIUM']['tol']:g} for medium)")
+    g.add_argument("--gather-rays", type=int, metavar="N",
+                   help=f"rays per corner that gather the indirect light, "
+                        f"{_help_range('--gather-rays')} (default: the preset's, "
+                        f"{presets['MEDIUM']['gather_rays']} for medium)")
+    g.add_argument("--gather-cache", type=float, metavar="A",
+                   help="point clouds' points share their gathers at this accuracy, "
+                        f"{_range('--gather-cache')} (default 0.15; 0: every point gathers "
+                        "itself)")
+    g.add_argument("--seed", type=int, default=0,
+                   help=f"sampling seed, {_help_range('--seed')} (default 0)")
+    g.add_argument("--occluder-shape", choices=list(pipeline.OCCLUDER_SHAPES), type=str.lower,
+                   help="the surfels' shape as occluders (default disc; ignored with "
+                        "--target-error, calibrated on discs)")
+    g = p.add_argument_group("light")
+    g.add_argument("--no-lamps", action="store_true", help="ignore Blender's lamps")
+    g.add_argument("--no-lamp-shadows", action="store_true",
+                   help="lamp light unshadowed (default: shadowed)")
+    g.add_argument("--shadow-samples", type=int, default=16, metavar="N",
+                   help=f"shadow rays per surfel and sized lamp, {_help_range('--shadow-samples')}"
+                        " (default 16)")
+    g.add_argument("--world", action=argparse.BooleanOptionalAction, default=True,
+                   help="light from the world's Background (default: on)")
+    g = p.add_argument_group("where the light is written")
+    g.add_argument("--transfer", choices=["point", "corner"], type=str.lower,
+                   help="domain of the 'illumination' attribute on meshes (default corner)")
+    g.add_argument("--no-transfer", action="store_true",
+                   help="leave the meshes alone: the result on the surfel object only")
+    g = p.add_argument_group("outputs (at least one; '#' in a name is the frame number)")
+    g.add_argument("--output", metavar="FILE.blend",
+                   help="save the lit scene (#### = frame; with several frames and no '#', "
+                        "_#### goes before the extension)")
+    g.add_argument("--render", metavar="IMAGE",
+                   help="render the lit objects from the scene camera with Cycles, with the "
+                        "scene's render settings unless the options below override them; the "
+                        "format follows the file's extension (.png, .jpg, .exr, ...), else "
+                        "the scene's")
+    g.add_argument("--resolution", type=int, metavar="PX",
+                   help=f"--render's longer side, {_range('--resolution')} (default: the "
+                        "scene's resolution and percentage)")
+    g.add_argument("--samples", type=int, metavar="S",
+                   help=f"--render's Cycles samples, {_help_range('--samples')} (default: "
+                        "the scene's)")
+    g.add_argument("--device", choices=["cpu", "gpu"], type=str.lower,
+                   help="--render's Cycles device (default: the scene's)")
+    g.add_argument("--render-preview", choices=["objects", "surfels", "meshes", "points"],
                    default=None, type=str.lower,
-                   help="what --render shows: the lit objects themselves (default), or the "
-                        "solve's surfels as discs (a diagnostic); 'meshes' and 'points' are "
-                        "their older names")
-    p.add_argument("--resolution", type=int, default=256, help=_range("--resolution"))
-    p.add_argument("--samples", type=int, default=16, help=_range("--samples"))
-    p.add_argument("--export-npz")
-    p.add_argument("--export-exr")
-    p.add_argument("--export-lightmaps", help="UV-space EXR per mesh; pattern with {object}")
-    p.add_argument("--lightmap-size", type=int, default=256, help=_range("--lightmap-size"))
-    p.add_argument("--overwrite", action="store_true",
-                   help="recompute frames whose outputs exist (default: skip them)")
-    p.add_argument("--overwrite-input", action="store_true",
+                   help="what --render shows: the lit objects (default), or the solve's "
+                        "surfels as discs (a diagnostic)")
+    g.add_argument("--export-npz", metavar="FILE.npz", help="the surfels' data")
+    g.add_argument("--export-exr", metavar="FILE.exr",
+                   help="the surfels' illumination as a float EXR (one pixel per surfel)")
+    g.add_argument("--export-lightmaps", metavar="PATTERN",
+                   help="a UV-space EXR lightmap per mesh, from the light at its corners, "
+                        "with {object} in the name (e.g. maps/{object}_####.exr)")
+    g.add_argument("--lightmap-size", type=int, default=256, metavar="PX",
+                   help=f"lightmap width and height, {_range('--lightmap-size')} (default 256)")
+    g.add_argument("--skip-existing", action="store_true",
+                   help="skip a frame whose outputs all exist (default: overwrite them, as "
+                        "Blender does; lightmaps are not checked)")
+    g.add_argument("--overwrite", action="store_true", help=argparse.SUPPRESS)  # the default
+    g.add_argument("--overwrite-input", action="store_true",
                    help="allow an output path that is the input .blend itself")
-    p.add_argument("--seed", type=int, default=0, help=_range("--seed"))
+    g = p.add_argument_group("messages")
+    g.add_argument("--quiet", action="store_true",
+                   help="print only warnings and errors (default: a line per phase)")
+    g.add_argument("--verbose", action="store_true",
+                   help="also print the progress of long phases in finer steps and the "
+                        "worker thread count")
     return p
 
 
@@ -279,6 +364,11 @@ def make_settings(args) -> pipeline.Settings:
     if args.render_preview in ("meshes", "objects") and args.no_transfer:
         raise UsageError(f"--render-preview {args.render_preview} shows the light transferred "
                          "to the meshes: it cannot be combined with --no-transfer")
+    if args.quiet and args.verbose:
+        raise UsageError("--quiet and --verbose exclude each other")
+    if args.export_lightmaps and args.no_transfer:
+        raise UsageError("--export-lightmaps is made from the light at the meshes' corners: "
+                         "it cannot be combined with --no-transfer")
     if args.transfer and args.no_transfer:
         raise UsageError("--transfer and --no-transfer exclude each other")
     if args.target_error is not None and args.density is not None:
@@ -297,7 +387,7 @@ def make_settings(args) -> pipeline.Settings:
         settings.gather_rays = args.gather_rays
     if args.gather_cache is not None:
         settings.gather_cache = args.gather_cache
-    settings.preview_splats = bool(args.render) and args.render_preview in ("objects", "meshes")
+    settings.preview_splats = bool(args.render) and preview_kind(args) == "objects"
     return settings
 
 
@@ -327,12 +417,60 @@ def add_preview(context, surfel_object, lit=(), kind: str = "objects") -> list[s
         return []
 
 
-def render_preview(context, surfel_object, sources, path: str, resolution: int, samples: int,
-                   what: str = "objects") -> str:
-    """Render the scene camera's view with Cycles to ``path`` (PNG), with the preview that
+#: Image formats by file extension, for ``--render`` (Blender's ``file_format`` names).
+RENDER_FORMATS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG", ".exr": "OPEN_EXR",
+                  ".tif": "TIFF", ".tiff": "TIFF", ".bmp": "BMP", ".tga": "TARGA",
+                  ".webp": "WEBP", ".hdr": "HDR", ".jp2": "JPEG2000"}
+
+
+def render_format(path: str, scene_format: str) -> str:
+    """The file format ``--render path`` is written in: the one its extension names, else the
+    scene's own (Output Properties > Output > File Format)."""
+    return RENDER_FORMATS.get(os.path.splitext(path)[1].lower(), scene_format)
+
+
+def render_size(render, resolution: int | None) -> tuple[int, int]:
+    """(width, height) of ``--render``: the scene's resolution at its percentage, or with
+    ``--resolution`` that many pixels on the longer side at the scene's aspect ratio."""
+    if resolution is None:
+        scale = render.resolution_percentage / 100.0
+        return (max(1, int(render.resolution_x * scale)),
+                max(1, int(render.resolution_y * scale)))
+    aspect = render.resolution_y / max(render.resolution_x, 1)
+    if aspect <= 1:
+        return resolution, max(1, round(resolution * aspect))
+    return max(1, round(resolution / aspect)), resolution
+
+
+def render_still() -> None:
+    """Render the scene's camera view and write it to ``render.filepath`` (Blender's F12)."""
+    bpy.ops.render.render(write_still=True)
+
+
+def _remove_partials(tmp: str) -> None:
+    """Remove every file Blender may have made from the temporary render path ``tmp`` (itself,
+    or it with an extension added)."""
+    folder, base = os.path.split(tmp)
+    with contextlib.suppress(OSError):
+        for name in os.listdir(folder):
+            if name.startswith(base):
+                with contextlib.suppress(OSError):
+                    os.remove(os.path.join(folder, name))
+
+
+def render_preview(context, surfel_object, sources, path: str, resolution: int | None = None,
+                   samples: int | None = None, what: str = "objects",
+                   device: str | None = None) -> str:
+    """Render the scene camera's view with Cycles to ``path``, with the preview that
     ``add_preview`` put in place: the lit objects themselves (``what="objects"``), or the
-    surfels' discs standing in for the source geometry (``"surfels"``). Returns a message;
-    raises OutputError when nothing could be rendered or written."""
+    surfels' discs standing in for the source geometry (``"surfels"``).
+
+    The scene's own render settings apply (resolution and percentage, Cycles samples and
+    device, colour management, file format and its options) unless ``resolution``,
+    ``samples`` or ``device`` override them; the format follows ``path``'s extension where it
+    names one. The image goes to a hidden temporary file renamed onto ``path``; a failed
+    render leaves no file behind. Returns a message; raises OutputError when nothing could be
+    rendered or written. The scene's settings are put back afterwards."""
     from . import mesh_preview
     scene = context.scene
     if what == "objects":
@@ -347,35 +485,48 @@ def render_preview(context, surfel_object, sources, path: str, resolution: int, 
     if scene.camera is None:
         raise OutputError(f"--render {path!r} not rendered: the scene has no camera")
     r = scene.render
+    cycles = scene.cycles
+    image = r.image_settings
     saved = (r.engine, r.resolution_x, r.resolution_y, r.resolution_percentage, r.filepath,
-             r.image_settings.file_format, scene.cycles.samples, scene.cycles.device)
+             image.file_format, image.color_mode, image.color_depth, r.use_file_extension,
+             cycles.samples, cycles.device)
     hidden = [o for o in sources if not o.hide_render] if what == "surfels" else []
-    aspect = r.resolution_y / max(r.resolution_x, 1)
+    width, height = render_size(r, resolution)
+    tmp = None
     try:
         for o in hidden:  # the discs stand in for the source geometry
             o.hide_render = True
-        r.engine = "CYCLES"
-        scene.cycles.device = "CPU"
-        scene.cycles.samples = samples
-        if aspect <= 1:
-            r.resolution_x, r.resolution_y = resolution, max(1, round(resolution * aspect))
-        else:
-            r.resolution_x, r.resolution_y = max(1, round(resolution / aspect)), resolution
-        r.resolution_percentage = 100
-        r.image_settings.file_format = "PNG"
+        r.engine = "CYCLES"    # the preview's emission shading is Cycles'
+        if device is not None:
+            cycles.device = device.upper()
+        if samples is not None:
+            cycles.samples = samples
+        r.resolution_x, r.resolution_y, r.resolution_percentage = width, height, 100
+        fmt = render_format(path, r.image_settings.file_format)
+        if r.image_settings.file_format != fmt:
+            r.image_settings.file_format = fmt
+        r.use_file_extension = False      # the file is written where it was asked for
         with atomic_path(path) as tmp:  # a farm never sees a half-written frame
-            r.filepath = tmp
-            bpy.ops.render.render(write_still=True)
-            if not os.path.isfile(tmp) or not os.path.getsize(tmp):
-                raise OutputError(f"--render {path!r}: Cycles wrote no image")
+            try:
+                r.filepath = tmp
+                render_still()
+                if not os.path.isfile(tmp) or not os.path.getsize(tmp):
+                    raise OutputError(f"--render {path!r}: Cycles wrote no image")
+            except BaseException:
+                _remove_partials(tmp)
+                raise
     except (OSError, RuntimeError) as exc:
         raise OutputError(f"--render {path!r} could not be written: {str(exc).strip()}") from None
     finally:
         for o in hidden:
             o.hide_render = False
         (r.engine, r.resolution_x, r.resolution_y, r.resolution_percentage, r.filepath,
-         r.image_settings.file_format, scene.cycles.samples, scene.cycles.device) = saved
-    return f"rendered {path}"
+         image.file_format) = saved[:6]
+        for name, value in zip(("color_mode", "color_depth"), saved[6:8]):
+            with contextlib.suppress(TypeError, ValueError):   # not offered by the format
+                setattr(image, name, value)
+        r.use_file_extension, cycles.samples, cycles.device = saved[8:]
+    return f"rendered {path} ({width}×{height}, {fmt})"
 
 
 def preview_module():
@@ -383,7 +534,9 @@ def preview_module():
     return preview
 
 
-def _report(frame: int, result: pipeline.Result, out) -> None:
+def _report(frame: int, result: pipeline.Result, out, warn_to=None) -> None:
+    """The frame's summary on ``out``; its warnings on ``warn_to`` too when that differs
+    (--quiet keeps the warnings)."""
     print(f"Illumap frame {frame}: {result.count} surfels, {result.iterations} iterations, "
           f"final residual {result.residual:.3g}, converged {result.converged}", file=out)
     for phase, seconds in result.timings.items():
@@ -433,7 +586,8 @@ def _report(frame: int, result: pipeline.Result, out) -> None:
               f"{estimate if estimate is None else format(estimate, '.3g')} (needs about "
               f"{chosen['density']:.0f} surfels/m²)", file=out)
     for w in result.warnings:
-        print(f"  Warning: {w}", file=out)
+        print(f"  Warning: {w}", file=out if warn_to is None or warn_to is out else warn_to,
+              flush=True)
 
 
 def _flag(option: str) -> str:
@@ -482,6 +636,9 @@ def check_outputs(args, frames: list[int], several: bool, input_path: str) -> No
                 raise OutputError(f"{_flag(seen[real])} and {_flag(option)} both name "
                                   f"{path!r}: give each output its own file")
             seen[real] = option
+            if option in ("export_exr", "export_lightmaps") and output.exr_problem():
+                raise OutputError(f"{_flag(option)} {path!r} cannot be written: "
+                                  f"{output.exr_problem()}")
             _writable_folder(option, path, checked)
         if not several:
             break
@@ -536,17 +693,68 @@ def save_copy(path: str) -> None:
     bpy.ops.wm.save_as_mainfile(filepath=path, copy=True, check_existing=False)
 
 
+class ProgressPrinter:
+    """The batch's progress callback (``pipeline.Progress``): a line when a phase starts, and
+    for a long phase its percentage every ``step`` (10%, 5% with --verbose) once it has run
+    for ``after`` seconds. Flushed at once, so a farm's log shows where a job is."""
+
+    def __init__(self, frame: int, out, verbose: bool = False, after: float = 2.0) -> None:
+        self.frame, self.out = frame, out
+        self.step = 5 if verbose else 10        # per cent
+        self.after = 0.0 if verbose else after
+        self.phase = None
+        self.started = 0.0
+        self.shown = 0
+
+    def __call__(self, fraction: float, phase: str):
+        now = time.perf_counter()
+        phase = str(phase or "working")
+        if phase != self.phase:
+            self.phase, self.started, self.shown = phase, now, 0
+            print(f"Illumap frame {self.frame}: {phase}", file=self.out, flush=True)
+            return True
+        try:
+            percent = int(100 * min(max(float(fraction), 0.0), 1.0))
+        except (TypeError, ValueError):
+            return True
+        if now - self.started >= self.after and percent >= self.shown + self.step:
+            self.shown = percent - percent % self.step
+            print(f"Illumap frame {self.frame}: {phase} {percent:3d}%", file=self.out,
+                  flush=True)
+        return True
+
+
+class _Quiet:
+    """A sink for the messages --quiet leaves out."""
+
+    def write(self, text):
+        return len(text)
+
+    def flush(self):
+        pass
+
+
 def run_frames(args, out=None) -> int:
     """Compute every requested frame; returns ``ExitCode.OK`` (raises IllumapError,
     OutputError or UsageError on failure)."""
     out = out or sys.stdout  # looked up per call, so redirected output is honoured
+    say = _Quiet() if args.quiet else out          # progress and reports
     context = bpy.context
     scene = context.scene
-    settings = make_settings(args)
+    settings = make_settings(args)                 # usage errors, before anything is read
     frames = parse_frames(args.frames, scene.frame_current)
+    if not any(getattr(args, o) for o in OUTPUT_OPTIONS):
+        raise UsageError("no output: give at least one of --output, --render, --export-npz, "
+                         "--export-exr, --export-lightmaps (a job without one would compute "
+                         "and write nothing)")
     several = len(frames) > 1
     input_path = bpy.data.filepath
     check_outputs(args, frames, several, input_path)   # before any solve
+    from . import threads
+    count, source = threads.apply(scene)
+    if args.verbose:
+        print(f"Illumap: {count} worker thread{'s' * (count != 1)} ({source})", file=say,
+              flush=True)
     for frame in frames:
         outputs = {k: frame_path(getattr(args, k), frame, several)
                    for k in ("output", "render", "export_npz", "export_exr")}
@@ -554,13 +762,15 @@ def run_frames(args, out=None) -> int:
             outputs["export_npz"] = output.npz_path(outputs["export_npz"])
         wanted = [p for p in outputs.values()
                   if p and not (args.overwrite_input and _same_file(p, input_path))]
-        if wanted and not args.overwrite and all(os.path.exists(p) for p in wanted):
-            print(f"Illumap frame {frame}: outputs exist, skipped (use --overwrite)", file=out)
+        if wanted and args.skip_existing and all(os.path.exists(p) for p in wanted):
+            print(f"Illumap frame {frame}: outputs exist, skipped (--skip-existing)", file=say,
+                  flush=True)
             continue
         scene.frame_set(frame)
         objects = select_objects(scene, context.view_layer, args.objects, args.collection)
         lightmaps = frame_path(args.export_lightmaps, frame, several) if args.export_lightmaps else ""
         t0 = time.perf_counter()
+        progress = None if args.quiet else ProgressPrinter(frame, say, args.verbose)
         try:
             # The exports go to temporary files beside their targets, renamed into place
             # when the frame succeeded (atomic_path, atomic_pattern).
@@ -571,13 +781,17 @@ def run_frames(args, out=None) -> int:
                     if outputs["export_exr"] else ""
                 maps = stack.enter_context(atomic_pattern(lightmaps)) if lightmaps else ""
                 frame_settings = pipeline.replace(settings, export_npz=npz, export_exr=exr,
-                                                  export_lightmaps=maps,
                                                   lightmap_size=args.lightmap_size)
-                result = pipeline.compute(context, objects, frame_settings)
+                result = pipeline.compute(context, objects, frame_settings, progress)
+                if maps:
+                    if progress is not None:
+                        progress(0.0, "lightmaps")
+                    written, notes = output.export_lightmaps(result, maps, args.lightmap_size)
+                    result.warnings.extend(notes)
         except OSError as exc:   # the inputs are in memory: an export failed
             raise OutputError(f"Writing the exports of frame {frame} failed: {exc}") from None
         result.timings["total"] = time.perf_counter() - t0
-        _report(frame, result, out)
+        _report(frame, result, say, out)
         surfels = bpy.data.objects.get(result.object_name or output.SURFEL_OBJECT)
         lit = [bpy.data.objects.get(n) for n in
                list(result.receiver_values) + list(result.point_receiver_values)]
@@ -585,6 +799,14 @@ def run_frames(args, out=None) -> int:
         add_preview(context, surfels, lit, preview_kind(args))
         # While the file's Solid Preview is on, the meshes this frame lit show it too.
         solid_preview.after_run(context, list(result.receiver_values.keys()))
+        if outputs["render"]:   # before the save: a frame whose render failed saves nothing
+            if progress is not None:
+                progress(0.0, "render")
+            msg = render_preview(context, surfels, [o for o in lit if o is not None]
+                                 if preview_kind(args) == "objects" else objects,
+                                 outputs["render"], args.resolution, args.samples,
+                                 preview_kind(args), args.device)
+            print(f"  {msg}", file=say, flush=True)
         if outputs["output"]:
             try:
                 with atomic_path(outputs["output"]) as tmp:
@@ -592,13 +814,7 @@ def run_frames(args, out=None) -> int:
             except (OSError, RuntimeError) as exc:
                 raise OutputError(f"--output {outputs['output']!r} could not be saved: "
                                   f"{str(exc).strip()}") from None
-            print(f"  saved {outputs['output']}", file=out)
-        if outputs["render"]:
-            msg = render_preview(context, surfels, [o for o in lit if o is not None]
-                                 if preview_kind(args) == "objects" else objects,
-                                 outputs["render"], args.resolution, args.samples,
-                                 preview_kind(args))
-            print(f"  {msg}", file=out)
+            print(f"  saved {outputs['output']}", file=say, flush=True)
     return ExitCode.OK
 
 

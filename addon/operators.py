@@ -23,7 +23,7 @@ import time
 import bpy
 from bpy.props import BoolProperty, EnumProperty
 
-from . import mesh_preview, output, preferences, preview, properties, solid_preview
+from . import mesh_preview, output, preferences, preview, properties, solid_preview, threads
 from .kinds import HELPER_TYPES, is_instancer
 from .kinds import RESULT_TYPES as _RESULT_TYPES, SUPPORTED_TYPES as _SUPPORTED_TYPES
 
@@ -152,11 +152,41 @@ def record_stats(stats, result, seconds):
     stats.estimated_error = float((accuracy.get("estimate") or {}).get("total") or 0.0)
     stats.estimated_error_at_objects = float((extra.get("receivers") or {}).get("estimate") or 0.0)
     stats.valid = True
-    stats.summary = (f"{stats.surfels} surfels, {stats.iterations} iterations, "
-                     f"residual {stats.residual:.2e}, {stats.total_seconds:.2f} s")
-    if stats.first_pass_surfels:
-        stats.summary += f" (adaptive; pass 1: {stats.first_pass_surfels} surfels)"
+    stats.summary = run_summary(result, stats)
     return stats
+
+
+def result_location(result) -> str:
+    """Where a run's light is, in words: the objects whose 'illumination' attribute holds it,
+    else the surfel object."""
+    names = list((getattr(result, "receiver_values", None) or {}).keys())
+    names += [n for n in (getattr(result, "point_receiver_values", None) or {})
+              if n not in names]
+    if names:
+        shown = ", ".join(f"'{n}'" for n in names[:3])
+        more = f" and {len(names) - 3} more" if len(names) > 3 else ""
+        return f"the 'illumination' colour attribute of {shown}{more}"
+    surfels = getattr(result, "object_name", "") or "Illumap Surfels"
+    return f"the surfel object '{surfels}' (Transfer to Meshes is off)"
+
+
+def run_summary(result, stats) -> str:
+    """The Info line after a run: how long it took, the estimated error of the light at the
+    objects, the warnings that affect the picture, and where the result is."""
+    parts = [f"done in {stats.total_seconds:.1f} s"]
+    if stats.estimated_error_at_objects > 0:
+        parts.append(f"estimated error at the objects {stats.estimated_error_at_objects:.1%}")
+    elif stats.estimated_error > 0:
+        parts.append(f"estimated error of the surfels {stats.estimated_error:.1%}")
+    if not stats.converged:
+        parts.append("the solve stopped before converging")
+    warnings = list(_first(result, "warnings", default=[]) or [])
+    if warnings:
+        parts.append(f"{_count(len(warnings), 'warning')} (see above)")
+    if stats.first_pass_surfels:
+        parts.append("adaptive, 2 passes")
+    parts.append(f"result in {result_location(result)}")
+    return "; ".join(parts)
 
 
 def report_warnings(result, report, limit=5):
@@ -457,6 +487,7 @@ class ILLUMAP_OT_compute_illumination_map(bpy.types.Operator):
         except Exception as error:
             self.report({"ERROR"}, f"Illumap settings are invalid: {error_message(error)}")
             return {"CANCELLED"}
+        threads.apply(context.scene)   # Blender's thread setting reaches the core
         start = time.perf_counter()
         begin_run()   # an interactive run still writing would now be discarded
         try:
@@ -505,6 +536,7 @@ class ILLUMAP_OT_compute_illumination_map(bpy.types.Operator):
         except Exception as error:
             self.report({"ERROR"}, f"Illumap could not prepare the scene: {error_message(error)}")
             return {"CANCELLED"}
+        threads.apply(context.scene)   # Blender's thread setting reaches the core
         self._task = ComputeTask(job, _pipeline().run).start()
         _current["task"] = self._task
         self._timer = wm.event_timer_add(0.1, window=context.window)

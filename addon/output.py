@@ -290,6 +290,9 @@ def check_export_paths(settings) -> None:
     for label, path in paths:
         if not path:
             continue
+        if label != "Export NPZ" and exr_problem():
+            raise OutputError(f"{label} path '{path}' cannot be written: {exr_problem()}. "
+                              "Nothing was written.")
         problem = ("it is a folder: give a file name" if os.path.isdir(path)
                    else folder_problem(path)[1])
         if problem:
@@ -608,24 +611,187 @@ def export_npz(path: str, **arrays: np.ndarray) -> None:
     np.savez_compressed(path, **{k: np.asarray(v) for k, v in arrays.items()})
 
 
-def _write_exr(path: str, pixels: np.ndarray) -> None:
-    """Write (H, W, C) float32 pixels, row 0 at the top, as a zip-compressed linear EXR."""
-    import OpenImageIO as oiio
+def exr_problem() -> str | None:
+    """Why this Blender cannot write EXR files (a build without OpenEXR), or None. Checked
+    with the export paths, before anything is read or solved."""
+    import bpy
+    items = bpy.types.ImageFormatSettings.bl_rna.properties["file_format"].enum_items
+    if "OPEN_EXR" not in items.keys():
+        return "this Blender build cannot write OpenEXR images"
+    return None
 
+
+def _write_exr(path: str, pixels: np.ndarray) -> None:
+    """Write (H, W, C) float32 pixels (C = 3 or 4), row 0 at the top, as a zip-compressed
+    32-bit linear EXR with Blender's own image writer (``Image.save_render`` with EXR image
+    settings on a scratch scene, so the user's scenes are not touched; a linear format takes
+    no view transform). Needs no Python module beyond ``bpy``."""
+    import bpy
+    pixels = np.asarray(pixels, dtype=np.float32)
     h, w, c = pixels.shape
+    if c not in (3, 4):
+        raise ValueError(f"an EXR image needs 3 or 4 channels, not {c}")
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    spec = oiio.ImageSpec(w, h, c, oiio.FLOAT)
-    spec.attribute("compression", "zip")
-    if c == 4:
-        spec.channelnames = ("R", "G", "B", "A")
-    out = oiio.ImageOutput.create(path)
-    if out is None:
-        raise OSError(f"OpenImageIO cannot write '{path}': {oiio.geterror()}")
+    rgba = np.ones((h, w, 4), dtype=np.float32)
+    rgba[:, :, :c] = pixels
+    image = bpy.data.images.new(".illumap-exr", w, h, alpha=c == 4, float_buffer=True)
+    scene = bpy.data.scenes.new(".illumap-exr")
     try:
-        if not out.open(path, spec) or not out.write_image(np.ascontiguousarray(pixels, np.float32)):
-            raise OSError(f"OpenImageIO failed writing '{path}': {out.geterror()}")
+        image.pixels.foreach_set(np.ascontiguousarray(rgba[::-1]).ravel())  # Blender: bottom row first
+        settings = scene.render.image_settings
+        settings.file_format = "OPEN_EXR"
+        settings.color_mode = "RGBA" if c == 4 else "RGB"
+        settings.color_depth = "32"
+        settings.exr_codec = "ZIP"
+        try:
+            image.save_render(path, scene=scene)
+        except RuntimeError as exc:
+            raise OSError(f"Blender could not write '{path}': {str(exc).strip()}") from None
+        if not os.path.isfile(path) or not os.path.getsize(path):
+            raise OSError(f"Blender wrote no image to '{path}'")
     finally:
-        out.close()
+        bpy.data.images.remove(image)
+        bpy.data.scenes.remove(scene)
+
+
+def read_exr(path: str) -> np.ndarray:
+    """(H, W, 4) float32 pixels of an EXR file, row 0 at the top, read with Blender's own
+    image reader (linear values as stored)."""
+    import bpy
+    image = bpy.data.images.load(path, check_existing=False)
+    try:
+        image.colorspace_settings.is_data = True     # the values as stored
+        w, h = image.size
+        px = np.empty(w * h * 4, dtype=np.float32)
+        image.pixels.foreach_get(px)
+        return px.reshape(h, w, 4)[::-1].copy()
+    finally:
+        bpy.data.images.remove(image)
+
+
+#: Texels a lightmap's islands are grown by (``dilate``), so that filtering and mipmaps at
+#: UV seams read the island's own light, not the empty space around it (Blender's bake margin).
+LIGHTMAP_MARGIN = 8
+
+
+def rasterize_corners(uv: np.ndarray, triangles: np.ndarray, values: np.ndarray,
+                      size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Rasterize per-corner values in UV space: (rgb (size, size, 3), covered (size, size)),
+    row 0 at v = 1 (images are stored top-down).
+
+    ``uv`` (L, 2) per corner, ``triangles`` (T, 3) corner indices, ``values`` (L, 3) per
+    corner. A texel whose centre lies inside a triangle takes the corners' values blended by
+    its barycentric coordinates there, as Blender interpolates the attribute over a face."""
+    uv = np.asarray(uv, dtype=np.float64)
+    values = np.asarray(values, dtype=np.float64)
+    rgb = np.zeros((size, size, 3), dtype=np.float64)
+    covered = np.zeros((size, size), dtype=bool)
+    tri_uv = uv[triangles] * size - 0.5          # texel-centre coordinates
+    lo = np.clip(np.floor(tri_uv.min(axis=1)).astype(np.int64), 0, size - 1)
+    hi = np.clip(np.ceil(tri_uv.max(axis=1)).astype(np.int64), 0, size - 1)
+    for t in range(len(triangles)):
+        (x0, y0), (x1, y1) = lo[t], hi[t]
+        (ax, ay), (bx, by), (cx, cy) = tri_uv[t]
+        det = (by - cy) * (ax - cx) + (cx - bx) * (ay - cy)
+        if abs(det) < 1e-18:
+            continue
+        xs, ys = np.meshgrid(np.arange(x0, x1 + 1), np.arange(y0, y1 + 1))
+        l0 = ((by - cy) * (xs - cx) + (cx - bx) * (ys - cy)) / det
+        l1 = ((cy - ay) * (xs - cx) + (ax - cx) * (ys - cy)) / det
+        l2 = 1.0 - l0 - l1
+        eps = -1e-9
+        inside = (l0 >= eps) & (l1 >= eps) & (l2 >= eps)
+        if not inside.any():
+            continue
+        c = values[triangles[t]]
+        col = l0[inside, None] * c[0] + l1[inside, None] * c[1] + l2[inside, None] * c[2]
+        rows = size - 1 - ys[inside]
+        rgb[rows, xs[inside]] = col
+        covered[rows, xs[inside]] = True
+    return rgb, covered
+
+
+def dilate(rgb: np.ndarray, covered: np.ndarray, margin: int = LIGHTMAP_MARGIN):
+    """Grow the covered texels outwards by ``margin`` texels: each empty texel beside covered
+    ones takes their mean, ring by ring. Returns (rgb, filled mask)."""
+    rgb = rgb.copy()
+    filled = covered.copy()
+    h, w = filled.shape
+    for _ in range(max(0, int(margin))):
+        total = np.zeros_like(rgb)
+        count = np.zeros((h, w), dtype=np.float64)
+        padded = np.pad(rgb * filled[:, :, None], ((1, 1), (1, 1), (0, 0)))
+        mask = np.pad(filled.astype(np.float64), 1)
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                if dy == 0 and dx == 0:
+                    continue
+                total += padded[1 + dy:1 + dy + h, 1 + dx:1 + dx + w]
+                count += mask[1 + dy:1 + dy + h, 1 + dx:1 + dx + w]
+        grow = (~filled) & (count > 0)
+        if not grow.any():
+            break
+        rgb[grow] = total[grow] / count[grow][:, None]
+        filled = filled | grow
+    return rgb, filled
+
+
+def corner_lightmap(uv, triangles, values, size: int = 256,
+                    margin: int = LIGHTMAP_MARGIN) -> np.ndarray:
+    """A UV-space lightmap (size, size, 4) from per-corner light: the triangles rasterized
+    (``rasterize_corners``), then grown by ``margin`` texels across the islands' borders
+    (``dilate``). Alpha is 1 on the islands and their margin, 0 elsewhere."""
+    rgb, covered = rasterize_corners(uv, triangles, values, size)
+    rgb, filled = dilate(rgb, covered, margin)
+    img = np.zeros((size, size, 4), dtype=np.float32)
+    img[:, :, :3] = np.where(filled[:, :, None], rgb, 0.0)
+    img[:, :, 3] = filled
+    return img
+
+
+def mesh_uv_triangles(mesh) -> tuple[np.ndarray, np.ndarray] | None:
+    """(UV per corner (L, 2), triangles as corner indices (T, 3)) of a mesh's active UV map,
+    or None when it has none."""
+    layer = mesh.uv_layers.active
+    if layer is None:
+        return None
+    uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+    layer.data.foreach_get("uv", uv)
+    mesh.calc_loop_triangles()
+    tris = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int64)
+    mesh.loop_triangles.foreach_get("loops", tris)
+    return uv.reshape(-1, 2).astype(np.float64), tris.reshape(-1, 3)
+
+
+def export_lightmaps(result, pattern: str, size: int = 256,
+                     margin: int = LIGHTMAP_MARGIN) -> tuple[list[str], list[str]]:
+    """Write a lightmap per mesh that a run lit at its corners (``result.receiver_values``),
+    from that per-corner light (``corner_lightmap``) in the mesh's active UV map, to
+    ``pattern`` with ``{object}`` replaced by the object's name made safe for a file name.
+    Returns (the files written, warnings for the meshes left out)."""
+    pattern = lightmap_pattern(pattern)
+    written, warnings = [], []
+    for name, values in result.receiver_values.items():
+        obj = bpy_data().objects.get(name)
+        if obj is None or obj.type != "MESH":
+            continue
+        found = mesh_uv_triangles(obj.data)
+        if found is None:
+            warnings.append(f"Object '{name}' has no UV map: no lightmap written")
+            continue
+        uv, tris = found
+        if len(uv) != len(values):
+            warnings.append(f"Object '{name}': its mesh changed since the run: no lightmap "
+                            "written")
+            continue
+        safe = "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name)
+        path = pattern.replace("{object}", safe)
+        _write_exr(path, corner_lightmap(uv, tris, values, size, margin))
+        written.append(path)
+    if not result.receiver_values:
+        warnings.append("No mesh was lit at its corners (Transfer off, or point clouds only): "
+                        "no lightmap written")
+    return written, warnings
 
 
 def export_lightmap(path: str, uv: np.ndarray, values: np.ndarray, size: int = 256,
@@ -659,7 +825,7 @@ def export_lightmap(path: str, uv: np.ndarray, values: np.ndarray, size: int = 2
 
 
 def export_exr(path: str, illumination: np.ndarray, width: int | None = None) -> None:
-    """Write the per-surfel illumination as a linear float RGB EXR via OpenImageIO.
+    """Write the per-surfel illumination as a linear float RGB EXR (Blender's image writer).
 
     Surfels are laid out row by row (``width`` columns, default ⌈√N⌉; unused pixels are 0), so
     the file is a lossless linear dump of the values for compositing or inspection.

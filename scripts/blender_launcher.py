@@ -6,6 +6,7 @@ jobs use, processed left to right as Blender does::
     scripts/blender -b scene.blend --python script.py -- --script-args ...
     scripts/blender -b scene.blend -E CYCLES -o //render_#### -f 1
     scripts/blender -b --python-expr "import bpy; print(bpy.app.version_string)"
+    scripts/blender -t 4 -b scene.blend --python script.py     # 4 threads for Illumap's core
 
 so that tests and the README exercise batch jobs exactly as users type them with a real
 ``blender`` executable. It is not Blender: there is no UI, and options outside this subset are
@@ -101,6 +102,17 @@ def main(argv: list[str]) -> int:
                         exit_code_on_error)
         elif arg == "--python-exit-code":
             exit_code_on_error = int(take())
+        elif arg in ("-t", "--threads"):
+            # Blender's -t sets its own thread count, which the add-on reads back as
+            # scene.render.threads (addon/threads.py); the bpy module has no such override,
+            # so the stand-in hands the count to Illumap's core directly (0: all CPUs).
+            value = take()
+            if not value.isdigit() or int(value) > 1024:
+                _fail(f"-t/--threads needs a thread count 0..1024, not {value!r}")
+            if int(value):
+                os.environ["ILLUMAP_THREADS"] = value
+            else:
+                os.environ.pop("ILLUMAP_THREADS", None)
         elif arg in ("-E", "--engine"):
             bpy.context.scene.render.engine = take()
         elif arg in ("-o", "--render-output"):

@@ -396,7 +396,8 @@ BATCH_CASES = [
     ("mesh-preview-without-transfer", lambda t, o: ["--render-preview", "meshes",
                                                     "--no-transfer"],
      ExitCode.USAGE, r"--render-preview meshes .* --no-transfer"),
-    ("no-such-object", lambda t, o: ["--objects", "Nope"], ExitCode.INPUT,
+    ("no-such-object", lambda t, o: ["--objects", "Nope", "--output", str(o / "x.blend")],
+     ExitCode.INPUT,
      r"No object named 'Nope'"),
     ("no-light", lambda t, o: ["--no-lamps", "--output", str(o / "x.blend")], ExitCode.INPUT,
      r"nothing computed: No light in the scene"),
@@ -450,14 +451,15 @@ def test_batch_outputs_are_atomic(tmp_path, monkeypatch, capsys):
     assert (out / "lit.npz").exists()   # written whole before the save failed
 
 
-def test_batch_unexpected_error_is_not_success(monkeypatch, capsys):
+def test_batch_unexpected_error_is_not_success(tmp_path, monkeypatch, capsys):
     lit_floor()
     from addon import pipeline
 
     def bug(*args, **kwargs):
         raise KeyError("boom")
     monkeypatch.setattr(pipeline, "compute", bug)
-    assert batch.main(["--quality", "draft"]) == ExitCode.INTERNAL
+    assert batch.main(["--quality", "draft", "--export-npz", str(tmp_path / "x.npz")]) \
+        == ExitCode.INTERNAL
     err = capsys.readouterr().err
     assert "KeyError: 'boom'" in err and "internal error" in err
 

@@ -38,6 +38,14 @@ def run_cli(blend, *args):
     return subprocess.run(cmd, capture_output=True, text=True, timeout=300)
 
 
+def job(*argv):
+    """``batch.main`` with an output (a job without one is a usage error): an .npz in the
+    temporary folder, overwritten by each job."""
+    import tempfile
+    return batch.main([*argv, "--export-npz",
+                       os.path.join(tempfile.gettempdir(), f"illumap-test-{os.getpid()}.npz")])
+
+
 def floor_centre_value(blend_path):
     bpy.ops.wm.open_mainfile(filepath=str(blend_path))
     obj = bpy.data.objects["Illumap Surfels"]
@@ -80,14 +88,20 @@ def test_cli_frame_range_outputs_and_idempotence(tmp_path):
     px = np.empty(img.size[0] * img.size[1] * 4, np.float32)
     img.pixels.foreach_get(px)
     assert img.size[0] == 32 and px.reshape(-1, 4)[:, :3].max() > 0.05
-    # Idempotent: a second run skips every frame; delete one output and only it is redone.
+    # --skip-existing: a second run skips every frame whose outputs exist; delete one output
+    # and only its frame is redone.
     mtime = os.path.getmtime(tmp_path / "out" / "lit_0001.blend")
     os.remove(tmp_path / "out" / "lit_0002.png")
-    proc = run_cli(scene, *args)
+    proc = run_cli(scene, *args, "--skip-existing")
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert proc.stdout.count("skipped") == 2 and "Illumap frame 2: " in proc.stdout
     assert os.path.getmtime(tmp_path / "out" / "lit_0001.blend") == mtime
     assert (tmp_path / "out" / "lit_0002.png").exists()
+    # By default a re-run overwrites, as Blender does (the scene may have changed).
+    proc = run_cli(scene, *args[:3], "1", *args[4:])
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "skipped" not in proc.stdout
+    assert os.path.getmtime(tmp_path / "out" / "lit_0001.blend") > mtime
 
 
 def test_cli_bad_arguments_exit_2(tmp_path):
@@ -99,16 +113,16 @@ def test_cli_bad_arguments_exit_2(tmp_path):
 
 def test_exit_codes_in_process(tmp_path):
     make_plane("Floor")
-    assert batch.main(["--frames", "3-1"]) == 2
-    assert batch.main(["--density", "-5"]) == 2
-    assert batch.main(["--objects", "Nope"]) == 3
+    assert job(*["--frames", "3-1"]) == 2
+    assert job(*["--density", "-5"]) == 2
+    assert job(*["--objects", "Nope"]) == 3
     bpy.data.collections.new("Empty")
     bpy.context.scene.collection.children.link(bpy.data.collections["Empty"])
-    assert batch.main(["--collection", "Empty"]) == 3
+    assert job(*["--collection", "Empty"]) == 3
 
 
 def test_empty_scene_exit_3(capsys):
-    assert batch.main(["--method", "direct"]) == 3
+    assert job(*["--method", "direct"]) == 3
     assert "select" in capsys.readouterr().err
 
 
@@ -149,16 +163,16 @@ def test_solver_failure_and_cancel_exit_codes(monkeypatch, capsys):
         raise illumap.Cancelled()
 
     monkeypatch.setattr(illumap, "solve", broken)
-    assert batch.main(["--density", "20"]) == 4
+    assert job(*["--density", "20"]) == 4
     assert "matrix exploded" in capsys.readouterr().err
     monkeypatch.setattr(illumap, "solve", cancelled)
-    assert batch.main(["--density", "20"]) == 130
+    assert job(*["--density", "20"]) == 130
     assert "Illumap Surfels" not in bpy.data.objects  # nothing written on failure/cancel
 
 
 def test_budget_too_large_exit_3_with_estimate(capsys):
     make_plane("Floor")
-    assert batch.main(["--budget", str(10 ** 12)]) == 3
+    assert job(*["--budget", str(10 ** 12)]) == 3
     assert "GiB" in capsys.readouterr().err
 
 
@@ -175,10 +189,10 @@ def test_target_error_option_reports_chosen_settings(tmp_path, capfd):
     # The density the target asks for (capped by the budget) and both adaptive passes.
     assert "surfels/m² (600 surfels, predicted discretization error" in printed
     assert "adaptive: pass 1 300 surfels" in printed and "pass 2 600 surfels" in printed
-    assert batch.main(["--target-error", "1.5", "--budget", "100"]) == 2
-    assert batch.main(["--target-error", "0.05", "--density", "100"]) == 2
+    assert job(*["--target-error", "1.5", "--budget", "100"]) == 2
+    assert job(*["--target-error", "0.05", "--density", "100"]) == 2
     assert "exclude each other" in capfd.readouterr().err
-    assert batch.main(["--target-error", "0.05", "--budget", "300", "--no-adaptive"]) == 0
+    assert job(*["--target-error", "0.05", "--budget", "300", "--no-adaptive"]) == 0
     printed = capfd.readouterr().out
     assert "adaptive:" not in printed and "Illumap frame 1: 300 surfels" in printed
 
@@ -200,7 +214,7 @@ def test_lamp_shadow_options():
     assert settings.lamp_shadows is False and settings.shadow_samples == 4
     settings = batch.make_settings(batch.build_parser().parse_args([]))
     assert settings.lamp_shadows is True and settings.shadow_samples == 16 and settings.adaptive
-    assert batch.main(["--shadow-samples", "0"]) == 2
+    assert job(*["--shadow-samples", "0"]) == 2
 
 
 def test_occluder_shape_option(capsys):
@@ -211,18 +225,18 @@ def test_occluder_shape_option(capsys):
     assert batch.make_settings(parse(["--occluder-shape", "Octagon"])).occluder_shape == "octagon"
     with pytest.raises(batch.UsageError, match="hexagon"):
         parse(["--occluder-shape", "hexagon"])
-    assert batch.main(["--occluder-shape", "hexagon"]) == 2
+    assert job(*["--occluder-shape", "hexagon"]) == 2
     capsys.readouterr()
     make_plane("Floor", size=2.0)
     make_plane("Plate", size=0.5, location=(0, 0, 0.5))
     bpy.ops.object.light_add(type="POINT", location=(0, 0, 2))
     bpy.context.object.data.energy = 100.0
-    assert batch.main(["--quality", "draft", "--occluder-shape", "octagon"]) == 0
+    assert job(*["--quality", "draft", "--occluder-shape", "octagon"]) == 0
     out = capsys.readouterr().out
     # Meshes occlude with their own triangles, between surfels and for lamp shadows alike:
     # the shape matters for point clouds only.
     assert "visibility       exact, triangles" in out and "(triangles)" in out, out
-    assert batch.main(["--quality", "high", "--density", "100", "--occluder-shape", "quad"]) == 0
+    assert job(*["--quality", "high", "--density", "100", "--occluder-shape", "quad"]) == 0
     out = capsys.readouterr().out
     assert "visibility       exact, triangles" in out and "(triangles)" in out, out
 

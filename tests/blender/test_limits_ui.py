@@ -144,9 +144,24 @@ def test_the_batch_command_refuses_just_outside_and_accepts_at_each_bound(option
 
 
 def test_the_batch_help_states_the_ranges(capsys):
-    text = batch.build_parser().format_help()
+    """Every numeric option's help states its range as a user reads it: the limit's interval,
+    "at least 1" where the bound is past anything sensible (2³¹ rays), and for the budget
+    what this machine's memory allows; no 19-digit bound is printed."""
+    text = " ".join(batch.build_parser().format_help().split())
     for option, name in batch.NUMBER_OPTIONS.items():
-        assert limit(name).interval() in " ".join(text.split()), option
+        lim = limit(name)
+        if option == "--budget":
+            assert "1 to about" in text and "surfels on this machine" in text
+        elif isinstance(lim.high, int) and lim.high >= 2 ** 31 - 1:
+            assert f"{lim.low} or more" in text, option
+        elif lim.high is None or lim.high == float("inf"):
+            assert f"more than {lim.low:g}" in text, option
+        else:
+            assert lim.interval() in text, option
+    assert str(2 ** 62) not in text and str(2 ** 31 - 1) not in text and str(2 ** 63 - 1) not in text
+    assert "inf" not in text.replace("information", "")
+    # Defaults are stated too.
+    assert "(default: medium)" in text and "(default 16)" in text and "(default 256)" in text
     assert batch.MAX_FRAMES == limit("frames").high
     assert batch.MAX_RESOLUTION == limit("resolution").high
 

@@ -229,7 +229,7 @@ def test_the_material_reader_takes_the_render_colour_attribute():
 
 
 @requires_core
-def test_a_batch_run_joins_newly_lit_meshes_while_it_is_on():
+def test_a_batch_run_joins_newly_lit_meshes_while_it_is_on(tmp_path):
     """A file saved with Solid Preview on and lit again by a batch job: the meshes the job
     lights for the first time show their light in Solid mode too, as after the button."""
     from addon import batch
@@ -239,7 +239,8 @@ def test_a_batch_run_joins_newly_lit_meshes_while_it_is_on():
     make_plane("Light", size=0.5, location=(0, 0, 1.0), flip=True,
                material=emission_material("E", (5.0, 5.0, 5.0), 1.0))
     select_only(floor, bpy.data.objects["Light"])
-    assert batch.main(["--objects", "Floor,Light", "--budget", "400", "--method", "direct"]) == 0
+    assert batch.main(["--objects", "Floor,Light", "--budget", "400", "--method", "direct",
+                       "--export-npz", str(tmp_path / "x.npz")]) == 0
     assert _names(floor)[0] == "illumination"
     assert floor.data[solid_preview.RECORD] == ""
     solid_preview.disable(bpy.data)
