@@ -1,8 +1,9 @@
 """The Illumap sidebar panel (3D Viewport > Sidebar > Illumap).
 
-With the native module: quality preset, Compute and the Object Preview's switch, advanced
-settings (closed by default), the preview (open: the Object Preview after Compute, Solid
-Preview, and the solve's surfels as a diagnostic) and the last run's statistics. Without it: a reduced panel that says why and what to do.
+With the native module: at most eight controls an artist decides (quality as a preset or a
+target error, lamps, world light, Compute, the preview on/off, Clear) and what the last run
+says; everything else under Advanced (closed by default), with the preview options and the
+last run's details as its subpanels. Without it: a reduced panel that says why and what to do.
 The draw code is written against a ``layout`` argument so that tests can draw into a recorder.
 """
 
@@ -23,10 +24,34 @@ def draw_core_missing(layout, error):
     layout.label(text="or build the core: see README (pip install ./core).")
 
 
+#: The most controls the main panel holds (issue 55): what an artist decides. Everything
+#: else is under Advanced.
+MAIN_PANEL_CONTROLS = 8
+
+
+def preview_is_on(context) -> bool:
+    """Whether any object in the scene shows its light through the Object Preview."""
+    from . import mesh_preview
+    return any(mesh_preview.has_mesh_preview(o) for o in context.scene.objects)
+
+
 def draw_main(layout, context):
+    """What an artist decides, in at most ``MAIN_PANEL_CONTROLS`` controls: quality (a preset,
+    or a target error), lamps and world light, Compute, the preview on or off, Clear; then
+    what the last run says (time, estimated error, warnings, where the result is)."""
     props = context.scene.illumap
     col = layout.column(align=True)
-    col.prop(props, "preset", text="Quality")
+    row = col.row(align=True)
+    row.active = not props.use_target_error
+    row.prop(props, "preset", text="Quality")
+    row = col.row(align=True)
+    row.prop(props, "use_target_error", text="Target Error")
+    sub = row.row(align=True)
+    sub.active = props.use_target_error
+    sub.prop(props, "target_error", text="")
+    row = layout.row(align=True)
+    row.prop(props, "lamps", toggle=True, icon="LIGHT")
+    row.prop(props, "world_ambient", toggle=True, icon="WORLD", text="World")
     from .operators import current_task
     task = current_task()
     if task is not None:
@@ -36,10 +61,28 @@ def draw_main(layout, context):
         return
     row = layout.row()
     row.scale_y = 1.5
-    row.operator("illumap.compute_illumination_map", icon="LIGHT_SUN")
-    n_selected = len(context.selected_objects) if hasattr(context, "selected_objects") else 0
-    layout.label(text=f"{n_selected} object{'s' * (n_selected != 1)} selected")
-    draw_object_preview(layout, context)
+    row.operator("illumap.compute_illumination_map", icon="LIGHT_SUN", text="Compute")
+    row = layout.row(align=True)
+    on = preview_is_on(context)
+    op = row.operator("illumap.mesh_preview", icon="SHADING_RENDERED",
+                      text="Preview On" if on else "Preview Off", depress=on)
+    op.show = not on
+    row.operator("illumap.clear_results", icon="TRASH", text="Clear")
+    draw_result(layout, context)
+
+
+def draw_result(layout, context):
+    """The last run in words: the Info line's parts, one per line."""
+    stats = context.scene.illumap.stats
+    if not stats.valid or not stats.summary:
+        n = len(context.selected_objects) if hasattr(context, "selected_objects") else 0
+        layout.label(text=f"{n} object{'s' * (n != 1)} selected")
+        return
+    col = layout.column(align=True)
+    for i, part in enumerate(stats.summary.split("; ")):
+        warn = "warning" in part or "stopped" in part
+        col.label(text=part[:1].upper() + part[1:],
+                  icon="ERROR" if warn else ("CHECKMARK" if i == 0 else "NONE"))
 
 
 def draw_object_preview(layout, context):
@@ -51,21 +94,36 @@ def draw_object_preview(layout, context):
 
 
 def draw_advanced(layout, context):
+    """Every other setting, in plain words (the tooltips say what each changes in the picture
+    and what it costs). Comparison-only modes are not offered (``pipeline.Settings`` has
+    them)."""
     props = context.scene.illumap
     layout.use_property_split = True
     layout.use_property_decorate = False
-    col = layout.column(heading="Sampling")
+    col = layout.column(heading="Light")
+    sub = col.column()
+    sub.active = props.lamps
+    sub.prop(props, "lamp_shadows")
+    sub2 = sub.column()
+    sub2.active = props.lamps and props.lamp_shadows
+    sub2.prop(props, "shadow_samples")
+    col = layout.column(heading="Detail")
     sub = col.column()
     sub.active = not props.use_target_error     # the target chooses the surfel count
     sub.prop(props, "sampling")
     sub.prop(props, "density" if props.sampling == "DENSITY" else "budget")
-    col.prop(props, "seed")
-    col = layout.column(heading="Accuracy")
-    col.prop(props, "use_target_error")
     sub = col.column()
     sub.active = props.use_target_error
-    sub.prop(props, "target_error")
     sub.prop(props, "adaptive")
+    col.prop(props, "seed")
+    col = layout.column(heading="On Your Objects")
+    col.prop(props, "transfer")
+    sub = col.column()
+    sub.active = props.transfer
+    sub.prop(props, "transfer_domain")
+    sub.prop(props, "gather_rays")
+    sub.prop(props, "receiver_shadow_samples")
+    sub.prop(props, "gather_cache")
     col = layout.column(heading="Solver")
     col.prop(props, "method")
     sub = col.column()
@@ -81,24 +139,6 @@ def draw_advanced(layout, context):
     col.prop(props, "tol")
     col.prop(props, "max_iterations")
     col.prop(props, "solver")
-    col.prop(props, "near_field")
-    col = layout.column(heading="Light")
-    col.prop(props, "lamps")
-    sub = col.column()
-    sub.active = props.lamps
-    sub.prop(props, "lamp_shadows")
-    sub2 = sub.column()
-    sub2.active = props.lamps and props.lamp_shadows
-    sub2.prop(props, "shadow_samples")
-    col.prop(props, "world_ambient")
-    col = layout.column(heading="Output")
-    col.prop(props, "transfer")
-    sub = col.column()
-    sub.active = props.transfer
-    sub.prop(props, "transfer_domain")
-    sub.prop(props, "gather_rays")
-    sub.prop(props, "gather_cache")
-    sub.prop(props, "receiver_shadow_samples")
     layout.operator("illumap.reset_settings", icon="LOOP_BACK")
 
 
@@ -122,7 +162,6 @@ def draw_preview(layout, context):
     row = layout.row(align=True)
     row.operator("illumap.build_preview", icon="MESH_CIRCLE", text="Show Surfels").show = True
     row.operator("illumap.build_preview", icon="HIDE_ON", text="Hide").show = False
-    layout.operator("illumap.clear_results", icon="TRASH", text="Clear Results")
 
 
 def draw_stats(layout, context):
@@ -197,16 +236,20 @@ class VIEW3D_PT_illumap_advanced(_SubPanel, bpy.types.Panel):
 
 
 class VIEW3D_PT_illumap_preview(_SubPanel, bpy.types.Panel):
-    bl_label = "Preview"
+    bl_label = "Preview Options"
     bl_idname = "VIEW3D_PT_illumap_preview"
+    bl_parent_id = "VIEW3D_PT_illumap_advanced"
+    bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
         draw_preview(self.layout, context)
 
 
 class VIEW3D_PT_illumap_stats(_SubPanel, bpy.types.Panel):
-    bl_label = "Last Run"
+    bl_label = "Last Run in Detail"
     bl_idname = "VIEW3D_PT_illumap_stats"
+    bl_parent_id = "VIEW3D_PT_illumap_advanced"
+    bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
         draw_stats(self.layout, context)

@@ -46,39 +46,42 @@ PRESET_ITEMS = [
     ("HIGH", "High", "Dense surfels, high FMM order, tight tolerance"),
     ("CUSTOM", "Custom", "Use the advanced settings as set"),
 ]
+# Comparison-only modes (no occlusion, Jacobi iteration, the bare point kernel) are not
+# offered here: they stay in the Python API (``pipeline.Settings``).
 VISIBILITY_ITEMS = [
-    ("NONE", "None", "No occlusion: every facing pair exchanges light"),
-    ("SEED", "Nearby Surfels", "Occlusion estimated from surfels near each segment (the talk's method)"),
-    ("EXACT", "Exact", "Occlusion by ray casting against the surfels as discs"),
+    ("SEED", "Estimated (nearby surfels)",
+     "Shadows between surfaces estimated from the surfels near each path: faster, but light "
+     "can leak through thin walls and under objects"),
+    ("EXACT", "Exact (rays)",
+     "Shadows between surfaces by rays against the objects' own triangles (and point clouds' "
+     "points): no leaks; costs rays, most in large open scenes"),
 ]
 OCCLUDER_SHAPE_ITEMS = [
-    ("DISC", "Disc", "Each surfel occludes as a disc (what the automatic mode is calibrated on)"),
-    ("OCTAGON", "Octagon", "Regular octagons of the discs' area: nearly the same shadows, "
-                           "faster rays"),
-    ("QUAD", "Square", "Squares of the discs' area: the fastest rays; corners reach 1.25× the "
-                       "disc radius, so edges shadow a little more"),
+    ("DISC", "Disc", "Each point blocks light as a round disc (what Target Error is "
+                     "calibrated on)"),
+    ("OCTAGON", "Octagon", "Octagons of the same area: nearly the same shadows, faster rays"),
+    ("QUAD", "Square", "Squares of the same area: the fastest rays; corners reach a little "
+                       "further, so edges shadow a little more"),
 ]
 SOLVER_ITEMS = [
-    ("AUTO", "Auto", "Conjugate gradients when the operator is symmetric, GMRES otherwise"),
-    ("CG", "CG", "Conjugate gradients on the symmetrized system"),
-    ("GMRES", "GMRES", "GMRES, for non-symmetric operators"),
-    ("JACOBI", "Jacobi", "Plain fixed-point iteration (slow, for comparison)"),
-]
-NEAR_FIELD_ITEMS = [
-    ("DISC", "Disc", "Bounded point-to-disc rule for close pairs"),
-    ("POINT", "Point", "Bare point kernel (diverges for close pairs; for comparison)"),
+    ("AUTO", "Automatic", "Picks the fastest of the two below for the scene (same picture)"),
+    ("CG", "Conjugate Gradients", "For scenes where light is exchanged symmetrically"),
+    ("GMRES", "GMRES", "Works for every scene; a little more memory"),
 ]
 METHOD_ITEMS = [
-    ("FMM", "Multipole", "Fast Multipole Method: O(N) per iteration"),
-    ("DIRECT", "Direct", "Exact O(N²) sum: a reference for small scenes"),
+    ("FMM", "Fast (multipole)", "Groups far surfaces together (Fast Multipole Method): time "
+                                "grows in proportion to the surfels"),
+    ("DIRECT", "Exact (every pair)", "Every pair of surfels exactly: a reference for small "
+                                     "scenes; time grows with the square of the surfels"),
 ]
 SAMPLING_ITEMS = [
-    ("DENSITY", "Density", "Surfels per square metre of surface"),
-    ("BUDGET", "Budget", "A total number of surfels, spread by area"),
+    ("DENSITY", "Per Square Metre", "A number of surfels per square metre of surface"),
+    ("BUDGET", "Total Count", "A total number of surfels, spread by area"),
 ]
 DOMAIN_ITEMS = [
-    ("POINT", "Vertex", "Transfer to mesh vertices"),
-    ("CORNER", "Face Corner", "Transfer to face corners (no blending across hard edges)"),
+    ("POINT", "Vertex", "One value per vertex: smooth across edges"),
+    ("CORNER", "Face Corner", "One value per face corner: hard edges and creases keep their "
+                              "light apart"),
 ]
 PREVIEW_MODE_ITEMS = [
     ("ILLUMINATION", "Illumination", "Discs emit the computed outgoing radiance"),
@@ -198,92 +201,127 @@ class IllumapSettings(bpy.types.PropertyGroup):
                          update=_preset_update)
 
     # Sampling
-    sampling: EnumProperty(name="Sampling", items=SAMPLING_ITEMS, default="BUDGET",
+    sampling: EnumProperty(name="Surfels Set By", items=SAMPLING_ITEMS,
+                           description="How the number of surfels (the small discs the light "
+                                       "is solved on) is chosen", default="BUDGET",
                            update=_field_update)
-    density: FloatProperty(name="Density", description="Surfels per square metre",
+    density: FloatProperty(name="Surfels per m²",
+                           description="More surfels: finer bounced light and contact shadows; "
+                                       "the solve's time grows about in proportion",
                            default=_DEFAULTS["density"], **field_bounds("density"),
                            update=_field_update)
-    budget: IntProperty(name="Budget", default=_DEFAULTS["budget"], **field_bounds("budget"),
+    budget: IntProperty(name="Surfel Count", default=_DEFAULTS["budget"], **field_bounds("budget"),
                         update=_field_update,
-                        description="Surfels over all meshes (front faces; open surfaces add "
-                                    "their back faces where these see anything): the same "
-                                    "count whatever the scene's scale")
-    seed: IntProperty(name="Seed", description="Sampling seed (results are reproducible)",
+                        description="Surfels over all objects, whatever the scene's scale: "
+                                    "more give finer bounced light and contact shadows; the "
+                                    "solve's time grows about in proportion")
+    seed: IntProperty(name="Random Seed",
+                      description="Another seed places the surfels differently (another noise "
+                                  "pattern, the same light on average); no cost. The same seed "
+                                  "gives the same picture every time",
                       default=0, **field_bounds("seed"), update=_field_update)
     use_target_error: BoolProperty(
         name="Target Error", default=False, update=_field_update,
-        description="Choose the surfel count, FMM order, opening angle and tolerance from "
-                    "a target error instead of the sampling and solver settings")
+        description="Ask for an accuracy instead of a preset: Illumap chooses the surfels, "
+                    "the solver settings and the rays for it. Smaller errors take longer "
+                    "(roughly 3-4× per halving)")
     target_error: FloatProperty(
         name="Error", default=0.05, **field_bounds("target_error"), precision=3,
         update=_field_update,
         description="Relative RMS error wanted in the light at the meshes (0.05 = 5%); chooses "
                     "the surfels, their solver settings and the rays per vertex")
     adaptive: BoolProperty(
-        name="Adaptive Density", default=True, update=_field_update,
+        name="Refine Where Light Changes", default=True, update=_field_update,
         description="With a target error: solve once with half the surfels, then resample "
                     "denser where that illumination varies (shadow edges, near lights, corners) "
                     "and solve again with the same total count")
     # Solver
-    method: EnumProperty(name="Method", items=METHOD_ITEMS, default="FMM", update=_field_update)
-    order: IntProperty(name="FMM Order", description="Expansion order p of the multipole method",
+    method: EnumProperty(name="Light Exchange", items=METHOD_ITEMS, default="FMM",
+                         update=_field_update,
+                         description="How the light every surfel sends to every other is added "
+                                     "up")
+    order: IntProperty(name="Far Light Accuracy (order)",
+                       description="Fast mode: how finely light from distant surfaces is "
+                                   "summed up (the multipole order). Higher is more accurate "
+                                   "and slower (each step adds about a third to the solve)",
                        default=_DEFAULTS["order"], **field_bounds("order"), update=_field_update)
-    theta: FloatProperty(name="Opening Angle", description="Separation ratio for the far field",
+    theta: FloatProperty(name="Far Light Distance (angle)",
+                         description="Fast mode: how far a group of surfaces must be before its "
+                                     "light is summed up as a group (the opening angle). Smaller "
+                                     "is more accurate and slower",
                          default=_DEFAULTS["theta"], **field_bounds("theta"), update=_field_update)
-    leaf_size: IntProperty(name="Leaf Size", description="Surfels per octree leaf", default=32,
+    leaf_size: IntProperty(name="Surfels per Group",
+                           description="Fast mode: surfels handled together (the octree's leaf "
+                                       "size). Changes the speed, not the picture", default=32,
                            **field_bounds("leaf_size"), update=_field_update)
-    visibility: EnumProperty(name="Visibility", items=VISIBILITY_ITEMS,
+    visibility: EnumProperty(name="Shadows Between Surfaces", items=VISIBILITY_ITEMS,
+                             description="How the bounced light between surfaces is shadowed",
                              default=_DEFAULTS["visibility"], update=_field_update)
     occluder_shape: EnumProperty(
-        name="Occluder Shape", items=OCCLUDER_SHAPE_ITEMS, default="DISC", update=_field_update,
-        description="How each surfel blocks light, for exact visibility and lamp shadows "
-                    "(with a target error: discs)")
-    tol: FloatProperty(name="Tolerance", description="Relative residual at which to stop",
+        name="Point Cloud Blockers", items=OCCLUDER_SHAPE_ITEMS, default="DISC",
+        update=_field_update,
+        description="Point clouds: the shape each point blocks light with, for shadows "
+                    "(meshes block with their own faces; with Target Error: discs)")
+    tol: FloatProperty(name="Solver Precision",
+                       description="When the bounced light counts as settled (the solver's "
+                                   "relative residual). Smaller is more exact; each 10× smaller "
+                                   "costs a few more solver steps",
                        default=_DEFAULTS["tol"], **field_bounds("tol"),
                        precision=6, update=_field_update)
-    max_iterations: IntProperty(name="Max Iterations", default=200,
+    max_iterations: IntProperty(name="Most Solver Steps", default=200,
+                                description="The solve stops here even if not settled (a "
+                                            "warning says so)",
                                 **field_bounds("max_iterations"), update=_field_update)
-    solver: EnumProperty(name="Solver", items=SOLVER_ITEMS, default="AUTO", update=_field_update)
-    near_field: EnumProperty(name="Near Field", items=NEAR_FIELD_ITEMS, default="DISC",
-                             update=_field_update)
+    solver: EnumProperty(name="Solver Method", items=SOLVER_ITEMS, default="AUTO",
+                         update=_field_update,
+                         description="The method that settles the bounced light: the same "
+                                     "picture, a different time")
     # Light
-    lamps: BoolProperty(name="Lamps", description="Add Blender lamps as direct light",
+    lamps: BoolProperty(name="Lamps", description="Light from Blender's lamps (point, spot, "
+                                                  "sun, area). Off: emissive objects and the "
+                                                  "world only",
                         default=True, update=_field_update)
     lamp_shadows: BoolProperty(
         name="Lamp Shadows", default=True, update=_field_update,
-        description="Shadow lamp light by casting rays from every surfel to samples on each "
-                    "lamp, against the surfels themselves")
+        description="Lamps cast shadows: rays from every surfel toward each lamp, against the "
+                    "objects' own faces (and point clouds' points). Off: faster, lamps light "
+                    "through objects")
     shadow_samples: IntProperty(
-        name="Shadow Samples", default=16, **field_bounds("shadow_samples"), update=_field_update,
-        description="Rays per surfel for lamps with a size (radius, area, sun angle): more "
-                    "give smoother penumbrae; cost grows in proportion")
+        name="Soft Shadow Rays (bounce)", default=16, **field_bounds("shadow_samples"), update=_field_update,
+        description="Rays per surfel toward each lamp with a size (radius, area, sun angle), "
+                    "for the light that bounces: more give smoother soft shadows in the "
+                    "bounced light; cost grows in proportion")
     world_ambient: BoolProperty(
         name="World Light", default=True, update=_field_update,
         description="Light from the world's Background (a colour, or an environment image's "
                     "mean), shadowed by the scene as Cycles does; a black world adds nothing")
     gather_rays: IntProperty(
-        name="Gather Rays", default=_DEFAULTS["gather_rays"], **field_bounds("gather_rays"),
+        name="Bounced Light Rays", default=_DEFAULTS["gather_rays"], **field_bounds("gather_rays"),
         update=_field_update,
-        description="Rays per mesh vertex or corner that gather the light reflected by the "
-                    "scene: more give smoother indirect light; cost grows in proportion")
+        description="Rays per corner (or point) that collect the light bounced by the scene: "
+                    "more give smoother, less blotchy bounced light; time grows in proportion")
     gather_cache: FloatProperty(
-        name="Gather Cache", default=_DEFAULTS["gather_cache"], **field_bounds("gather_cache"),
-        update=_field_update,
-        description="A point cloud's points share their final gathers through an irradiance "
-                    "cache of this accuracy (Ward's a): smaller gathers at more points; 0: every "
-                    "point gathers itself")
+        name="Point Cloud Light Sharing", default=_DEFAULTS["gather_cache"],
+        **field_bounds("gather_cache"), update=_field_update,
+        description="Point clouds: nearby points share the bounced light they collect (an "
+                    "irradiance cache of this accuracy). Smaller: sharper bounced light, "
+                    "slower; 0: every point collects its own (slowest)")
     receiver_shadow_samples: IntProperty(
-        name="Receiver Shadow Samples", default=_DEFAULTS["receiver_shadow_samples"],
+        name="Soft Shadow Rays (objects)", default=_DEFAULTS["receiver_shadow_samples"],
         **field_bounds("receiver_shadow_samples"), update=_field_update,
-        description="Shadow rays per mesh vertex or corner for each lamp or light-emitting "
-                    "object with a size: more give smoother penumbrae")
+        description="Rays per corner (or point) toward each lamp or glowing object with a "
+                    "size: more give smoother soft shadows on your objects; time grows in "
+                    "proportion")
     # Output
-    transfer: BoolProperty(name="Transfer to Meshes",
-                           description="Evaluate the illumination at the source meshes' own "
-                                       "vertices or corners and write it there",
+    transfer: BoolProperty(name="Write to Objects",
+                           description="Evaluate the light at the objects' own corners (points "
+                                       "of point clouds) and write it there as the colour "
+                                       "attribute 'illumination'. Off: the light stays on the "
+                                       "surfel object only",
                            default=True, update=_field_update)
-    transfer_domain: EnumProperty(name="Domain", items=DOMAIN_ITEMS, default="CORNER",
-                                  update=_field_update)
+    transfer_domain: EnumProperty(name="Store Per", items=DOMAIN_ITEMS, default="CORNER",
+                                  update=_field_update,
+                                  description="Where the attribute holds its values")
     # Preview
     build_preview: BoolProperty(
         name="Preview After Compute", default=True, update=_touch,
@@ -297,7 +335,9 @@ class IllumapSettings(bpy.types.PropertyGroup):
                     "'Illumap Surfels' object). Off, that object stays hidden in the viewport "
                     "and in renders")
     preview_mode: EnumProperty(name="Shading", items=PREVIEW_MODE_ITEMS, default="ILLUMINATION",
-                               update=_touch)
+                               update=_touch,
+                               description="What the surfels' discs show (a diagnostic): all "
+                                           "their light, or the light they reflect")
     disc_scale: FloatProperty(name="Disc Scale",
                               description="Disc radius relative to the surfel's own radius "
                                           "(1: each disc has exactly its surfel's area; larger "
@@ -311,11 +351,11 @@ class IllumapSettings(bpy.types.PropertyGroup):
 # Names of the scene settings and the lower-case spelling the core uses for enum values.
 _SETTINGS_FIELDS = ("density", "budget", "seed", "method", "order", "theta", "leaf_size",
                     "visibility", "occluder_shape", "tol", "max_iterations", "solver",
-                    "near_field", "lamps",
+                    "lamps",
                     "lamp_shadows", "shadow_samples", "world_ambient", "transfer",
                     "transfer_domain", "target_error", "adaptive", "gather_rays",
                     "gather_cache", "receiver_shadow_samples")
-_LOWER_ENUMS = ("visibility", "occluder_shape", "solver", "near_field", "method")
+_LOWER_ENUMS = ("visibility", "occluder_shape", "solver", "method")
 # Alternative field names a Settings dataclass may use for the same knob.
 _ALIASES = {
     "world_ambient": ("world_ambient", "world", "ambient", "use_world"),

@@ -181,9 +181,12 @@ def test_registered(registered_addon):
         assert hasattr(bpy.types, name), name
     assert bpy.types.VIEW3D_PT_illumap.bl_category == "Illumap"
     assert bpy.types.VIEW3D_PT_illumap_advanced.bl_options == {"DEFAULT_CLOSED"}
-    # The preview a user meets is open, not folded away.
-    assert "DEFAULT_CLOSED" not in getattr(bpy.types.VIEW3D_PT_illumap_preview, "bl_options",
-                                           set())
+    # The preview a user meets is on the main panel (Preview On/Off); its options and the
+    # last run's details are folded away under Advanced.
+    for name in ("VIEW3D_PT_illumap_preview", "VIEW3D_PT_illumap_stats"):
+        panel_type = getattr(bpy.types, name)
+        assert panel_type.bl_parent_id == "VIEW3D_PT_illumap_advanced"
+        assert panel_type.bl_options == {"DEFAULT_CLOSED"}
     assert isinstance(bpy.context.scene.illumap, bpy.types.PropertyGroup)
     if registered_addon.core_error() is None:
         assert hasattr(bpy.types, "ILLUMAP_OT_compute_illumination_map")
@@ -676,6 +679,7 @@ def test_real_pipeline_modal_runs_the_adaptive_second_pass(registered_addon, two
     assert any(t.startswith("Density for target: ") for t in labels), labels
     assert any(t.startswith("Adaptive pass 1: 200 surfels") for t in labels), labels
     layout = LayoutRecorder()
+    panel.draw_main(layout, bpy.context)
     panel.draw_advanced(layout, bpy.context)
     for name in ("use_target_error", "target_error", "adaptive", "lamp_shadows", "shadow_samples"):
         assert name in layout.texts("prop"), name
