@@ -32,16 +32,20 @@ Options (after ``--``)::
                            themselves, as the Object Preview shows them after Compute; with
                            --no-transfer, surfels), or surfels (the solve's discs, a
                            diagnostic); "meshes" and "points" are the older names of the two
-    --resolution PX        render size of the longer side (default 256)
-    --samples S            Cycles samples (default 16)
+    --resolution PX        --render's longer side (default: the scene's resolution and %)
+    --samples S            --render's Cycles samples (default: the scene's)
+    --device cpu|gpu       --render's Cycles device (default: the scene's); the format follows
+                           --render's extension, else the scene's
     --export-npz PATH      surfel data per frame;  --export-exr PATH  illumination as EXR
-    --export-lightmaps P   UV-space lightmap EXR per mesh, P contains {object} (e.g.
-                           maps/{object}_####.exr);  --lightmap-size PX (default 256)
-                           (lightmaps do not take part in the skip-if-exists check)
-    --overwrite            recompute frames whose outputs already exist (default: skip them,
-                           so farm machines can split a frame range safely)
+                           (Blender's own image writer)
+    --export-lightmaps P   UV-space lightmap EXR per mesh from its per-corner light, grown
+                           across UV seams; P contains {object} (e.g. maps/{object}_####.exr);
+                           --lightmap-size PX (default 256)
+    --skip-existing        skip frames whose outputs all exist (default: overwrite, as
+                           Blender does; lightmaps are not checked)
     --overwrite-input      allow an output path that is the input .blend itself (refused
                            otherwise)
+    --quiet / --verbose    warnings and errors only / finer progress and the thread count
     --seed N               sampling seed
 
 At most ``MAX_FRAMES`` (10,000) frames per job, inside Blender's frame range; split longer
@@ -63,7 +67,10 @@ Exit codes (``errors.ExitCode``, the one table of them):
          a render without a camera); checked before the solve where possible
     130  cancelled
 
-Each computed frame prints the surfel count, time per phase, iterations and final residual.
+A job needs at least one output (else exit 2, before the scene is read). Each phase prints a
+line as it starts (long phases their percentage); each computed frame prints the surfel count,
+time per phase, iterations and final residual. The core's threads follow Blender's -t or the
+scene's Fixed thread count (``threads.py``).
 """
 
 from __future__ import annotations
