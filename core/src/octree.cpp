@@ -1,4 +1,5 @@
-// octree.cpp — Morton sort, top-down split into contiguous child ranges, then node bounds.
+// octree.cpp — top-down split by normal bin, then by each node's own octants, into contiguous
+// child ranges; then node bounds.
 #include "octree.hpp"
 
 #include <algorithm>
@@ -13,18 +14,14 @@ namespace illumap {
 
 namespace {
 
-constexpr int kMaxLevel = 21;  // 21 bits per axis in a 63-bit Morton key
 constexpr double kClusterChord = 0.3;  // |n - seed| below this: same normal cluster (~17 deg)
-
-inline std::uint64_t spread3(std::uint64_t v) {  // 21 bits -> every third bit
-    v &= 0x1fffff;
-    v = (v | v << 32) & 0x1f00000000ffffULL;
-    v = (v | v << 16) & 0x1f0000ff0000ffULL;
-    v = (v | v << 8) & 0x100f00f00f00f00fULL;
-    v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
-    v = (v | v << 2) & 0x1249249249249249ULL;
-    return v;
-}
+// A node is split at its own box's midplanes, along the axes whose extent is at least this
+// share of its longest one (a flat patch is not cut across its thickness; a long strip is cut
+// along its length only), so a node's children are about half its size in every direction
+// that matters.
+constexpr double kAxisShare = 0.5;
+// Spatial levels below the root at most (a node this deep is a leaf whatever its count).
+constexpr int kMaxDepth = 60;
 
 // Bounds of one node, computed from its own points (tighter than merging children).
 void compute_bounds(const SurfelSoA& s, OctreeNode& nd) {
@@ -66,33 +63,74 @@ void compute_bounds(const SurfelSoA& s, OctreeNode& nd) {
     nd.amax = amax;
 }
 
-// Morton keys of perm[b, e) against the points' own bounding cube, the range re-sorted by
-// them (keys and perm together). False, and nothing changed, when the points coincide.
-bool rekey(const SurfelSoA& s, std::vector<std::uint32_t>& perm, std::vector<std::uint64_t>& key,
-           std::uint32_t b, std::uint32_t e) {
-    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-    for (std::uint32_t i = b; i < e; ++i) {
-        const std::uint32_t j = perm[i];
-        const double p[3] = {s.px[j], s.py[j], s.pz[j]};
-        for (int d = 0; d < 3; ++d) { lo[d] = std::min(lo[d], p[d]); hi[d] = std::max(hi[d], p[d]); }
+// The surfels of a node range [b, e) in tree order, with their positions alongside (copied in
+// the same order, so each level reads them sequentially).
+struct SplitWork {
+    std::vector<std::uint32_t>& perm;
+    std::vector<double> x, y, z;
+    std::vector<std::uint32_t> tp;
+    std::vector<double> tx, ty, tz;
+    std::vector<std::uint8_t> code;
+
+    SplitWork(std::vector<std::uint32_t>& p, const SurfelSoA& s) : perm(p) {
+        const std::size_t n = perm.size();
+        x.resize(n); y.resize(n); z.resize(n);
+        for (std::size_t i = 0; i < n; ++i) {
+            x[i] = s.px[perm[i]]; y[i] = s.py[perm[i]]; z[i] = s.pz[perm[i]];
+        }
+        tp.resize(n); tx.resize(n); ty.resize(n); tz.resize(n); code.resize(n);
     }
-    const double ext = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
-    if (!(ext > 0)) return false;
-    const double top = double((1u << kMaxLevel) - 1), scale = top / ext;
-    auto q = [&](double v, int d) { return std::uint64_t(std::min(top, std::max(0.0, (v - lo[d]) * scale))); };
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> order;
-    order.reserve(e - b);
-    for (std::uint32_t i = b; i < e; ++i) {
-        const std::uint32_t j = perm[i];
-        order.push_back({spread3(q(s.px[j], 0)) << 2 | spread3(q(s.py[j], 1)) << 1 | spread3(q(s.pz[j], 2)), j});
+
+    // Splits [b, e) by the octants of its own box (stable: each child keeps its surfels in
+    // their order); cuts gets the child boundaries. False (nothing moved) when the points
+    // coincide or cannot be separated.
+    bool split(std::uint32_t b, std::uint32_t e, std::vector<std::uint32_t>& cuts) {
+        double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+        for (std::uint32_t i = b; i < e; ++i) {
+            lo[0] = std::min(lo[0], x[i]); hi[0] = std::max(hi[0], x[i]);
+            lo[1] = std::min(lo[1], y[i]); hi[1] = std::max(hi[1], y[i]);
+            lo[2] = std::min(lo[2], z[i]); hi[2] = std::max(hi[2], z[i]);
+        }
+        const double ext[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
+        const double emax = std::max({ext[0], ext[1], ext[2]});
+        if (!(emax > 0)) return false;
+        double mid[3];
+        bool cut[3];
+        for (int d = 0; d < 3; ++d) {
+            mid[d] = lo[d] + 0.5 * ext[d];
+            cut[d] = ext[d] > 0 && ext[d] >= kAxisShare * emax;
+        }
+        std::uint32_t count[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+        for (std::uint32_t i = b; i < e; ++i) {
+            const std::uint8_t c = std::uint8_t((cut[0] && x[i] >= mid[0]) << 2 |
+                                                (cut[1] && y[i] >= mid[1]) << 1 |
+                                                (cut[2] && z[i] >= mid[2]));
+            code[i] = c;
+            count[c]++;
+        }
+        int nonempty = 0;
+        for (int c = 0; c < 8; ++c) nonempty += count[c] > 0;
+        if (nonempty < 2) return false;
+        std::uint32_t at[8];
+        cuts.clear();
+        cuts.push_back(b);
+        std::uint32_t o = b;
+        for (int c = 0; c < 8; ++c) {
+            at[c] = o;
+            o += count[c];
+            if (count[c] > 0) cuts.push_back(o);
+        }
+        for (std::uint32_t i = b; i < e; ++i) {
+            const std::uint32_t k = at[code[i]]++;
+            tp[k] = perm[i]; tx[k] = x[i]; ty[k] = y[i]; tz[k] = z[i];
+        }
+        std::copy(tp.begin() + b, tp.begin() + e, perm.begin() + b);
+        std::copy(tx.begin() + b, tx.begin() + e, x.begin() + b);
+        std::copy(ty.begin() + b, ty.begin() + e, y.begin() + b);
+        std::copy(tz.begin() + b, tz.begin() + e, z.begin() + b);
+        return true;
     }
-    std::sort(order.begin(), order.end());
-    for (std::uint32_t i = b; i < e; ++i) {
-        key[i] = order[i - b].first;
-        perm[i] = order[i - b].second;
-    }
-    return true;
-}
+};
 
 }  // namespace
 
@@ -107,95 +145,62 @@ Octree build_octree(Context& ctx, const SurfelSoA& orig, int leaf_size) {
     Octree t;
     leaf_size = std::max(1, leaf_size);
 
-    // Bounding cube of all points, then Morton keys.
-    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-    for (std::size_t i = 0; i < n; ++i) {
-        lo[0] = std::min(lo[0], orig.px[i]); hi[0] = std::max(hi[0], orig.px[i]);
-        lo[1] = std::min(lo[1], orig.py[i]); hi[1] = std::max(hi[1], orig.py[i]);
-        lo[2] = std::min(lo[2], orig.pz[i]); hi[2] = std::max(hi[2], orig.pz[i]);
-    }
-    double ext = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-300});
-    const double scale = double((1u << kMaxLevel) - 1) / ext;
-    std::vector<std::uint64_t> key(n);
-    parallel_for(ctx, n, 1 << 16, [&](std::size_t b, std::size_t e) {
-        for (std::size_t i = b; i < e; ++i) {
-            auto q = [&](double v, int d) { return std::uint64_t(std::min(double((1u << kMaxLevel) - 1), std::max(0.0, (v - lo[d]) * scale))); };
-            key[i] = spread3(q(orig.px[i], 0)) << 2 | spread3(q(orig.py[i], 1)) << 1 | spread3(q(orig.pz[i], 2));
-        }
-    });
     // Normal bin: the dominant axis and sign of the normal (6 bins, cube-map faces). The root
-    // splits by bin first, then each bin is an ordinary spatial octree. Surfaces meeting at
-    // an edge (a floor and a wall) then never share a node, so every node below the root has
-    // a usable normal cone and the facing tests can accept or drop whole nodes.
+    // splits by bin first, then each bin is a spatial octree. Surfaces meeting at an edge (a
+    // floor and a wall) then never share a node, so every node below the root has a usable
+    // normal cone and the facing tests can accept or drop whole nodes.
     std::vector<std::uint8_t> bin(n);
+    std::uint32_t per_bin[6] = {0, 0, 0, 0, 0, 0};
     for (std::size_t i = 0; i < n; ++i) {
         const double v[3] = {orig.nx[i], orig.ny[i], orig.nz[i]};
         int d = 0;
         for (int k = 1; k < 3; ++k)
             if (std::fabs(v[k]) > std::fabs(v[d])) d = k;
         bin[i] = std::uint8_t(2 * d + (v[d] < 0));
+        per_bin[bin[i]]++;
     }
+    // Surfels by bin, each bin in the caller's order (counting sort).
     t.perm.resize(n);
-    std::iota(t.perm.begin(), t.perm.end(), 0u);
-    std::sort(t.perm.begin(), t.perm.end(), [&](std::uint32_t a, std::uint32_t b) {
-        if (bin[a] != bin[b]) return bin[a] < bin[b];
-        return key[a] < key[b] || (key[a] == key[b] && a < b);
-    });
-    std::vector<std::uint64_t> skey(n);
-    for (std::size_t i = 0; i < n; ++i) skey[i] = key[t.perm[i]];
-    key.clear();
-    key.shrink_to_fit();
+    {
+        std::uint32_t at[6], o = 0;
+        for (int c = 0; c < 6; ++c) { at[c] = o; o += per_bin[c]; }
+        for (std::size_t i = 0; i < n; ++i) t.perm[at[bin[i]]++] = std::uint32_t(i);
+    }
 
     // Top-down, breadth first: children of a node are appended together (contiguous ids).
-    // A node whose points all fall into one octant descends without creating a node
-    // (compressed octree), so chains of single children never appear.
-    struct Item { std::int32_t id; int bit; };  // bit: Morton level being split; -1: by bin
+    // Every node is split by the octants of its own points' box, so a node's subtree depends
+    // on its points alone (and their order): a cluster of surfels gets the same cells whatever
+    // else is in the scene, and an object far away only adds its own branch.
+    SplitWork work(t.perm, orig);
     t.nodes.push_back(OctreeNode{});
     t.nodes[0].begin = 0;
     t.nodes[0].end = std::uint32_t(n);
-    std::deque<Item> queue{{0, -1}};
+    std::deque<std::int32_t> queue{0};
+    std::vector<std::uint32_t> cuts;
     while (!queue.empty()) {
-        Item it = queue.front();
+        const std::int32_t id = queue.front();
         queue.pop_front();
-        OctreeNode nd = t.nodes[it.id];
-        if (nd.count() <= std::uint32_t(leaf_size)) continue;
-        int bit = it.bit;
-        std::vector<std::uint32_t> cuts;
-        if (bit < 0) {  // split by normal bin
-            cuts.push_back(nd.begin);
-            for (std::uint32_t i = nd.begin + 1; i < nd.end; ++i)
-                if (bin[t.perm[i]] != bin[t.perm[i - 1]]) cuts.push_back(i);
-            cuts.push_back(nd.end);
-            bit = 0;
+        const OctreeNode nd = t.nodes[id];
+        if (nd.count() <= std::uint32_t(leaf_size) || nd.level >= kMaxDepth) continue;
+        cuts.clear();
+        if (id == 0) {  // by normal bin
+            cuts.push_back(0);
+            for (int c = 0; c < 6; ++c)
+                if (per_bin[c]) cuts.push_back(cuts.back() + per_bin[c]);
         }
-        while (cuts.size() <= 2 && bit < kMaxLevel) {
-            const int shift = 3 * (kMaxLevel - 1 - bit);
-            cuts.clear();
-            cuts.push_back(nd.begin);
-            for (std::uint32_t i = nd.begin + 1; i < nd.end; ++i)
-                if ((skey[i] >> shift) != (skey[i - 1] >> shift)) cuts.push_back(i);
-            cuts.push_back(nd.end);
-            ++bit;
-        }
-        if (cuts.size() <= 2) {
-            // Keys exhausted: a far outlier made the root cube so large that this node is one
-            // finest cell. Key its points against their own box and go on splitting;
-            // coincident points stay a leaf.
-            if (rekey(orig, t.perm, skey, nd.begin, nd.end)) queue.push_front({it.id, 0});
-            continue;
-        }
+        if (cuts.size() <= 2 && !work.split(nd.begin, nd.end, cuts)) continue;  // coincident
         const std::int32_t first = std::int32_t(t.nodes.size());
         for (std::size_t c = 0; c + 1 < cuts.size(); ++c) {
             OctreeNode ch;
             ch.begin = cuts[c];
             ch.end = cuts[c + 1];
-            ch.parent = it.id;
+            ch.parent = id;
             ch.level = nd.level + 1;
             t.nodes.push_back(ch);
-            queue.push_back({std::int32_t(t.nodes.size() - 1), bit});
+            queue.push_back(std::int32_t(t.nodes.size() - 1));
         }
-        t.nodes[it.id].child = first;
-        t.nodes[it.id].nchild = std::int32_t(cuts.size() - 1);
+        t.nodes[id].child = first;
+        t.nodes[id].nchild = std::int32_t(cuts.size() - 1);
     }
 
     // A leaf whose surfels have clearly different normals (it straddles an edge or a corner)

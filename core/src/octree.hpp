@@ -1,6 +1,6 @@
 // octree.hpp — adaptive octree over surfels with the per-node bounds the traversal needs.
 //
-// Surfels are reordered into Morton (tree) order so every node owns a contiguous range.
+// Surfels are reordered into tree order so every node owns a contiguous range.
 // Per node: bounding sphere (centre = centre of the points' box, radius tight over points),
 // normal cone (axis, half-angle, and the chord bound max |n - axis|), the slab
 // [min, max] of axis.(r - centre) over its points (zero width for a flat patch: this is what
@@ -43,8 +43,20 @@ struct Octree {
     std::size_t bytes() const;
 };
 
-// Builds the tree; leaves hold at most leaf_size surfels unless they are coincident
-// (depth is capped at 21 Morton levels).
+// Builds the tree; leaves hold at most leaf_size surfels unless they are coincident (or 60
+// levels deep). Below the root's split by normal bin, every node is split by the octants of
+// its own points' box, so a node's subtree depends on its points (and their relative order)
+// alone: surfels far away, or added elsewhere in the input, leave a cluster's cells as they
+// are.
 Octree build_octree(Context& ctx, const SurfelSoA& orig, int leaf_size);
+
+// A total order of nodes that surfels elsewhere in the tree do not change: by first tree
+// position, an ancestor before its descendants. (Node ids are breadth first: a far object
+// adds a level above a cluster and reorders its ids against the others'; tree positions only
+// shift.) Rules that need a canonical order of two nodes use it (the mutual walk, radius ties,
+// visibility samples), so that a cluster's interactions do not depend on the rest.
+inline bool node_before(const OctreeNode& a, const OctreeNode& b) {
+    return a.begin != b.begin ? a.begin < b.begin : a.end > b.end;
+}
 
 }  // namespace illumap

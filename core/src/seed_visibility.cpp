@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <vector>
 
 namespace illumap {
 
@@ -71,20 +72,20 @@ double SeedVisibility::attenuation(std::uint32_t i, std::uint32_t j, bool early)
         return r;
     };
 
-    std::int32_t stack[256];
-    int sp = 0;
-    stack[sp++] = 0;
+    // The nodes still to visit (grown as needed: a deep tree never drops a branch).
+    thread_local std::vector<std::int32_t> stack;
+    stack.clear();
+    stack.push_back(0);
     const auto& nodes = tree_.nodes;
-    while (sp) {
-        const std::int32_t id = stack[--sp];
+    while (!stack.empty()) {
+        const std::int32_t id = stack.back();
+        stack.pop_back();
         const OctreeNode& nd = nodes[id];
         const double reach = nd.radius + hmax_[id];
         if (seg_dist2(p, d, dd, nd.center[0], nd.center[1], nd.center[2]) > reach * reach)
             continue;
         if (!nd.leaf()) {
-            for (int c = 0; c < nd.nchild; ++c) {
-                if (sp < 256) stack[sp++] = nd.child + c;
-            }
+            for (int c = 0; c < nd.nchild; ++c) stack.push_back(nd.child + c);
             continue;
         }
         for (std::uint32_t k = nd.begin; k < nd.end; ++k) {
@@ -154,7 +155,7 @@ bool SeedVisibility::point_leaf(std::uint32_t p, std::int32_t leaf) const {
 }
 
 bool SeedVisibility::leaf_leaf(std::int32_t L, std::int32_t C) const {
-    if (L > C) std::swap(L, C);
+    if (node_before(tree_.nodes[C], tree_.nodes[L])) std::swap(L, C);
     const OctreeNode& Cn = tree_.nodes[C];
     const OctreeNode& Ln = tree_.nodes[L];
     int considered = 0, vis = 0;

@@ -223,9 +223,9 @@ struct Walker {
         return off;
     }
 
-    // Split children, in canonical order (lower id first) when the walk is mutual.
+    // Split children, in canonical order (node_before) when the walk is mutual.
     void push(std::vector<Pair>& out, std::int32_t a, std::int32_t b) const {
-        if (mutual && a > b) std::swap(a, b);
+        if (mutual && node_before(tree.nodes[b], tree.nodes[a])) std::swap(a, b);
         out.push_back({a, b});
     }
 
@@ -238,10 +238,10 @@ struct Walker {
 
     // Classifies one pair; appends its children pairs to `out` when it must be split.
     // Mutual walk (with a visibility model): only pairs t <= s are visited and each records
-    // the mirrored interaction of (s, t) too. The kernel classes of (t, s) and (s, t) mirror
-    // each other (Accept, Drop, Near alike; M2P <-> P2L; the split rule picks the same node,
-    // radius ties broken by id), so the lists are those of the ordered walk while each node
-    // pair is classified, sampled and blocked once.
+    // the mirrored interaction of (s, t) too (t <= s: node_before). The kernel classes of
+    // (t, s) and (s, t) mirror each other (Accept, Drop, Near alike; M2P <-> P2L; the split
+    // rule picks the same node, radius ties broken by node_before), so the lists are those of
+    // the ordered walk while each node pair is classified, sampled and blocked once.
     void step(Pair pr, std::vector<Pair>& out) {
         if (pr.t == pr.s) {
             step_self(pr, out);
@@ -354,13 +354,14 @@ struct Walker {
     }
 
     // Splits the source when the target is a leaf or the source is the larger one. With a
-    // visibility model radius ties go by node id, so (t, s) and (s, t) split the same node and
-    // their lists mirror each other (exact reciprocity of the sampled classes).
+    // visibility model radius ties go by node_before (octree.hpp), so (t, s) and (s, t) split
+    // the same node and their lists mirror each other (exact reciprocity of the sampled
+    // classes).
     void split_larger(Pair pr, std::vector<Pair>& out) {
         const OctreeNode& t = tree.nodes[pr.t];
         const OctreeNode& s = tree.nodes[pr.s];
         if (!s.leaf() && (t.leaf() || s.radius > t.radius ||
-                          (opt.model && s.radius == t.radius && pr.s > pr.t))) {
+                          (opt.model && s.radius == t.radius && node_before(t, s)))) {
             for (int c = 0; c < s.nchild; ++c) push(out, pr.t, s.child + c);
         } else {
             for (int c = 0; c < t.nchild; ++c) push(out, t.child + c, pr.s);
@@ -403,12 +404,17 @@ void csr_payload(std::size_t nnodes, const std::vector<std::int64_t>& off,
         for (std::size_t k = 0; k < parts[q]->size(); ++k) out[pos[(*parts[q])[k].t]++] = (*pay[q])[k];
 }
 
-// Sorts each row [off[t], off[t + 1]) of a CSR list by source id (ties by position, so the
-// result is deterministic), permuting the payloads `w` and `blk` (either may be null) alike.
-void sort_by_source(Context& ctx, const std::vector<std::int64_t>& off,
+// Sorts each row [off[t], off[t + 1]) of a CSR list by source in tree order (node_before;
+// the same node twice: by position, so the result is deterministic), permuting the payloads
+// `w` and `blk` (either may be null) alike. Tree order, not node id: a cluster's lists then
+// come out in the same order whatever else is in the tree, and so do its sums, to the bit.
+void sort_by_source(Context& ctx, const Octree& tree, const std::vector<std::int64_t>& off,
                     std::vector<std::int32_t>& src, std::vector<float>* w,
                     std::vector<std::int64_t>* blk) {
     const std::size_t nn = off.empty() ? 0 : off.size() - 1;
+    auto before = [&](std::int32_t a, std::int32_t b) {
+        return node_before(tree.nodes[a], tree.nodes[b]);
+    };
     parallel_for(ctx, nn, kSortGrain, [&](std::size_t b, std::size_t e) {
         std::vector<std::int64_t> idx;
         std::vector<std::int32_t> s2;
@@ -416,11 +422,11 @@ void sort_by_source(Context& ctx, const std::vector<std::int64_t>& off,
         std::vector<std::int64_t> b2;
         for (std::size_t t = b; t < e; ++t) {
             const std::int64_t k0 = off[t], k1 = off[t + 1];
-            if (std::is_sorted(src.begin() + k0, src.begin() + k1)) continue;
+            if (std::is_sorted(src.begin() + k0, src.begin() + k1, before)) continue;
             idx.resize(std::size_t(k1 - k0));
             for (std::int64_t k = k0; k < k1; ++k) idx[std::size_t(k - k0)] = k;
             std::sort(idx.begin(), idx.end(), [&](std::int64_t x, std::int64_t y) {
-                return src[x] != src[y] ? src[x] < src[y] : x < y;
+                return src[x] != src[y] ? before(src[x], src[y]) : x < y;
             });
             auto permute = [&](auto& v, auto& tmp) {
                 tmp.resize(idx.size());
@@ -517,14 +523,14 @@ InteractionLists build_interaction_lists(Context& ctx, const Octree& tree,
     }
     L.m2p_off = to_csr(nn, m2pparts, L.m2p_src);
     L.p2l_off = to_csr(nn, p2lparts, L.p2l_src);
-    // Each target's sources in node order (weights and block offsets carried along): the
-    // applications then read multipoles and source surfels in ascending addresses, and the
-    // lists no longer depend on how the walk was shared out.
-    sort_by_source(ctx, L.m2l_off, L.m2l_src, opt.model ? &L.m2l_w : nullptr, nullptr);
-    sort_by_source(ctx, L.p2p_off, L.p2p_src, opt.model ? &L.p2p_w : nullptr,
+    // Each target's sources in tree order (weights and block offsets carried along): the
+    // applications then read source surfels in ascending addresses, the lists no longer depend
+    // on how the walk was shared out, and a cluster's lists not on the rest of the tree.
+    sort_by_source(ctx, tree, L.m2l_off, L.m2l_src, opt.model ? &L.m2l_w : nullptr, nullptr);
+    sort_by_source(ctx, tree, L.p2p_off, L.p2p_src, opt.model ? &L.p2p_w : nullptr,
                    opt.model ? &L.p2p_blk : nullptr);
-    sort_by_source(ctx, L.m2p_off, L.m2p_src, nullptr, nullptr);
-    sort_by_source(ctx, L.p2l_off, L.p2l_src, nullptr, nullptr);
+    sort_by_source(ctx, tree, L.m2p_off, L.m2p_src, nullptr, nullptr);
+    sort_by_source(ctx, tree, L.p2l_off, L.p2l_src, nullptr, nullptr);
     L.m2p_pairs = std::int64_t(L.m2p_src.size());
     L.p2l_pairs = std::int64_t(L.p2l_src.size());
     L.m2l_pairs = std::int64_t(L.m2l_src.size());

@@ -57,7 +57,7 @@ struct TraversalOptions {
     double theta = 0.5;
     // A visibility model (nullptr: V = 1): classes, PARTIAL leaf pairs'
     // fractions and per-pair blocks (visibility.hpp), self leaf pairs get per-pair V too, and
-    // radius ties in the split rule are broken by node id so the lists of (t, s) and (s, t)
+    // radius ties in the split rule are broken by node_before so the lists of (t, s) and (s, t)
     // mirror each other (V symmetric: diag(A) F V stays symmetric).
     const VisibilityModel* model = nullptr;
 };

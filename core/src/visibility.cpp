@@ -11,9 +11,33 @@ constexpr int kDrawsPerSample = 4;
 // Node pairs per chunk in classify_batch().
 constexpr std::size_t kClassifyGrain = 64;
 
+// The random stream of the node pair (A, B): from what the two nodes are (their counts, their
+// radii and where B lies from A, in units of the two radii), not from their ids or tree
+// positions, which surfels elsewhere in the scene change. A cluster's pairs then draw the
+// same samples whatever else the scene holds (and wherever it sits). Pairs alike in all of
+// this (translated copies on a regular grid) share a stream.
+std::uint64_t pair_stream(std::uint64_t seed, const OctreeNode& A, const OctreeNode& B) {
+    std::uint64_t h = vis_mix(seed ^ (std::uint64_t(A.count()) << 32 | B.count()));
+    const double s = A.radius + B.radius;
+    if (!(s > 0)) return h;
+    auto q = [&](double v) {  // in 1/1024 of the radii, bounded
+        return std::uint64_t(std::llround(std::clamp(v / s * 1024.0, -1e15, 1e15)));
+    };
+    for (int d = 0; d < 3; ++d) h = vis_mix(h ^ q(B.center[d] - A.center[d]));
+    return vis_mix(h ^ q(A.radius));
+}
+
+// The pair's nodes in canonical order (node_before): (lo, hi).
+inline void canonical(const Octree& t, std::int32_t a, std::int32_t b, std::int32_t& lo,
+                      std::int32_t& hi) {
+    const bool ab = node_before(t.nodes[a], t.nodes[b]);
+    lo = ab ? a : b;
+    hi = ab ? b : a;
+}
+
 // Calls fn(i, j) (i in node lo, j in node hi, i != j, facing) for up to m sampled facing
 // pairs, until fn returns false. Exhaustive (no sampling error) when |lo|*|hi| <= m.
-// Deterministic per (lo, hi, seed).
+// Deterministic per (lo, hi, seed), and the same for two node pairs of the same surfels.
 template <class Fn>
 void sample_pairs(const Octree& tree, std::uint64_t seed, std::int32_t lo, std::int32_t hi,
                   int m, Fn&& fn) {
@@ -25,8 +49,7 @@ void sample_pairs(const Octree& tree, std::uint64_t seed, std::int32_t lo, std::
                 if (i != j && vis_facing(tree.s, i, j) && !fn(i, j)) return;
         return;
     }
-    std::uint64_t st = vis_mix(seed ^ (std::uint64_t(std::uint32_t(lo)) << 32 |
-                                       std::uint32_t(hi)));
+    std::uint64_t st = pair_stream(seed, A, B);
     int got = 0;
     for (int t = 0; t < kDrawsPerSample * m && got < m; ++t) {
         st = vis_mix(st);
@@ -73,7 +96,8 @@ VisClass VisibilityModel::class_of(int vis, int n) const {
 }
 
 VisClass VisibilityModel::classify(std::int32_t a, std::int32_t b, DrawMemo* draws) const {
-    const std::int32_t lo = a < b ? a : b, hi = a < b ? b : a;
+    std::int32_t lo, hi;
+    canonical(tree_, a, b, lo, hi);
     const OctreeNode &A = tree_.nodes[lo], &B = tree_.nodes[hi];
     const bool binary_leaves = A.leaf() && B.leaf() && opt_.leaf_mode == LeafMode::Binary;
     int vis = 0, n = 0;
@@ -108,7 +132,8 @@ VisClass VisibilityModel::classify_fraction(std::int32_t a, std::int32_t b, floa
         *frac = c == VisClass::Invalid ? 0.0f : 1.0f;
         return c;
     }
-    const std::int32_t lo = a < b ? a : b, hi = a < b ? b : a;
+    std::int32_t lo, hi;
+    canonical(tree_, a, b, lo, hi);
     const OctreeNode &A = tree_.nodes[lo], &B = tree_.nodes[hi];
     double sum = 0;
     int n = 0, vis = 0;
@@ -134,7 +159,8 @@ VisClass VisibilityModel::classify_fraction(std::int32_t a, std::int32_t b, floa
 }
 
 float VisibilityModel::fraction(std::int32_t a, std::int32_t b) const {
-    const std::int32_t lo = a < b ? a : b, hi = a < b ? b : a;
+    std::int32_t lo, hi;
+    canonical(tree_, a, b, lo, hi);
     double sum = 0;
     int n = 0;
     DrawMemo draw(*this);

@@ -14,7 +14,8 @@
 //                     (both methods evaluate the canonical ordering min(i,j), max(i,j)).
 //   classify(a, b)    VALID (every pair sees each other), INVALID (none does) or PARTIAL.
 //                     Symmetric: classify(a,b) == classify(b,a). It RESTS ON SAMPLES (m facing
-//                     point pairs drawn with a deterministic per-pair RNG) and can be wrong: a
+//                     point pairs drawn with a deterministic per-pair RNG, seeded from the
+//                     pair's geometry, not its node ids: visibility.cpp) and can be wrong: a
 //                     pair with a small blocked (or visible) part can be called VALID (INVALID).
 //                     tests_native/test_visibility.cpp measures that error.
 //   fraction(a, b)    sampled fraction of visible facing pairs (the "fractional leaf–leaf" option).
@@ -36,7 +37,7 @@
 //      P2P then weights pair (i, j) by 1, fraction, or block[i][j].
 //   Reciprocity: classify / fraction / block are symmetric, so V_ij = V_ji whenever the lists
 //   of (t, s) and (s, t) contain mirrored pairs; the traversal's split rule must then be
-//   mirror-symmetric (break radius ties by node id), otherwise sampled classes of different
+//   mirror-symmetric (break radius ties by node_before), otherwise sampled classes of different
 //   sub-pairs can make V_ij != V_ji (then use GMRES, or PerPair everywhere).
 
 #pragma once

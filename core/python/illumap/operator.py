@@ -176,6 +176,25 @@ def validate_keywords(*, method=DEFAULT_METHOD, order=DEFAULT_ORDER, theta=DEFAU
     return out
 
 
+def core_origin(positions: np.ndarray) -> np.ndarray:
+    """The point the native core measures positions from: their median, snapped to a grid of
+    a power of two at least their interquartile spread (the bulk's size). A few surfels more
+    or less (an object far away) then leave it where it is, and with it, to the bit, every
+    coordinate the core sees of the others (subtracting a multiple of a power of two at least
+    the coordinates' own rounding step is exact): their tree, lists and light are as without
+    them. (0, 0, 0) for no surfels; the median itself where the bulk has no spread."""
+    if len(positions) == 0:
+        return np.zeros(3)
+    median = np.median(positions, axis=0)
+    lo, hi = np.percentile(positions, [25.0, 75.0], axis=0)
+    spread = float(np.max(hi - lo))
+    if not spread > 0.0:
+        return median
+    step = 2.0 ** np.ceil(np.log2(spread))
+    snapped = np.round(median / step) * step
+    return snapped if np.all(np.isfinite(snapped)) else median
+
+
 def _check_triangles(triangles) -> np.ndarray | None:
     """``occluder_triangles`` as C-contiguous float64 (T, 3, 3), finite, or None."""
     if triangles is None:
@@ -298,9 +317,9 @@ class TransportOperator:
         self.surfels = surfels
         self.occluder_triangles = _check_triangles(occluder_triangles)
         # The kernel sees only differences of positions: the native core gets them relative to
-        # their median, so tree bounds, facing tests and rays keep their precision wherever
-        # the scene sits.
-        self.origin = np.median(surfels.positions, axis=0) if surfels.n else np.zeros(3)
+        # their median (snapped: ``core_origin``), so tree bounds, facing tests and rays keep
+        # their precision wherever the scene sits.
+        self.origin = core_origin(surfels.positions)
         core = _require_core()
         guard = ProgressGuard(progress)
         with guard:
