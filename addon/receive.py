@@ -137,7 +137,7 @@ def _clear_of_rounding(occ, rec):
     return replace(rec, points=points)
 
 
-def _merged_corners(occ, rec, lamps_=()) -> tuple[np.ndarray, np.ndarray]:
+def _merged_corners(occ, rec, lamps_=(), pressed=None) -> tuple[np.ndarray, np.ndarray]:
     """Which corners of ``rec`` share one evaluation: corners of one vertex with one normal
     (a flat grid's four) see the same light unless a wall stands on the vertex between them
     or a shadow edge runs through it, so each joins the first such corner when a ray between
@@ -146,6 +146,10 @@ def _merged_corners(occ, rec, lamps_=()) -> tuple[np.ndarray, np.ndarray]:
     finds both lit or both shadowed. A box standing on a floor's grid lines, lit along them,
     puts its shadow's edge through the floor's vertices: the corners on either side of it,
     all the lead's, had read the vertex fully lit or fully dark, where it is half lit.
+    ``pressed`` (a callable: bool per corner of the rows it is given): corners another
+    surface lies against. A vertex one of whose corners is pressed has a solid standing on it
+    (a box's corner on a floor's vertex), and the ray between its other corners grazes that
+    solid's edge, which rounding decides: its corners are evaluated each in its own face.
     Returns (the rows to evaluate, each corner's row among them)."""
     if len(rec.points) == 0:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
@@ -159,6 +163,13 @@ def _merged_corners(occ, rec, lamps_=()) -> tuple[np.ndarray, np.ndarray]:
     lead = by_group[starts][group]
     others = np.flatnonzero(lead != np.arange(len(lead)))
     joined = np.arange(len(lead))
+    if others.size and pressed is not None:
+        shared = np.unique(np.concatenate([lead[others], others]))
+        touched = np.zeros(len(lead), dtype=bool)
+        touched[shared] = pressed(shared)
+        solid = np.zeros(int(group.max()) + 1, dtype=bool)
+        solid[group[touched]] = True
+        others = others[~solid[group[others]]]
     if others.size:
         lift = occ.offset * rec.normals
         free = occ.visible(rec.points[lead[others]] + lift[lead[others]],
@@ -354,6 +365,40 @@ def _splat_owners(job: Job, back: np.ndarray) -> tuple[np.ndarray | None, np.nda
     return owner_front, owner_back
 
 
+def triangle_ids(job: Job) -> np.ndarray:
+    """Each triangle's identity (T,) int64 in ``job.triangles``: its mesh's name and its row
+    among that mesh's triangles, or its point and its place in that point's splat; not its
+    row in the scene, which the objects before it set."""
+    tri = job.triangles
+    ids = np.zeros(len(tri), dtype=np.int64)
+    owner = (np.full(len(tri), -1, dtype=np.int64) if job.splat_point is None
+             else np.asarray(job.splat_point, dtype=np.int64))
+    mesh_end = int((owner < 0).sum())
+    meshes = [src.name for src in job.sources if src.kind == "MESH"]
+    starts = [int(a) for a in (job.mesh_triangle_start if job.mesh_triangle_start is not None
+                               else [0])]
+    for name, lo, hi in zip(meshes, starts, starts[1:] + [mesh_end]):
+        ids[lo:hi] = sampling.object_ids(name, np.arange(hi - lo))
+    if mesh_end < len(tri):
+        points = owner[mesh_end:]
+        first = np.flatnonzero(np.r_[True, np.diff(points) != 0])
+        rank = np.arange(len(points)) - np.repeat(first, np.diff(np.r_[first, len(points)]))
+        ids[mesh_end:] = sampling.combined_ids(points, rank)
+    return ids
+
+
+def lattice_ids(job: Job, triangle: np.ndarray) -> np.ndarray:
+    """The identities (L,) int64 of lattice points given by the triangle each lies in, in the
+    order ``gather_lattices`` gives them (each triangle's together): its triangle's identity
+    and its place there. A far object, a move or a scaling leaves them as they are."""
+    triangle = np.asarray(triangle, dtype=np.int64)
+    if not len(triangle):
+        return np.zeros(0, dtype=np.int64)
+    first = np.flatnonzero(np.r_[True, np.diff(triangle) != 0])
+    place = np.arange(len(triangle)) - np.repeat(first, np.diff(np.r_[first, len(triangle)]))
+    return sampling.combined_ids(triangle_ids(job)[triangle], place)
+
+
 def surfel_ids(job: Job) -> np.ndarray:
     """Each surfel's identity (N,) int64, which its rays follow from: its object's name and its
     row within the object (both sides of a point alike), whatever else the scene holds."""
@@ -490,7 +535,8 @@ def _exact_direct(job: Job, occ, sent: np.ndarray, front: np.ndarray, field_,
         return None, 0
     s = job.settings
     all_lamps = list(job.lamps) + list(job.emitters)
-    (points, normals), _ = rc.gather_lattices(occ, field_, two_sided=sides, owners=owners)
+    (points, normals, owner), _ = rc.gather_lattices(occ, field_, two_sided=sides, owners=owners,
+                                                     triangles=True)
     if not len(points):
         return None, 0
     pos, nrm, direct = job.positions[front], job.normals[front], lit[front]
@@ -499,7 +545,7 @@ def _exact_direct(job: Job, occ, sent: np.ndarray, front: np.ndarray, field_,
     sharp = np.flatnonzero(weight > 0)
     if sharp.size:
         p_, n_ = points[sharp], normals[sharp]
-        ids = sampling.point_ids(p_)   # not their place in the list, which other objects shift
+        ids = lattice_ids(job, owner)[sharp]   # not their place in the list
         albedo = rc.SurfelField(pos, nrm, job.albedo[front]).at(p_, n_, occ)
         query = occ.segment_query(n_)
         shadows = (lamps.Shadows(query, samples=LATTICE_SHADOW_SAMPLES, seed=s.seed,
@@ -557,14 +603,16 @@ def _gathered_at_contacts(job: Job, occ, exact, front: np.ndarray, field_, back_
     from illumap import receivers as rc
     if exact is None or job.world is None:
         return exact, 0
-    (points, normals), _ = rc.gather_lattices(occ, field_, two_sided=sides, owners=owners)
+    (points, normals, owner), _ = rc.gather_lattices(occ, field_, two_sided=sides, owners=owners,
+                                                     triangles=True)
     beside = _beside_contacts(points, normals, job.positions[front], job.normals[front],
                               job.areas[front])
     if not beside.size:
         return exact, 0
     p_, n_ = points[beside], normals[beside]
     gathered = rc.gather(occ, field_, p_, n_, rays=rays, seed=job.settings.seed,
-                         ids=sampling.point_ids(p_), back_field=back_field, two_sided=sides,
+                         ids=lattice_ids(job, owner)[beside], back_field=back_field,
+                         two_sided=sides,
                          owners=owners, back_owners=back_owners, exact=exact,
                          tabulate=False)
     albedo = rc.SurfelField(job.positions[front], job.normals[front],
@@ -823,8 +871,20 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
             batch += [_rows_of(front, done, outward[done]), _rows_of(front, both),
                       _rows_of(other, both)]
             batch_ids += [done, both, both]
-        merged = [_merged_corners(occ, rec, all_lamps if s.lamp_shadows else ())
-                  for rec in batch]
+        mesh_of = {src.name: i for i, src in
+                   enumerate(x for x in job.sources if x.kind == "MESH")}
+
+        def pressed_in(rec):
+            """Which of ``rec``'s corners (rows) another surface lies against."""
+            if rec.name not in mesh_of:
+                return None
+            own = mesh_of[rec.name]
+            return lambda rows: covered_receivers(job, rec.points[rows], rec.normals[rows],
+                                                  2.0 * occ.offset,
+                                                  np.full(len(rows), own, np.int64))
+
+        merged = [_merged_corners(occ, rec, all_lamps if s.lamp_shadows else (),
+                                  pressed_in(rec)) for rec in batch]
         points = np.concatenate([rec.points[rows] for rec, (rows, _) in zip(batch, merged)])
         normals = np.concatenate([rec.normals[rows] for rec, (rows, _) in zip(batch, merged)])
         offsets = np.cumsum([0] + [len(rows) for rows, _ in merged])

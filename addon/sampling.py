@@ -232,12 +232,11 @@ def object_ids(name: str, rows: np.ndarray) -> np.ndarray:
     return (x >> np.uint64(64 - _ID_BITS)).astype(np.int64)
 
 
-def point_ids(points: np.ndarray) -> np.ndarray:
-    """Stable identities (M,) int64 of points (M, 3) from their coordinates' bits: the same
-    point, wherever in a list it comes, draws the same rays."""
-    bits = np.ascontiguousarray(points, dtype=np.float64).view(np.uint64).reshape(-1, 3)
+def combined_ids(first: np.ndarray, second: np.ndarray) -> np.ndarray:
+    """Stable identities (N,) int64 of pairs: an element ``second`` (e.g. a lattice point's
+    place in its triangle) of something ``first`` names (e.g. the triangle's identity)."""
     with np.errstate(over="ignore"):
-        x = _mix(_mix(_mix(bits[:, 0]) ^ bits[:, 1]) ^ bits[:, 2])
+        x = _mix(_mix(np.asarray(first, dtype=np.uint64)) ^ np.asarray(second, dtype=np.uint64))
     return (x >> np.uint64(64 - _ID_BITS)).astype(np.int64)
 
 

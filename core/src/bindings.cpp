@@ -365,13 +365,20 @@ void bind_gather(nb::module_& m) {
                   std::copy(v.begin(), v.end(), p);
                   return a;
               };
-              return nb::make_tuple(out(f.points), out(f.normals), out(b.points), out(b.normals));
+              auto tri = [](const std::vector<std::int64_t>& v) {
+                  std::int64_t* p = new std::int64_t[std::max<std::size_t>(1, v.size())]();
+                  nb::capsule own(p, [](void* q) noexcept { delete[] static_cast<std::int64_t*>(q); });
+                  std::copy(v.begin(), v.end(), p);
+                  return nb::ndarray<nb::numpy, std::int64_t>(p, {v.size()}, own);
+              };
+              return nb::make_tuple(out(f.points), out(f.normals), out(b.points), out(b.normals),
+                                    tri(f.triangle), tri(b.triangle));
           },
           nb::arg("scene"), nb::arg("front"), nb::arg("back").none() = nb::none(), nb::kw_only(),
           nb::arg("two_sided").none() = nb::none(), nb::arg("owner_front").none() = nb::none(),
           nb::arg("owner_back").none() = nb::none(),
           "The gather's lattice points and normals: (front points, front normals, back points, "
-          "back normals), each (L, 3).");
+          "back normals), each (L, 3), and the triangle each point lies in (front, back), (L,).");
 }
 
 }  // namespace illumap::bindings

@@ -272,10 +272,15 @@ void fill_table(Context& ctx, const MeshScene& scene, const SurfelField& field, 
 }
 
 void lattice_points_of(const MeshScene& scene, const FieldTable& tab, double sign,
-                       std::vector<double>& points, std::vector<double>& normals) {
+                       std::vector<double>& points, std::vector<double>& normals,
+                       std::vector<std::int64_t>& triangle) {
     const std::size_t T = scene.size();
     points.assign(3 * tab.start[T], 0.0);
     normals.assign(3 * tab.start[T], 0.0);
+    triangle.assign(tab.start[T], 0);
+    for (std::size_t t = 0; t < T; ++t)
+        std::fill(triangle.begin() + std::ptrdiff_t(tab.start[t]),
+                  triangle.begin() + std::ptrdiff_t(tab.start[t + 1]), std::int64_t(t));
     for (std::size_t t = 0; t < T; ++t) {
         const std::size_t nn = tab.n[t];
         if (nn == 0) continue;
@@ -448,12 +453,13 @@ void gather_lattices(const MeshScene& scene, const SurfelField& front, const Sur
                      GatherLattice& back_out) {
     const LatticeMasks mk = lattice_masks(scene.size(), back != nullptr, two_sided, owner_front, owner_back);
     const FieldTable f = lattice_layout(scene, front.reach(), mk.front.empty() ? nullptr : mk.front.data());
-    lattice_points_of(scene, f, 1.0, front_out.points, front_out.normals);
+    lattice_points_of(scene, f, 1.0, front_out.points, front_out.normals, front_out.triangle);
     back_out.points.clear();
     back_out.normals.clear();
+    back_out.triangle.clear();
     if (back) {
         const FieldTable b = lattice_layout(scene, back->reach(), mk.back.empty() ? nullptr : mk.back.data());
-        lattice_points_of(scene, b, -1.0, back_out.points, back_out.normals);
+        lattice_points_of(scene, b, -1.0, back_out.points, back_out.normals, back_out.triangle);
     }
 }
 

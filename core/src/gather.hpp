@@ -72,6 +72,7 @@ struct ExactPart {
 // triangle's centroid. n x 3 row-major each.
 struct GatherLattice {
     std::vector<double> points, normals;
+    std::vector<std::int64_t> triangle;  // the triangle each point lies in
     std::size_t size() const { return points.size() / 3; }
 };
 void gather_lattices(const MeshScene& scene, const SurfelField& front, const SurfelField* back,

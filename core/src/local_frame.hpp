@@ -44,9 +44,8 @@ struct LocalFrame {
 // Points are given by `point(i, xyz)` for i < n (xyz: 3 doubles out), each with a weight
 // `weight(i)` >= 0: the area it stands for, so that a speck far away (a 1 cm plane 1000 km
 // off, a handful of points among a room's hundreds) moves neither the origin nor the length.
-// The origin is snapped to a grid of 1/64 of the length and the length to steps of 2^(1/8):
-// what the bulk is made of may change a little (another object selected, a sampling stride)
-// without moving a bit of it.
+// The origin is one of the points, so it moves with the scene: a scene moved by a micron
+// keeps its float coordinates (snapping it to a grid had made them round differently).
 template <class PointFn, class WeightFn>
 LocalFrame make_local_frame(std::size_t n, PointFn point, WeightFn weight) {
     constexpr std::size_t kSample = std::size_t(1) << 16;
@@ -87,11 +86,6 @@ LocalFrame make_local_frame(std::size_t n, PointFn point, WeightFn weight) {
         box = std::max(box, hi[d] - lo[d]);
     }
     if (!(f.length > 0)) f.length = box;  // a few points, or all but one equal
-    if (f.length > 0 && std::isfinite(f.length)) {
-        f.length = std::exp2(std::ceil(8.0 * std::log2(f.length)) / 8.0);
-        const double grid = std::exp2(std::floor(std::log2(f.length)) - 6.0);
-        for (double& c : f.center) c = std::round(c / grid) * grid;
-    }
     return f;
 }
 

@@ -281,16 +281,19 @@ def sharpness(positions, values, points, *, k: int = SHARP_NEIGHBOURS) -> np.nda
 
 def gather_lattices(occluders: MeshOccluders, field: SurfelField, *,
                     back_field: SurfelField | None = None, two_sided=None, owners=None,
-                    back_owners=None) -> tuple[tuple[np.ndarray, np.ndarray],
-                                               tuple[np.ndarray, np.ndarray]]:
+                    back_owners=None, triangles: bool = False) -> tuple:
     """The points (L, 3) and surface normals (L, 3) at which ``gather`` with the same
     arguments tabulates ``field`` and ``back_field``: ((front points, front normals), (back
     points, back normals)), each point a hair inside its triangle; about as many as the
-    surfels. Values for an ``ExactPart`` are given in this order."""
-    fp, fn, bp, bn = _core.gather_lattices(
+    surfels. Values for an ``ExactPart`` are given in this order. With ``triangles``, each
+    pair has a third array: the triangle (L,) each point lies in (its points come together,
+    in a fixed order within it)."""
+    fp, fn, bp, bn, ft, bt = _core.gather_lattices(
         occluders._scene, field._field, None if back_field is None else back_field._field,
         two_sided=_sided(occluders, two_sided), owner_front=_owner_rows(occluders, owners, "owners"),
         owner_back=_owner_rows(occluders, back_owners, "back_owners"))
+    if triangles:
+        return (fp, fn, ft), (bp, bn, bt)
     return (fp, fn), (bp, bn)
 
 
