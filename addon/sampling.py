@@ -180,21 +180,48 @@ def read_instances(depsgraph, instancer_names: set[str]) -> list[TriangleMesh]:
     return out
 
 
-def canonical_triangles(tri_vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def canonical_triangles(tri_vertices: np.ndarray,
+                        polygon_key: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The order (T,) and corner rotation (T, 3) that put triangles given by their vertex
     indices (T, 3) into an order that follows from the vertices alone: each triangle starts at
-    its lowest vertex (its winding kept), and the triangles are sorted by their vertices.
+    its lowest vertex (its winding kept); the triangles are sorted by their polygon's key
+    (``_polygon_keys``: rows of its sorted vertices), a polygon's triangles together in the
+    order given (``_fanned``: round its winding), or without keys by their own vertices.
 
     Blender does not keep the order of faces, nor where a face's loop starts, from one session
     to the next (a UV sphere made twice has its faces in different orders), while the vertices
     keep their indices. The samples, laid out along the triangles in this order, are then the
-    same in every session and in every frame where the mesh is the same."""
+    same in every session and in every frame where the mesh is the same. A polygon's
+    triangles stay together, as Blender lays them out, so that neighbours along the layout stay
+    neighbours on the surface, which the stratified allocation relies on (sorted one triangle
+    at a time, a sphere's underside on a floor read 2.35% against Cycles, mean of six seeds,
+    where 2.03% by polygon and 1.82% in Blender's order, four seeds:
+    tests/blender/test_reference_cases.py's sun case)."""
     v = np.asarray(tri_vertices, dtype=np.int64).reshape(-1, 3)
     turn = (v.argmin(axis=1)[:, None] + np.arange(3)) % 3
-    turned = np.take_along_axis(v, turn, axis=1)
-    ranked = np.sort(v, axis=1)
-    order = np.lexsort((turned[:, 2], turned[:, 1], ranked[:, 2], ranked[:, 1], ranked[:, 0]))
-    return order, turn
+    if polygon_key is None:
+        turned = np.take_along_axis(v, turn, axis=1)
+        ranked = np.sort(v, axis=1)
+        return np.lexsort((turned[:, 2], turned[:, 1], ranked[:, 2], ranked[:, 1],
+                           ranked[:, 0])), turn
+    key = np.asarray(polygon_key, dtype=np.int64).reshape(len(v), -1)
+    return np.lexsort(tuple(key[:, k] for k in range(key.shape[1] - 1, -1, -1))), turn
+
+
+def _polygon_keys(mesh) -> np.ndarray:
+    """Each polygon's vertices sorted (F, K), padded with -1 to the largest polygon's size:
+    the same rows whatever order the polygons and their loops are kept in."""
+    nf, nl = len(mesh.polygons), len(mesh.loops)
+    start = _get(mesh.polygons, "loop_start", nf, 1, np.int32).astype(np.int64)
+    total = _get(mesh.polygons, "loop_total", nf, 1, np.int32).astype(np.int64)
+    vertex = _get(mesh.loops, "vertex_index", nl, 1, np.int32).astype(np.int64)
+    width = int(total.max(initial=1))
+    k = np.arange(width)
+    big = np.iinfo(np.int64).max
+    keys = np.where(k[None, :] < total[:, None],
+                    vertex[np.minimum(start[:, None] + k[None, :], max(nl - 1, 0))], big)
+    keys = np.sort(keys, axis=1)
+    return np.where(keys == big, -1, keys)
 
 
 def object_rng(seed: int, name: str, stream: int = 0) -> np.random.Generator:
@@ -252,27 +279,29 @@ def _mix(x: np.ndarray) -> np.ndarray:
 FAN_FLAT_COS = 1.0 - 1e-9
 
 
-def _fanned(mesh, world: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The mesh's triangles: vertices (T, 3), loops (T, 3), material index (T,).
+def _fanned(mesh, world: np.ndarray, mirrored: bool = False) -> tuple[np.ndarray, ...]:
+    """The mesh's triangles: vertices (T, 3), loops (T, 3), material index (T,), polygon (T,).
 
     Blender cuts a polygon starting from its first loop, which a mirror applied (it reverses
     the loops) or an edit moves: a flat, convex polygon is the same surface whichever way it
     is cut, so it is cut here into a fan from its lowest vertex, and its samples do not depend
-    on where its loops start. Other polygons keep Blender's triangles (a bent quad's diagonal
-    is the surface Blender renders)."""
+    on where its loops start. Its triangles follow its winding, as Blender's do (the same way
+    round on every polygon, which the stratified layout keeps even); ``mirrored`` (a transform
+    that mirrors) takes them the other way round, as the mirror applied would. Other polygons
+    keep Blender's triangles (a bent quad's diagonal is the surface Blender renders)."""
     nt, nl, nf = len(mesh.loop_triangles), len(mesh.loops), len(mesh.polygons)
     tri_v = _get(mesh.loop_triangles, "vertices", nt, 3, np.int32).astype(np.int64)
     tri_l = _get(mesh.loop_triangles, "loops", nt, 3, np.int32).astype(np.int64)
     mat_idx = _get(mesh.loop_triangles, "material_index", nt, 1, np.int32).astype(np.int64)
     total = _get(mesh.polygons, "loop_total", nf, 1, np.int32).astype(np.int64)
+    tri_face = _get(mesh.loop_triangles, "polygon_index", nt, 1, np.int32).astype(np.int64)
     if not (total > 3).any():
-        return tri_v, tri_l, mat_idx
+        return tri_v, tri_l, mat_idx, tri_face
     start = _get(mesh.polygons, "loop_start", nf, 1, np.int32).astype(np.int64)
     face_material = _get(mesh.polygons, "material_index", nf, 1, np.int32).astype(np.int64)
-    tri_face = _get(mesh.loop_triangles, "polygon_index", nt, 1, np.int32).astype(np.int64)
     loop_vertex = _get(mesh.loops, "vertex_index", nl, 1, np.int32).astype(np.int64)
     fanned = np.zeros(nf, dtype=bool)
-    fans_v, fans_l, fans_m = [], [], []
+    fans_v, fans_l, fans_m, fans_f = [], [], [], []
     for n in np.unique(total[total > 3]):
         faces = np.flatnonzero(total == n)
         loops = start[faces][:, None] + np.arange(n)
@@ -281,6 +310,8 @@ def _fanned(mesh, world: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray
         k = np.arange(1, n - 1)
         fan = np.stack([np.repeat(loops[:, :1], n - 2, axis=1), loops[:, k], loops[:, k + 1]],
                        axis=2)                                            # (F, n-2, 3) loops
+        if mirrored:   # the fan the same polygon with its loops reversed gives, in order
+            fan = fan[:, ::-1]
         p = world[loop_vertex[fan]]
         cross = np.cross(p[..., 1, :] - p[..., 0, :], p[..., 2, :] - p[..., 0, :])
         whole = cross.sum(axis=1)
@@ -293,9 +324,10 @@ def _fanned(mesh, world: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray
         fans_l.append(fan[good].reshape(-1, 3))
         fans_v.append(loop_vertex[fans_l[-1]])
         fans_m.append(np.repeat(face_material[faces[good]], n - 2))
+        fans_f.append(np.repeat(faces[good], n - 2))
     keep = ~fanned[tri_face]
     return (np.concatenate([tri_v[keep]] + fans_v), np.concatenate([tri_l[keep]] + fans_l),
-            np.concatenate([mat_idx[keep]] + fans_m))
+            np.concatenate([mat_idx[keep]] + fans_m), np.concatenate([tri_face[keep]] + fans_f))
 
 
 def _read_mesh_data(name: str, obj_eval, mesh, matrix_world, material_slots) -> TriangleMesh:
@@ -312,9 +344,10 @@ def _read_mesh_data(name: str, obj_eval, mesh, matrix_world, material_slots) -> 
     with np.errstate(over="ignore", invalid="ignore"):
         world = co @ lin.T + trans
     check_coordinates(name, world)
-    tri_v, tri_l, mat_idx = _fanned(mesh, world)
-    order, turn = canonical_triangles(tri_v)
-    if np.linalg.det(m[:3, :3]) < 0:
+    mirrored = bool(np.linalg.det(m[:3, :3]) < 0)
+    tri_v, tri_l, mat_idx, tri_face = _fanned(mesh, world, mirrored)
+    order, turn = canonical_triangles(tri_v, _polygon_keys(mesh)[tri_face])
+    if mirrored:
         # A mirroring transform turns the winding inside out: Blender flips it back, so that
         # the front faces stay the ones the normals point out of.
         turn = turn[:, [0, 2, 1]]
