@@ -21,7 +21,7 @@ import threading
 import time
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty
+from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
 
 from . import mesh_preview, output, preferences, preview, properties, solid_preview, threads
 from .kinds import HELPER_TYPES, is_instancer
@@ -721,6 +721,53 @@ class ILLUMAP_OT_clear_results(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class ILLUMAP_OT_export_lightmaps(bpy.types.Operator):
+    """Write each selected mesh's light as a UV-space lightmap (a linear EXR in its active UV
+    map), from the 'illumination' attribute on its corners, grown across the UV seams"""
+
+    bl_idname = "illumap.export_lightmaps"
+    bl_label = "Export Lightmaps"
+    bl_options = {"REGISTER"}
+
+    directory: StringProperty(name="Folder", subtype="DIR_PATH",
+                              description="Folder the lightmaps are written to, one "
+                                          "<object>.exr per mesh")
+    size: IntProperty(name="Size", default=1024, min=16, max=16384,
+                      description="Width and height of each lightmap in pixels: more show "
+                                  "finer light, and take longer to write")
+
+    def invoke(self, context, event):
+        context.window_manager.fileselect_add(self)
+        return {"RUNNING_MODAL"}
+
+    def execute(self, context):
+        import os
+        folder = bpy.path.abspath(self.directory or "//")
+        if not folder or not os.path.isdir(folder):
+            self.report({"ERROR"}, f"Illumap: the folder '{folder}' does not exist")
+            return {"CANCELLED"}
+        values = {}
+        for obj in context.selected_objects:
+            if obj.type == "MESH":
+                corners = output.corner_values(obj.data)
+                if corners is not None:
+                    values[obj.name] = corners
+        if not values:
+            self.report({"ERROR"}, "Illumap: no selected mesh has an 'illumination' attribute: "
+                                   "compute with Transfer to Meshes on first")
+            return {"CANCELLED"}
+        try:
+            written, warnings = output.write_lightmaps(
+                values, os.path.join(folder, "{object}.exr"), self.size)
+        except Exception as error:  # noqa: BLE001 - a file that cannot be written
+            self.report({"ERROR"}, f"Illumap: writing the lightmaps failed: {error_message(error)}")
+            return {"CANCELLED"}
+        for warning in warnings:
+            self.report({"WARNING"}, f"Illumap: {warning}")
+        self.report({"INFO"}, f"Illumap: wrote {_count(len(written), 'lightmap')} to {folder}")
+        return {"FINISHED"}
+
+
 class ILLUMAP_OT_reset_settings(bpy.types.Operator):
     """Reset this scene's Illumap settings to the add-on preferences"""
 
@@ -735,6 +782,7 @@ class ILLUMAP_OT_reset_settings(bpy.types.Operator):
 
 # Registered even without the native module (they need only bpy).
 basic_classes = (ILLUMAP_OT_build_preview, ILLUMAP_OT_mesh_preview, ILLUMAP_OT_solid_preview,
-                 ILLUMAP_OT_clear_results, ILLUMAP_OT_reset_settings)
+                 ILLUMAP_OT_clear_results, ILLUMAP_OT_export_lightmaps,
+                 ILLUMAP_OT_reset_settings)
 # Registered only when the native module imports.
 core_classes = (ILLUMAP_OT_compute_illumination_map,)

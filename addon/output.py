@@ -769,9 +769,36 @@ def export_lightmaps(result, pattern: str, size: int = 256,
     from that per-corner light (``corner_lightmap``) in the mesh's active UV map, to
     ``pattern`` with ``{object}`` replaced by the object's name made safe for a file name.
     Returns (the files written, warnings for the meshes left out)."""
+    written, warnings = write_lightmaps(result.receiver_values, pattern, size, margin)
+    if not result.receiver_values:
+        warnings.append("No mesh was lit at its corners (Transfer off, or point clouds only): "
+                        "no lightmap written")
+    return written, warnings
+
+
+def corner_values(mesh) -> np.ndarray | None:
+    """The light written on ``mesh`` per corner (L, 3): its ``illumination`` attribute (Corner
+    domain, or Point spread to the corners), None without one."""
+    attr = mesh.color_attributes.get(ATTRIBUTE)
+    if attr is None or attr.data_type != "FLOAT_COLOR" or attr.domain not in ("CORNER", "POINT"):
+        return None
+    rgba = np.empty(len(attr.data) * 4, dtype=np.float32)
+    attr.data.foreach_get("color", rgba)
+    rgb = rgba.reshape(-1, 4)[:, :3].astype(np.float64)
+    if attr.domain == "CORNER":
+        return rgb
+    vertex = np.empty(len(mesh.loops), dtype=np.int64)
+    mesh.loops.foreach_get("vertex_index", vertex)
+    return rgb[vertex]
+
+
+def write_lightmaps(values_by_name: dict, pattern: str, size: int = 256,
+                    margin: int = LIGHTMAP_MARGIN) -> tuple[list[str], list[str]]:
+    """Write a lightmap per mesh object named in ``values_by_name`` (its per-corner light
+    (L, 3)), as ``export_lightmaps`` does; returns (the files written, warnings)."""
     pattern = lightmap_pattern(pattern)
     written, warnings = [], []
-    for name, values in result.receiver_values.items():
+    for name, values in values_by_name.items():
         obj = bpy_data().objects.get(name)
         if obj is None or obj.type != "MESH":
             continue
@@ -788,9 +815,6 @@ def export_lightmaps(result, pattern: str, size: int = 256,
         path = pattern.replace("{object}", safe)
         _write_exr(path, corner_lightmap(uv, tris, values, size, margin))
         written.append(path)
-    if not result.receiver_values:
-        warnings.append("No mesh was lit at its corners (Transfer off, or point clouds only): "
-                        "no lightmap written")
     return written, warnings
 
 

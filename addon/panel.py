@@ -124,6 +124,7 @@ def draw_advanced(layout, context):
     sub.prop(props, "gather_rays")
     sub.prop(props, "receiver_shadow_samples")
     sub.prop(props, "gather_cache")
+    sub.operator("illumap.export_lightmaps", icon="TEXTURE")
     col = layout.column(heading="Solver")
     col.prop(props, "method")
     sub = col.column()

@@ -324,3 +324,28 @@ def test_lightmaps_come_from_the_corner_result(tmp_path):
     expected = output.corner_lightmap(uv, tris, corner, 8)
     np.testing.assert_allclose(img, expected, rtol=1e-5, atol=1e-6)
     assert img[:, :, 3].min() == 1
+
+
+def test_the_ui_exports_the_same_lightmaps_as_the_batch(tmp_path, registered_addon):
+    """Export Lightmaps (the panel's button) writes each selected mesh's lightmap from its
+    'illumination' attribute: the same pixels as the batch's from the run's corner result;
+    without an attribute it refuses and writes nothing."""
+    floor = lit_scene()
+    floor.data.uv_layers.new(name="UV")
+    out = tmp_path / "batch"
+    assert batch.main(["--quality", "draft", "--export-lightmaps", str(out / "{object}.exr"),
+                       "--lightmap-size", "16"]) == 0
+    ui = tmp_path / "ui"
+    ui.mkdir()
+    for obj in bpy.context.view_layer.objects:
+        obj.select_set(obj == floor)
+    assert bpy.ops.illumap.export_lightmaps(directory=str(ui), size=16) == {"FINISHED"}
+    # the attribute holds the run's float64 corner values in float32
+    np.testing.assert_allclose(output.read_exr(str(ui / "Floor.exr")),
+                               output.read_exr(str(out / "Floor.exr")), rtol=1e-6, atol=1e-9)
+    floor.data.color_attributes.remove(floor.data.color_attributes["illumination"])
+    empty = tmp_path / "none"
+    empty.mkdir()
+    with pytest.raises(RuntimeError, match="illumination"):
+        bpy.ops.illumap.export_lightmaps(directory=str(empty), size=16)
+    assert not list(empty.iterdir())
