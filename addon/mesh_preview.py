@@ -95,7 +95,13 @@ def _used_by_preview(block) -> bool:
 
 def preview_material() -> bpy.types.Material:
     """The shared material: Attribute ``illumination`` → Emission (strength 1)."""
-    mat = _own(bpy.data.materials, MATERIAL_NAME, lambda: bpy.data.materials.new(MATERIAL_NAME))
+    return _emission_material(MATERIAL_NAME, "GEOMETRY")
+
+
+def _emission_material(name: str, attribute_type: str) -> bpy.types.Material:
+    """Illumap's material ``name``: the ``illumination`` attribute (read as ``attribute_type``:
+    the geometry's own, or the instancing point's) shown as Emission of strength 1."""
+    mat = _own(bpy.data.materials, name, lambda: bpy.data.materials.new(name))
     tree = compat.node_tree(mat)
     nodes, links = tree.nodes, tree.links
     nodes.clear()
@@ -105,7 +111,7 @@ def preview_material() -> bpy.types.Material:
     emission.location = (200, 0)
     emission.inputs["Strength"].default_value = 1.0
     attr = nodes.new("ShaderNodeAttribute")
-    attr.attribute_type = "GEOMETRY"
+    attr.attribute_type = attribute_type
     attr.attribute_name = ATTRIBUTE
     links.new(attr.outputs["Color"], emission.inputs["Color"])
     links.new(emission.outputs["Emission"], out.inputs["Surface"])
@@ -197,22 +203,7 @@ def _points(ng, group_in):
 def splat_material() -> bpy.types.Material:
     """The splats' material: the instancing point's ``illumination`` (Attribute, INSTANCER)
     → Emission (strength 1)."""
-    mat = _own(bpy.data.materials, SPLAT_MATERIAL_NAME,
-               lambda: bpy.data.materials.new(SPLAT_MATERIAL_NAME))
-    tree = compat.node_tree(mat)
-    nodes, links = tree.nodes, tree.links
-    nodes.clear()
-    out = nodes.new("ShaderNodeOutputMaterial")
-    out.location = (400, 0)
-    emission = nodes.new("ShaderNodeEmission")
-    emission.location = (200, 0)
-    emission.inputs["Strength"].default_value = 1.0
-    attr = nodes.new("ShaderNodeAttribute")
-    attr.attribute_type = "INSTANCER"
-    attr.attribute_name = ATTRIBUTE
-    links.new(attr.outputs["Color"], emission.inputs["Color"])
-    links.new(emission.outputs["Emission"], out.inputs["Surface"])
-    return mat
+    return _emission_material(SPLAT_MATERIAL_NAME, "INSTANCER")
 
 
 def splat_node_group() -> bpy.types.NodeTree:

@@ -23,10 +23,13 @@ from __future__ import annotations
 import math
 import os
 import time
+from collections import Counter
 from dataclasses import dataclass, field, fields, replace
 from typing import Callable
 
 import numpy as np
+
+from illumap.identities import object_rng
 
 from . import checks, emitters, lamps, materials, point_splats, pointcloud, sampling
 from .errors import ExitCode, IllumapCancelled, IllumapError, core_cancelled
@@ -444,8 +447,8 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
                             f"'{obj.instance_collection.name}', which holds no mesh: left out "
                             "of the light")
     if settings.transfer:
-        for name in sorted(instancers):
-            count = sum(tm.instancer == name for tm in instances)
+        counts = Counter(tm.instancer for tm in instances)
+        for name, count in sorted(counts.items()):
             warnings.append(f"Object '{name}': its {count} instance(s) take part in the light "
                             "but get no illumination attribute (instances share their mesh); "
                             "the surfel object holds their light")
@@ -493,9 +496,9 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
     # Every point is a receiver; the solve needs only as many surfels as the light does.
     wanted = _point_counts(settings, density, [len(p.areas) for p in read], point_sources,
                            float(mesh_areas.sum()))
-    # Each object's random stream is its own (``sampling.object_rng``): the build thins a
+    # Each object's random stream is its own (``object_rng``): the build thins a
     # cloud with this order.
-    orders = [sampling.object_rng(settings.seed, p.name, 1).permutation(len(p.areas))
+    orders = [object_rng(settings.seed, p.name, 1).permutation(len(p.areas))
               if n < len(p.areas) else None for p, n in zip(read, wanted)]
     lamp_list = lamps.read_lamps(depsgraph, warnings) if settings.lamps else []
     world = lamps.world_light(depsgraph.scene, warnings) if settings.world_ambient else None
@@ -511,7 +514,7 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
         refine = _Scene(tri_meshes, counts, [], point_sources, lamp_list, world)   # points: build
         first = np.maximum(np.rint(counts * fraction).astype(np.int64), 1)
     lights = emitters.mesh_lights(tri_meshes, warnings)
-    samples = [sampling.sample_mesh(tm, int(n), sampling.object_rng(settings.seed, tm.name))
+    samples = [sampling.sample_mesh(tm, int(n), object_rng(settings.seed, tm.name))
                for tm, n in zip(tri_meshes, first)]
     mesh_parts = _surfel_parts(samples, warnings)
     receivers = []
@@ -929,7 +932,7 @@ def next_pass(job: Job, result: "Result") -> Job | None:
     per_mesh = refined.per_mesh()
     weighted = [float((w * reg.area).sum()) for w, reg in zip(per_mesh, regions)]
     counts = sampling.allocate(np.array(weighted), budget=int(scene.counts.sum()))
-    samples = [sampling.sample_mesh(tm, int(n), sampling.object_rng(s.seed, tm.name, 2),
+    samples = [sampling.sample_mesh(tm, int(n), object_rng(s.seed, tm.name, 2),
                                     regions=reg, weights=w)
                for tm, n, reg, w in zip(scene.tri_meshes, counts, regions, per_mesh)]
     stats = dict(job.stats)

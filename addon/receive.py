@@ -20,6 +20,8 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
+from illumap.identities import combined_ids, object_ids
+
 from . import lamps, sampling
 from .errors import ExitCode, IllumapCancelled, IllumapError, core_cancelled
 
@@ -378,12 +380,12 @@ def triangle_ids(job: Job) -> np.ndarray:
     starts = [int(a) for a in (job.mesh_triangle_start if job.mesh_triangle_start is not None
                                else [0])]
     for name, lo, hi in zip(meshes, starts, starts[1:] + [mesh_end]):
-        ids[lo:hi] = sampling.object_ids(name, np.arange(hi - lo))
+        ids[lo:hi] = object_ids(name, np.arange(hi - lo))
     if mesh_end < len(tri):
         points = owner[mesh_end:]
         first = np.flatnonzero(np.r_[True, np.diff(points) != 0])
         rank = np.arange(len(points)) - np.repeat(first, np.diff(np.r_[first, len(points)]))
-        ids[mesh_end:] = sampling.combined_ids(points, rank)
+        ids[mesh_end:] = combined_ids(points, rank)
     return ids
 
 
@@ -396,7 +398,7 @@ def lattice_ids(job: Job, triangle: np.ndarray) -> np.ndarray:
         return np.zeros(0, dtype=np.int64)
     first = np.flatnonzero(np.r_[True, np.diff(triangle) != 0])
     place = np.arange(len(triangle)) - np.repeat(first, np.diff(np.r_[first, len(triangle)]))
-    return sampling.combined_ids(triangle_ids(job)[triangle], place)
+    return combined_ids(triangle_ids(job)[triangle], place)
 
 
 def surfel_ids(job: Job) -> np.ndarray:
@@ -404,7 +406,7 @@ def surfel_ids(job: Job) -> np.ndarray:
     row within the object (both sides of a point alike), whatever else the scene holds."""
     ids = np.zeros(job.count, dtype=np.int64)
     for src in job.sources:
-        ids[src.start:src.stop] = sampling.object_ids(src.name, np.arange(src.stop - src.start))
+        ids[src.start:src.stop] = object_ids(src.name, np.arange(src.stop - src.start))
     return ids
 
 

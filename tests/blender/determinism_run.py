@@ -14,8 +14,8 @@ import numpy as np  # noqa: E402
 
 
 def corner_keys(mesh) -> np.ndarray:
-    """Each loop's stable identity (``addon.sampling.corner_ids``)."""
-    from addon import sampling
+    """Each loop's stable identity (``illumap.identities.corner_ids``)."""
+    from illumap.identities import corner_ids
     nl = len(mesh.loops)
     vertex = np.empty(nl, np.int32)
     mesh.loops.foreach_get("vertex_index", vertex)
@@ -27,7 +27,7 @@ def corner_keys(mesh) -> np.ndarray:
     following[start + total - 1] = start
     preceding = np.arange(-1, nl - 1)
     preceding[start] = start + total - 1
-    return sampling.corner_ids(vertex, vertex[following], vertex[preceding])
+    return corner_ids(vertex, vertex[following], vertex[preceding])
 
 
 def solve(objects, target=None):

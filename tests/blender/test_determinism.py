@@ -201,38 +201,3 @@ def test_thread_counts_give_the_same_bits(tmp_path):
             runs.append(dict(np.load(out)))
         for other in runs[1:]:
             _assert_same_bits(runs[0], other)
-
-
-def test_canonical_triangles_follow_the_vertices():
-    from addon.sampling import canonical_triangles
-    tri = np.array([[5, 2, 9], [1, 2, 3], [9, 5, 2], [3, 4, 1]])
-    order, turn = canonical_triangles(tri)
-    turned = np.take_along_axis(tri, turn, axis=1)[order]
-    # each starts at its lowest vertex, winding kept; sorted by vertex set
-    assert turned.tolist() == [[1, 2, 3], [1, 3, 4], [2, 9, 5], [2, 9, 5]]
-    rng = np.random.default_rng(0)
-    shuffled = tri[rng.permutation(4)]
-    shuffled = np.array([np.roll(t, s) for t, s in zip(shuffled, [1, 2, 0, 1])])
-    order2, turn2 = canonical_triangles(shuffled)
-    assert np.array_equal(np.take_along_axis(shuffled, turn2, axis=1)[order2], turned)
-
-
-def test_corner_ids_name_one_corner_each():
-    from addon.sampling import corner_ids
-    vertex = np.repeat(np.arange(1000), 4)
-    following = np.tile(np.arange(4), 1000) + 1000
-    ids = corner_ids(vertex, following)
-    assert len(np.unique(ids)) == len(ids)
-    assert ids.min() >= 0 and ids.max() < 2 ** 40
-    assert np.array_equal(ids, corner_ids(vertex.copy(), following.copy()))
-    assert corner_ids(np.array([3]), np.array([4]))[0] != corner_ids(np.array([4]), np.array([3]))[0]
-    # With both neighbours, on a grid of quads: one identity per corner, and a face's reversed
-    # winding (a mirror applied) keeps each.
-    n = 30
-    k = lambda i, j: i * (n + 1) + j  # noqa: E731
-    faces = np.array([[k(i, j), k(i + 1, j), k(i + 1, j + 1), k(i, j + 1)]
-                      for i in range(n) for j in range(n)])
-    here, after, before = faces.ravel(), np.roll(faces, -1, 1).ravel(), np.roll(faces, 1, 1).ravel()
-    ids = corner_ids(here, after, before)
-    assert len(np.unique(ids)) == len(ids)
-    assert np.array_equal(ids, corner_ids(here, before, after))

@@ -419,7 +419,7 @@ def test_interpenetrating_cubes_write_nothing_negative():
     b = box("B", 0.6, (0.2, 0.15, 0.45))
     b.rotation_euler = (0.3, 0.2, 0.4)
     result = compute([floor, a, b, panel()])
-    assert result.stats["negative_receivers"] >= 0
+    assert {"negative_surfels", "negative_receivers"} <= result.stats.keys()   # reported
     assert written(a).min() >= 0.0 and written(b).min() >= 0.0
 
 
