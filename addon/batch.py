@@ -7,23 +7,10 @@ Options (after ``--``)::
                            (neither: the selected objects, or if none is selected, every visible
                            mesh and point cloud of the scene)
     --quality Q            draft | medium | high (default medium)
-    --density D            surfels per m² (overrides the preset)
-    --budget N             total surfels (overrides density)
-    --method M             fmm | direct
-    --tol T                relative residual
-    --target-error E       relative RMS error wanted (e.g. 0.05): chooses the surfel density
-                           (--budget caps the count), FMM order, opening angle and tolerance
-    --no-adaptive          with --target-error: one uniform pass (default: pass 1 with half
-                           the surfels, then pass 2 denser where its illumination varies)
-    --transfer DOMAIN      domain of 'illumination' on the meshes: point | corner (default
-                           corner; the light is evaluated at the meshes' own corners)
-    --no-transfer          leave the meshes alone: results on the surfel object only
-    --gather-rays N        final-gather rays per mesh corner (default: the preset's)
-    --gather-cache A       irradiance cache accuracy for point clouds' points (0.15; 0: off)
-    --no-lamps             ignore Blender lamps
-    --no-lamp-shadows      lamp light unshadowed (default: rays against the surfels)
-    --shadow-samples N     rays per surfel for lamps with a size (default 16)
-    --no-world             leave out the world's light (default: included, shadowed)
+    --density, --budget, --target-error, --order, --tol, --gather-rays, --no-lamps, --world,
+    --transfer, ...        one option per run setting, generated from its declaration in
+                           ``illumap.settings`` (the same knobs as the panel's); each
+                           overrides the preset; ``--help`` gives every range and default
     --frames A-B[,C...]    frames to compute, one result per frame (default: the current frame)
     --output out.blend     save the result (#### → frame number; added before the extension
                            when several frames are computed and the name has no #)
@@ -40,13 +27,12 @@ Options (after ``--``)::
                            (Blender's own image writer)
     --export-lightmaps P   UV-space lightmap EXR per mesh from its per-corner light, grown
                            across UV seams; P contains {object} (e.g. maps/{object}_####.exr);
-                           --lightmap-size PX (default 256)
+                           --lightmap-size PX
     --skip-existing        skip frames whose outputs all exist (default: overwrite, as
                            Blender does; lightmaps are not checked)
     --overwrite-input      allow an output path that is the input .blend itself (refused
                            otherwise)
     --quiet / --verbose    warnings and errors only / finer progress and the thread count
-    --seed N               sampling seed
 
 At most ``MAX_FRAMES`` (10,000) frames per job, inside Blender's frame range; split longer
 ranges over several jobs.
@@ -86,6 +72,8 @@ import traceback
 
 import bpy
 from illumap.limits import limit
+from illumap.settings import spec as setting_spec
+from illumap.settings import specs as setting_specs
 
 from . import output, pipeline, solid_preview
 from .errors import (ExitCode, IllumapCancelled, IllumapError, NoLightError, OutputError,
@@ -96,12 +84,17 @@ from .errors import (ExitCode, IllumapCancelled, IllumapError, NoLightError, Out
 MAX_FRAMES = limit("frames").high
 #: The largest --resolution: Blender's render size limit (RenderSettings.resolution_x).
 MAX_RESOLUTION = limit("resolution").high
-#: Numeric options and the limits (``illumap.limits``) that bound them.
-NUMBER_OPTIONS = {"--density": "density", "--budget": "budget", "--tol": "tol",
-                  "--target-error": "target_error", "--gather-rays": "gather_rays",
-                  "--gather-cache": "gather_cache",
-                  "--shadow-samples": "shadow_samples", "--resolution": "resolution",
-                  "--samples": "samples", "--lightmap-size": "lightmap_size", "--seed": "seed"}
+#: The settings the batch takes as options (``illumap.settings``: each option is generated from
+#: the setting's one declaration).
+SETTING_OPTIONS = {s.option: s for s in setting_specs() if s.option}
+#: Numeric options and the limits (``illumap.limits``) that bound them: the settings' and the
+#: render's own.
+NUMBER_OPTIONS = {**{option: s.name for option, s in SETTING_OPTIONS.items()
+                     if s.limit is not None and not s.choices and s.kind is not bool},
+                  "--resolution": "resolution", "--samples": "samples"}
+#: Where each group of settings shows in --help.
+SETTING_GROUPS = {"sampling": "quality", "solver": "quality", "light": "light",
+                  "output": "where the light is written"}
 
 
 def _range(option: str) -> str:
@@ -147,6 +140,54 @@ class _HelpFormatter(argparse.RawDescriptionHelpFormatter):
         super().__init__(prog, max_help_position=30, width=100)
 
 
+def _setting_help(option: str, spec) -> str:
+    """An option's help from its setting's declaration: what it does, its range, its
+    default."""
+    if spec.kind is bool:
+        default = "on" if spec.default else "off"
+        head = ("switch off: " + spec.description[0].lower() + spec.description[1:]
+                if spec.cli_negative else spec.description)
+        return f"{head} (default: {default})"
+    if spec.name == "budget":
+        accepts = budget_help()
+    elif spec.choices:
+        accepts = ", ".join(v.lower() for v in spec.values)
+    else:
+        accepts = _help_range(option)
+    if spec.preset:
+        default = f"the preset's, {presets_value(spec.name)} for medium"
+    elif spec.default is None:
+        default = "none"
+    else:
+        default = str(spec.default).lower() if spec.choices else f"{spec.default:g}" \
+            if isinstance(spec.default, float) else str(spec.default)
+    return f"{spec.description}; {accepts} (default: {default})"
+
+
+def presets_value(name: str):
+    """The medium preset's value of setting ``name``, as --help shows it."""
+    value = pipeline.QUALITY_PRESETS["MEDIUM"][name]
+    return f"{value:,}" if isinstance(value, int) else f"{value:g}" \
+        if isinstance(value, float) else value
+
+
+def _add_setting(group, option: str, spec) -> None:
+    """The option of one run setting (``illumap.settings.Spec``). Every option defaults to
+    None: the preset or the setting's own default then decides."""
+    keywords = dict(dest=spec.name, default=None,
+                    help=_setting_help(option, spec).replace("%", "%%"))  # argparse formats it
+    if spec.kind is bool and spec.cli_negative:
+        group.add_argument(option, action="store_false", **keywords)
+    elif spec.kind is bool:
+        group.add_argument(option, action=argparse.BooleanOptionalAction, **keywords)
+    elif spec.choices:
+        group.add_argument(option, choices=[v.lower() for v in spec.values], type=str.lower,
+                           **keywords)
+    else:
+        metavar = {"int": "N", "float": "X"}.get(spec.kind.__name__, "VALUE")
+        group.add_argument(option, type=spec.kind, metavar=metavar, **keywords)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the batch command (documented in the module docstring)."""
     presets = pipeline.QUALITY_PRESETS
@@ -166,56 +207,15 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--frames", metavar="A-B[,C]",
                    help=f"frames to compute, e.g. 1-3 or 1,5,7-9 (default: the scene's current "
                         f"frame; at most {MAX_FRAMES:,})")
-    g = p.add_argument_group("quality")
-    g.add_argument("--quality", default="medium", choices=["draft", "medium", "high"],
-                   type=str.lower,
-                   help="preset (default: medium): draft "
-                        f"{presets['DRAFT']['budget']:,} surfels, medium "
-                        f"{presets['MEDIUM']['budget']:,}, high {presets['HIGH']['budget']:,}")
-    g.add_argument("--target-error", type=float, metavar="E",
-                   help=f"relative RMS error wanted, {_range('--target-error')} (e.g. 0.03): "
-                        "Illumap picks the surfel count and solver settings and reports an "
-                        "error estimate (default: off, the preset decides)")
-    g.add_argument("--no-adaptive", action="store_true",
-                   help="with --target-error: one uniform pass (default: a first pass with "
-                        "half the surfels, then denser surfels where the light varies)")
-    g.add_argument("--density", type=float, metavar="D",
-                   help=f"surfels per m², {_help_range('--density')} (default: the preset's count)")
-    g.add_argument("--budget", type=int, metavar="N",
-                   help=f"total surfel count, {budget_help()} (default: the preset's)")
-    g.add_argument("--method", choices=["fmm", "direct"], type=str.lower,
-                   help="fmm (default; fast multipole, for any size) or direct (exact sum, "
-                        "a reference for small scenes)")
-    g.add_argument("--tol", type=float, metavar="T",
-                   help=f"solver tolerance, {_range('--tol')} (default: the preset's, "
-                        f"{presets['MEDIUM']['tol']:g} for medium)")
-    g.add_argument("--gather-rays", type=int, metavar="N",
-                   help=f"rays per corner that gather the indirect light, "
-                        f"{_help_range('--gather-rays')} (default: the preset's, "
-                        f"{presets['MEDIUM']['gather_rays']} for medium)")
-    g.add_argument("--gather-cache", type=float, metavar="A",
-                   help="point clouds' points share their gathers at this accuracy, "
-                        f"{_range('--gather-cache')} (default 0.15; 0: every point gathers "
-                        "itself)")
-    g.add_argument("--seed", type=int, default=0,
-                   help=f"sampling seed, {_help_range('--seed')} (default 0)")
-    g.add_argument("--occluder-shape", choices=list(pipeline.OCCLUDER_SHAPES), type=str.lower,
-                   help="the surfels' shape as occluders (default disc; ignored with "
-                        "--target-error, calibrated on discs)")
-    g = p.add_argument_group("light")
-    g.add_argument("--no-lamps", action="store_true", help="ignore Blender's lamps")
-    g.add_argument("--no-lamp-shadows", action="store_true",
-                   help="lamp light unshadowed (default: shadowed)")
-    g.add_argument("--shadow-samples", type=int, default=16, metavar="N",
-                   help=f"shadow rays per surfel and sized lamp, {_help_range('--shadow-samples')}"
-                        " (default 16)")
-    g.add_argument("--world", action=argparse.BooleanOptionalAction, default=True,
-                   help="light from the world's Background (default: on)")
-    g = p.add_argument_group("where the light is written")
-    g.add_argument("--transfer", choices=["point", "corner"], type=str.lower,
-                   help="domain of the 'illumination' attribute on meshes (default corner)")
-    g.add_argument("--no-transfer", action="store_true",
-                   help="leave the meshes alone: the result on the surfel object only")
+    groups = {title: p.add_argument_group(title) for title in dict.fromkeys(
+        SETTING_GROUPS.values())}
+    groups["quality"].add_argument(
+        "--quality", default="medium", choices=["draft", "medium", "high"], type=str.lower,
+        help="preset (default: medium): draft "
+             f"{presets['DRAFT']['budget']:,} surfels, medium "
+             f"{presets['MEDIUM']['budget']:,}, high {presets['HIGH']['budget']:,}")
+    for option, spec in SETTING_OPTIONS.items():
+        _add_setting(groups[SETTING_GROUPS[spec.group]], option, spec)
     g = p.add_argument_group("outputs (at least one; '#' in a name is the frame number)")
     g.add_argument("--output", metavar="FILE.blend",
                    help="save the lit scene (#### = frame; with several frames and no '#', "
@@ -243,8 +243,6 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--export-lightmaps", metavar="PATTERN",
                    help="a UV-space EXR lightmap per mesh, from the light at its corners, "
                         "with {object} in the name (e.g. maps/{object}_####.exr)")
-    g.add_argument("--lightmap-size", type=int, default=256, metavar="PX",
-                   help=f"lightmap width and height, {_range('--lightmap-size')} (default 256)")
     g.add_argument("--skip-existing", action="store_true",
                    help="skip a frame whose outputs all exist (default: overwrite them, as "
                         "Blender does; lightmaps are not checked)")
@@ -358,42 +356,31 @@ def select_objects(scene, view_layer, names: str | None, collection: str | None)
 
 def make_settings(args) -> pipeline.Settings:
     """Settings from the preset and the overriding options."""
-    overrides = dict(density=args.density, budget=args.budget, method=args.method, tol=args.tol,
-                     seed=args.seed, target_error=args.target_error,
-                     occluder_shape=args.occluder_shape)
-    settings = pipeline.settings_from_preset(args.quality, **overrides)
-    if args.target_error is not None and args.budget is None:
-        settings.budget = None          # the target chooses the count; --budget caps it
     for option, name in NUMBER_OPTIONS.items():   # NaN fails too
-        value = getattr(args, option[2:].replace("-", "_"))
+        value = getattr(args, option[2:].replace("-", "_"), None) \
+            if option not in SETTING_OPTIONS else getattr(args, name)
         if value is not None and not limit(name).contains(value):
             raise UsageError(f"{option} must lie in {_range(option)}, got {value}")
-    if args.render_preview in ("meshes", "objects") and args.no_transfer:
+    if args.render_preview in ("meshes", "objects") and args.transfer is False:
         raise UsageError(f"--render-preview {args.render_preview} shows the light transferred "
                          "to the meshes: it cannot be combined with --no-transfer")
     if args.quiet and args.verbose:
         raise UsageError("--quiet and --verbose exclude each other")
-    if args.export_lightmaps and args.no_transfer:
+    if args.export_lightmaps and args.transfer is False:
         raise UsageError("--export-lightmaps is made from the light at the meshes' corners: "
                          "it cannot be combined with --no-transfer")
-    if args.transfer and args.no_transfer:
+    if args.transfer_domain and args.transfer is False:
         raise UsageError("--transfer and --no-transfer exclude each other")
     if args.target_error is not None and args.density is not None:
         raise UsageError("--density and --target-error exclude each other: the target error "
                          "chooses the density (use --budget to cap the surfel count)")
-    settings.lamps = not args.no_lamps
-    settings.lamp_shadows = not args.no_lamp_shadows
-    settings.shadow_samples = args.shadow_samples
-    settings.adaptive = not args.no_adaptive
-    settings.world_ambient = args.world
-    if args.transfer:
-        settings.transfer, settings.transfer_domain = True, args.transfer.upper()
-    if args.no_transfer:
-        settings.transfer = False
-    if args.gather_rays is not None:
-        settings.gather_rays = args.gather_rays
-    if args.gather_cache is not None:
-        settings.gather_cache = args.gather_cache
+    overrides = {spec.name: getattr(args, spec.name) for spec in SETTING_OPTIONS.values()}
+    if args.transfer_domain is not None:
+        overrides["transfer_domain"] = setting_spec("transfer_domain").canonical(
+            args.transfer_domain)
+    settings = pipeline.settings_from_preset(args.quality, **overrides)
+    if args.target_error is not None and args.budget is None:
+        settings.budget = None          # the target chooses the count; --budget caps it
     settings.preview_splats = bool(args.render) and preview_kind(args) == "objects"
     return settings
 
@@ -405,7 +392,7 @@ def preview_kind(args) -> str:
     kind = {"meshes": "objects", "points": "surfels"}.get(args.render_preview,
                                                             args.render_preview)
     if kind is None:
-        kind = "surfels" if args.no_transfer else "objects"
+        kind = "surfels" if args.transfer is False else "objects"
     return kind
 
 
@@ -787,13 +774,13 @@ def run_frames(args, out=None) -> int:
                 exr = stack.enter_context(atomic_path(outputs["export_exr"])) \
                     if outputs["export_exr"] else ""
                 maps = stack.enter_context(atomic_pattern(lightmaps)) if lightmaps else ""
-                frame_settings = pipeline.replace(settings, export_npz=npz, export_exr=exr,
-                                                  lightmap_size=args.lightmap_size)
+                frame_settings = pipeline.replace(settings, export_npz=npz, export_exr=exr)
                 result = pipeline.compute(context, objects, frame_settings, progress)
                 if maps:
                     if progress is not None:
                         progress(0.0, "lightmaps")
-                    written, notes = output.export_lightmaps(result, maps, args.lightmap_size)
+                    written, notes = output.export_lightmaps(result, maps,
+                                                                    settings.lightmap_size)
                     result.warnings.extend(notes)
         except OSError as exc:   # the inputs are in memory: an export failed
             raise OutputError(f"Writing the exports of frame {frame} failed: {exc}") from None

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 from illumap.limits import MAX_INT32, limit  # noqa: F401 (MAX_INT32: the batch command's)
+from illumap.settings import SettingsError, check
 
 from .errors import ExitCode, IllumapError, NoLightError
 
@@ -24,54 +25,15 @@ def max_order() -> int:
     return int(limit("order").high)
 
 
-def _fail(message: str) -> None:
-    raise IllumapError(f"Invalid setting {message}", ExitCode.USAGE)
-
-
-def _check(name: str, value, optional: bool = False) -> None:
-    """Refuse ``value`` outside the limit ``name`` (None passes when ``optional``)."""
-    if value is None and optional:
-        return
-    if not limit(name).contains(value):
-        _fail(limit(name).message(value))
-
-
-def _choice(name: str, value, choices) -> None:
-    if not isinstance(value, str) or value.lower() not in choices:
-        _fail(f"{name}: expected one of {', '.join(choices)}, got {value!r}")
-
-
 def check_settings(settings) -> None:
-    """Refuse settings (``pipeline.Settings``) that the core would reject deep in a run, or
-    with a raw type error (integers of 2^31 or more, NaN tolerances, an FMM order above the
-    native limit), by the limits of ``illumap.limits``. Raises IllumapError
-    (``ExitCode.USAGE``) naming the setting."""
-    s = settings
-    _check("density", s.density, optional=True)
-    _check("budget", s.budget, optional=True)
-    _choice("method", s.method, ("fmm", "direct"))
-    _check("order", s.order)
-    _check("theta", s.theta)
-    _check("leaf_size", s.leaf_size)
-    _choice("near_field", s.near_field, ("disc", "point"))
-    _choice("visibility", s.visibility, ("none", "seed", "exact"))
-    _choice("solver", s.solver, ("auto", "cg", "gmres", "jacobi"))
-    _check("tol", s.tol)
-    _check("max_iterations", s.max_iterations)
-    t = s.target_error
-    if t is not None and not limit("target_error").contains(t):   # NaN fails too
-        raise IllumapError(f"Target error must lie in {limit('target_error').interval()}, "
-                           f"got {t!r}", ExitCode.USAGE)
-    _check("adaptive_first_pass", s.adaptive_first_pass)
-    _check("adaptive_max_ratio", s.adaptive_max_ratio)
-    _check("shadow_samples", s.shadow_samples)
-    _check("gather_rays", s.gather_rays)
-    _check("gather_cache", s.gather_cache)
-    _check("receiver_shadow_samples", s.receiver_shadow_samples)
-    _choice("transfer_domain", s.transfer_domain, ("point", "corner"))
-    _check("seed", s.seed)
-    _check("memory_limit", s.memory_limit, optional=True)
-    _check("lightmap_size", s.lightmap_size)
+    """Refuse settings (``illumap.settings.Settings``) that the core would reject deep in a
+    run, or with a raw type error, by the one declaration of the settings and their limits
+    (``illumap.settings.check``). Raises IllumapError (``ExitCode.USAGE``) naming the
+    setting."""
+    try:
+        check(settings)
+    except SettingsError as exc:
+        raise IllumapError(str(exc), ExitCode.USAGE) from None
 
 
 def _names(items, limit: int = 3) -> str:

@@ -21,10 +21,3 @@ def is_instancer(obj) -> bool:
 #: (Transfer, the surfel object) and the preview modifiers.
 RESULT_TYPES = frozenset({"MESH", "POINTCLOUD"})
 
-#: Occluder shapes a run may ask for (``Settings.occluder_shape``), each of the disc's area:
-#: discs (what the automatic mode is calibrated on), regular octagons (nearly the disc; solves
-#: with exact visibility on the bunny scan took 0.55–0.74× the discs' time) and squares (about
-#: as fast; corners reach 1.25× the disc radius). The core's ``illumap.occluders.OCCLUDER_SHAPES``
-#: spells the same shapes ("quad" for squares); the add-on keeps its own list so that the UI
-#: works without the core.
-OCCLUDER_SHAPES = ("disc", "octagon", "quad")

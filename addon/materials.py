@@ -28,15 +28,25 @@ warning. Emission is radiance in Blender's units (strength 1, colour c ⇒ radia
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 from illumap.limits import limit
 
 from .errors import ExitCode, IllumapError
 
-if TYPE_CHECKING:   # annotations only: sampling imports this module to read receivers
-    from .sampling import MeshSamples
+
+class MeshSamples(Protocol):
+    """What the material evaluator reads of sampled points (``sampling.MeshSamples``, and a
+    point cloud's own stand-in): declared here, so that this module needs nothing above it."""
+
+    areas: np.ndarray            # (N,) m²
+    material_index: np.ndarray   # (N,) int64 slot
+    mesh: object                 # .materials (slot list), .name
+
+    def uv(self, name: str | None = None) -> np.ndarray | None: ...
+
+    def color(self, name: str | None = None) -> np.ndarray | None: ...
 
 DEFAULT_ALBEDO = (0.8, 0.8, 0.8)
 MAX_ALBEDO = limit("material_albedo").high

@@ -24,17 +24,20 @@ import math
 import os
 import time
 from collections import Counter
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
 
 from illumap.identities import object_rng
+from illumap.settings import (DEFAULT_BUDGET, QUALITY_PRESETS, Settings, SettingsError,
+                              from_preset)
+from illumap.settings import spec as setting_spec
 
 from . import checks, emitters, lamps, materials, point_splats, pointcloud, sampling
 from .errors import ExitCode, IllumapCancelled, IllumapError, core_cancelled
-from .kinds import HELPER_TYPES, MESH_TYPES, OCCLUDER_SHAPES, RESULT_TYPES, is_instancer
-from .presets import DEFAULT_BUDGET, QUALITY_PRESETS
+from .job import Job, Result, Source
+from .kinds import HELPER_TYPES, MESH_TYPES, RESULT_TYPES, is_instancer
 from .receive import hemisphere_hits, mesh_occluders, receive, target_shadow_samples
 
 Progress = Callable[[float, str], "bool | None"]
@@ -44,118 +47,13 @@ Progress = Callable[[float, str], "bool | None"]
 BYTES_PER_SURFEL = 2048
 
 
-@dataclass
-class Settings:
-    """Quality knobs and options of one run (units in the comments)."""
-
-    density: float | None = None      # surfels per m² (used when budget is None)
-    budget: int | None = None         # surfels over all mesh objects' front faces; overrides
-                                      # density; neither set: DEFAULT_BUDGET (scale-free)
-    method: str = "fmm"               # 'fmm' | 'direct' (exact O(N²) reference)
-    order: int = 4                    # FMM expansion order
-    theta: float = 0.5                # FMM opening angle
-    leaf_size: int = 32               # FMM octree leaf size (surfels)
-    near_field: str = "disc"          # 'disc' | 'point'
-    visibility: str = "exact"         # visibility mode passed to the core (between surfels)
-    occluder_shape: str = "disc"      # 'disc' | 'octagon' | 'quad': the surfels as occluders,
-                                      # for exact visibility and lamp shadows alike
-    solver: str = "auto"              # 'auto' | 'cg' | 'gmres' | 'jacobi'
-    tol: float = 1e-4                 # relative residual
-    max_iterations: int = 200
-    target_error: float | None = None  # relative RMS wanted; chooses density/order/θ/tol
-    adaptive: bool = True             # with a target error: a first pass, then denser surfels
-                                      # where its illumination varies (pass 2)
-    adaptive_first_pass: float = 0.5  # pass-1 surfels as a fraction of the final count
-    adaptive_max_ratio: float = 4.0   # bound on the density multiplier of pass 2
-    lamps: bool = True                # add direct light from Blender lamps
-    lamp_shadows: bool = True         # shadow lamp light by ray casting against the surfels
-    shadow_samples: int = 16          # rays per surfel for lamps with a size (radius/area/angle)
-    world_ambient: bool = True        # light from the world (Background), shadowed like lamps
-    preview_splats: bool = False      # compute the scans' preview splats on the worker too
-    transfer: bool = True             # evaluate 'illumination' at the source meshes' corners
-    gather_rays: int = 512            # final-gather rays per receiver (indirect light)
-    gather_cache: float = 0.15        # a point cloud's points share gathers through an
-                                      # irradiance cache of this accuracy (Ward's a); 0: off
-    receiver_shadow_samples: int = 128  # shadow rays per receiver and sized lamp/emitter
-    transfer_domain: str = "CORNER"   # 'POINT' | 'CORNER'
-    seed: int = 0                     # sampling seed (results are reproducible)
-    memory_limit: int | None = None   # bytes; None → half the physical memory
-    export_npz: str = ""              # path for surfel data (.npz), '' = none
-    export_exr: str = ""              # path for an EXR dump of illumination, '' = none
-    export_lightmaps: str = ""        # path pattern with {object}: UV-space EXR per mesh
-    lightmap_size: int = 256          # lightmap width = height, pixels
-
-
 def settings_from_preset(name: str, **overrides) -> Settings:
-    """Settings for a preset name (DRAFT/MEDIUM/HIGH, any case) with keyword overrides."""
-    key = name.upper()
-    if key not in QUALITY_PRESETS:
-        raise IllumapError(f"Unknown quality preset '{name}' (choose draft, medium or high)", ExitCode.USAGE)
-    values = dict(QUALITY_PRESETS[key])
-    if overrides.get("density") is not None and overrides.get("budget") is None:
-        values.pop("budget", None)    # a density asked for replaces the preset's count
-    values.update({k: v for k, v in overrides.items() if v is not None})
-    known = {f.name for f in fields(Settings)}
-    return Settings(**{k: v for k, v in values.items() if k in known})
-
-
-@dataclass
-class Source:
-    """Which surfels came from which object, for transfer and reporting."""
-
-    name: str
-    kind: str      # 'MESH' | 'POINTS'
-    start: int
-    stop: int
-    area: float    # m²
-
-
-@dataclass
-class Job:
-    """Everything ``run`` needs, numpy only (no bpy references)."""
-
-    settings: Settings
-    positions: np.ndarray
-    normals: np.ndarray
-    areas: np.ndarray
-    albedo: np.ndarray
-    emission: np.ndarray          # self-emission (radiance)
-    direct: np.ndarray | None     # albedo × incident lamp/world radiance; None until ``light``
-    uv: np.ndarray                # (N, 2) active UV per surfel (NaN: none)
-    triangle: np.ndarray          # (N,) int64 triangle of the evaluated mesh (-1: point input)
-    bary: np.ndarray              # (N, 3) barycentric coordinates in it (NaN: point input)
-    material_index: np.ndarray    # (N,) int64 material slot (-1: point input)
-    sources: list[Source]
-    warnings: list[str] = field(default_factory=list)
-    timings: dict[str, float] = field(default_factory=dict)
-    stats: dict = field(default_factory=dict)   # density choice, shadow rays, adaptive passes
-    # Pass 2 of an adaptive run (``next_pass``): the scene as read, for resampling on the main
-    # thread. None when there is no further pass.
-    refine: "_Scene | None" = None
-    lamps: list = field(default_factory=list)   # lamps.Lamp records, lit by ``light``
-    world: "lamps.Lamp | None" = None           # the world's light ('WORLD'), or None
-    # With a target error: the settings the error model chose for the final count
-    # (``target_density``); an adaptive pass 1 solves with them.
-    accuracy: dict | None = None
-    emitters: list = field(default_factory=list)   # lamps.Lamp 'MESH' records (emitters.py)
-    solve_emission: np.ndarray | None = None       # emission left to surfels (not in a lamp)
-    direct_lamps: np.ndarray | None = None         # the part of ``direct`` from lamps and emitters
-    # What each surfel's hemisphere meets (illumap.conservation.Hemisphere; set by ``light``
-    # where triangles occlude): the world's share of its light and its transport row's bound
-    hemisphere: object | None = None
-    triangles: np.ndarray | None = None            # (T, 3, 3) every sampled mesh triangle, m
-    two_sided: np.ndarray | None = None            # (T,) bool: its mesh is an open surface
-    clouds: list = field(default_factory=list)     # PointCloud per point source, as read
-    mesh_triangle_start: np.ndarray | None = None  # first row in ``triangles`` of each mesh
-    splat_point: np.ndarray | None = None          # (T,) point (over all clouds) whose splat
-                                                   # each triangle is, -1: a mesh's own
-    receivers: list = field(default_factory=list)  # sampling.Receivers, evaluated by ``receive``
-    occluders: object = None                       # illumap.receivers.MeshOccluders, built once
-
-    @property
-    def count(self) -> int:
-        """Number of surfels."""
-        return len(self.areas)
+    """Settings for a preset name (draft, medium or high, any case) with keyword overrides
+    (``illumap.settings.from_preset``); a bad name is a usage error."""
+    try:
+        return from_preset(name, **overrides)
+    except SettingsError as exc:
+        raise IllumapError(str(exc), ExitCode.USAGE) from None
 
 
 @dataclass
@@ -169,33 +67,6 @@ class _Scene:
     point_sources: list           # (name, area, two-sided) per point cloud
     lamps: list
     world: "lamps.Lamp | None"
-
-
-@dataclass
-class Result:
-    """A solved job: outgoing radiance per surfel and statistics."""
-
-    radiosity: np.ndarray         # (N, 3) outgoing radiance
-    iterations: int
-    residuals: list
-    converged: bool
-    timings: dict[str, float]
-    stats: dict
-    count: int
-    warnings: list[str] = field(default_factory=list)
-    object_name: str = ""
-    receiver_values: dict = field(default_factory=dict)  # object name → (corners, 3) radiance
-    point_receiver_values: dict = field(default_factory=dict)  # point cloud → (points, 3)
-
-    @property
-    def residual(self) -> float:
-        """Final relative residual: the solver's last iterate's true residual when it reports
-        one (``stats['final_residual']``; the result's own is smaller), else the last
-        iteration's (nan if none)."""
-        final = self.stats.get("final_residual") if isinstance(self.stats, dict) else None
-        if final is not None:
-            return float(final)
-        return float(self.residuals[-1]) if len(self.residuals) else float("nan")
 
 
 def memory_limit(settings: Settings) -> int:
@@ -274,10 +145,11 @@ def occluder_shape(settings: Settings) -> str:
     """The occluder shape this run uses for lamp shadows and exact visibility alike: the
     settings' own, except with a target error, whose models are calibrated on discs.
     Raises IllumapError (exit code 2) for an unknown shape."""
+    shapes = setting_spec("occluder_shape").values
     shape = str(settings.occluder_shape).lower()
-    if shape not in OCCLUDER_SHAPES:
+    if shape not in shapes:
         raise IllumapError(f"Unknown occluder shape '{settings.occluder_shape}' (choose "
-                           f"{', '.join(OCCLUDER_SHAPES)})", ExitCode.USAGE)
+                           f"{', '.join(shapes)})", ExitCode.USAGE)
     return "disc" if settings.target_error is not None else shape
 
 
@@ -354,8 +226,6 @@ def target_density(settings: Settings, mesh_area: float, point_count: int, point
     choice. None without a target error."""
     if settings.target_error is None:
         return None
-    if not 0.0 < settings.target_error < 1.0:
-        raise IllumapError(f"Target error must lie in (0, 1), got {settings.target_error}", ExitCode.USAGE)
     from illumap import accuracy
     total = mesh_area + point_area
     kind = "mesh" if mesh_area > 0 else "point_cloud"
@@ -971,6 +841,7 @@ def run(job: Job, progress: Progress | None = None) -> Result:
     if isinstance(job, UnbuiltJob):
         raise TypeError("run needs a built Job: call the UnbuiltJob's build() first")
     s = job.settings
+    checks.check_settings(s)    # a Job built without prepare is refused the same way
     shape = occluder_shape(s)   # an unknown shape is refused before any work
     light(job, progress)
     checks.check_light(job)   # no light reaches any surface: no solve for a black map
@@ -980,8 +851,6 @@ def run(job: Job, progress: Progress | None = None) -> Result:
     except illumap.InputError as exc:
         raise IllumapError(f"Invalid surfels: {exc}", ExitCode.INPUT) from None
     if s.target_error is not None:
-        if not 0.0 < s.target_error < 1.0:
-            raise IllumapError(f"Target error must lie in (0, 1), got {s.target_error}", ExitCode.USAGE)
         from illumap import accuracy
         solve = accuracy.solve
         # Surfels always see each other past occluders: the error model's occlusion probe

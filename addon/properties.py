@@ -1,34 +1,29 @@
 """Scene settings (``scene.illumap``) and the last run's statistics.
 
-Quality presets map to the solver knobs through one table, ``presets.QUALITY_PRESETS``.
-Choosing a preset copies its values into the advanced settings, so the user sees what the
-preset means; editing an advanced setting switches the preset to "Custom". The operator always reads the advanced
-settings (``settings_values``), so what is shown is what runs.
+Every run setting's property is generated from its one declaration in ``illumap.settings``
+(label, description, default, choices; the range from ``illumap.limits``). Quality presets
+(``illumap.settings.QUALITY_PRESETS``) copy their values into the advanced settings, so the
+user sees what a preset means; editing an advanced setting switches the preset to "Custom".
+The operator always reads the advanced settings (``settings_values``), so what is shown is
+what runs.
 """
 
-import dataclasses
 import math
 
 import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
                        IntProperty, PointerProperty, StringProperty)
 
-from .presets import QUALITY_PRESETS
 from .preview import DEFAULT_DISC_SCALE
 
-#: The quality presets (``presets.QUALITY_PRESETS``) as property values: enum values in capitals.
-PRESET_PROPERTY_VALUES = {name: {key: (value.upper() if key in ("visibility", "solver",
-                                                                 "near_field", "method")
-                                       else value)
-                                 for key, value in values.items()}
-                          for name, values in QUALITY_PRESETS.items()}
-# Every field's min/max/soft_min/soft_max comes from the one table of limits
-# (illumap.limits), which the core and the settings check use too. Without the core the
-# reduced UI cannot compute, and its fields have no bounds to show.
+# The settings are declared once, in illumap.settings (pure Python: it imports without the
+# native module); their ranges come from illumap.limits. Without the package at all (a wheel
+# that Blender did not install) the reduced UI declares only what its panel shows.
 try:
     from illumap.limits import limit as _limit
-except Exception:  # pragma: no cover - the reduced UI
-    _limit = None
+    from illumap.settings import DEFAULT_PRESET, QUALITY_PRESETS, specs
+except ImportError:  # pragma: no cover - the reduced UI without the package
+    _limit, DEFAULT_PRESET, QUALITY_PRESETS, specs = None, "MEDIUM", {}, (lambda: ())
 
 
 def field_bounds(name: str) -> dict:
@@ -36,9 +31,10 @@ def field_bounds(name: str) -> dict:
     return _limit(name).ui() if _limit is not None else {}
 
 
-DEFAULT_PRESET = "MEDIUM"
-#: The fields' defaults: the default preset's values, and the two fields no preset sets.
-_DEFAULTS = dict(density=100.0, gather_cache=0.15, **PRESET_PROPERTY_VALUES[DEFAULT_PRESET])
+#: The quality presets as property values: enum values in capitals.
+PRESET_PROPERTY_VALUES = {name: {key: (value.upper() if isinstance(value, str) else value)
+                                 for key, value in values.items()}
+                          for name, values in QUALITY_PRESETS.items()}
 
 PRESET_ITEMS = [
     ("DRAFT", "Draft", "Few surfels, low FMM order, loose tolerance: quick look"),
@@ -46,42 +42,9 @@ PRESET_ITEMS = [
     ("HIGH", "High", "Dense surfels, high FMM order, tight tolerance"),
     ("CUSTOM", "Custom", "Use the advanced settings as set"),
 ]
-# Comparison-only modes (no occlusion, Jacobi iteration, the bare point kernel) are not
-# offered here: they stay in the Python API (``pipeline.Settings``).
-VISIBILITY_ITEMS = [
-    ("SEED", "Estimated (nearby surfels)",
-     "Shadows between surfaces estimated from the surfels near each path: faster, but light "
-     "can leak through thin walls and under objects"),
-    ("EXACT", "Exact (rays)",
-     "Shadows between surfaces by rays against the objects' own triangles (and point clouds' "
-     "points): no leaks; costs rays, most in large open scenes"),
-]
-OCCLUDER_SHAPE_ITEMS = [
-    ("DISC", "Disc", "Each point blocks light as a round disc (what Target Error is "
-                     "calibrated on)"),
-    ("OCTAGON", "Octagon", "Octagons of the same area: nearly the same shadows, faster rays"),
-    ("QUAD", "Square", "Squares of the same area: the fastest rays; corners reach a little "
-                       "further, so edges shadow a little more"),
-]
-SOLVER_ITEMS = [
-    ("AUTO", "Automatic", "Picks the fastest of the two below for the scene (same picture)"),
-    ("CG", "Conjugate Gradients", "For scenes where light is exchanged symmetrically"),
-    ("GMRES", "GMRES", "Works for every scene; a little more memory"),
-]
-METHOD_ITEMS = [
-    ("FMM", "Fast (multipole)", "Groups far surfaces together (Fast Multipole Method): time "
-                                "grows in proportion to the surfels"),
-    ("DIRECT", "Exact (every pair)", "Every pair of surfels exactly: a reference for small "
-                                     "scenes; time grows with the square of the surfels"),
-]
 SAMPLING_ITEMS = [
     ("DENSITY", "Per Square Metre", "A number of surfels per square metre of surface"),
     ("BUDGET", "Total Count", "A total number of surfels, spread by area"),
-]
-DOMAIN_ITEMS = [
-    ("POINT", "Vertex", "One value per vertex: smooth across edges"),
-    ("CORNER", "Face Corner", "One value per face corner: hard edges and creases keep their "
-                              "light apart"),
 ]
 PREVIEW_MODE_ITEMS = [
     ("ILLUMINATION", "Illumination", "Discs emit the computed outgoing radiance"),
@@ -193,185 +156,91 @@ class IllumapStats(bpy.types.PropertyGroup):
         self.estimated_error_at_objects = 0.0
 
 
-class IllumapSettings(bpy.types.PropertyGroup):
-    initialized: BoolProperty(
-        name="Initialized", default=False, options={"HIDDEN"},
-        description="Set once the settings were taken from the add-on preferences or edited")
-    preset: EnumProperty(name="Quality", items=PRESET_ITEMS, default=DEFAULT_PRESET,
-                         update=_preset_update)
-
-    # Sampling
-    sampling: EnumProperty(name="Surfels Set By", items=SAMPLING_ITEMS,
-                           description="How the number of surfels (the small discs the light "
-                                       "is solved on) is chosen", default="BUDGET",
-                           update=_field_update)
-    density: FloatProperty(name="Surfels per m²",
-                           description="More surfels: finer bounced light and contact shadows; "
-                                       "the solve's time grows about in proportion",
-                           default=_DEFAULTS["density"], **field_bounds("density"),
-                           update=_field_update)
-    budget: IntProperty(name="Surfel Count", default=_DEFAULTS["budget"], **field_bounds("budget"),
-                        update=_field_update,
-                        description="Surfels over all objects, whatever the scene's scale: "
-                                    "more give finer bounced light and contact shadows; the "
-                                    "solve's time grows about in proportion")
-    seed: IntProperty(name="Random Seed",
-                      description="Another seed places the surfels differently (another noise "
-                                  "pattern, the same light on average); no cost. The same seed "
-                                  "gives the same picture every time",
-                      default=0, **field_bounds("seed"), update=_field_update)
-    use_target_error: BoolProperty(
-        name="Target Error", default=False, update=_field_update,
-        description="Ask for an accuracy instead of a preset: Illumap chooses the surfels, "
-                    "the solver settings and the rays for it. Smaller errors take longer "
-                    "(roughly 3-4× per halving)")
-    target_error: FloatProperty(
-        name="Error", default=0.05, **field_bounds("target_error"), precision=3,
-        update=_field_update,
-        description="Relative RMS error wanted in the light at the meshes (0.05 = 5%); chooses "
-                    "the surfels, their solver settings and the rays per vertex")
-    adaptive: BoolProperty(
-        name="Refine Where Light Changes", default=True, update=_field_update,
-        description="With a target error: solve once with half the surfels, then resample "
-                    "denser where that illumination varies (shadow edges, near lights, corners) "
-                    "and solve again with the same total count")
-    # Solver
-    method: EnumProperty(name="Light Exchange", items=METHOD_ITEMS, default="FMM",
-                         update=_field_update,
-                         description="How the light every surfel sends to every other is added "
-                                     "up")
-    order: IntProperty(name="Far Light Accuracy (order)",
-                       description="Fast mode: how finely light from distant surfaces is "
-                                   "summed up (the multipole order). Higher is more accurate "
-                                   "and slower (each step adds about a third to the solve)",
-                       default=_DEFAULTS["order"], **field_bounds("order"), update=_field_update)
-    theta: FloatProperty(name="Far Light Distance (angle)",
-                         description="Fast mode: how far a group of surfaces must be before its "
-                                     "light is summed up as a group (the opening angle). Smaller "
-                                     "is more accurate and slower",
-                         default=_DEFAULTS["theta"], **field_bounds("theta"), update=_field_update)
-    leaf_size: IntProperty(name="Surfels per Group",
-                           description="Fast mode: surfels handled together (the octree's leaf "
-                                       "size). Changes the speed, not the picture", default=32,
-                           **field_bounds("leaf_size"), update=_field_update)
-    visibility: EnumProperty(name="Shadows Between Surfaces", items=VISIBILITY_ITEMS,
-                             description="How the bounced light between surfaces is shadowed",
-                             default=_DEFAULTS["visibility"], update=_field_update)
-    occluder_shape: EnumProperty(
-        name="Point Cloud Blockers", items=OCCLUDER_SHAPE_ITEMS, default="DISC",
-        update=_field_update,
-        description="Point clouds: the shape each point blocks light with, for shadows "
-                    "(meshes block with their own faces; with Target Error: discs)")
-    tol: FloatProperty(name="Solver Precision",
-                       description="When the bounced light counts as settled (the solver's "
-                                   "relative residual). Smaller is more exact; each 10× smaller "
-                                   "costs a few more solver steps",
-                       default=_DEFAULTS["tol"], **field_bounds("tol"),
-                       precision=6, update=_field_update)
-    max_iterations: IntProperty(name="Most Solver Steps", default=200,
-                                description="The solve stops here even if not settled (a "
-                                            "warning says so)",
-                                **field_bounds("max_iterations"), update=_field_update)
-    solver: EnumProperty(name="Solver Method", items=SOLVER_ITEMS, default="AUTO",
-                         update=_field_update,
-                         description="The method that settles the bounced light: the same "
-                                     "picture, a different time")
-    # Light
-    lamps: BoolProperty(name="Lamps", description="Light from Blender's lamps (point, spot, "
-                                                  "sun, area). Off: emissive objects and the "
-                                                  "world only",
-                        default=True, update=_field_update)
-    lamp_shadows: BoolProperty(
-        name="Lamp Shadows", default=True, update=_field_update,
-        description="Lamps cast shadows: rays from every surfel toward each lamp, against the "
-                    "objects' own faces (and point clouds' points). Off: faster, lamps light "
-                    "through objects")
-    shadow_samples: IntProperty(
-        name="Soft Shadow Rays (bounce)", default=16, **field_bounds("shadow_samples"), update=_field_update,
-        description="Rays per surfel toward each lamp with a size (radius, area, sun angle), "
-                    "for the light that bounces: more give smoother soft shadows in the "
-                    "bounced light; cost grows in proportion")
-    world_ambient: BoolProperty(
-        name="World Light", default=True, update=_field_update,
-        description="Light from the world's Background (a colour, or an environment image's "
-                    "mean), shadowed by the scene as Cycles does; a black world adds nothing")
-    gather_rays: IntProperty(
-        name="Bounced Light Rays", default=_DEFAULTS["gather_rays"], **field_bounds("gather_rays"),
-        update=_field_update,
-        description="Rays per corner (or point) that collect the light bounced by the scene: "
-                    "more give smoother, less blotchy bounced light; time grows in proportion")
-    gather_cache: FloatProperty(
-        name="Point Cloud Light Sharing", default=_DEFAULTS["gather_cache"],
-        **field_bounds("gather_cache"), update=_field_update,
-        description="Point clouds: nearby points share the bounced light they collect (an "
-                    "irradiance cache of this accuracy). Smaller: sharper bounced light, "
-                    "slower; 0: every point collects its own (slowest)")
-    receiver_shadow_samples: IntProperty(
-        name="Soft Shadow Rays (objects)", default=_DEFAULTS["receiver_shadow_samples"],
-        **field_bounds("receiver_shadow_samples"), update=_field_update,
-        description="Rays per corner (or point) toward each lamp or glowing object with a "
-                    "size: more give smoother soft shadows on your objects; time grows in "
-                    "proportion")
-    # Output
-    transfer: BoolProperty(name="Write to Objects",
-                           description="Evaluate the light at the objects' own corners (points "
-                                       "of point clouds) and write it there as the colour "
-                                       "attribute 'illumination'. Off: the light stays on the "
-                                       "surfel object only",
-                           default=True, update=_field_update)
-    transfer_domain: EnumProperty(name="Store Per", items=DOMAIN_ITEMS, default="CORNER",
-                                  update=_field_update,
-                                  description="Where the attribute holds its values")
-    # Preview
-    build_preview: BoolProperty(
-        name="Preview After Compute", default=True, update=_touch,
-        description="After Compute, show the light on the computed objects themselves (Object "
-                    "Preview): meshes through their 'illumination' attribute, scans as a splat "
-                    "in each point's tangent plane. Renders (F12) show it too; Off in the "
-                    "Preview panel gives the objects back as they were")
-    show_surfels: BoolProperty(
-        name="Show Surfels", default=False, update=_touch,
-        description="Diagnostic: after Compute, also show the solve's surfels as discs (the "
-                    "'Illumap Surfels' object). Off, that object stays hidden in the viewport "
-                    "and in renders")
-    preview_mode: EnumProperty(name="Shading", items=PREVIEW_MODE_ITEMS, default="ILLUMINATION",
-                               update=_touch,
-                               description="What the surfels' discs show (a diagnostic): all "
-                                           "their light, or the light they reflect")
-    disc_scale: FloatProperty(name="Disc Scale",
-                              description="Disc radius relative to the surfel's own radius "
-                                          "(1: each disc has exactly its surfel's area; larger "
-                                          "values close the gaps between discs)",
-                              default=DEFAULT_DISC_SCALE, **field_bounds("disc_scale"),
-                              update=_touch)
-
-    stats: PointerProperty(type=IllumapStats)
+#: Display precision of the float settings that need more than Blender's default.
+_PRECISION = {"target_error": 3, "tol": 6}
 
 
-# Names of the scene settings and the lower-case spelling the core uses for enum values.
-_SETTINGS_FIELDS = ("density", "budget", "seed", "method", "order", "theta", "leaf_size",
-                    "visibility", "occluder_shape", "tol", "max_iterations", "solver",
-                    "lamps",
-                    "lamp_shadows", "shadow_samples", "world_ambient", "transfer",
-                    "transfer_domain", "target_error", "adaptive", "gather_rays",
-                    "gather_cache", "receiver_shadow_samples")
-_LOWER_ENUMS = ("visibility", "occluder_shape", "solver", "method")
-# Alternative field names a Settings dataclass may use for the same knob.
-_ALIASES = {
-    "world_ambient": ("world_ambient", "world", "ambient", "use_world"),
-    "lamps": ("lamps", "use_lamps"),
-    "transfer": ("transfer", "transfer_to_meshes"),
-    "transfer_domain": ("transfer_domain", "domain"),
-    "tol": ("tol", "tolerance"),
-    "order": ("order", "fmm_order"),
-}
+def _run_property(spec):
+    """The scene property of one run setting (``illumap.settings.Spec``)."""
+    common = dict(name=spec.label, description=spec.description, update=_field_update)
+    default = spec.property_default
+    if spec.choices:
+        items = [(c.value.upper(), c.label, c.description) for c in spec.choices if c.offered]
+        return EnumProperty(items=items, default=str(default).upper(), **common)
+    if spec.kind is bool:
+        return BoolProperty(default=bool(default), **common)
+    if spec.kind is int:
+        return IntProperty(default=int(default), **field_bounds(spec.name), **common)
+    if spec.kind is float:
+        if spec.name in _PRECISION:
+            common["precision"] = _PRECISION[spec.name]
+        return FloatProperty(default=float(default), **field_bounds(spec.name), **common)
+    raise TypeError(f"no scene property for setting {spec.name} of kind {spec.kind}")
 
 
-def settings_values(props):
-    """The scene settings as a plain dict with the core's spelling (lower-case enums)."""
-    values = {name: getattr(props, name) for name in _SETTINGS_FIELDS}
-    for name in _LOWER_ENUMS:
-        values[name] = values[name].lower()
+def _settings_properties() -> dict:
+    """The scene settings' properties: the view's own (preset, how the surfel count is set,
+    whether a target error is asked for, the preview) around every run setting the panel
+    shows, generated from ``illumap.settings``."""
+    properties = {
+        "initialized": BoolProperty(
+            name="Initialized", default=False, options={"HIDDEN"},
+            description="Set once the settings were taken from the add-on preferences or "
+                        "edited"),
+        "preset": EnumProperty(name="Quality", items=PRESET_ITEMS, default=DEFAULT_PRESET,
+                               update=_preset_update),
+        "sampling": EnumProperty(name="Surfels Set By", items=SAMPLING_ITEMS,
+                                 description="How the number of surfels (the small discs the "
+                                             "light is solved on) is chosen", default="BUDGET",
+                                 update=_field_update),
+        "use_target_error": BoolProperty(
+            name="Target Error", default=False, update=_field_update,
+            description="Ask for an accuracy instead of a preset: Illumap chooses the surfels, "
+                        "the solver settings and the rays for it. Smaller errors take longer "
+                        "(roughly 3-4× per halving)"),
+    }
+    properties.update({spec.name: _run_property(spec) for spec in specs() if spec.ui})
+    properties.update({
+        "build_preview": BoolProperty(
+            name="Preview After Compute", default=True, update=_touch,
+            description="After Compute, show the light on the computed objects themselves "
+                        "(Object Preview): meshes through their 'illumination' attribute, "
+                        "scans as a splat in each point's tangent plane. Renders (F12) show it "
+                        "too; Off in the Preview panel gives the objects back as they were"),
+        "show_surfels": BoolProperty(
+            name="Show Surfels", default=False, update=_touch,
+            description="Diagnostic: after Compute, also show the solve's surfels as discs "
+                        "(the 'Illumap Surfels' object). Off, that object stays hidden in the "
+                        "viewport and in renders"),
+        "preview_mode": EnumProperty(
+            name="Shading", items=PREVIEW_MODE_ITEMS, default="ILLUMINATION", update=_touch,
+            description="What the surfels' discs show (a diagnostic): all their light, or the "
+                        "light they reflect"),
+        "disc_scale": FloatProperty(
+            name="Disc Scale", default=DEFAULT_DISC_SCALE, **field_bounds("disc_scale"),
+            update=_touch,
+            description="Disc radius relative to the surfel's own radius (1: each disc has "
+                        "exactly its surfel's area; larger values close the gaps between "
+                        "discs)"),
+        "stats": PointerProperty(type=IllumapStats),
+    })
+    return properties
+
+
+IllumapSettings = type("IllumapSettings", (bpy.types.PropertyGroup,), {
+    "__doc__": "Illumap's settings of a scene (``scene.illumap``)",
+    "__annotations__": _settings_properties()})
+
+
+def settings_values(props) -> dict:
+    """The scene settings as keyword arguments of ``illumap.settings.Settings``: every run
+    setting the panel shows, enums as a run spells them, and the surfel count or density
+    that the view's choices leave unset as None."""
+    values = {}
+    for spec in specs():
+        if spec.ui:
+            value = getattr(props, spec.name)
+            values[spec.name] = spec.canonical(value) if spec.choices else value
     if props.use_target_error:
         # The target chooses the count; the budget field (a preset's count) would cap it.
         values["budget"] = values["density"] = None
@@ -383,28 +252,12 @@ def settings_values(props):
     return values
 
 
-def make_settings(props, settings_cls):
-    """Build ``settings_cls`` (the pipeline's Settings dataclass) from the scene settings.
-
-    Only fields the dataclass declares are passed, so a knob the pipeline does not have yet is
-    left at its default instead of failing.
-    """
-    values = settings_values(props)
-    if not dataclasses.is_dataclass(settings_cls):
-        return settings_cls(**values)
-    fields = {f.name for f in dataclasses.fields(settings_cls) if f.init}
-    kwargs = {}
-    for name, value in values.items():
-        for alias in _ALIASES.get(name, (name,)):
-            if alias in fields:
-                kwargs[alias] = value
-                break
-    if kwargs.get("budget", 0) is None and "budget" in fields:
-        # Keep the dataclass default for "no budget" rather than imposing None.
-        del kwargs["budget"]
-    if kwargs.get("density", 0) is None and "density" in fields:
-        del kwargs["density"]
-    return settings_cls(**kwargs)
+def make_settings(props, settings_cls=None):
+    """The run's ``Settings`` from the scene settings (``settings_cls``: that class, by
+    default ``illumap.settings.Settings``)."""
+    if settings_cls is None:
+        from illumap.settings import Settings as settings_cls
+    return settings_cls(**settings_values(props))
 
 
 classes = (IllumapPhaseTime, IllumapStats, IllumapSettings)

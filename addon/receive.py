@@ -16,17 +16,16 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
-from typing import TYPE_CHECKING, Callable
+from typing import Callable
 
 import numpy as np
 
 from illumap.identities import combined_ids, object_ids
+from illumap.settings import Settings
 
 from . import lamps, sampling
 from .errors import ExitCode, IllumapCancelled, IllumapError, core_cancelled
-
-if TYPE_CHECKING:
-    from .pipeline import Job, Result, Settings
+from .job import Job, Result
 
 Progress = Callable[[float, str], "bool | None"]
 

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Writes docs/limits.md from the one table of limits (``illumap.limits``).
+"""Writes docs/limits.md from the one table of limits (``illumap.limits``) and the one
+declaration of the settings (``illumap.settings``).
 
 Usage: .venv/bin/python scripts/limits_page.py          (write the page)
        .venv/bin/python scripts/limits_page.py --check  (exit 1 when the page is out of date)
@@ -8,7 +9,7 @@ Usage: .venv/bin/python scripts/limits_page.py          (write the page)
 import os
 import sys
 
-from illumap import limits
+from illumap import settings
 
 PAGE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "docs",
                     "limits.md")
@@ -18,7 +19,7 @@ def main(argv) -> int:
     if argv not in ([], ["--check"]):
         print(__doc__, file=sys.stderr)
         return 2
-    text = limits.markdown()
+    text = settings.page()
     if argv == ["--check"]:
         with open(PAGE, encoding="utf-8") as f:
             if f.read() != text:

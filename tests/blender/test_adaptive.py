@@ -96,7 +96,8 @@ def test_target_error_chooses_the_density():
 
 def test_target_error_outside_range_is_an_error():
     objects = spot_scene()
-    with pytest.raises(pipeline.IllumapError, match=r"Target error must lie in \(0, 1\)"):
+    with pytest.raises(pipeline.IllumapError,
+                       match=r"Invalid setting target_error: expected a number in \(0, 1\)"):
         pipeline.prepare(bpy.context.evaluated_depsgraph_get(), objects,
                          pipeline.Settings(transfer=False, target_error=1.5))
 

@@ -203,9 +203,9 @@ ADDON_CASES = [
     ("seed-negative", lambda: [lit_floor()], {"seed": -1}, IllumapError,
      r"seed: expected an integer >= 0 and <= \d+, got -1"),
     ("occluder-shape", lambda: [lit_floor()], {"occluder_shape": "hexagon"}, IllumapError,
-     r"Unknown occluder shape 'hexagon'"),
+     r"Invalid setting occluder_shape: expected one of disc, octagon, quad, got 'hexagon'"),
     ("target-error-range", lambda: [lit_floor()], {"target_error": 1.5}, IllumapError,
-     r"Target error must lie in \(0, 1\), got 1\.5"),
+     r"Invalid setting target_error: expected a number in \(0, 1\), got 1\.5"),
 ]
 
 

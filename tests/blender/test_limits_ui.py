@@ -161,14 +161,14 @@ def test_the_batch_help_states_the_ranges(capsys):
     assert str(2 ** 62) not in text and str(2 ** 31 - 1) not in text and str(2 ** 63 - 1) not in text
     assert "inf" not in text.replace("information", "")
     # Defaults are stated too.
-    assert "(default: medium)" in text and "(default 16)" in text and "(default 256)" in text
+    assert "(default: medium)" in text and "(default: 16)" in text and "(default: 256)" in text
     assert batch.MAX_FRAMES == limit("frames").high
     assert batch.MAX_RESOLUTION == limit("resolution").high
 
 
 def test_the_presets_lie_inside_the_fields():
     """A preset outside a field's range would be clamped silently when chosen."""
-    from addon.presets import QUALITY_PRESETS
+    from illumap.settings import QUALITY_PRESETS
     for preset, values in QUALITY_PRESETS.items():
         for name, value in values.items():
             if isinstance(value, (int, float)) and not isinstance(value, bool):

@@ -41,14 +41,7 @@ class FakeCancelled(Exception):
 def _make_fake_pipeline():
     fake = types.ModuleType("addon.pipeline")
 
-    @dataclasses.dataclass
-    class Settings:
-        density: float = 400.0
-        budget: int = None
-        order: int = 4
-        theta: float = 0.5
-        visibility: str = "none"
-        tol: float = 1e-4
+    from illumap.settings import Settings   # the one declaration, as the real pipeline
 
     @dataclasses.dataclass
     class Job:
@@ -292,10 +285,12 @@ def test_occluder_shape_reaches_the_pipeline_settings(registered_addon):
     props.occluder_shape = "OCTAGON"
     assert properties.make_settings(props, pipeline.Settings).occluder_shape == "octagon"
     assert props.preset == "HIGH"
-    assert {item[0].lower() for item in properties.OCCLUDER_SHAPE_ITEMS} \
-        == set(pipeline.OCCLUDER_SHAPES)
+    from illumap.settings import spec
+    offered = {item.identifier.lower()
+               for item in props.bl_rna.properties["occluder_shape"].enum_items}
+    assert offered == set(spec("occluder_shape").values)
     from illumap.occluders import OCCLUDER_SHAPES   # the core's spelling of the same shapes
-    assert set(pipeline.OCCLUDER_SHAPES) == set(OCCLUDER_SHAPES)
+    assert offered == set(OCCLUDER_SHAPES)
 
 
 def test_reset_settings_operator(registered_addon):

@@ -6,13 +6,14 @@ and function-level alike: a lazy import closes a cycle as surely as an eager one
 * no import cycle among them;
 * ``illumap`` imports neither ``bpy`` nor the add-on;
 * the add-on's pure modules import no ``bpy``, and not the core at module level;
-* what registers without the native core (the reduced UI) imports no ``illumap`` at module
-  level, directly or through another add-on module, except where a ``try`` guards the import
-  of the core itself (an optional limit); a guarded import of the add-on's own modules is
-  refused, since it hides a broken layer (the presets were once read that way from the
-  pipeline and were silently empty without the core).
+* what registers without the native core (the reduced UI) imports, at module level, directly
+  or through another add-on module, no ``illumap`` module but the pure ones (``PURE_CORE``:
+  the settings and their limits), which import nothing native themselves; a guarded import
+  of the add-on's own modules is refused, since it hides a broken layer (the presets were once
+  read that way from the pipeline and were silently empty without the core).
 
-Imports under ``if TYPE_CHECKING:`` are for annotations and do not count.
+Imports under ``if TYPE_CHECKING:`` count for cycles (an annotation that needs a module above
+it is a layer upside down) and nowhere else.
 """
 
 import ast
@@ -24,8 +25,11 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 PACKAGES = {"illumap": os.path.join(ROOT, "core", "python", "illumap"),
             "addon": os.path.join(ROOT, "addon")}
 #: Add-on modules that are pure: numpy and the core in, numpy out, no Blender.
-PURE_ADDON = ("addon.presets", "addon.kinds", "addon.core_status", "addon.errors",
-              "addon.neighbours")
+PURE_ADDON = ("addon.kinds", "addon.core_status", "addon.errors", "addon.neighbours",
+              "addon.job")
+#: The core modules that import without the native module (pure Python, no numpy): the reduced
+#: UI declares its settings from them.
+PURE_CORE = ("illumap", "illumap.settings", "illumap.limits")
 #: Native extension modules (built, not in the tree).
 NATIVE = ("illumap._core",)
 #: What the add-on registers when the native core does not import.
@@ -53,7 +57,7 @@ def _modules():
 MODULES = _modules()
 
 
-def _imports(name):
+def _imports(name, with_typing=False):
     """(imported module name, when) for each import of module ``name``, ``when`` True at module
     level, "guarded" at module level inside a ``try``, False inside a function: the module a
     ``from X import y`` reads is X.y when that is a module, else X."""
@@ -63,6 +67,7 @@ def _imports(name):
     package = name if is_package else name.rpartition(".")[0]
     typing_only = {id(n) for node in ast.walk(tree) if isinstance(node, ast.If)
                    and "TYPE_CHECKING" in ast.unparse(node.test) for n in ast.walk(node)}
+    typing_only = set() if with_typing else typing_only
     guarded = {id(n) for top in tree.body if isinstance(top, ast.Try) for n in ast.walk(top)}
     conditional = {id(n) for top in tree.body if isinstance(top, ast.If) for n in ast.walk(top)}
     top_level = {id(node) for node in tree.body}
@@ -88,7 +93,8 @@ def _imports(name):
                 yield (sub if sub in MODULES or sub in NATIVE else source), eager
 
 
-GRAPH = {name: sorted({m for m, _ in _imports(name) if m in MODULES}) for name in MODULES}
+GRAPH = {name: sorted({m for m, _ in _imports(name, with_typing=True) if m in MODULES})
+         for name in MODULES}
 EAGER = {name: sorted({m for m, when in _imports(name) if when is True}) for name in MODULES}
 GUARDED = {name: sorted({m for m, when in _imports(name) if when == "guarded"})
            for name in MODULES}
@@ -124,6 +130,28 @@ def test_no_import_cycles():
     assert _cycles(GRAPH) == []
 
 
+@pytest.mark.parametrize("name", PURE_CORE)
+def test_the_pure_core_needs_nothing_native(name):
+    """What the reduced UI reads of the core imports neither numpy nor the native module, at
+    module level, nor any core module but the pure ones."""
+    for mod in EAGER[name] + GUARDED[name]:
+        assert mod.split(".")[0] not in ("numpy", "bpy") and mod not in NATIVE, (name, mod)
+        assert mod.split(".")[0] != "illumap" or mod in PURE_CORE, (name, mod)
+
+
+def test_an_annotation_import_closes_a_cycle(tmp_path, monkeypatch):
+    """Imports under TYPE_CHECKING are read for cycles: one back up is found."""
+    (tmp_path / "low.py").write_text("from typing import TYPE_CHECKING\n"
+                                     "if TYPE_CHECKING:\n    from addon.high import Thing\n")
+    (tmp_path / "high.py").write_text("from addon import low\n")
+    monkeypatch.setitem(MODULES, "addon.low", (str(tmp_path / "low.py"), False))
+    monkeypatch.setitem(MODULES, "addon.high", (str(tmp_path / "high.py"), False))
+    graph = {name: sorted({m for m, _ in _imports(name, with_typing=True) if m in MODULES})
+             for name in ("addon.low", "addon.high")}
+    assert _cycles(graph) == [["addon.high", "addon.low", "addon.high"]]
+    assert "addon.high" not in EAGER.get("addon.low", ())
+
+
 def test_the_check_finds_a_cycle():
     """A lazy import back up (as solver once imported the automatic mode) is a cycle."""
     graph = dict(GRAPH, **{"illumap.solver": GRAPH["illumap.solver"] + ["illumap.accuracy"]})
@@ -139,7 +167,8 @@ def test_the_core_imports_neither_bpy_nor_the_addon(name):
 @pytest.mark.parametrize("name", PURE_ADDON)
 def test_pure_addon_modules_need_neither_blender_nor_the_core(name):
     assert not [m for m, _ in _imports(name) if m.split(".")[0] == "bpy"]
-    assert not [m for m in EAGER[name] + GUARDED[name] if m.split(".")[0] == "illumap"]
+    assert not [m for m in EAGER[name] + GUARDED[name]
+                if m.split(".")[0] == "illumap" and m not in PURE_CORE]
 
 
 @pytest.mark.parametrize("name", REDUCED_UI)
@@ -153,7 +182,8 @@ def test_the_reduced_ui_imports_without_the_core(name):
         if mod in seen:
             continue
         seen.add(mod)
-        assert mod.split(".")[0] != "illumap", f"{name} imports {mod} at module level"
+        assert mod.split(".")[0] != "illumap" or mod in PURE_CORE, \
+            f"{name} imports {mod} at module level"
         hidden = [m for m in GUARDED.get(mod, ()) if m.split(".")[0] == "addon"]
         assert not hidden, f"{mod} imports {hidden} inside a try"
         todo += [m for m in EAGER.get(mod, ()) if m in MODULES or m.split(".")[0] == "illumap"]

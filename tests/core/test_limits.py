@@ -199,8 +199,9 @@ def test_ui_bounds_lie_inside_the_limit(lim):
 def test_the_limits_page_is_generated_from_the_table():
     with open(os.path.join(ROOT, "docs", "limits.md"), encoding="utf-8") as f:
         page = f.read()
-    assert page == limits.markdown(), ("docs/limits.md is out of date: run "
-                                       ".venv/bin/python scripts/limits_page.py")
+    from illumap import settings
+    assert page == settings.page(), ("docs/limits.md is out of date: run "
+                                     ".venv/bin/python scripts/limits_page.py")
     for lim in limits.LIMITS:
         assert f"| `{lim.name}` | {lim.interval()} |" in page
 

@@ -13,16 +13,38 @@ Public API (docs/architecture.md)::
     InputError(ValueError), Cancelled(Exception)
 """
 
-from . import accuracy
-from ._progress import Cancelled
-from .occluders import Occluders
-from .operator import (DEFAULT_LEAF_SIZE, DEFAULT_METHOD, DEFAULT_NEAR_FIELD, DEFAULT_ORDER,
-                       DEFAULT_THETA, DEFAULT_VISIBILITY, TransportOperator)
-from .api import solve
-from .solver import DEFAULT_TOL, Solution
-from .surfels import InputError, Surfels
+import importlib
 
 __version__ = "0.1.0"
+
+# Names that need the native module load on first use (PEP 562), so that the pure modules
+# (illumap.settings, illumap.limits, illumap.identities) import without it: the add-on's reduced
+# UI declares its properties from illumap.settings even where the native module cannot load.
+_LAZY = {
+    "accuracy": (".accuracy", None), "Cancelled": ("._progress", "Cancelled"),
+    "Occluders": (".occluders", "Occluders"), "solve": (".api", "solve"),
+    "Solution": (".solver", "Solution"), "DEFAULT_TOL": (".solver", "DEFAULT_TOL"),
+    "Surfels": (".surfels", "Surfels"), "InputError": (".surfels", "InputError"),
+    "TransportOperator": (".operator", "TransportOperator"),
+    **{name: (".operator", name) for name in (
+        "DEFAULT_LEAF_SIZE", "DEFAULT_METHOD", "DEFAULT_NEAR_FIELD", "DEFAULT_ORDER",
+        "DEFAULT_THETA", "DEFAULT_VISIBILITY")},
+}
+
+
+def __getattr__(name: str):
+    if name not in _LAZY:
+        raise AttributeError(f"module 'illumap' has no attribute {name!r}")
+    module, attribute = _LAZY[name]
+    value = importlib.import_module(module, __name__)
+    value = value if attribute is None else getattr(value, attribute)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = [
     "Surfels", "TransportOperator", "Occluders", "solve", "Solution", "InputError", "Cancelled",
