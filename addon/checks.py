@@ -8,7 +8,7 @@ real cause.
 from __future__ import annotations
 
 import numpy as np
-from illumap.limits import MAX_INT32, limit  # noqa: F401 (MAX_INT32: the batch command's)
+from illumap.limits import limit
 from illumap.settings import SettingsError, check
 
 from .errors import ExitCode, IllumapError, NoLightError

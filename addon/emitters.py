@@ -2,7 +2,7 @@
 
 An emissive object's light reaches each surfel and each receiver through Lambert's
 point-to-polygon form factor of every emissive triangle, shadowed by rays to samples on it
-(``lamps.mesh_light``), instead of through emitting surfels: the point kernel of a surfel
+(``lights.mesh_light``), instead of through emitting surfels: the point kernel of a surfel
 cannot resolve a surface a few millimetres from a light, and the FMM's far field cannot carry
 a sharp shadow. Such surfels keep their reflection but leave their emission out of the solve.
 
@@ -16,8 +16,9 @@ from __future__ import annotations
 
 import numpy as np
 from illumap.limits import limit
+from illumap import lights
 
-from . import lamps, materials
+from . import materials
 from .sampling import MeshSamples, TriangleMesh
 
 #: Emissive triangles integrated exactly, over all objects (the rest emit through surfels).
@@ -36,11 +37,11 @@ def triangle_emission(tm: TriangleMesh) -> tuple[np.ndarray, np.ndarray]:
     return front, back
 
 
-def mesh_lights(tri_meshes: list[TriangleMesh], notes: list[str]) -> list[lamps.Lamp]:
+def mesh_lights(tri_meshes: list[TriangleMesh], notes: list[str]) -> list[lights.Lamp]:
     """Lamps for the emissive triangles of ``tri_meshes``; sets each mesh's ``light_mask``
     (T,) to the triangles whose emission the lamps now carry. Objects over the triangle
     budget keep emitting surfels, with a note."""
-    lights, used = [], 0
+    found, used = [], 0
     for tm in tri_meshes:
         front, back = triangle_emission(tm)
         tm.light_mask = np.zeros(len(tm.area), dtype=bool)
@@ -58,11 +59,11 @@ def mesh_lights(tri_meshes: list[TriangleMesh], notes: list[str]) -> list[lamps.
         same = np.allclose(f, b)
         tm.light_mask[rows] = True
         if same:
-            lights.append(lamps.mesh_light(tm.name, tm.corners[rows], f, two_sided=True))
+            found.append(lights.mesh_light(tm.name, tm.corners[rows], f, two_sided=True))
             continue
         if (f > 0).any():
-            lights.append(lamps.mesh_light(tm.name, tm.corners[rows], f, two_sided=False))
+            found.append(lights.mesh_light(tm.name, tm.corners[rows], f, two_sided=False))
         if (b > 0).any():
             flipped = tm.corners[rows][:, ::-1]   # reversed winding: the back faces forward
-            lights.append(lamps.mesh_light(tm.name + " (back)", flipped, b, two_sided=False))
-    return lights
+            found.append(lights.mesh_light(tm.name + " (back)", flipped, b, two_sided=False))
+    return found

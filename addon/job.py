@@ -45,12 +45,12 @@ class Job:
     # Pass 2 of an adaptive run (``next_pass``): the scene as read, for resampling on the main
     # thread. None when there is no further pass.
     refine: object | None = None     # pipeline._Scene
-    lamps: list = field(default_factory=list)   # lamps.Lamp records, lit by ``light``
-    world: object | None = None                 # lamps.Lamp of the world ('WORLD'), or None
+    lamps: list = field(default_factory=list)   # lights.Lamp records, lit by ``light``
+    world: object | None = None                 # lights.Lamp of the world ('WORLD'), or None
     # With a target error: the settings the error model chose for the final count
     # (``target_density``); an adaptive pass 1 solves with them.
     accuracy: dict | None = None
-    emitters: list = field(default_factory=list)   # lamps.Lamp 'MESH' records (emitters.py)
+    emitters: list = field(default_factory=list)   # lights.Lamp 'MESH' records (emitters.py)
     solve_emission: np.ndarray | None = None       # emission left to surfels (not in a lamp)
     direct_lamps: np.ndarray | None = None         # the part of ``direct`` from lamps and emitters
     # What each surfel's hemisphere meets (illumap.conservation.Hemisphere; set by ``light``

@@ -24,11 +24,12 @@ import math
 import os
 import time
 from collections import Counter
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
 
+from illumap import lights
 from illumap.identities import object_rng
 from illumap.settings import (DEFAULT_BUDGET, QUALITY_PRESETS, Settings, SettingsError,
                               from_preset)
@@ -66,7 +67,7 @@ class _Scene:
     points: list                  # point-cloud parts, reused as they are
     point_sources: list           # (name, area, two-sided) per point cloud
     lamps: list
-    world: "lamps.Lamp | None"
+    world: "lights.Lamp | None"
 
 
 def memory_limit(settings: Settings) -> int:
@@ -164,7 +165,7 @@ def make_segment_query(positions, normals, areas, progress=None, shape="disc"):
         return None
     n = len(areas)
     surfels = illumap.Surfels(positions, normals, areas, np.zeros((n, 3)), np.zeros((n, 3)))
-    build = None if progress is None else (lambda f, _phase="": progress(0.0, lamps.PHASE))
+    build = None if progress is None else (lambda f, _phase="": progress(0.0, lights.PHASE))
     occ = occluders(surfels, coverage=SURFEL_COVERAGE, shape=shape, progress=build)
 
     def visible(origins, targets, skip, progress=None):
@@ -201,9 +202,9 @@ def surfel_target(settings: Settings) -> float | None:
 
 
 def surfel_shadow_samples(settings: Settings) -> int:
-    """Shadow rays per surfel and sized lamp (the world's too, up to ``lamps.WORLD_SAMPLES``):
+    """Shadow rays per surfel and sized lamp (the world's too, up to ``lights.WORLD_SAMPLES``):
     the settings' own, or with a target error at least what a receiver casts for the surfels'
-    target (``surfel_target``), at most ``lamps.WORLD_SAMPLES``. Each surfel's direct light is
+    target (``surfel_target``), at most ``lights.WORLD_SAMPLES``. Each surfel's direct light is
     a sample whose noise every receiver that gathers it takes in: in a room lit through a
     window (the bench's ``window``, Target 1%) the sky seen through it with 16 rays per surfel
     moved the walls by about 1% from one sampling to the next; 32 rays took the scene from
@@ -213,7 +214,7 @@ def surfel_shadow_samples(settings: Settings) -> int:
     target = surfel_target(settings)
     if target is None:
         return own
-    return max(own, min(target_shadow_samples(target), lamps.WORLD_SAMPLES))
+    return max(own, min(target_shadow_samples(target), lights.WORLD_SAMPLES))
 
 
 def target_density(settings: Settings, mesh_area: float, point_count: int, point_area: float,
@@ -383,7 +384,7 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
             raise IllumapError(f"Adaptive first pass must be a fraction in (0, 1], got {fraction}", ExitCode.USAGE)
         refine = _Scene(tri_meshes, counts, [], point_sources, lamp_list, world)   # points: build
         first = np.maximum(np.rint(counts * fraction).astype(np.int64), 1)
-    lights = emitters.mesh_lights(tri_meshes, warnings)
+    mesh_emitters = emitters.mesh_lights(tri_meshes, warnings)
     samples = [sampling.sample_mesh(tm, int(n), object_rng(settings.seed, tm.name))
                for tm, n in zip(tri_meshes, first)]
     mesh_parts = _surfel_parts(samples, warnings)
@@ -436,7 +437,7 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
         job = _assembled(parts, settings, lamp_list, world, warnings, stats, t0, occluders)
         job.refine = refine
         job.accuracy = chosen
-        job.emitters = lights
+        job.emitters = mesh_emitters
         job.triangles = triangles
         job.two_sided = two_sided
         job.splat_point = splat_point
@@ -710,7 +711,7 @@ def shadow_query(job: Job, normals: np.ndarray, progress: Progress | None = None
 
 
 def _shadows(job: Job, normals: np.ndarray, samples: int, progress: Progress | None):
-    """``lamps.Shadows`` for points with ``normals`` (``shadow_query``), or None with a
+    """``lights.Shadows`` for points with ``normals`` (``shadow_query``), or None with a
     warning when the core has no ray query."""
     query = shadow_query(job, normals, progress)
     if query is None:
@@ -718,7 +719,7 @@ def _shadows(job: Job, normals: np.ndarray, samples: int, progress: Progress | N
                             "build lacks: lamp light is unshadowed")
         return None
     extent = float(np.ptp(job.positions, axis=0).max()) if len(job.positions) else 1.0
-    return lamps.Shadows(query, samples=samples, seed=job.settings.seed, extent=extent,
+    return lights.Shadows(query, samples=samples, seed=job.settings.seed, extent=extent,
                          progress=progress)
 
 
@@ -752,12 +753,12 @@ def light(job: Job, progress: Progress | None = None) -> Job:
         world_by_rays = job.world is not None and job.hemisphere is not None
         all_lamps = (list(job.lamps) + list(job.emitters)
                      + ([job.world] if job.world and not world_by_rays else []))
-        if progress is not None and progress(0.0, lamps.PHASE if all_lamps and s.lamp_shadows
+        if progress is not None and progress(0.0, lights.PHASE if all_lamps and s.lamp_shadows
                                              else "direct light") is False:
             raise IllumapCancelled("Cancelled")
         if all_lamps and s.lamp_shadows:
             shadows = _shadows(job, nrm, surfel_shadow_samples(s), progress)
-        incident, from_world = lamps.incident_radiance(all_lamps, pos, nrm, shadows=shadows,
+        incident, from_world = lights.incident_radiance(all_lamps, pos, nrm, shadows=shadows,
                                                        world_apart=True)
         if world_by_rays:
             from_world = job.hemisphere.open[:, None] * np.asarray(job.world.color)[None, :]
@@ -960,7 +961,7 @@ def _lit_only_inside(job: Job, result: Result) -> str | None:
     as a renderer does for a closed surface, takes the inside of a closed mesh for its back,
     which is never lit. Cycles would light the back faces; flipping the normals does here."""
     two_sided = {src.name for src in job.sources if src.kind == "BACK"}
-    lights = [(lamp.name, lamp.position[None] if lamp.triangles is None
+    lit_by = [(lamp.name, lamp.position[None] if lamp.triangles is None
                else lamp.triangles.mean(axis=1)) for lamp in list(job.lamps) + list(job.emitters)
               if lamp.kind != "WORLD" and lamp.kind != "SUN"]
     names = []
@@ -971,7 +972,7 @@ def _lit_only_inside(job: Job, result: Result) -> str | None:
         if result.radiosity[rows].max() > 0 or job.emission[rows].max() > 0:
             continue
         lo, hi = job.positions[rows].min(axis=0), job.positions[rows].max(axis=0)
-        inside = [name for name, at in lights if name != src.name
+        inside = [name for name, at in lit_by if name != src.name
                   and np.any(np.all((at > lo) & (at < hi), axis=1))]
         if inside:
             names.append((src.name, inside[0]))

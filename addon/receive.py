@@ -20,10 +20,11 @@ from typing import Callable
 
 import numpy as np
 
+from illumap import lights
 from illumap.identities import combined_ids, object_ids
 from illumap.settings import Settings
 
-from . import lamps, sampling
+from . import sampling
 from .errors import ExitCode, IllumapCancelled, IllumapError, core_cancelled
 from .job import Job, Result
 
@@ -111,7 +112,7 @@ def mesh_occluders(job: Job, progress: Progress | None = None):
     built once per job; None without mesh triangles. No bpy."""
     if job.occluders is None and job.triangles is not None and len(job.triangles):
         from illumap.receivers import MeshOccluders
-        build = None if progress is None else (lambda f, _phase="": progress(0.0, lamps.PHASE))
+        build = None if progress is None else (lambda f, _phase="": progress(0.0, lights.PHASE))
         job.occluders = MeshOccluders(job.triangles, progress=build)
     return job.occluders
 
@@ -207,7 +208,7 @@ def _toward_lamp_centre(occ, lamp, points: np.ndarray, normals: np.ndarray, *,
     free, cast as the receivers' shadow rays are; ``with_cos``: and the cosine (M,) between
     each receiver's normal and the direction to that centre."""
     centre = np.full((len(points), 1, 2), 0.5)
-    targets, _ = lamps._lamp_samples(lamp, points, normals, 1, centre,
+    targets, _ = lights._lamp_samples(lamp, points, normals, 1, centre,
                                      4.0 * max(occ.extent, 1e-3))
     targets = targets.reshape(-1, 3)
     query = occ.segment_query(normals)
@@ -425,7 +426,7 @@ def hemisphere_hits(job: Job, progress: Progress | None = None):
         lit_backs |= job.splat_point >= 0
     # The rays belong to the direct light's phase (light() casts them first): its fraction
     # stays where it starts, so the phases keep their order.
-    report = None if progress is None else (lambda f, _p="": progress(0.0, lamps.PHASE))
+    report = None if progress is None else (lambda f, _p="": progress(0.0, lights.PHASE))
     clouds = {cloud.name for cloud in job.clouds}
     points = np.zeros(job.count, dtype=bool)
     # A surfel's rays follow from its object and its row there (both sides of a point alike),
@@ -442,7 +443,7 @@ def hemisphere_hits(job: Job, progress: Progress | None = None):
 #: a receiver averages hundreds of hits, so the lattice's own noise averages out.
 LATTICE_SHADOW_SAMPLES = 4
 #: Rays per lattice point that find how much of the sky it sees: the receivers' shadow
-#: samples, within [MIN_LATTICE_WORLD_SAMPLES, lamps.WORLD_SAMPLES] (the surfels' own count).
+#: samples, within [MIN_LATTICE_WORLD_SAMPLES, lights.WORLD_SAMPLES] (the surfels' own count).
 #: The sky is most of the light outdoors, so fewer would show.
 MIN_LATTICE_WORLD_SAMPLES = 16
 
@@ -528,7 +529,7 @@ def _exact_direct(job: Job, occ, sent: np.ndarray, front: np.ndarray, field_,
     contact or a shadow. Shadow rays are cast only where the surfels' direct light changes
     sharply (``sharpness``, blended in by it); elsewhere their average is as good. The sky
     takes ``shadow_samples`` rays per point (the receivers'; MIN_LATTICE_WORLD_SAMPLES to
-    ``lamps.WORLD_SAMPLES``), the lamps LATTICE_SHADOW_SAMPLES."""
+    ``lights.WORLD_SAMPLES``), the lamps LATTICE_SHADOW_SAMPLES."""
     from illumap import receivers as rc
     sky = job.world is not None and job.direct is not None
     lit = job.direct if sky else job.direct_lamps
@@ -549,15 +550,15 @@ def _exact_direct(job: Job, occ, sent: np.ndarray, front: np.ndarray, field_,
         ids = lattice_ids(job, owner)[sharp]   # not their place in the list
         albedo = rc.SurfelField(pos, nrm, job.albedo[front]).at(p_, n_, occ)
         query = occ.segment_query(n_)
-        shadows = (lamps.Shadows(query, samples=LATTICE_SHADOW_SAMPLES, seed=s.seed,
+        shadows = (lights.Shadows(query, samples=LATTICE_SHADOW_SAMPLES, seed=s.seed,
                                  extent=occ.extent, ids=ids)
                    if all_lamps and s.lamp_shadows else None)
-        exact = albedo * lamps.incident_radiance(all_lamps, p_, n_, shadows=shadows)
+        exact = albedo * lights.incident_radiance(all_lamps, p_, n_, shadows=shadows)
         if sky:
-            rays = min(max(int(shadow_samples), MIN_LATTICE_WORLD_SAMPLES), lamps.WORLD_SAMPLES)
-            sky_shadows = (lamps.Shadows(query, samples=rays, seed=s.seed, extent=occ.extent,
+            rays = min(max(int(shadow_samples), MIN_LATTICE_WORLD_SAMPLES), lights.WORLD_SAMPLES)
+            sky_shadows = (lights.Shadows(query, samples=rays, seed=s.seed, extent=occ.extent,
                                          ids=ids) if s.lamp_shadows else None)
-            exact += albedo * lamps.incident_radiance([job.world], p_, n_, shadows=sky_shadows)
+            exact += albedo * lights.incident_radiance([job.world], p_, n_, shadows=sky_shadows)
         values[sharp] += weight[sharp, None] * (exact - values[sharp])
     return rc.ExactPart(rest=rc.SurfelField(pos, nrm, (sent - lit)[front]),
                         values=values), int(sharp.size)
@@ -694,12 +695,12 @@ def _across_gaps(job: Job, occ, exact, gatherer, front: np.ndarray, points: np.n
     # other receivers are in the batch.
     hit_ids = ids[rows][cast // k].astype(np.int64) * k + cast % k
     albedo = rc.SurfelField(pos, nrm, job.albedo[front]).at(p_, n_)
-    shadows = lamps.Shadows(occ.segment_query(n_), samples=GAP_SHADOW_SAMPLES, seed=s.seed,
+    shadows = lights.Shadows(occ.segment_query(n_), samples=GAP_SHADOW_SAMPLES, seed=s.seed,
                             extent=occ.extent, ids=hit_ids)
     # The light bounced in the gap gathered afresh from each hit too: the surfels' own
     # (``exact.rest``) is as coarse there as the lattice.
     bounced = gatherer.gather(p_, n_, rays=GAP_BOUNCE_RAYS, ids=hit_ids, seed=s.seed + 1)
-    lit = albedo * (bounced.radiance + lamps.incident_radiance(all_lamps, p_, n_,
+    lit = albedo * (bounced.radiance + lights.incident_radiance(all_lamps, p_, n_,
                                                                shadows=shadows))
     tabled = gatherer.hit_values(tri[cast], np.ones(cast.size, dtype=bool), p_)
     correction = np.zeros((rows.size, 3))
@@ -825,9 +826,9 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
         nonlocal gap_receivers
         shadows = None
         if all_lamps and s.lamp_shadows:
-            shadows = lamps.Shadows(occ.segment_query(normals), samples=samples,
+            shadows = lights.Shadows(occ.segment_query(normals), samples=samples,
                                     seed=s.seed, extent=occ.extent, ids=ids)
-        direct = lamps.incident_radiance(all_lamps, points, normals, shadows=shadows)
+        direct = lights.incident_radiance(all_lamps, points, normals, shadows=shadows)
         if shared is not None and s.gather_cache > 0 and (shared >= 0).any():
             from illumap.irradiance_cache import cached_gather
             gathered = cached_gather(

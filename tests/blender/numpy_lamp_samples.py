@@ -4,7 +4,7 @@ it."""
 
 import numpy as np
 
-from addon.lamps import Lamp, _basis, _disc, mesh_lamp_triangles
+from illumap.lights import Lamp, _basis, _disc, mesh_lamp_triangles
 from illumap.refinement import LUMINANCE_WEIGHTS
 
 

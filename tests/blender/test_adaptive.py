@@ -23,6 +23,7 @@ import bpy
 import numpy as np
 import pytest
 
+from illumap import lights
 from illumap_bpy_testing import diffuse_material, link, make_plane, requires_core
 
 from addon import pipeline, receive
@@ -303,7 +304,7 @@ def test_the_target_sets_the_shadow_rays_per_surfel(monkeypatch):
     casts for the surfels' own target (five times the target when the light is evaluated at
     the meshes), at most the sky's cap; the settings' count when it is larger, or without a
     target; and the direct light at the surfels is cast with them."""
-    from addon import lamps, receive
+    from addon import receive
     count = pipeline.surfel_shadow_samples
     assert count(pipeline.Settings()) == pipeline.Settings().shadow_samples == 16
     assert count(pipeline.Settings(shadow_samples=40)) == 40
@@ -312,7 +313,7 @@ def test_the_target_sets_the_shadow_rays_per_surfel(monkeypatch):
     assert count(one) == receive.target_shadow_samples(pipeline.surfel_target(one)) == 32
     assert count(pipeline.Settings(target_error=0.01, shadow_samples=128)) == 128
     # the surfels are the result without Transfer: the target's own count, capped
-    assert count(pipeline.Settings(target_error=0.01, transfer=False)) == lamps.WORLD_SAMPLES
+    assert count(pipeline.Settings(target_error=0.01, transfer=False)) == lights.WORLD_SAMPLES
     cast = []
     shadows = pipeline._shadows
     monkeypatch.setattr(pipeline, "_shadows",

@@ -21,7 +21,7 @@ from illumap_bpy_testing import diffuse_material, emission_material, link, requi
 
 from addon import pipeline
 
-pytestmark = requires_core
+pytestmark = [requires_core, pytest.mark.slow]   # Cycles bakes as the reference
 RMS_BOUND = 0.05
 WHITE, RED, GREEN = (0.725, 0.71, 0.68), (0.63, 0.065, 0.05), (0.14, 0.45, 0.091)
 RADIANCE = (10.0, 10.0, 10.0)

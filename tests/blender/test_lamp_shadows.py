@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 import illumap
+from illumap import lights
 from illumap_bpy_testing import add_lamp as add_lamp_at
 from illumap_bpy_testing import diffuse_material, disc_segment_query, make_plane
 
@@ -61,7 +62,7 @@ def floor_and_plate(density=100.0, **settings):
     src = next(s for s in job.sources if s.name == "Floor")
     rows = slice(src.start, src.stop)
     lamp_list = lamps.read_lamps(depsgraph, [])
-    unshadowed = lamps.incident_radiance(lamp_list, job.positions[rows], job.normals[rows])[:, 0]
+    unshadowed = lights.incident_radiance(lamp_list, job.positions[rows], job.normals[rows])[:, 0]
     return job, job.positions[rows], job.direct[rows, 0] / ALBEDO, unshadowed
 
 
@@ -113,7 +114,7 @@ def test_area_lamp_penumbra_is_monotonic(segment_query):
         density=800.0, lamps=True, shadow_samples=64)))
     src = next(s for s in job.sources if s.name == "Floor")
     rows = slice(src.start, src.stop)
-    free = lamps.incident_radiance(lamps.read_lamps(depsgraph, []), job.positions[rows],
+    free = lights.incident_radiance(lamps.read_lamps(depsgraph, []), job.positions[rows],
                                    job.normals[rows])[:, 0]
     frac = job.direct[rows, 0] / ALBEDO / free
     x = job.positions[rows, 0]
@@ -140,7 +141,7 @@ def test_shadows_off_and_unoccluded_give_the_old_values(segment_query):
     depsgraph = bpy.context.evaluated_depsgraph_get()
     job_on = pipeline.light(pipeline.prepare(depsgraph, [floor],
                                              pipeline.Settings(density=100.0, lamps=True)))
-    plain = lamps.incident_radiance(lamps.read_lamps(depsgraph, []), job_on.positions, job_on.normals)
+    plain = lights.incident_radiance(lamps.read_lamps(depsgraph, []), job_on.positions, job_on.normals)
     assert job_on.stats["shadow_rays"] > 16 * len(job_on.positions) * 0.9
     assert np.array_equal(job_on.direct, ALBEDO * plain)
 
@@ -186,7 +187,7 @@ def test_segment_query_failure_is_reported(monkeypatch):
 
 
 def test_lamp_visibility_unit():
-    """lamps.lamp_visibility with a hand-made query: all free → exactly 1; the query sees one
+    """lights.lamp_visibility with a hand-made query: all free → exactly 1; the query sees one
     ray per surfel for a point lamp of radius 0 and `samples` for a sized one; its skip is the
     surfel's own index."""
     seen = []
@@ -197,10 +198,10 @@ def test_lamp_visibility_unit():
 
     p = np.array([[0.0, 0, 0], [1, 0, 0]])
     n = np.array([[0.0, 0, 1], [0, 0, 1]])
-    sh = lamps.Shadows(query, samples=8)
-    point = lamps.Lamp("P", "POINT", np.ones(3), np.array([0, 0, 2.0]), np.array([0, 0, -1.0]))
-    assert np.array_equal(lamps.lamp_visibility(point, p, n, np.array([0, 1]), sh), [1.0, 1.0])
+    sh = lights.Shadows(query, samples=8)
+    point = lights.Lamp("P", "POINT", np.ones(3), np.array([0, 0, 2.0]), np.array([0, 0, -1.0]))
+    assert np.array_equal(lights.lamp_visibility(point, p, n, np.array([0, 1]), sh), [1.0, 1.0])
     point.radius = 0.3
-    lamps.lamp_visibility(point, p, n, np.array([1]), sh)
+    lights.lamp_visibility(point, p, n, np.array([1]), sh)
     assert seen[0][0] == 2 and seen[1][0] == 8 and np.all(seen[1][1] == 1)
     assert sh.rays == 10

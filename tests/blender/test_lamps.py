@@ -9,6 +9,7 @@ import bpy
 import numpy as np
 import pytest
 
+from illumap import lights
 from illumap_bpy_testing import add_lamp, diffuse_material, make_plane
 
 from addon import lamps, pipeline
@@ -66,7 +67,7 @@ def test_area_lamp_form_factor_on_axis(shape, size, form_factor):
     add_lamp("AREA", location=(0, 0, 1), energy=10.0, shape=shape, size=size)
     area = size * size if shape == "SQUARE" else math.pi * size * size / 4
     lamp_list = lamps.read_lamps(bpy.context.evaluated_depsgraph_get(), [])
-    h = lamps.incident_radiance(lamp_list, np.zeros((1, 3)), np.array([[0, 0, 1.0]]))
+    h = lights.incident_radiance(lamp_list, np.zeros((1, 3)), np.array([[0, 0, 1.0]]))
     assert abs(h[0, 0] - 10 / (math.pi * area) * form_factor) < 2e-4 * h[0, 0]
 
 
@@ -82,7 +83,7 @@ def test_area_lamp_clipped_by_receiver_plane_matches_quadrature():
     n = rng.normal(size=(20, 3))
     n[:, 0] = -np.abs(n[:, 0]) - 0.2  # roughly facing the lamp, tilted every way
     n /= np.linalg.norm(n, axis=1, keepdims=True)
-    h = lamps.incident_radiance(lamp_list, p, n)[:, 0]
+    h = lights.incident_radiance(lamp_list, p, n)[:, 0]
     # Midpoint quadrature over the lamp: dH = L cosθ_r cosθ_l dA / (π r²).
     m = 400
     g = (np.arange(m) + 0.5) / m - 0.5
@@ -138,9 +139,10 @@ def _bake_incident(obj, samples=512):
     return out.reshape(-1, 4)[:, :3]
 
 
+@pytest.mark.slow
 def test_all_lamp_types_against_cycles_bake():
     """Cycles bakes incident radiance at the 4 vertices of a tilted quad lit by one lamp of
-    each type; lamps.incident_radiance must agree (area light sampling noise: ~1%)."""
+    each type; lights.incident_radiance must agree (area light sampling noise: ~1%)."""
     obj = make_plane("Recv", size=1.0, material=diffuse_material("D", (0.8,) * 3))
     obj.rotation_euler = (math.radians(20), math.radians(-10), 0)
     add_lamp("POINT", location=(0.4, 0.3, 1.5), energy=60.0, shadow_soft_size=0.0, color=(1, 0.5, 0.2))
@@ -156,7 +158,7 @@ def test_all_lamp_types_against_cycles_bake():
     nrm = np.array([(obj.matrix_world.to_3x3() @ v.normal).normalized() for v in me.vertices])
     lamp_list = lamps.read_lamps(bpy.context.evaluated_depsgraph_get(), [])
     assert sorted(lp.kind for lp in lamp_list) == ["AREA", "POINT", "SPOT", "SUN"]
-    ours = lamps.incident_radiance(lamp_list, co, nrm)
+    ours = lights.incident_radiance(lamp_list, co, nrm)
     assert np.allclose(ours, baked, rtol=0.02, atol=1e-3), (ours, baked)
 
 
@@ -165,18 +167,17 @@ def test_a_sized_spot_softens_its_cone_edge():
     it (as in Cycles): just outside the cone some of the disc still shines, and the factor
     tends to the point lamp's as the radius shrinks."""
     import numpy as np
-    from addon import lamps
-    spot = lamps.Lamp("S", "SPOT", np.ones(3), np.array([0.0, 0.0, 5.0]), np.array([0.0, 0.0, -1.0]),
+    spot = lights.Lamp("S", "SPOT", np.ones(3), np.array([0.0, 0.0, 5.0]), np.array([0.0, 0.0, -1.0]),
                       radius=0.3, spot_size=np.radians(60.0), spot_blend=0.1)
     edge = 5.0 * np.tan(np.radians(30.0))
     p = np.array([[edge * 1.02, 0.0, 0.0], [0.0, 0.0, 0.0]])       # just outside; on the axis
     d = spot.position - p
-    soft = lamps._spot_attenuation(spot, p, d, np.einsum("ij,ij->i", d, d))
+    soft = lights._spot_attenuation(spot, p, d, np.einsum("ij,ij->i", d, d))
     assert 0.0 < soft[0] < 0.5 and soft[1] == 1.0
-    sharp = lamps._spot_attenuation(lamps.Lamp(**{**spot.__dict__, "radius": 0.0}), p, d,
+    sharp = lights._spot_attenuation(lights.Lamp(**{**spot.__dict__, "radius": 0.0}), p, d,
                                     np.einsum("ij,ij->i", d, d))
     assert sharp[0] == 0.0
-    tiny = lamps._spot_attenuation(lamps.Lamp(**{**spot.__dict__, "radius": 1e-6}), p, d,
+    tiny = lights._spot_attenuation(lights.Lamp(**{**spot.__dict__, "radius": 1e-6}), p, d,
                                    np.einsum("ij,ij->i", d, d))
     np.testing.assert_allclose(tiny, sharp, atol=1e-9)
 
@@ -185,27 +186,26 @@ def test_a_sized_spot_samples_only_near_its_cone_edge():
     """Points whose whole view of the spot's disc lies inside the full cone, or outside it,
     get exactly 1 or 0 without sampling, the same numbers as sampling every point."""
     import numpy as np
-    from addon import lamps
     rng = np.random.default_rng(3)
     for blend in (0.0, 0.3):
-        spot = lamps.Lamp("S", "SPOT", np.ones(3), np.array([0.2, -0.1, 3.0]),
+        spot = lights.Lamp("S", "SPOT", np.ones(3), np.array([0.2, -0.1, 3.0]),
                           np.array([0.0, 0.0, -1.0]), radius=0.25,
                           spot_size=np.radians(70.0), spot_blend=blend)
         p = np.column_stack([rng.uniform(-4, 4, 4000), rng.uniform(-4, 4, 4000), np.zeros(4000)])
         d = spot.position - p
         d2 = np.einsum("ij,ij->i", d, d)
-        got = lamps._spot_attenuation(spot, p, d, d2)
+        got = lights._spot_attenuation(spot, p, d, d2)
         edge = (got > 0) & (got < 1)
         assert edge.any() and (got == 1).any() and (got == 0).any()
-        everywhere = np.array([lamps._spot_attenuation(spot, p[i:i + 1], d[i:i + 1], d2[i:i + 1])[0]
+        everywhere = np.array([lights._spot_attenuation(spot, p[i:i + 1], d[i:i + 1], d2[i:i + 1])[0]
                                if e else got[i] for i, e in enumerate(edge)])
         np.testing.assert_array_equal(got, everywhere)
         # The points given 0 or 1 outright: sampling them gives the same.
         k = np.flatnonzero(~edge)[::97]
-        disc = spot.radius * lamps._disc(np.column_stack([(np.arange(32) + 0.5) / 32,
+        disc = spot.radius * lights._disc(np.column_stack([(np.arange(32) + 0.5) / 32,
                                                           np.mod(np.arange(32) * 0.6180339887498949, 1)]))
         for i in k:
-            u, v = lamps._basis(d[i:i + 1] / np.sqrt(d2[i]))
+            u, v = lights._basis(d[i:i + 1] / np.sqrt(d2[i]))
             q = spot.position + disc[:, :1] * u + disc[:, 1:] * v
             t = -((q - p[i]) @ spot.direction) / np.linalg.norm(q - p[i], axis=1)
             t0 = np.cos(spot.spot_size / 2)
@@ -216,8 +216,7 @@ def test_a_sized_spot_samples_only_near_its_cone_edge():
 def test_shadow_samples_follow_each_points_id():
     """A subset of points given their ids casts the same shadow samples as among all."""
     import numpy as np
-    from addon import lamps
-    area = lamps.Lamp("A", "AREA", np.ones(3), np.array([0.0, 0.0, 2.0]), np.array([0.0, 0.0, -1.0]),
+    area = lights.Lamp("A", "AREA", np.ones(3), np.array([0.0, 0.0, 2.0]), np.array([0.0, 0.0, -1.0]),
                       polygon=np.array([[-.5, -.5, 2], [.5, -.5, 2], [.5, .5, 2], [-.5, .5, 2]], float),
                       area=1.0, shape="SQUARE", axes=np.array([[0.5, 0, 0], [0, 0.5, 0]]))
 
@@ -229,13 +228,13 @@ def test_shadow_samples_follow_each_points_id():
 
     p = np.column_stack([np.linspace(-1, 0, 50), np.zeros(50), np.zeros(50)])
     n = np.tile([0.0, 0.0, 1.0], (50, 1))
-    everyone = lamps.incident_radiance([area], p, n, shadows=lamps.Shadows(half_blocked, samples=8))
+    everyone = lights.incident_radiance([area], p, n, shadows=lights.Shadows(half_blocked, samples=8))
     some = np.arange(5, 50, 7)
-    alone = lamps.incident_radiance([area], p[some], n[some],
-                                    shadows=lamps.Shadows(half_blocked, samples=8, ids=some))
+    alone = lights.incident_radiance([area], p[some], n[some],
+                                    shadows=lights.Shadows(half_blocked, samples=8, ids=some))
     np.testing.assert_array_equal(alone, everyone[some])
-    shuffled = lamps.incident_radiance([area], p[some], n[some],
-                                       shadows=lamps.Shadows(half_blocked, samples=8))
+    shuffled = lights.incident_radiance([area], p[some], n[some],
+                                       shadows=lights.Shadows(half_blocked, samples=8))
     assert not np.array_equal(shuffled, everyone[some])
 
 
@@ -244,8 +243,7 @@ def test_a_probe_settles_the_points_that_see_all_or_none_of_a_lamp():
     agree keep that answer (exactly 1 or 0); the penumbra's points cast the full count and get
     the same value as without the probe."""
     import numpy as np
-    from addon import lamps
-    area = lamps.Lamp("A", "AREA", np.ones(3), np.array([1.0, 0.0, 2.0]), np.array([0.0, 0.0, -1.0]),
+    area = lights.Lamp("A", "AREA", np.ones(3), np.array([1.0, 0.0, 2.0]), np.array([0.0, 0.0, -1.0]),
                       polygon=np.array([[.5, -.5, 2], [1.5, -.5, 2], [1.5, .5, 2], [.5, .5, 2]], float),
                       area=1.0, shape="SQUARE", axes=np.array([[0.5, 0, 0], [0, 0.5, 0]]))
 
@@ -258,20 +256,20 @@ def test_a_probe_settles_the_points_that_see_all_or_none_of_a_lamp():
     p = np.column_stack([np.linspace(-3, 3, 61), np.zeros(61), np.zeros(61)])
     n = np.tile([0.0, 0.0, 1.0], (61, 1))
     k = 128
-    probed = lamps.Shadows(wall, samples=k)
-    got = lamps.lamp_visibility(area, p, n, np.arange(61), probed)
-    lamps_probe, lamps.PROBE_SAMPLES = lamps.PROBE_SAMPLES, 10 ** 9
+    probed = lights.Shadows(wall, samples=k)
+    got = lights.lamp_visibility(area, p, n, np.arange(61), probed)
+    lamps_probe, lights.PROBE_SAMPLES = lights.PROBE_SAMPLES, 10 ** 9
     try:
-        full = lamps.Shadows(wall, samples=k)
-        want = lamps.lamp_visibility(area, p, n, np.arange(61), full)
+        full = lights.Shadows(wall, samples=k)
+        want = lights.lamp_visibility(area, p, n, np.arange(61), full)
     finally:
-        lamps.PROBE_SAMPLES = lamps_probe
+        lights.PROBE_SAMPLES = lamps_probe
     penumbra = (want > 0) & (want < 1)
     assert penumbra.sum() >= 5 and (want == 0).any() and (want == 1).any()
     np.testing.assert_array_equal(got[penumbra], want[penumbra])
     np.testing.assert_array_equal(got[~penumbra], want[~penumbra])
     assert full.rays == 61 * k
-    assert probed.rays == 61 * lamps.PROBE_SAMPLES + penumbra.sum() * k
+    assert probed.rays == 61 * lights.PROBE_SAMPLES + penumbra.sum() * k
 
 
 def test_the_sky_through_a_window_is_never_probed_away():
@@ -282,8 +280,7 @@ def test_the_sky_through_a_window_is_never_probed_away():
     holds (the form factor of a parallel rectangle), where the probe had left two thirds of
     it."""
     import numpy as np
-    from addon import lamps
-    sky = lamps.Lamp("World", "WORLD", np.ones(3), np.zeros(3), np.array([0.0, 0.0, -1.0]))
+    sky = lights.Lamp("World", "WORLD", np.ones(3), np.zeros(3), np.array([0.0, 0.0, -1.0]))
     half, height = 0.15, 1.0                 # the opening: |x|, |y| < half in the plane z = 1
 
     def ceiling(origins, targets, skip, progress=None):
@@ -303,13 +300,13 @@ def test_the_sky_through_a_window_is_never_probed_away():
     px, py = (a.ravel() for a in np.meshgrid(g, g))
     p = np.column_stack([px, py, np.zeros_like(px)])
     n = np.tile([0.0, 0.0, 1.0], (len(p), 1))
-    shadows = lamps.Shadows(ceiling, samples=128, extent=2.0)
-    assert lamps.rays_per_surfel(sky, shadows) >= 2 * lamps.PROBE_SAMPLES   # probing range
-    got = lamps.lamp_visibility(sky, p, n, np.arange(len(p)), shadows)
+    shadows = lights.Shadows(ceiling, samples=128, extent=2.0)
+    assert lights.rays_per_surfel(sky, shadows) >= 2 * lights.PROBE_SAMPLES   # probing range
+    got = lights.lamp_visibility(sky, p, n, np.arange(len(p)), shadows)
     want = form_factor(px, py)
     assert 0.005 < want.min() and want.max() < 0.1, (want.min(), want.max())
     assert abs(got.mean() / want.mean() - 1.0) < 0.1, (got.mean(), want.mean())
-    assert shadows.rays == len(p) * lamps.rays_per_surfel(sky, shadows)     # no probe
+    assert shadows.rays == len(p) * lights.rays_per_surfel(sky, shadows)     # no probe
 
 
 def _sample_lamps():
@@ -317,31 +314,31 @@ def _sample_lamps():
     tri = rng.uniform(-1, 1, (7, 3, 3)) + [0.0, 0.0, 3.0]
     down = np.array([0.0, 0.0, -1.0])
     axes = np.array([[0.6, 0.0, 0.0], [0.0, 0.3, 0.1]])
-    yield lamps.Lamp("P", "POINT", np.ones(3), np.array([0.5, -0.2, 2.0]), down, radius=0.25)
-    yield lamps.Lamp("Spot", "SPOT", np.ones(3), np.array([0.1, 0.2, 2.5]), down, radius=0.1)
-    yield lamps.Lamp("Sun", "SUN", np.ones(3), np.zeros(3), np.array([0.3, 0.2, -0.93]),
+    yield lights.Lamp("P", "POINT", np.ones(3), np.array([0.5, -0.2, 2.0]), down, radius=0.25)
+    yield lights.Lamp("Spot", "SPOT", np.ones(3), np.array([0.1, 0.2, 2.5]), down, radius=0.1)
+    yield lights.Lamp("Sun", "SUN", np.ones(3), np.zeros(3), np.array([0.3, 0.2, -0.93]),
                      angle=0.3)
-    yield lamps.Lamp("World", "WORLD", np.ones(3), np.zeros(3), down)
+    yield lights.Lamp("World", "WORLD", np.ones(3), np.zeros(3), down)
     for shape in ("RECTANGLE", "DISK"):
-        yield lamps.Lamp(shape, "AREA", np.ones(3), np.array([0.0, 0.0, 2.0]), down,
+        yield lights.Lamp(shape, "AREA", np.ones(3), np.array([0.0, 0.0, 2.0]), down,
                          shape=shape, axes=axes)
     for both in (False, True):
-        yield lamps.Lamp(f"Mesh{both}", "MESH", np.ones(3), np.zeros(3), down, triangles=tri,
+        yield lights.Lamp(f"Mesh{both}", "MESH", np.ones(3), np.zeros(3), down, triangles=tri,
                          radiance=rng.uniform(0.1, 2.0, (7, 3)), two_sided=both)
 
 
 @pytest.mark.parametrize("lamp", list(_sample_lamps()), ids=lambda lamp: lamp.name)
 def test_the_native_lamp_samples_are_the_numpy_formulation(lamp):
-    """lamps._lamp_samples runs natively; the whole-array numpy formulation it replaced
+    """lights._lamp_samples runs natively; the whole-array numpy formulation it replaced
     (numpy_lamp_samples) gives the same targets and weights, for every lamp kind."""
     from numpy_lamp_samples import lamp_samples
     rng = np.random.default_rng(11)
     p = rng.uniform(-2, 2, (500, 3)) * [1, 1, 0.3]
     n = rng.normal(size=(500, 3))
     n /= np.linalg.norm(n, axis=1, keepdims=True)
-    shifts = lamps.row_shifts(3, 77, np.arange(500))
+    shifts = lights.row_shifts(3, 77, np.arange(500))
     for k in (1, 7, 32):
-        got = lamps._lamp_samples(lamp, p, n, k, shifts, 40.0)
+        got = lights._lamp_samples(lamp, p, n, k, shifts, 40.0)
         want = lamp_samples(lamp, p, n, k, shifts, 40.0)
         np.testing.assert_allclose(got[0], want[0], rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(got[1], want[1], rtol=1e-9, atol=1e-300)

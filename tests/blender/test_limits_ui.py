@@ -162,8 +162,6 @@ def test_the_batch_help_states_the_ranges(capsys):
     assert "inf" not in text.replace("information", "")
     # Defaults are stated too.
     assert "(default: medium)" in text and "(default: 16)" in text and "(default: 256)" in text
-    assert batch.MAX_FRAMES == limit("frames").high
-    assert batch.MAX_RESOLUTION == limit("resolution").high
 
 
 def test_the_presets_lie_inside_the_fields():

@@ -46,7 +46,7 @@ The same sphere on a floor of 0.25 m cells under a sun (black world): RMS 0.0061
 gathered afresh (``receive._across_gaps``; 0.0039 and 0.021 with the sun's light alone).
 
 A closed room lit through a window by the sky: mean ratio 0.975 while the lattice points'
-sky light was probed (``lamps.PROBE_SAMPLES``), 1.000 since the world is never probed. A box
+sky light was probed (``lights.PROBE_SAMPLES``), 1.000 since the world is never probed. A box
 on a floor's grid lines under a sun shining along them: its shadow's edges start at floor
 vertices, read 1.41 and 0.13 of Cycles' value while a vertex's corners shared one
 evaluation across the edge, 0.95 and 1.07 since.
@@ -61,7 +61,7 @@ from illumap_bpy_testing import add_lamp, link, requires_core, sky_world
 from addon import pipeline
 from bench.reference.scenes import uv_sphere
 
-pytestmark = requires_core
+pytestmark = [requires_core, pytest.mark.slow]   # Cycles bakes as the reference
 
 #: Error bounds per case. ``rms``: relative RMS over all vertices of the case; the others are
 #: named in each test: relative RMS on a subset, or a dark level as a fraction of the lit level.
@@ -437,7 +437,7 @@ def test_sphere_resting_on_a_floor_under_the_sky():
 def test_room_lit_through_a_window_by_the_sky():
     """A closed 2 m room with a 0.8 m square window in one wall, under a sky, no lamps: all
     of its light comes through the window, most of it after several bounces off the walls.
-    The lattice points' sky light had been probed (``lamps.PROBE_SAMPLES``) and came out 0
+    The lattice points' sky light had been probed (``lights.PROBE_SAMPLES``) and came out 0
     wherever no probe ray left through the window, so every bounce of it was short: the room
     read 2.5% dark on average (mean ratio 0.975, RMS 0.071 against 256 samples; 1.000 and
     0.067 since; Cycles' own noise is most of that RMS)."""

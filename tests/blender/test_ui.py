@@ -26,6 +26,7 @@ import pytest
 
 import bpy
 
+from illumap import lights
 from illumap_bpy_testing import (REPO_ROOT, diffuse_material, emission_material, make_plane,
                                  requires_core, select_only, snapshot)
 
@@ -730,7 +731,7 @@ def test_real_pipeline_modal_cancel_during_lamp_shadows(registered_addon, monkey
     """Shadow rays run on the worker (prepare casts none), the status line names the phase,
     and Esc stops them mid-phase: the worker returns before the remaining ray batches, the
     report is clear and the file is untouched."""
-    from addon import lamps, operators, pipeline
+    from addon import operators, pipeline
     _lamp_scene()
     # (16 + 1) m² × 6400 = 108,800 lit surfels × 64 rays: seven batches of 2^20 rays.
     settings = _lamp_settings(density=6400.0, shadow_samples=64)
@@ -758,7 +759,7 @@ def test_real_pipeline_modal_cancel_during_lamp_shadows(registered_addon, monkey
     deadline = time.monotonic() + 120
     while calls["started"] == 0 and task.state == "RUNNING" and time.monotonic() < deadline:
         time.sleep(0.005)
-    assert task.state == "RUNNING" and task.phase == lamps.PHASE, (task.state, task.error)
+    assert task.state == "RUNNING" and task.phase == lights.PHASE, (task.state, task.error)
     assert op.modal(bpy.context, _event("TIMER")) == {"RUNNING_MODAL"}
     assert task.status_text().startswith("Illumap: lamp shadows ")
     assert op.modal(bpy.context, _event("ESC", "PRESS")) == {"RUNNING_MODAL"}
@@ -776,7 +777,7 @@ def test_real_pipeline_modal_cancel_during_lamp_shadows(registered_addon, monkey
 def test_real_pipeline_lamp_shadow_phase_reports_progress_and_timings(registered_addon):
     """The worker reports the shadow phase from 0 to 1 before the solve, and its time reaches
     the result and the statistics; the synchronous operator path records the same phases."""
-    from addon import lamps, operators, pipeline
+    from addon import operators, pipeline
     _lamp_scene(size=2.0)
     settings = _lamp_settings(density=400.0, shadow_samples=16)
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), bpy.context.selected_objects,
@@ -790,9 +791,9 @@ def test_real_pipeline_lamp_shadow_phase_reports_progress_and_timings(registered
         return report(fraction, phase)
     task.progress = recording
     assert task.start().wait(120) == "DONE", task.error
-    shadow = [f for f, ph in seen if ph == lamps.PHASE]
-    first_other = next(i for i, (_, ph) in enumerate(seen) if ph != lamps.PHASE)
-    assert seen[0][1] == lamps.PHASE and all(ph != lamps.PHASE for _, ph in seen[first_other:])
+    shadow = [f for f, ph in seen if ph == lights.PHASE]
+    first_other = next(i for i, (_, ph) in enumerate(seen) if ph != lights.PHASE)
+    assert seen[0][1] == lights.PHASE and all(ph != lights.PHASE for _, ph in seen[first_other:])
     assert shadow[0] == 0.0 and shadow[-1] == 1.0 and np.all(np.diff(shadow) >= 0)
     assert len(shadow) >= 3
     timings = task.result.timings

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import illumap
-from illumap import _core, limits, sampling, surfels as surfels_module
+from illumap import _core, limits, sampling
 from illumap.limits import limit
 from illumap.operator import MAX_ORDER, validate_keywords
 
@@ -169,13 +169,6 @@ def test_the_native_order_message():
         _core.Operator(s.positions, s.normals, s.areas, order=MAX_ORDER + 1)
     with pytest.raises(ValueError, match=r"order must be in 0\.\.10"):
         _core._kernel_derivatives(np.array([1.0, 0, 0]), MAX_ORDER + 1)
-
-
-# --- the constants that other modules name -------------------------------------------------
-
-def test_module_constants_are_the_table():
-    assert surfels_module.MAX_COORDINATE == limit("coordinate").high == -limit("coordinate").low
-    assert surfels_module.AREA_RANGE == (limit("area").low, limit("area").high)
 
 
 # --- the UI's bounds ----------------------------------------------------------------------
