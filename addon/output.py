@@ -24,7 +24,6 @@ import os
 import numpy as np
 
 from .kinds import RESULT_TYPES
-from .neighbours import knn
 
 SURFEL_OBJECT = "Illumap Surfels"
 ATTRIBUTE = "illumination"
@@ -828,6 +827,7 @@ def export_lightmap(path: str, uv: np.ndarray, values: np.ndarray, size: int = 2
     on the surface can blend along their borders (a known limit of UV-space interpolation).
     Row 0 of the file is v = 1 (images are stored top-down).
     """
+    from illumap.neighbours import knn   # the native search: not in the reduced UI
     uv = np.asarray(uv, dtype=np.float64)
     pts = np.column_stack([uv, np.zeros(len(uv))])
     centres = (np.arange(size) + 0.5) / size

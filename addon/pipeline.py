@@ -526,7 +526,7 @@ def _thin_points(part: tuple, count: int, order: np.ndarray | None) -> tuple[tup
     n = len(positions)
     if count >= n:
         return part, np.arange(n, dtype=np.int64)
-    from illumap import _core
+    from illumap.neighbours import knn
     cell = np.sqrt(areas.sum() / count)
     for _ in range(3):   # a surface crosses more cells than its area / cell²: correct the size
         keys = np.floor((positions[order] - positions.min(axis=0)) / cell).astype(np.int64)
@@ -535,8 +535,8 @@ def _thin_points(part: tuple, count: int, order: np.ndarray | None) -> tuple[tup
         if abs(len(keep) - count) <= 0.1 * count:
             break
         cell *= np.sqrt(len(keep) / count)
-    idx, _ = _core.knn(np.ascontiguousarray(positions[keep]), positions, 1)
-    owner = np.asarray(idx)[:, 0].astype(np.int64)
+    idx, _ = knn(positions[keep], positions, 1)
+    owner = idx[:, 0]
     area = np.bincount(owner, weights=areas, minlength=len(keep))
     weighted = [np.stack([np.bincount(owner, weights=areas * v[:, c], minlength=len(keep))
                           for c in range(3)], axis=1) / np.maximum(area, 1e-300)[:, None]
@@ -787,7 +787,7 @@ def next_pass(job: Job, result: "Result") -> Job | None:
     if scene is None:
         return None
     from illumap import refinement
-    from .neighbours import knn
+    from illumap.neighbours import knn
     t0 = time.perf_counter()
     s = job.settings
     # Front faces only: an open surface's back surfels sit on its front ones.

@@ -22,10 +22,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from illumap.neighbours import knn
 
 from . import materials
 from .errors import IllumapError
-from .neighbours import knn
 
 K_NEIGHBOURS = 8
 #: A point whose estimated spacing exceeds the cloud's median by this factor is stray

@@ -579,7 +579,7 @@ def _beside_contacts(points: np.ndarray, normals: np.ndarray, pos: np.ndarray,
     """Rows of ``points`` (L, 3, facing unit ``normals``) with a surfel (``pos``, ``nrm``,
     ``areas``: m, unit, m²) of another surface facing them within CONTACT_REACH of its
     radii (see there)."""
-    from .neighbours import knn
+    from illumap.neighbours import knn
     if not len(points) or not len(pos):
         return np.zeros(0, dtype=np.int64)
     near, dist = knn(pos, points, 8)
@@ -644,7 +644,7 @@ def _gap_candidates(points: np.ndarray, normals: np.ndarray, pos: np.ndarray,
                     nrm: np.ndarray, reach: float) -> np.ndarray:
     """Rows of receivers (``points``, unit ``normals``) with a surfel (``pos``, ``nrm``)
     facing them within ``reach`` (m) in front of them: the ones that may face a gap."""
-    from .neighbours import knn
+    from illumap.neighbours import knn
     if not len(points) or not len(pos):
         return np.zeros(0, dtype=np.int64)
     near, dist = knn(pos, points, 8)

@@ -27,7 +27,7 @@ from illumap import lights
 from illumap_bpy_testing import diffuse_material, link, make_plane, requires_core
 
 from addon import pipeline, receive
-from addon.neighbours import knn
+from illumap.neighbours import knn
 
 pytestmark = requires_core
 SPOT = (0.0, -0.2, 1.5)

@@ -16,6 +16,7 @@ Cycles' own noise at 256 samples is part of these figures. Bound asserted: RMS_B
 
 import bpy
 import numpy as np
+import pytest
 
 from illumap_bpy_testing import diffuse_material, emission_material, link, requires_core
 
