@@ -10,7 +10,7 @@ are available (CAD Sketcher does the same for its solver); ``core_status`` holds
 import bpy
 from bpy.app.handlers import persistent
 
-from . import operators, panel, preferences, preview, properties
+from . import operators, panel, preferences, preview, properties, tool_operators
 from .core_status import check_core, core_error
 
 _registered = []
@@ -24,7 +24,7 @@ def _on_load_post(*_args):
 def register():
     check_core()
     classes = list(properties.classes) + list(preferences.classes) + \
-        list(operators.basic_classes) + list(panel.classes)
+        list(tool_operators.classes) + list(panel.classes)
     if core_error() is None:
         classes += list(operators.core_classes)
     for cls in classes:

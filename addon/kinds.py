@@ -21,3 +21,5 @@ def is_instancer(obj) -> bool:
 #: (Transfer, the surfel object) and the preview modifiers.
 RESULT_TYPES = frozenset({"MESH", "POINTCLOUD"})
 
+#: The colour attribute that holds a run's light on the user's meshes and point clouds.
+ATTRIBUTE = "illumination"

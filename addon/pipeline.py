@@ -993,7 +993,7 @@ def write(context, job: Job, result: Result):
     temporary files and the datablocks are staged beside the old ones; then everything is
     swapped in. Any failure raises IllumapError (OutputError for an export) and leaves the
     file's data and the export paths as they were."""
-    from . import output
+    from . import exports, output
 
     t0 = time.perf_counter()
     s = job.settings
@@ -1067,18 +1067,18 @@ def write(context, job: Job, result: Result):
                                                  [src.stop - src.start for src in job.sources]),
                           object_names=np.array([src.name for src in job.sources]))
             tx.stage_file(output.npz_path(s.export_npz),
-                          lambda tmp: output.export_npz(tmp, **arrays))
+                          lambda tmp: exports.export_npz(tmp, **arrays))
         if s.export_exr:
-            tx.stage_file(s.export_exr, lambda tmp: output.export_exr(tmp, result.radiosity))
+            tx.stage_file(s.export_exr, lambda tmp: exports.export_exr(tmp, result.radiosity))
         if s.export_lightmaps:
-            pattern = output.lightmap_pattern(s.export_lightmaps)
+            pattern = exports.lightmap_pattern(s.export_lightmaps)
             for src in job.sources:
                 sl = slice(src.start, src.stop)
                 if src.kind != "MESH" or not np.isfinite(job.uv[sl]).all():
                     warnings.append(f"Object '{src.name}' has no UV map: no lightmap written")
                 else:
                     tx.stage_file(pattern.replace("{object}", bpy_safe_name(src.name)),
-                                  lambda tmp, sl=sl: output.export_lightmap(
+                                  lambda tmp, sl=sl: exports.export_lightmap(
                                       tmp, job.uv[sl], result.radiosity[sl], s.lightmap_size))
         # 3. the datablocks, staged beside the old ones
         tx.stage_surfels(shown, job.normals, job.areas, result.radiosity, job.albedo,

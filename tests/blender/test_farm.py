@@ -14,8 +14,9 @@ import pytest
 from illumap_bpy_testing import (diffuse_material, emission_material, make_plane,
                                  requires_core, top_camera)
 
-from addon import batch, output, pipeline, threads
+from addon import batch, exports, pipeline, threads
 from addon.errors import ExitCode
+from illumap import lightmaps
 
 pytestmark = requires_core
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -252,10 +253,10 @@ def test_cli_every_export_works_without_openimageio(tmp_path):
     assert sorted(files_under(out)) == ["Floor.exr", "s.exr", "s.npz"]   # Emitter: no UV map
     assert "Object 'Emitter' has no UV map: no lightmap written" in proc.stdout
     data = np.load(out / "s.npz")
-    exr = output.read_exr(str(out / "s.exr"))
+    exr = exports.read_exr(str(out / "s.exr"))
     n = len(data["illumination"])
     np.testing.assert_array_equal(exr.reshape(-1, 4)[:n, :3], data["illumination"].astype(np.float32))
-    lightmap = output.read_exr(str(out / "Floor.exr"))
+    lightmap = exports.read_exr(str(out / "Floor.exr"))
     assert lightmap.shape == (16, 16, 4) and (lightmap[:, :, 3] == 1).all()
     assert lightmap[:, :, :3].max() > 0
 
@@ -264,8 +265,8 @@ def test_the_exr_writer_needs_no_openimageio(tmp_path, monkeypatch):
     import sys
     monkeypatch.setitem(sys.modules, "OpenImageIO", None)
     px = np.random.default_rng(1).random((5, 7, 3)).astype(np.float32) * 40
-    output._write_exr(str(tmp_path / "a.exr"), px)
-    back = output.read_exr(str(tmp_path / "a.exr"))
+    exports.write_exr(str(tmp_path / "a.exr"), px)
+    back = exports.read_exr(str(tmp_path / "a.exr"))
     np.testing.assert_array_equal(back[:, :, :3], px)
     assert len(bpy.data.scenes) == 1 and not [i for i in bpy.data.images
                                               if i.name.startswith(".illumap")]
@@ -287,7 +288,7 @@ def test_corner_lightmap_interpolates_the_corners_and_grows_across_seams():
         uv += quad
         values += [(level + 2 * u, 0.5, 0.0) for u, _ in quad]
         tris += [(base, base + 1, base + 2), (base, base + 2, base + 3)]
-    img = output.corner_lightmap(np.array(uv), np.array(tris), np.array(values), size,
+    img = lightmaps.corner_lightmap(np.array(uv), np.array(tris), np.array(values), size,
                                  margin=2)
     centres = (np.arange(size) + 0.5) / size
     row = size // 2                            # v = 0.5
@@ -315,13 +316,13 @@ def test_lightmaps_come_from_the_corner_result(tmp_path):
     out = tmp_path / "maps"
     assert batch.main(["--quality", "draft", "--export-lightmaps", str(out / "{object}.exr"),
                        "--lightmap-size", "8"]) == 0
-    img = output.read_exr(str(out / "Floor.exr"))
+    img = exports.read_exr(str(out / "Floor.exr"))
     attr = floor.data.attributes["illumination"]
     corner = np.empty(len(attr.data) * 4, np.float32)
     attr.data.foreach_get("color", corner)
     corner = corner.reshape(-1, 4)[:, :3]
-    uv, tris = output.mesh_uv_triangles(floor.data)
-    expected = output.corner_lightmap(uv, tris, corner, 8)
+    uv, tris = exports.mesh_uv_triangles(floor.data)
+    expected = lightmaps.corner_lightmap(uv, tris, corner, 8)
     np.testing.assert_allclose(img, expected, rtol=1e-5, atol=1e-6)
     assert img[:, :, 3].min() == 1
 
@@ -341,8 +342,8 @@ def test_the_ui_exports_the_same_lightmaps_as_the_batch(tmp_path, registered_add
         obj.select_set(obj == floor)
     assert bpy.ops.illumap.export_lightmaps(directory=str(ui), size=16) == {"FINISHED"}
     # the attribute holds the run's float64 corner values in float32
-    np.testing.assert_allclose(output.read_exr(str(ui / "Floor.exr")),
-                               output.read_exr(str(out / "Floor.exr")), rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(exports.read_exr(str(ui / "Floor.exr")),
+                               exports.read_exr(str(out / "Floor.exr")), rtol=1e-6, atol=1e-9)
     floor.data.color_attributes.remove(floor.data.color_attributes["illumination"])
     empty = tmp_path / "none"
     empty.mkdir()

@@ -34,7 +34,7 @@ PURE_CORE = ("illumap", "illumap.settings", "illumap.limits")
 NATIVE = ("illumap._core",)
 #: What the add-on registers when the native core does not import.
 REDUCED_UI = ("addon", "addon.properties", "addon.preferences", "addon.panel", "addon.preview",
-              "addon.operators")
+              "addon.operators", "addon.tool_operators")
 
 
 def _modules():
