@@ -7,9 +7,13 @@ all read these, so they live below every one of them.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 from illumap.settings import Settings
+
+#: ``progress(fraction, phase)``: called during long phases; returns False to cancel.
+Progress = Callable[[float, str], "bool | None"]
 
 
 @dataclass
@@ -44,7 +48,7 @@ class Job:
     stats: dict = field(default_factory=dict)   # density choice, shadow rays, adaptive passes
     # Pass 2 of an adaptive run (``next_pass``): the scene as read, for resampling on the main
     # thread. None when there is no further pass.
-    refine: object | None = None     # pipeline._Scene
+    refine: object | None = None     # read_scene._Scene
     lamps: list = field(default_factory=list)   # lights.Lamp records, lit by ``light``
     world: object | None = None                 # lights.Lamp of the world ('WORLD'), or None
     # With a target error: the settings the error model chose for the final count
