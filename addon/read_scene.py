@@ -9,6 +9,7 @@ from __future__ import annotations
 import time
 from collections import Counter
 from dataclasses import dataclass
+from functools import partial
 from typing import Callable
 
 import numpy as np
@@ -60,16 +61,11 @@ def _split_objects(depsgraph, objects) -> tuple[list, list, list[str]]:
     return meshes, points, warnings
 
 
-def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
-    """Read the scene on the main thread (surfels, materials, lamps, receivers), to be built
-    into the job by ``UnbuiltJob.build`` (the direct light is ``run``'s first phase,
-    ``light``).
-
-    With a target error and ``settings.adaptive``, this is pass 1 (a fraction of the surfels,
-    uniform); ``next_pass`` builds pass 2 from its result.
-    """
-    t0 = time.perf_counter()
-    meshes, points, warnings = _split_objects(depsgraph, objects)
+def _read_geometry(depsgraph, objects, settings: Settings, warnings: list[str]):
+    """The objects' geometry as read: (mesh objects, point-cloud objects, the triangle meshes
+    (their instances too), the point clouds). Raises IllumapError when nothing is usable."""
+    meshes, points, split_warnings = _split_objects(depsgraph, objects)
+    warnings.extend(split_warnings)
     # Instances (collection instances, Geometry Nodes instances…) of the given objects: one
     # Python loop over the scene's instances, not over any geometry.
     instances = sampling.read_instances(depsgraph, {o.name for o in objects if o is not None})
@@ -97,38 +93,58 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
         raise IllumapError("Nothing to compute: the selected instancers hold no mesh geometry")
     # Normals a cloud lacks are estimated by the build (``pointcloud.with_normals``).
     read = [pointcloud.read_points(obj, depsgraph, warnings) for obj in points]
+    return meshes, points, tri_meshes, read
+
+
+def _mesh_counts(settings: Settings, tri_meshes: list, read: list, point_area: float,
+                 density: float | None, stats: dict) -> np.ndarray:
+    """Surfels per mesh: by the target's density (capped by a budget), else by the settings'
+    density or budget (the meshes' share of it beside the point clouds)."""
+    if not tri_meshes:
+        return np.zeros(0, dtype=np.int64)
+    mesh_areas = np.array([tm.total_area for tm in tri_meshes])
+    n_points = sum(len(p.areas) for p in read)
+    if density is not None and settings.budget and stats["density"]["surfels"] >= settings.budget:
+        # The budget caps the target's count: spend it exactly, as without a target.
+        return sampling.allocate(mesh_areas, budget=max(settings.budget - n_points,
+                                                        len(tri_meshes)))
+    if density is not None:
+        return sampling.allocate(mesh_areas, density=density)
+    budget = settings.budget
+    if budget is None and settings.density is None:
+        budget = DEFAULT_BUDGET
+    if budget is not None:
+        budget = _mesh_share(budget, float(mesh_areas.sum()), point_area, len(tri_meshes))
+    return sampling.allocate(mesh_areas, density=settings.density, budget=budget)
+
+
+def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
+    """Read the scene on the main thread (surfels, materials, lamps, receivers), to be built
+    into the job by ``UnbuiltJob.build`` (the direct light is ``run``'s first phase,
+    ``light``).
+
+    With a target error and ``settings.adaptive``, this is pass 1 (a fraction of the surfels,
+    uniform); ``next_pass`` builds pass 2 from its result.
+    """
+    t0 = time.perf_counter()
+    warnings: list[str] = []
+    meshes, points, tri_meshes, read = _read_geometry(depsgraph, objects, settings, warnings)
     point_sources = [(p.name, float(p.areas.sum()), p.two_sided) for p in read]
     stats: dict = {}
-    mesh_areas = np.array([tm.total_area for tm in tri_meshes])
-    target = target_density(settings, float(mesh_areas.sum()),
-                            sum(len(p.areas) for p in read),
-                            sum(src[1] for src in point_sources), stats)
+    mesh_area = float(sum(tm.total_area for tm in tri_meshes))
+    point_area = sum(src[1] for src in point_sources)
+    target = target_density(settings, mesh_area, sum(len(p.areas) for p in read), point_area,
+                            stats)
     density, chosen = target if target is not None else (None, None)
     if target is not None:
         capped = capped_target_warning(stats["density"])
         if capped:
             warnings.append(capped)
-    counts = np.zeros(0, dtype=np.int64)
-    point_area = sum(src[1] for src in point_sources)
-    if tri_meshes:
-        n_points = sum(len(p.areas) for p in read)
-        if density is not None and settings.budget and stats["density"]["surfels"] >= settings.budget:
-            # The budget caps the target's count: spend it exactly, as without a target.
-            counts = sampling.allocate(mesh_areas, budget=max(settings.budget - n_points,
-                                                              len(tri_meshes)))
-        elif density is not None:
-            counts = sampling.allocate(mesh_areas, density=density)
-        else:
-            budget = settings.budget
-            if budget is None and settings.density is None:
-                budget = DEFAULT_BUDGET
-            if budget is not None:
-                budget = _mesh_share(budget, float(mesh_areas.sum()), point_area, len(tri_meshes))
-            counts = sampling.allocate(mesh_areas, density=settings.density, budget=budget)
+    counts = _mesh_counts(settings, tri_meshes, read, point_area, density, stats)
     check_memory(int(counts.sum()), settings)  # before sampling allocates anything big
     # Every point is a receiver; the solve needs only as many surfels as the light does.
     wanted = _point_counts(settings, density, [len(p.areas) for p in read], point_sources,
-                           float(mesh_areas.sum()))
+                           mesh_area)
     # Each object's random stream is its own (``object_rng``): the build thins a
     # cloud with this order.
     orders = [object_rng(settings.seed, p.name, 1).permutation(len(p.areas))
@@ -155,66 +171,100 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
         scratch: list[str] = []   # material warnings were given for the surfels already
         receivers = [r for r in (sampling.read_receivers(obj, warnings, depsgraph, scratch)
                                  for obj in meshes if obj.type == "MESH") if r is not None]
-    mesh_surfaces = [_MeshSurface(tm.corners, tm.two_sided) for tm in tri_meshes]
     # The preview that follows the run draws each scan from these (the worker computes its
     # splats, ``point_splats.prepare_frames``).
     splat_inputs = []
     if settings.preview_splats and settings.transfer:
         from .mesh_preview import splat_inputs as read_splat_inputs
         splat_inputs = [read_splat_inputs(obj) for obj in points if obj.type in RESULT_TYPES]
+    read_scene = _ReadScene(
+        settings=settings, t0=t0, warnings=warnings, stats=stats, read=read, wanted=wanted,
+        orders=orders, point_sources=point_sources, refine=refine, chosen=chosen,
+        mesh_parts=mesh_parts, lamp_list=lamp_list, world=world, mesh_emitters=mesh_emitters,
+        mesh_surfaces=[_MeshSurface(tm.corners, tm.two_sided) for tm in tri_meshes],
+        receivers=receivers, splat_inputs=splat_inputs)
+    return UnbuiltJob(partial(_build, read_scene))
 
-    def build(progress: Progress | None = None) -> Job:
-        # numpy and the core only from here: off the main thread for an interactive run
-        def going_on(_fraction=0.0, _phase="") -> bool:
-            return progress is None or progress(0.0, BUILD_PHASE) is not False
 
-        def stop_if_cancelled():
-            if not going_on():
-                raise IllumapCancelled("Cancelled")
+@dataclass
+class _ReadScene:
+    """What ``_prepare`` read on the main thread, for ``_build`` on the worker."""
 
+    settings: Settings
+    t0: float
+    warnings: list
+    stats: dict
+    read: list
+    wanted: list
+    orders: list
+    point_sources: list
+    refine: _Scene | None
+    chosen: dict | None
+    mesh_parts: object
+    lamp_list: list
+    world: object
+    mesh_emitters: list
+    mesh_surfaces: list
+    receivers: list
+    splat_inputs: list
+
+
+def _build(scene: _ReadScene, progress: Progress | None = None) -> Job:
+    """The job from what was read: numpy and the core only, off the main thread for an
+    interactive run (point normals, thinning, occluding triangles, the preview's splats)."""
+    def going_on(_fraction=0.0, _phase="") -> bool:
+        return progress is None or progress(0.0, BUILD_PHASE) is not False
+
+    def stop_if_cancelled():
+        if not going_on():
+            raise IllumapCancelled("Cancelled")
+
+    stop_if_cancelled()
+    full = [pointcloud.with_normals(p) for p in scene.read]
+    clouds = [_point_part(p) for p in full]
+    thinned = [_thin_points(part, n, order)
+               for part, n, order in zip(clouds, scene.wanted, scene.orders)]
+    point_parts = [part for part, _ in thinned]
+    for (name, _, _), whole, part in zip(scene.point_sources, clouds, point_parts):
+        if len(part[0]) < len(whole[0]):
+            scene.stats.setdefault("point_surfels", {})[name] = dict(points=len(whole[0]),
+                                                                     surfels=len(part[0]))
+    if scene.refine is not None:
+        scene.refine.points = point_parts
+    parts = _with_points(scene.mesh_parts, point_parts, scene.point_sources)
+    stop_if_cancelled()
+    triangles, two_sided, splat_point = _surface_triangles(scene.mesh_surfaces, clouds,
+                                                           scene.point_sources)
+    stop_if_cancelled()
+    occluders = None
+    if triangles is not None and any(m.two_sided for m in scene.mesh_surfaces):
+        from illumap.receivers import MeshOccluders
+        try:
+            occluders = MeshOccluders(triangles, progress=going_on)
+        except Exception as exc:  # noqa: BLE001 - the core's Cancelled
+            if core_cancelled(exc):
+                raise IllumapCancelled("Cancelled") from None
+            raise
+    job = _assembled(parts, scene.settings, scene.lamp_list, scene.world, scene.warnings,
+                     scene.stats, scene.t0, occluders)
+    job.refine = scene.refine
+    job.accuracy = scene.chosen
+    job.emitters = scene.mesh_emitters
+    job.triangles = triangles
+    job.two_sided = two_sided
+    job.splat_point = splat_point
+    job.mesh_triangle_start = np.cumsum([0] + [len(m.corners)
+                                               for m in scene.mesh_surfaces])[:-1]
+    job.occluders = occluders
+    job.clouds = [PointCloud(p.name, p.positions,
+                             p.receiver_normals if p.receiver_normals is not None else p.normals,
+                             p.albedo, p.emission, owner)
+                  for p, (_, owner) in zip(full, thinned)]
+    job.receivers = scene.receivers
+    for inputs in scene.splat_inputs:
         stop_if_cancelled()
-        full = [pointcloud.with_normals(p) for p in read]
-        clouds = [_point_part(p) for p in full]
-        thinned = [_thin_points(part, n, order) for part, n, order in zip(clouds, wanted, orders)]
-        point_parts = [part for part, _ in thinned]
-        for (name, _, _), whole, part in zip(point_sources, clouds, point_parts):
-            if len(part[0]) < len(whole[0]):
-                stats.setdefault("point_surfels", {})[name] = dict(points=len(whole[0]),
-                                                                   surfels=len(part[0]))
-        if refine is not None:
-            refine.points = point_parts
-        parts = _with_points(mesh_parts, point_parts, point_sources)
-        stop_if_cancelled()
-        triangles, two_sided, splat_point = _surface_triangles(mesh_surfaces, clouds, point_sources)
-        stop_if_cancelled()
-        occluders = None
-        if triangles is not None and any(m.two_sided for m in mesh_surfaces):
-            from illumap.receivers import MeshOccluders
-            try:
-                occluders = MeshOccluders(triangles, progress=going_on)
-            except Exception as exc:  # noqa: BLE001 - the core's Cancelled
-                if core_cancelled(exc):
-                    raise IllumapCancelled("Cancelled") from None
-                raise
-        job = _assembled(parts, settings, lamp_list, world, warnings, stats, t0, occluders)
-        job.refine = refine
-        job.accuracy = chosen
-        job.emitters = mesh_emitters
-        job.triangles = triangles
-        job.two_sided = two_sided
-        job.splat_point = splat_point
-        job.mesh_triangle_start = np.cumsum([0] + [len(m.corners) for m in mesh_surfaces])[:-1]
-        job.occluders = occluders
-        job.clouds = [PointCloud(p.name, p.positions,
-                                 p.receiver_normals if p.receiver_normals is not None else p.normals,
-                                 p.albedo, p.emission, owner)
-                      for p, (_, owner) in zip(full, thinned)]
-        job.receivers = receivers
-        for inputs in splat_inputs:
-            stop_if_cancelled()
-            point_splats.prepare_frames(*inputs)
-        return job
-    return UnbuiltJob(build)
+        point_splats.prepare_frames(*inputs)
+    return job
 
 
 #: The progress phase while an ``UnbuiltJob`` is built.

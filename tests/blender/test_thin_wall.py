@@ -156,7 +156,7 @@ def test_octagon_occluders_keep_the_wall_closed_on_the_addon_path():
     assert result.stats["occluder_shape"] == "octagon"
     assert result.stats["visibility_occluders"] == "triangles"
     job.settings.occluder_shape = "hexagon"
-    with pytest.raises(pipeline.IllumapError, match="hexagon.*disc, octagon, quad") as error:
+    with pytest.raises(pipeline.IllumapError, match="disc, octagon, quad, got 'hexagon'") as error:
         pipeline.run(job)
     assert error.value.exit_code == 2
 
