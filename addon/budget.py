@@ -60,7 +60,7 @@ def check_memory(count: int, settings: Settings) -> None:
 #: * lamp shadows, a 1 m plate over a floor (100 and 400 surfels/m², four lamp types, 16 rays
 #:   per surfel): the worst umbra surfel keeps 31–50% / 19% / 6% (one ray in 16) / 0%.
 #: * interreflection through a one-sided thin wall between two rooms (High preset, 400/m²;
-#:   tests/blender/test_thin_wall.py): the dark room gets 1.4–1.5% / 0.10–0.17% / 0.04–0.06% /
+#:   tests/blender/light/test_thin_wall.py): the dark room gets 1.4–1.5% / 0.10–0.17% / 0.04–0.06% /
 #:   0.03–0.04% of the lit room's level (0.08–0.09% / 0.02% / 0.01% / 0.01% at 1600/m²; a
 #:   two-sided wall leaks ten times less).
 #: * over-occlusion, a closed box holding a block, where every row of F·V sums to 1: mean

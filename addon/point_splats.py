@@ -11,7 +11,7 @@ point node group reads what ``splat_frames`` returns from hidden point attribute
   distance to the ``NEIGHBOURS``-th nearest point (π ρ d² ≈ NEIGHBOURS, ρ the density):
   discs of that radius about randomly placed points leave about exp(−π ρ r²) =
   exp(−COVER² × NEIGHBOURS) ≈ 0.03% of a flat surface open, a regular scan none (measured:
-  under 1% of a random square, tests/blender/test_point_preview.py). A given ``radius``
+  under 1% of a random square, tests/blender/preview/test_point_preview.py). A given ``radius``
   attribute is used as it is.
 * **Creases.** A neighbour whose normal turns from the point's by more than acos
   ``EDGE_COS`` lies on another surface: its tangent plane cuts the point's plane along a

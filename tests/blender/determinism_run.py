@@ -1,4 +1,4 @@
-"""One run of a saved scene, for tests/blender/test_determinism.py: run in a fresh process
+"""One run of a saved scene, for tests/blender/light/test_determinism.py: run in a fresh process
 (``python determinism_run.py SCENE.blend OUT.npz [TARGET]``, the thread count from
 ILLUMAP_THREADS), it writes every receiver's value keyed by its corner identity and the
 surfels' solved light."""

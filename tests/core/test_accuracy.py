@@ -461,7 +461,7 @@ def test_mesh_sampled_adaptively_meets_the_target():
     varies. On two samplings the error against the direct exact-visibility reference meets
     the target. (Adaptive against uniform sampling at the same count needs a finer reference
     than this 6000-surfel one, whose own error is about 5%: asserted in
-    tests/blender/test_adaptive.py, measured in bench/micro/bench_adaptive.py against 48k.)"""
+    tests/blender/light/test_adaptive.py, measured in bench/micro/bench_adaptive.py against 48k.)"""
     corners, albedo, emission, keep = S.cornell_triangles()
     # the loosest target, and the least budget within the reference, where two passes are
     # predicted to meet it and one uniform pass of the budget is not

@@ -1,5 +1,5 @@
 """Stable identities (``illumap.identities``): what samples and rays follow from, the same
-whatever order Blender keeps faces and loops in (tests/blender/test_determinism.py runs them
+whatever order Blender keeps faces and loops in (tests/blender/light/test_determinism.py runs them
 through the add-on)."""
 
 import numpy as np

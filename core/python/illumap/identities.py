@@ -34,7 +34,7 @@ def canonical_triangles(tri_vertices: np.ndarray,
     neighbours on the surface, which the stratified allocation relies on (sorted one triangle
     at a time, a sphere's underside on a floor read 2.35% against Cycles, mean of six seeds,
     where 2.03% by polygon and 1.82% in Blender's order, four seeds:
-    tests/blender/test_reference_cases.py's sun case)."""
+    tests/blender/light/test_reference_cases.py's sun case)."""
     v = np.asarray(tri_vertices, dtype=np.int64).reshape(-1, 3)
     turn = (v.argmin(axis=1)[:, None] + np.arange(3)) % 3
     if polygon_key is None:

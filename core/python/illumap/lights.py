@@ -5,7 +5,7 @@ Everything here is *incident radiance* H in Blender/Cycles units: irradiance / �
 Cycles DIFFUSE bake with the DIRECT pass gives. A surfel with albedo ρ then emits ρ·H, which is
 added to its own emission before the radiosity solve (emitting meshes are surfels, not lamps).
 
-Cycles conventions, measured with bakes on this machine (bpy 5.0.1; see tests/blender/test_lamps.py):
+Cycles conventions, measured with bakes on this machine (bpy 5.0.1; see tests/blender/light/test_lamps.py):
 
 * Point / spot, power P [W], colour c, radius r, distance d, receiver cosine cos θ:
   ``H = P c cos θ / (4π² (d² + r²))`` (r = 0 is a true point; r > 0 is Cycles' sphere light,

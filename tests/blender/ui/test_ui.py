@@ -925,7 +925,7 @@ def test_reduced_ui_when_the_core_is_missing(registered_addon):
 def test_preferences_as_an_installed_extension(tmp_path):
     """Installed as bl_ext.user_default.illumap, the preferences register under that name and
     new files take their defaults from them. The zip holds only the add-on (the core comes from
-    this environment), so this runs in seconds; tests/blender/test_extension.py checks the real
+    this environment), so this runs in seconds; tests/blender/ui/test_extension.py checks the real
     package with its wheel."""
     import subprocess
     import textwrap

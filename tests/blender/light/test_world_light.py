@@ -1,5 +1,5 @@
 """The world's light: read from the world's nodes, shadowed at the surfels, gathered at the
-receivers. (Against a Cycles bake: tests/blender/test_reference_cases.py, the world-lit
+receivers. (Against a Cycles bake: tests/blender/light/test_reference_cases.py, the world-lit
 open scene.)"""
 
 import bpy

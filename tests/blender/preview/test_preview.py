@@ -174,8 +174,8 @@ def test_eevee_render_shows_illumination(registered_addon):
 
 # --- the sample scenes ---------------------------------------------------------------------
 
-SAMPLES = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(
-    __file__)))), "sample_blends")
+SAMPLES = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(
+    os.path.abspath(__file__))))), "sample_blends")
 
 
 def _load_make_samples():

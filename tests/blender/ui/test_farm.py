@@ -19,7 +19,7 @@ from addon.errors import ExitCode
 from illumap import lightmaps
 
 pytestmark = requires_core
-REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
 
 
 def lit_scene(path=None):

@@ -13,7 +13,7 @@ discs that overhang outlines block pairs that see each other (row sums below 1),
 surfel see past the block's walls (above 1). Measured as the mean |row sum − 1|.
 
 Measured with the add-on's sampling and the High preset's operator (order 6, θ 0.4, exact
-visibility, tol 1e-5), ``.venv/bin/python tests/blender/test_thin_wall.py`` (figures in
+visibility, tol 1e-5), ``.venv/bin/python tests/blender/light/test_thin_wall.py`` (figures in
 pipeline.SURFEL_COVERAGE's comment). Bound asserted on the add-on path (pipeline.compute with
 visibility "exact"): the dark room keeps at most LEAK_BOUND of the lit room's level.
 """
@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 if __name__ == "__main__":  # run as a script: the helpers come from conftest.py
-    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     import conftest  # noqa: F401  (registers illumap_bpy_testing)
 
 from illumap_bpy_testing import diffuse_material, emission_material, link, requires_core

@@ -15,7 +15,7 @@ from illumap_bpy_testing import (diffuse_material, emission_material, make_plane
 from addon import batch
 
 pytestmark = requires_core
-REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
 
 
 def animated_scene(path):

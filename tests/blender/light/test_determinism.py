@@ -20,7 +20,8 @@ import determinism_run as one_run
 
 pytestmark = requires_core
 
-HERE = os.path.dirname(os.path.abspath(__file__))
+#: tests/blender, where the helper scripts live.
+HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def _mesh(name, verts, faces, location=(0.0, 0.0, 0.0), smooth=False):
