@@ -555,40 +555,9 @@ def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float =
     Solution
     """
     t_total = time.perf_counter()
-    if not isinstance(surfels, Surfels):
-        raise InputError(f"surfels: expected an illumap.Surfels, got {type(surfels).__name__}")
-    unknown = set(operator_keywords) - set(OPERATOR_KEYWORDS)
-    if unknown:
-        raise TypeError(f"solve() got unexpected keyword(s) {sorted(unknown)}; operator "
-                        f"keywords are {list(OPERATOR_KEYWORDS)}")
-    if not isinstance(solver, str) or solver not in SOLVERS:
-        raise InputError(f"solver: expected one of {list(SOLVERS)}, got {solver!r}")
-    tol = _limit("tol").check(tol, InputError)
-    if max_iterations is not None:
-        max_iterations = _limit("max_iterations").check(max_iterations, InputError)
-    if error_tol is not None:
-        error_tol = _limit("error_tol").check(error_tol, InputError)
-    _limit("restart").check(restart, InputError)
-    if progress is not None and not callable(progress):
-        raise InputError(f"progress: expected a callable or None, got {progress!r}")
-    if operator is not None:
-        given = sorted(operator_keywords) + ([] if method is _UNSET else ["method"])
-        if given:
-            raise InputError(f"operator keywords {given} cannot be combined with operator=; "
-                             "the prebuilt operator already fixes them")
-        if not hasattr(operator, "apply"):
-            raise InputError(f"operator: expected a TransportOperator, got {operator!r}")
-        op_surfels = getattr(operator, "surfels", None)
-        if isinstance(op_surfels, Surfels):
-            if not op_surfels.same_geometry(surfels):
-                raise InputError("operator: it was built for other surfel geometry "
-                                 "(positions, normals or areas differ)")
-        elif getattr(operator, "n", surfels.n) != surfels.n:
-            raise InputError(f"operator: built for N = {operator.n}, surfels have N = "
-                             f"{surfels.n}")
-    else:
-        operator_keywords["method"] = DEFAULT_METHOD if method is _UNSET else method
-        validate_keywords(**operator_keywords)
+    tol, max_iterations, error_tol = _checked(surfels, method, solver, tol, max_iterations,
+                                              progress, operator, restart, error_tol,
+                                              operator_keywords)
 
     guard = ProgressGuard(progress)
     E = surfels.emission
@@ -650,43 +619,93 @@ def solve(surfels: Surfels, *, method=_UNSET, solver: str = "auto", tol: float =
             B, r, warning = _gmres(K, E, rho, mon, int(restart))
         timings["solve"] = time.perf_counter() - t
 
-        # The solvers return the residual of B (Jacobi and GMRES compute it from K(B); CG
-        # maps its recurrence's back, and recomputes it only near rounding: CONFIRM_BELOW).
-        final = mon.relative(_norms(r))
-        final_value = float(np.max(final))
-        bound = mon.error_bound(B, r)
-        estimate = mon.error_estimate(B, r)
-        # Closing step: B + r = E + ρ∘K(B) is one more Jacobi step, which the residual already
-        # holds (no application). Its error is ρ∘K of B's, at most ρ_max times it (K's row
-        # sums ≤ 1), so the bound and estimate of B hold for it with room to spare.
-        products = None
-        if warning is None and np.all(np.isfinite(r)):
-            if keep_operator:
-                products = dict(first_bounce=mon.first_bounce_values, iterate=B,
-                                rho_k_iterate=r + B - E)
-            B = B + r
-        B = np.where(mon.active[None, :], B, 0.0)
-        reached = final_value <= tol or (error_tol is not None and estimate <= error_tol)
-        converged = bool(np.isfinite(final_value) and reached and warning is None)
-        if not converged and warning is None:
-            warning = (f"{chosen} did not reach tol={tol:g}"
-                       + ("" if error_tol is None else f" or error_tol={error_tol:g}")
-                       + f" in {mon.iterations} iterations (relative residual "
-                       f"{final_value:.3g})")
-        try:
-            op_stats = dict(operator.stats)
-        except Exception:  # noqa: BLE001 - duck-typed operators may lack stats
-            op_stats = {}
-        stats = {**op_stats, **stats}
-        stats.update(solver=chosen, symmetric=symmetric, final_residual=final_value,
-                     final_residuals=final.tolist(), operator_applications=mon.applications,
-                     max_iterations=limit, solver_error_bound=bound,
-                     solver_error_estimate=estimate, error_tol=error_tol)
-        if chosen == "gmres":
-            stats["restart"] = int(restart)
-        if warning is not None:
-            stats["warning"] = warning
-        guard.check(1.0, "solve")
-        timings["total"] = time.perf_counter() - t_total
-        return Solution(B, mon.iterations, np.asarray(mon.history), converged, timings, stats,
-                        operator if keep_operator else None, products)
+        return _solution(B, r, warning, mon, operator, chosen, symmetric, limit, restart,
+                         tol, error_tol, keep_operator, guard, timings, stats, t_total, E)
+
+
+def _checked(surfels, method, solver, tol, max_iterations, progress, operator, restart,
+             error_tol, operator_keywords: dict):
+    """``solve``'s arguments checked (InputError or TypeError naming the argument); returns
+    (tol, max_iterations, error_tol) as the limits take them. Sets the operator's method in
+    ``operator_keywords`` when no prebuilt operator is given."""
+    if not isinstance(surfels, Surfels):
+        raise InputError(f"surfels: expected an illumap.Surfels, got {type(surfels).__name__}")
+    unknown = set(operator_keywords) - set(OPERATOR_KEYWORDS)
+    if unknown:
+        raise TypeError(f"solve() got unexpected keyword(s) {sorted(unknown)}; operator "
+                        f"keywords are {list(OPERATOR_KEYWORDS)}")
+    if not isinstance(solver, str) or solver not in SOLVERS:
+        raise InputError(f"solver: expected one of {list(SOLVERS)}, got {solver!r}")
+    tol = _limit("tol").check(tol, InputError)
+    if max_iterations is not None:
+        max_iterations = _limit("max_iterations").check(max_iterations, InputError)
+    if error_tol is not None:
+        error_tol = _limit("error_tol").check(error_tol, InputError)
+    _limit("restart").check(restart, InputError)
+    if progress is not None and not callable(progress):
+        raise InputError(f"progress: expected a callable or None, got {progress!r}")
+    if operator is not None:
+        given = sorted(operator_keywords) + ([] if method is _UNSET else ["method"])
+        if given:
+            raise InputError(f"operator keywords {given} cannot be combined with operator=; "
+                             "the prebuilt operator already fixes them")
+        if not hasattr(operator, "apply"):
+            raise InputError(f"operator: expected a TransportOperator, got {operator!r}")
+        op_surfels = getattr(operator, "surfels", None)
+        if isinstance(op_surfels, Surfels):
+            if not op_surfels.same_geometry(surfels):
+                raise InputError("operator: it was built for other surfel geometry "
+                                 "(positions, normals or areas differ)")
+        elif getattr(operator, "n", surfels.n) != surfels.n:
+            raise InputError(f"operator: built for N = {operator.n}, surfels have N = "
+                             f"{surfels.n}")
+    else:
+        operator_keywords["method"] = DEFAULT_METHOD if method is _UNSET else method
+        validate_keywords(**operator_keywords)
+    return tol, max_iterations, error_tol
+
+
+def _solution(B, r, warning, mon, operator, chosen, symmetric, limit, restart, tol, error_tol,
+              keep_operator, guard, timings, stats, t_total, E) -> "Solution":
+    """The solver's iterate made the result: the closing Jacobi step, convergence, the
+    statistics and timings."""
+    # The solvers return the residual of B (Jacobi and GMRES compute it from K(B); CG
+    # maps its recurrence's back, and recomputes it only near rounding: CONFIRM_BELOW).
+    final = mon.relative(_norms(r))
+    final_value = float(np.max(final))
+    bound = mon.error_bound(B, r)
+    estimate = mon.error_estimate(B, r)
+    # Closing step: B + r = E + ρ∘K(B) is one more Jacobi step, which the residual already
+    # holds (no application). Its error is ρ∘K of B's, at most ρ_max times it (K's row
+    # sums ≤ 1), so the bound and estimate of B hold for it with room to spare.
+    products = None
+    if warning is None and np.all(np.isfinite(r)):
+        if keep_operator:
+            products = dict(first_bounce=mon.first_bounce_values, iterate=B,
+                            rho_k_iterate=r + B - E)
+        B = B + r
+    B = np.where(mon.active[None, :], B, 0.0)
+    reached = final_value <= tol or (error_tol is not None and estimate <= error_tol)
+    converged = bool(np.isfinite(final_value) and reached and warning is None)
+    if not converged and warning is None:
+        warning = (f"{chosen} did not reach tol={tol:g}"
+                   + ("" if error_tol is None else f" or error_tol={error_tol:g}")
+                   + f" in {mon.iterations} iterations (relative residual "
+                   f"{final_value:.3g})")
+    try:
+        op_stats = dict(operator.stats)
+    except Exception:  # noqa: BLE001 - duck-typed operators may lack stats
+        op_stats = {}
+    stats = {**op_stats, **stats}
+    stats.update(solver=chosen, symmetric=symmetric, final_residual=final_value,
+                 final_residuals=final.tolist(), operator_applications=mon.applications,
+                 max_iterations=limit, solver_error_bound=bound,
+                 solver_error_estimate=estimate, error_tol=error_tol)
+    if chosen == "gmres":
+        stats["restart"] = int(restart)
+    if warning is not None:
+        stats["warning"] = warning
+    guard.check(1.0, "solve")
+    timings["total"] = time.perf_counter() - t_total
+    return Solution(B, mon.iterations, np.asarray(mon.history), converged, timings, stats,
+                    operator if keep_operator else None, products)
