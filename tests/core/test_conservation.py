@@ -96,8 +96,11 @@ def test_a_sealed_surfel_neither_receives_nor_sends():
 def test_closed_furnace_is_exact_at_every_surfel(rho, sampling, balance):
     """Uniform E and ρ inside a closed box: B = E/(1 − ρ) at every surfel, however the
     surfels are jittered. The kernel's own rows (0.95-1.08 on the random box) put single
-    surfels tens of percent off at ρ 0.99; rows balanced to the share every ray meets (1)
-    leave at most 1%."""
+    surfels tens of percent off at ρ 0.99 (the issue's target: at most 1%). Rows scaled one
+    by one sum to 1 to rounding, so B (1 − ρ) is 1 to the solver's tolerance amplified by
+    1/(1 − ρ) (1e-8 at ρ 0.99; 1e-6 asserted); the symmetric balance leaves each row within
+    BALANCE_TOL of 1, which ρ/(1 − ρ) amplifies (0.01% at ρ 0.99)."""
+    from illumap.conservation import BALANCE_TOL
     s = scenes.closed_box(16, sampling=sampling, albedo=rho, emission=1.0, seed=5)
     bare = illumap.solve(s, tol=1e-10)
     sol = illumap.solve(s, tol=1e-10, hemisphere_hits=np.ones(s.n), hemisphere_balance=balance)
@@ -105,21 +108,50 @@ def test_closed_furnace_is_exact_at_every_surfel(rho, sampling, balance):
     worst = float(np.max(np.abs(sol.radiosity * (1 - rho) - 1.0)))
     worst_bare = float(np.max(np.abs(bare.radiosity * (1 - rho) - 1.0)))
     print(f"\n{sampling} rho {rho} {balance}: worst surfel {worst:.4%} (kernel's rows: {worst_bare:.2%})")
-    assert worst <= 0.01
+    bound = 1e-6 if balance == "rows" else BALANCE_TOL * rho / (1 - rho) + 1e-6
+    assert worst <= bound
 
 
 @pytest.mark.parametrize("balance", ["rows", "symmetric"])
 @pytest.mark.parametrize("sampling, areas", [("fibonacci", "uniform"), ("random", "random")])
 def test_sphere_at_default_settings(sampling, areas, balance):
     """The sphere's closed form at ρ 0.95 with the default FMM and near field: within 0.2%
-    once the rows follow the hemisphere (1.7-2.1% on the kernel's own rows)."""
+    once the rows follow the hemisphere (1.7-2.1% on the kernel's own rows). The closed form
+    counts each surfel's own area out of its row (1 − a_i) and a hemisphere share of 1 does
+    not: ``conserving_sphere_radiosity`` is the closed form of the operator a correct
+    conserving method builds (each row the others' areas over theirs), which the default FMM
+    must meet to its expansion error (``illumap.accuracy.FMM_ERROR`` at the default order and
+    θ, p 3 and 0.5: 6.9e-3; measured 3-4e-5), and the direct sum to the disc rule's change of the closest pairs (1e-4 at
+    12,000 surfels, whose a_i is 8e-5)."""
+    from illumap.accuracy import FMM_ERROR
+    from illumap.operator import DEFAULT_ORDER, DEFAULT_THETA
     s = scenes.sphere_interior(12000, radius=1.0, sampling=sampling, areas=areas, albedo=0.95,
                                seed=7)
     exact = scenes.sphere_exact_radiosity(s, 1.0)
+    conserving = conserving_sphere_radiosity(s, 1.0)
     sol = illumap.solve(s, tol=1e-9, hemisphere_hits=np.ones(s.n), hemisphere_balance=balance)
     err = np.linalg.norm(sol.radiosity - exact) / np.linalg.norm(exact)
+    own = np.linalg.norm(sol.radiosity - conserving) / np.linalg.norm(conserving)
+    print(f"\n{sampling} {balance}: closed form {err:.3%}, conserving closed form {own:.2e}")
     assert sol.converged
     assert err <= 0.002, err
+    assert own <= FMM_ERROR[DEFAULT_THETA][DEFAULT_ORDER], own
+    direct = illumap.solve(s, method="direct", tol=1e-10, hemisphere_hits=np.ones(s.n),
+                           hemisphere_balance=balance)
+    own_direct = np.linalg.norm(direct.radiosity - conserving) / np.linalg.norm(conserving)
+    assert own_direct <= 1e-4, own_direct
+
+
+def conserving_sphere_radiosity(surfels, radius: float) -> np.ndarray:
+    """The exact solution inside a sphere of the operator whose rows are the point kernel's
+    scaled to 1: ``K_ij = a_j / (t − a_i)`` for j ≠ i (a_i = A_i/(4πR²), t = Σ a). With
+    ``c_i = ρ_i/(t − a_i)`` and S = Σ a_j B_j: ``B_i = (E_i + c_i S)/(1 + c_i a_i)``,
+    ``S = Σ a_i E_i/(1 + c_i a_i) / (1 − Σ a_i c_i/(1 + c_i a_i))``."""
+    a = surfels.areas[:, None] / (4.0 * np.pi * radius ** 2)
+    c = surfels.albedo / (a.sum() - a)
+    d = 1.0 + c * a
+    S = (a * surfels.emission / d).sum(axis=0) / (1.0 - (a * c / d).sum(axis=0))
+    return (surfels.emission + c * S) / d
 
 
 def test_balance_reports_bad_shares():
@@ -178,3 +210,71 @@ def test_share_of_a_face_without_surfels_is_dark():
     assert abs(got.open[0] - (1 - 0.23945)) <= 0.005
     lit = conservation.hemisphere_hits(occ, pos, nrm, rays=4096)     # a splat: both faces lit
     assert abs(lit.hits[0] - 0.23945) <= 0.005
+
+
+# ---- the share a kernel row cannot reach: its rays' first hits ------------------------------
+
+def _box_triangles(lo, hi, inward):
+    """The 12 triangles of an axis-aligned box, their fronts facing in or out."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    c = np.array([[x, y, z] for z in (lo[2], hi[2]) for y in (lo[1], hi[1]) for x in (lo[0], hi[0])])
+    quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+    tris = []
+    for a, b, cc, d in quads:                  # each quad's front faces out of the box
+        t1, t2 = [c[a], c[b], c[cc]], [c[a], c[cc], c[d]]
+        tris += [t1[::-1], t2[::-1]] if inward else [t1, t2]
+    return np.array(tris)
+
+
+def test_a_fill_takes_the_surfels_its_rays_meet():
+    """Two unit squares facing each other at distance 1: the kernel's row is F = 0.1998, which
+    (0.16-0.19 point by point) MAX_SCALE (3) cannot raise to a share of 0.9. The rest comes from the first hits of
+    the row's own rays, all on the other square, so every row sums to its share exactly;
+    without the fill the rows stop at 3 F (0.47-0.58)."""
+    s, a, b = scenes.parallel_squares(8)
+    tris = np.r_[_square(0.0, down=False) + [0.5, 0.5, 0.0], _square(1.0) + [0.5, 0.5, 0.0]]
+    hits = np.full(s.n, 0.9)
+    op = illumap.TransportOperator(s, method="direct", hemisphere_hits=hits,
+                                   occluder_triangles=tris)
+    rows = op.apply(np.ones((s.n, 3)))[:, 0]
+    assert np.allclose(rows, hits, rtol=1e-12, atol=0)
+    assert op.stats["hemisphere_fill_rows"] == s.n
+    fill = op.fill
+    assert np.all(a[fill.rows] != a[fill.cols])            # each hit on the other square
+    plain = illumap.TransportOperator(s, method="direct", hemisphere_hits=hits,
+                                      occluder_triangles=tris, hemisphere_fill=False)
+    bare = illumap.TransportOperator(s, method="direct").apply(np.ones((s.n, 3)))[:, 0]
+    assert np.allclose(plain.apply(np.ones((s.n, 3)))[:, 0], 3 * bare, rtol=1e-12)
+    assert bare.max() * 3 < 0.9 and plain.fill is None
+
+
+def test_a_fill_never_takes_a_lit_surfel_across_a_wall():
+    """A surfel sealed inside a closed box whose walls lie 2 cm inside a room's: its rays meet
+    the box's back faces, which no surfel faces, and the room's surfels that face the same way
+    lie just across the wall. The fill gives the sealed surfel nothing; a surfel in the room
+    gets its share from the room's own surfels."""
+    room = _box_triangles((-1, -1, -1), (1, 1, 1), inward=True)
+    box = _box_triangles((-0.98, -0.98, -0.98), (0.98, 0.98, 0.98), inward=False)
+    occ = MeshOccluders(np.r_[room, box])
+    rng = np.random.default_rng(4)
+    faces = []
+    for axis in range(3):
+        for sign in (-1.0, 1.0):
+            p = rng.uniform(-0.95, 0.95, (300, 3))
+            p[:, axis] = sign
+            n = np.zeros((300, 3))
+            n[:, axis] = -sign                          # the room's walls face in
+            faces.append((p, n))
+    p = np.concatenate([f[0] for f in faces])
+    n = np.concatenate([f[1] for f in faces])
+    inside = np.array([[0.0, 0.0, 0.0]])                # sealed in the box, facing +z
+    pos = np.r_[inside, p]
+    nrm = np.r_[[[0.0, 0.0, 1.0]], n]
+    fill = conservation.first_hit_fill(occ, pos, nrm, np.array([0]), np.array([1.0]))
+    assert fill.filled == 0 and len(fill.rows) == 0
+    # Between the walls (in the 2 cm gap, facing the room's +x wall) the room is seen.
+    gap = np.r_[pos, [[0.99, 0.0, 0.0]]]
+    gap_n = np.r_[nrm, [[1.0, 0.0, 0.0]]]
+    fill = conservation.first_hit_fill(occ, gap, gap_n, np.array([len(gap) - 1]), np.array([1.0]))
+    assert fill.filled == 1 and abs(fill.weights.sum() - 1.0) <= 1e-12
+    assert np.all(gap[fill.cols, 0] == 1.0)             # the room's +x wall only

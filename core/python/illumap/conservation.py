@@ -269,3 +269,99 @@ def inset_origins(positions: np.ndarray, normals: np.ndarray, *, share: float = 
     shift = centroid - p
     shift -= np.einsum("ij,ij->i", shift, n)[:, None] * n
     return p + share * shift
+
+
+# ---- the share a kernel row cannot reach ----------------------------------------------------
+
+#: Rays per under-coupled surfel whose first hits carry the share its scaled kernel row misses.
+FILL_RAYS = 64
+#: Surfels considered for a hit: the nearest this many (the first that faces the hit's side
+#: and that the hit point sees takes it).
+FILL_NEIGHBOURS = 16
+#: A surfel faces a hit's side when its normal's cosine with the side's normal exceeds this.
+FILL_SIDE_COS = 0.3
+#: Rows whose scaled sum falls short of their share by more than this get a fill.
+FILL_MIN_MISSING = 1e-3
+
+
+@dataclass
+class Fill:
+    """The share of each listed row that the kernel could not reach, carried by the first
+    hits of the row's own rays: ``y_i += Σ_k weights_k x_{cols_k}`` over the entries k of
+    row i. Weights are ≥ 0 and a row's sum is its missing share."""
+
+    rows: np.ndarray      # (M,) int64 receiver of each entry
+    cols: np.ndarray      # (M,) int64 surfel at a ray's first hit
+    weights: np.ndarray   # (M,) float64
+    filled: int           # rows that got entries
+    missing: float        # the missing shares' sum over the rows asked (dimensionless)
+
+    def apply(self, x: np.ndarray) -> np.ndarray:
+        """The fill's part of K x for x (N, 3)."""
+        y = np.zeros_like(x)
+        if len(self.rows):
+            for c in range(x.shape[1]):
+                y[:, c] = np.bincount(self.rows, self.weights * x[self.cols, c],
+                                      minlength=len(x))
+        return y
+
+    def apply_rows(self, x: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        return self.apply(x)[rows]
+
+
+def first_hit_fill(occluders, positions, normals, rows, missing, *, rays: int = FILL_RAYS,
+                   neighbours: int = FILL_NEIGHBOURS, seed: int = 0) -> Fill:
+    """Entries that give each of ``rows`` its ``missing`` share (K, in [0, 1]) from the
+    surfels its hemisphere's rays meet first, against ``occluders`` (``MeshOccluders``:
+    the scene's triangles and splats; ``positions`` in its frame, metres).
+
+    A kernel row that couples too little to reach its share even scaled by MAX_SCALE (a scan
+    point whose fitted plane lies a millimetre over a floor, where the near field finds the
+    two in contact) used to keep the small row: the light its rays see was lost, and at high
+    albedo a gap that takes many bounces read dark. The rays' first hits are where that light
+    comes from. A hit is given to the nearest surfel that faces the side it was hit on and
+    that it sees (a segment lifted ``occluders.offset`` off both), so that a hit inside a
+    sealed part never takes a lit surfel across an intersection line; a hit without one
+    sends nothing (the back face of a closed mesh has no surfel facing it). The missing share
+    is spread evenly over the hits taken: giving it to the nearest hits first (what a kernel
+    misses is mostly close by) measured the same (bunny furnace 1.54% against 1.53%, with
+    normals 5.6% against 5.3%; the lamp-lit bench scene 0.95% against 0.96%)."""
+    from . import _core
+    from . import receivers as rc
+    p = np.ascontiguousarray(positions, dtype=np.float64)
+    n = np.ascontiguousarray(normals, dtype=np.float64)
+    rows = np.ascontiguousarray(rows, dtype=np.int64).reshape(-1)
+    missing = np.asarray(missing, dtype=np.float64).reshape(-1)
+    empty = Fill(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0), 0,
+                 float(missing.sum()))
+    if len(rows) == 0 or len(p) < 2:
+        return empty
+    count = int(rays)
+    k = min(int(neighbours), len(p))
+    corners = occluders.corners
+    tn = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    tn /= np.maximum(np.linalg.norm(tn, axis=1), 1e-300)[:, None]
+    dirs = rc.cosine_directions(n[rows], count, rows, int(seed) + 0xF111).reshape(-1, 3)
+    src = np.repeat(np.arange(len(rows)), count)
+    o = np.repeat(p[rows] + occluders.offset * n[rows], count, axis=0)
+    tri, dist, front = occluders.intersect(o, dirs)
+    met = tri >= 0
+    src, tri, front = src[met], tri[met], front[met]
+    hit = o[met] + dist[met, None] * dirs[met]
+    side = np.where(front[:, None], tn[tri], -tn[tri])
+    near, _ = _core.knn(p, np.ascontiguousarray(hit), k)
+    facing = np.einsum("mkc,mc->mk", n[near], side) > FILL_SIDE_COS
+    cand = np.flatnonzero(facing.ravel())
+    lifted = hit + occluders.offset * side
+    seen = np.zeros(facing.size, dtype=bool)
+    if len(cand):
+        target = p[near.ravel()[cand]] + occluders.offset * n[near.ravel()[cand]]
+        seen[cand] = occluders.visible(lifted[cand // k], target) > 0.5
+    ok = seen.reshape(facing.shape)
+    first = np.argmax(ok, axis=1)
+    taken = ok[np.arange(len(ok)), first]
+    src, cols = src[taken], near[np.arange(len(ok)), first][taken]
+    per_row = np.bincount(src, minlength=len(rows)).astype(np.float64)
+    weights = missing[src] / per_row[src]
+    return Fill(rows[src], cols.astype(np.int64), weights, int((per_row > 0).sum()),
+                float(missing.sum()))

@@ -17,6 +17,8 @@ The default expansion parameters live here, in one place: :data:`DEFAULT_ORDER`,
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from . import conservation, limits
@@ -90,7 +92,8 @@ VISIBILITY_DEFAULTS = {
 #: The keywords ``solve`` forwards to TransportOperator.
 OPERATOR_KEYWORDS = ("method", "order", "theta", "leaf_size", "near_field", "visibility",
                      "threads", "occluder_triangles", "hemisphere_hits",
-                     "hemisphere_bound", "hemisphere_balance") + tuple(VISIBILITY_DEFAULTS)
+                     "hemisphere_bound", "hemisphere_balance", "hemisphere_fill") \
+    + tuple(VISIBILITY_DEFAULTS)
 
 
 def _require_core():
@@ -144,7 +147,7 @@ def validate_keywords(*, method=DEFAULT_METHOD, order=DEFAULT_ORDER, theta=DEFAU
                       leaf_size=DEFAULT_LEAF_SIZE, near_field=DEFAULT_NEAR_FIELD,
                       visibility=DEFAULT_VISIBILITY, threads=0, occluder_triangles=None,
                       hemisphere_hits=None, hemisphere_bound=None, hemisphere_balance="rows",
-                      **visibility_keywords) -> dict:
+                      hemisphere_fill=True, **visibility_keywords) -> dict:
     """Check the operator keywords (raises InputError) and return them normalized."""
     out = {}
     _check_triangles(occluder_triangles)
@@ -158,6 +161,8 @@ def validate_keywords(*, method=DEFAULT_METHOD, order=DEFAULT_ORDER, theta=DEFAU
         raise InputError(f"visibility={out['visibility']!r} is not implemented")
     out["threads"] = _check("threads", threads)
     _check_choice("hemisphere_balance", hemisphere_balance, HEMISPHERE_BALANCES)
+    if not isinstance(hemisphere_fill, (bool, np.bool_)):
+        raise InputError(f"hemisphere_fill: expected a bool, got {hemisphere_fill!r}")
     unknown = set(visibility_keywords) - set(VISIBILITY_DEFAULTS)
     if unknown:
         raise TypeError(f"unexpected keyword(s) {sorted(unknown)}")
@@ -281,6 +286,11 @@ class TransportOperator:
     hemisphere_balance : "rows" | "symmetric"
         With ``hemisphere_hits``: scale each row on its own (default; one application, and
         GMRES solves) or rows and columns alike (Sinkhorn; reciprocal, CG solves).
+    hemisphere_fill : bool
+        With ``hemisphere_hits``, ``hemisphere_balance="rows"`` and ``occluder_triangles``
+        (default True): a row that stays short of its share even scaled by
+        ``conservation.MAX_SCALE`` gets the rest from the first hits of its own rays
+        (``conservation.first_hit_fill``), so that every row sums to its share exactly.
     threads : int
         Worker threads, 0 = all hardware threads.
     progress : callable(fraction, phase) -> bool | None, optional
@@ -293,7 +303,8 @@ class TransportOperator:
                  leaf_size: int = DEFAULT_LEAF_SIZE, near_field: str = DEFAULT_NEAR_FIELD,
                  visibility: str = DEFAULT_VISIBILITY, threads: int = 0, progress=None,
                  occluder_triangles=None, hemisphere_hits=None, hemisphere_bound=None,
-                 hemisphere_balance: str = "rows", **visibility_keywords):
+                 hemisphere_balance: str = "rows", hemisphere_fill: bool = True,
+                 **visibility_keywords):
         if not isinstance(surfels, Surfels):
             raise InputError(
                 f"surfels: expected an illumap.Surfels, got {type(surfels).__name__} "
@@ -334,6 +345,8 @@ class TransportOperator:
                 **self.visibility_options,
             )
         self.balance = None
+        self.fill = None          # conservation.Fill: the share scaled rows cannot reach
+        self._fill_seconds = 0.0
         self._scale = None        # left scale (N, 1): rows
         self._right = None        # right scale (N, 1): columns ("symmetric" only)
         self.hemisphere_balance = _check_choice("hemisphere_balance", hemisphere_balance,
@@ -345,11 +358,29 @@ class TransportOperator:
             if self.hemisphere_balance == "rows":
                 self.balance = conservation.scale_rows(self._op.apply, hits, bound=bound)
                 self._scale = self.balance.scale[:, None]
+                if hemisphere_fill and self.occluder_triangles is not None:
+                    start = time.perf_counter()
+                    self.fill = self._first_hit_fill(hits)
+                    self._fill_seconds = time.perf_counter() - start
             else:
                 # Surfels that reflect nothing keep their scale (conservation.balance).
                 self.balance = conservation.balance(self._op.apply, hits, bound=bound,
                                                     frozen=~(surfels.albedo.max(axis=1) > 0.0))
                 self._scale = self._right = self.balance.scale[:, None]
+
+    def _first_hit_fill(self, hits: np.ndarray):
+        """``conservation.first_hit_fill`` for the rows short of their share, or None."""
+        missing = hits - self.balance.rows_after
+        rows = np.flatnonzero((missing > conservation.FILL_MIN_MISSING) & (hits > 0.0))
+        if len(rows) == 0:
+            return None
+        from .receivers import MeshOccluders
+        occluders = MeshOccluders(self.occluder_triangles, threads=self.threads)
+        fill = conservation.first_hit_fill(occluders, self.surfels.positions,
+                                           self.surfels.normals, rows, missing[rows])
+        self.balance.rows_after = self.balance.rows_after + np.bincount(
+            fill.rows, fill.weights, minlength=self.n)
+        return fill if len(fill.rows) else None
 
     @property
     def n(self) -> int:
@@ -377,7 +408,8 @@ class TransportOperator:
         if self._scale is None:
             return self._op.apply(values, progress=progress)
         x = values if self._right is None else np.ascontiguousarray(values * self._right)
-        return self._op.apply(x, progress=progress) * self._scale
+        y = self._op.apply(x, progress=progress) * self._scale
+        return y if self.fill is None else y + self.fill.apply(values)
 
     def apply_rows(self, values, rows) -> np.ndarray:
         """Exact direct sums for the selected receivers ``rows`` (int array): len(rows)×3."""
@@ -389,7 +421,8 @@ class TransportOperator:
         if self._scale is None:
             return self._op.apply_rows(values, rows)
         x = values if self._right is None else np.ascontiguousarray(values * self._right)
-        return self._op.apply_rows(x, rows) * self._scale[rows]
+        y = self._op.apply_rows(x, rows) * self._scale[rows]
+        return y if self.fill is None else y + self.fill.apply_rows(values, rows)
 
     @property
     def symmetric(self) -> bool:
@@ -418,6 +451,11 @@ class TransportOperator:
             stats.update(self.visibility_options)
         if self.balance is not None:
             stats.update(self.balance.stats(), hemisphere_balance=self.hemisphere_balance)
+            if self.fill is not None:
+                stats.update(hemisphere_fill_rows=self.fill.filled,
+                             hemisphere_fill_entries=int(len(self.fill.rows)),
+                             hemisphere_fill_share=self.fill.missing,
+                             time_hemisphere_fill=self._fill_seconds)
         return stats
 
     def keywords(self) -> dict:
