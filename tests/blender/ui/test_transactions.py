@@ -23,7 +23,7 @@ import pytest
 
 from illumap_bpy_testing import add_lamp, diffuse_material, make_plane, requires_core, select_only
 
-from addon import output, pipeline
+from addon import exports, output, pipeline
 from addon.errors import IllumapError, OutputError
 
 pytestmark = requires_core
@@ -145,7 +145,7 @@ def test_export_failing_while_written_leaves_file_and_folder_as_they_were(tmp_pa
         with open(path, "wb") as f:
             f.write(b"half")
         raise OSError(28, "No space left on device")
-    monkeypatch.setattr(output, "export_exr", disk_full)
+    monkeypatch.setattr(exports, "export_exr", disk_full)
     save_and_compare(tmp_path, lambda: pipeline.compute(
         bpy.context, [floor], draft(export_npz=str(out / "s.npz"), export_exr=str(out / "i.exr"))),
         expect=OutputError, match=r"Writing '.*i\.exr' failed: No space left on device")
