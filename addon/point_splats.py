@@ -74,6 +74,51 @@ def _tangent(n: np.ndarray) -> np.ndarray:
     return u / np.linalg.norm(u, axis=1, keepdims=True)
 
 
+def _rims(p, n, nb, far, threads: int) -> tuple[np.ndarray, np.ndarray]:
+    """Which points lie on the scan's rim, and the unit direction out of the scan there (in
+    the tangent plane). Among the point's ``RIM_NEIGHBOURS`` nearest of its own surface (the
+    normal within acos ``EDGE_COS``) the centroid lies ``RIM_SHIFT`` × the farthest one's
+    distance off the point and the widest angle between them exceeds ``RIM_GAP``; the gap
+    faces away from any other surface's points (beside a crease those fill it or open it, and
+    the crease clips there already); and a neighbour is a rim point facing about the same way
+    (a rim is a line of them: a lone one is an uneven sampling's hole in the angles). Only
+    the points with such a gap among their ``NEIGHBOURS`` nearest take the wider search: on a
+    regular scan the rows along its rims, on a random one about a fifth."""
+    from illumap import _core  # noqa: PLC0415
+    count, k = nb.shape
+    # The widest gap between some of the neighbours is at least that between all of them:
+    # the NEIGHBOURS nearest screen the points exactly.
+    near = p[nb] - p[:, None, :]
+    mine = np.abs(np.einsum("ic,ikc->ik", n, n[nb])) >= EDGE_COS
+    cand = np.flatnonzero(_widest_gap(near, n, mine) > RIM_GAP)
+    del near
+    rim = np.zeros(count, bool)
+    facing = np.zeros((count, 3))
+    wide = min(RIM_NEIGHBOURS, count - 1)
+    if not len(cand) or wide < 2:
+        return rim, facing
+    idx, dist = _core.knn(p, np.ascontiguousarray(p[cand]), wide + 1, threads=threads)
+    idx, dist = np.asarray(idx)[:, 1:], np.asarray(dist)[:, -1]
+    nc = n[cand]
+    offsets = p[idx] - p[cand, None, :]
+    own = np.abs(np.einsum("ic,ikc->ik", nc, n[idx])) >= EDGE_COS
+    gc = (offsets * own[..., None]).sum(axis=1) / np.maximum(own.sum(axis=1), 1)[:, None]
+    gc -= np.einsum("ic,ic->i", gc, nc)[:, None] * nc
+    g_len = np.linalg.norm(gc, axis=1)
+    is_rim = g_len > RIM_SHIFT * dist
+    is_rim[is_rim] = _widest_gap(offsets[is_rim], nc[is_rim], own[is_rim]) > RIM_GAP
+    others = (offsets * ~own[..., None]).sum(axis=1)
+    is_rim &= np.einsum("ic,ic->i", others, -gc) <= 0
+    rim[cand] = is_rim
+    facing[cand[is_rim]] = -gc[is_rim] / np.maximum(g_len[is_rim], 1e-300)[:, None]
+    sub = np.flatnonzero(rim)
+    along = (rim[nb[sub]] & (np.einsum("ic,ikc->ik", facing[sub], facing[nb[sub]])
+                             > RIM_ALONG)).any(axis=1)
+    rim[sub[~along]] = False
+    facing[sub[~along]] = 0.0
+    return rim, facing
+
+
 def _widest_gap(offsets: np.ndarray, n: np.ndarray, own: np.ndarray) -> np.ndarray:
     """The widest angle (radians) between the directions of the neighbours ``offsets``
     (N, k, 3) seen from each point, in its tangent plane (normal ``n``), of those ``own``
@@ -178,9 +223,8 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
         r = np.full(count, 0.01) if radius is None else np.asarray(radius, np.float64)
         return _pack(n, _tangent(n), np.stack([r, r, r], 1), np.zeros((count, 3)),
                      np.zeros(count, bool))
-    wide_idx, wide_dist = _core.knn(p, p, min(RIM_NEIGHBOURS, count - 1) + 1, threads=threads)
-    wide_idx, wide_dist = np.asarray(wide_idx), np.asarray(wide_dist)
-    idx, far = np.ascontiguousarray(wide_idx[:, :k + 1]), wide_dist[:, k]
+    idx, dist = _core.knn(p, p, k + 1, threads=threads)
+    idx, far = np.asarray(idx), np.asarray(dist)[:, k]
     if normals is None:
         n = np.asarray(plane_normals(p, idx, threads=threads), dtype=np.float64)
     else:
@@ -205,28 +249,15 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
     sub = np.flatnonzero(other.any(axis=1))
     if len(sub):
         c_min[sub], w[sub], plane_n[sub], plane_d[sub] = _crease_lines(p, n, nb, sub, other[sub])
-    # Rims: the neighbours' centroid (all of them) off the point, in its plane. The scan ends
-    # there: the splat reaches RIM_REACH × r beyond the point, and so does its clipping plane
-    # (perpendicular to the surface, facing out) for the points around it.
-    # Only the point's own surface counts: beside a crease the other surface's points would
-    # fill the gap, or its absence open one.
-    offsets = p[wide_idx[:, 1:]] - p[:, None, :]
-    own = np.abs(np.einsum("ic,ikc->ik", n, n[wide_idx[:, 1:]])) >= EDGE_COS
-    g = (offsets * own[..., None]).sum(axis=1) / np.maximum(own.sum(axis=1), 1)[:, None]
-    g -= np.einsum("ic,ic->i", g, n)[:, None] * n
-    g_len = np.linalg.norm(g, axis=1)
-    rim = (g_len > RIM_SHIFT * wide_dist[:, -1]) & (RIM_REACH * r < c_min)
-    rim[rim] = _widest_gap(offsets[rim], n[rim], own[rim]) > RIM_GAP
-    # A gap that faces another surface's points is the crease's, which clips there already.
-    others = (offsets * ~own[..., None]).sum(axis=1)
-    rim &= np.einsum("ic,ic->i", others, -g) <= 0
-    # A scan's rim is a line of rim points: one whose neighbours include none facing about
-    # the same way is an uneven sampling's hole in the angles, not the scan's end.
-    facing = np.zeros((count, 3))
-    facing[rim] = -g[rim] / np.maximum(g_len[rim], 1e-300)[:, None]
-    rim &= (rim[nb] & (np.einsum("ic,ikc->ik", facing, facing[nb]) > RIM_ALONG)).any(axis=1)
+    # Rims (``_rims``): the scan ends there; the splat reaches RIM_REACH × r beyond the
+    # point, and so does its clipping plane (perpendicular to the surface, facing out) for
+    # the points around it.
+    rim, facing = _rims(p, n, nb, far, threads)
+    rim &= RIM_REACH * r < c_min
     out = facing[rim]
-    c_min[rim] = RIM_REACH * r[rim]
+    # The line sits EDGE_SLACK × r inside the reach, which every cut adds back: a splat ends
+    # RIM_REACH × r past the rim, where an edge's splats overlap the other face by the slack.
+    c_min[rim] = (RIM_REACH - EDGE_SLACK) * r[rim]
     w[rim] = out
     plane_n[rim] = out
     plane_d[rim] = np.einsum("ic,ic->i", out, p[rim] + c_min[rim][:, None] * out)
@@ -259,7 +290,7 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
     has = np.isfinite(c_min)
     sub = np.flatnonzero(clipped)
     if len(sub):
-        shrink = _second_lines(p, n, nb, sub, has, plane_n, plane_d, axis, a, b, offset, r, g,
+        shrink = _second_lines(p, n, nb, sub, has, plane_n, plane_d, axis, a, b, offset, r,
                                np.where(clipped[:, None], w, 0.0))
         a, b = a.copy(), b.copy()
         a[sub] *= shrink
@@ -269,14 +300,15 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
     return _pack(n, axis, np.stack([a, b, a], 1), offset, clipped)
 
 
-def _second_lines(p, n, nb, sub, has, plane_n, plane_d, axis, a, b, offset, r, inward,
-                  primary):
+def _second_lines(p, n, nb, sub, has, plane_n, plane_d, axis, a, b, offset, r, primary):
     """For the points ``sub``: the factor (≤ 1) by which each ellipse shrinks about its point
     so that it reaches no further than ``EDGE_SLACK`` × r past any clipping plane of its own or
-    of its neighbours (the line where that plane cuts the point's plane); ``inward``: the
-    offset of each point's neighbours' centroid; ``primary``: the direction toward the line
-    that cut the ellipse (0: none)."""
+    of its neighbours (the line where that plane cuts the point's plane); ``primary``: the
+    direction toward the line that cut the ellipse (0: none)."""
     ps, ns = p[sub], n[sub]
+    near_offsets = p[nb[sub]] - ps[:, None, :]
+    own = (np.abs(np.einsum("ic,ikc->ik", ns, n[nb[sub]])) >= EDGE_COS)[..., None]
+    inward = (near_offsets * own).sum(axis=1) / np.maximum(own.sum(axis=1), 1)
     cand = np.concatenate([sub[:, None], nb[sub]], axis=1)              # (S, k + 1)
     pm, pd = plane_n[cand], plane_d[cand]
     cos = np.einsum("ic,ikc->ik", ns, pm)
@@ -287,7 +319,7 @@ def _second_lines(p, n, nb, sub, has, plane_n, plane_d, axis, a, b, offset, r, i
     # A point on the plane (a room's corner, where three scans' points coincide) keeps the
     # side its neighbours are on.
     side = np.where(np.abs(h) > ON_PLANE * near, np.sign(h),
-                    -np.sign(np.einsum("ikc,ic->ik", pm, inward[sub])))
+                    -np.sign(np.einsum("ikc,ic->ik", pm, inward)))
     usable = has[cand] & (np.abs(cos) < EDGE_COS) & (side != 0)
     dist = np.where(np.abs(h) > ON_PLANE * near, np.abs(h), 0.0) / t_len   # p to the line
     w = -side[..., None] * (pm - cos[..., None] * ns[:, None, :]) / t_len[..., None]
