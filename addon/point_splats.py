@@ -63,6 +63,9 @@ RIM_REACH = 0.0
 #: A second clipping line shrinks a cut ellipse only where it turns from the first by more
 #: than acos(this) (30°).
 PARALLEL_COS = np.cos(np.radians(30.0))
+#: Half the width of the strip along a crease that a point on it covers, in units of its
+#: radius.
+CREASE_WIDTH = 0.3
 #: Rounds in which the neighbours' clipping planes clip a point (reach: that many rings).
 PROPAGATE = 1
 
@@ -88,10 +91,7 @@ def _rims(p, n, nb, far, threads: int) -> tuple[np.ndarray, np.ndarray]:
     count, k = nb.shape
     # The widest gap between some of the neighbours is at least that between all of them:
     # the NEIGHBOURS nearest screen the points exactly.
-    near = p[nb] - p[:, None, :]
-    mine = np.abs(np.einsum("ic,ikc->ik", n, n[nb])) >= EDGE_COS
-    cand = np.flatnonzero(_widest_gap(near, n, mine) > RIM_GAP)
-    del near
+    cand = np.flatnonzero(_widest_gap(p[nb] - p[:, None, :], n)[0] > RIM_GAP)
     rim = np.zeros(count, bool)
     facing = np.zeros((count, 3))
     wide = min(RIM_NEIGHBOURS, count - 1)
@@ -101,16 +101,12 @@ def _rims(p, n, nb, far, threads: int) -> tuple[np.ndarray, np.ndarray]:
     idx, dist = np.asarray(idx)[:, 1:], np.asarray(dist)[:, -1]
     nc = n[cand]
     offsets = p[idx] - p[cand, None, :]
-    own = np.abs(np.einsum("ic,ikc->ik", nc, n[idx])) >= EDGE_COS
-    gc = (offsets * own[..., None]).sum(axis=1) / np.maximum(own.sum(axis=1), 1)[:, None]
+    gc = offsets.mean(axis=1)
     gc -= np.einsum("ic,ic->i", gc, nc)[:, None] * nc
-    g_len = np.linalg.norm(gc, axis=1)
-    is_rim = g_len > RIM_SHIFT * dist
-    is_rim[is_rim] = _widest_gap(offsets[is_rim], nc[is_rim], own[is_rim]) > RIM_GAP
-    others = (offsets * ~own[..., None]).sum(axis=1)
-    is_rim &= np.einsum("ic,ic->i", others, -gc) <= 0
+    gap, out = _widest_gap(offsets, nc)
+    is_rim = (np.linalg.norm(gc, axis=1) > RIM_SHIFT * dist) & (gap > RIM_GAP)
     rim[cand] = is_rim
-    facing[cand[is_rim]] = -gc[is_rim] / np.maximum(g_len[is_rim], 1e-300)[:, None]
+    facing[cand[is_rim]] = out[is_rim]
     sub = np.flatnonzero(rim)
     along = (rim[nb[sub]] & (np.einsum("ic,ikc->ik", facing[sub], facing[nb[sub]])
                              > RIM_ALONG)).any(axis=1)
@@ -119,17 +115,18 @@ def _rims(p, n, nb, far, threads: int) -> tuple[np.ndarray, np.ndarray]:
     return rim, facing
 
 
-def _widest_gap(offsets: np.ndarray, n: np.ndarray, own: np.ndarray) -> np.ndarray:
+def _widest_gap(offsets: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The widest angle (radians) between the directions of the neighbours ``offsets``
-    (N, k, 3) seen from each point, in its tangent plane (normal ``n``), of those ``own``
-    (N, k) marks (others take the first marked one's direction; 2π where none is marked)."""
+    (N, k, 3) seen from each point, in its tangent plane (normal ``n``), and the unit vector
+    that halves it."""
     u = _tangent(n)
     v = np.cross(n, u)
-    angle = np.arctan2(np.einsum("ikc,ic->ik", offsets, v), np.einsum("ikc,ic->ik", offsets, u))
-    first = np.take_along_axis(angle, np.argmax(own, axis=1)[:, None], axis=1)
-    angle = np.sort(np.where(own, angle, first), axis=1)
+    angle = np.sort(np.arctan2(np.einsum("ikc,ic->ik", offsets, v),
+                               np.einsum("ikc,ic->ik", offsets, u)), axis=1)
     gaps = np.diff(angle, axis=1, append=angle[:, :1] + 2 * np.pi)
-    return np.where(own.any(axis=1), gaps.max(axis=1), 2 * np.pi)
+    j = np.argmax(gaps, axis=1)[:, None]
+    half = (np.take_along_axis(angle, j, axis=1) + 0.5 * np.take_along_axis(gaps, j, axis=1))[:, 0]
+    return gaps.max(axis=1), np.cos(half)[:, None] * u + np.sin(half)[:, None] * v
 
 
 def _crease_lines(p, n, nb, sub, other):
@@ -249,6 +246,12 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
     sub = np.flatnonzero(other.any(axis=1))
     if len(sub):
         c_min[sub], w[sub], plane_n[sub], plane_d[sub] = _crease_lines(p, n, nb, sub, other[sub])
+    # A point on the crease itself belongs to both surfaces (a scan of two walls has one on
+    # each, at the same place, with the same plane and each its own colour): its splat would
+    # lay one surface's colour over the other's, so it keeps only a strip along the crease
+    # (CREASE_WIDTH × r either side), and its neighbours on either side, which reach the
+    # crease, cover the surface up to it.
+    on_crease = c_min == 0
     # Rims (``_rims``): the scan ends there; the splat reaches RIM_REACH × r beyond the
     # point, and so does its clipping plane (perpendicular to the surface, facing out) for
     # the points around it.
@@ -297,7 +300,9 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
         b[sub] *= shrink
         offset[sub] *= shrink[:, None]
         clipped[sub] |= shrink < 1
-    return _pack(n, axis, np.stack([a, b, a], 1), offset, clipped)
+    b = np.where(on_crease, CREASE_WIDTH * r, b)
+    offset[on_crease] = 0.0
+    return _pack(n, axis, np.stack([a, b, a], 1), offset, clipped | on_crease)
 
 
 def _second_lines(p, n, nb, sub, has, plane_n, plane_d, axis, a, b, offset, r, primary):

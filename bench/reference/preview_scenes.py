@@ -114,21 +114,38 @@ def room(cell: float = 0.05, jitter: float = 0.0, seed: int = 0) -> dict:
     return {"surfaces": surfaces, "emitter": emitter}
 
 
-def bunny(floor_cell: float = 0.1) -> dict:
-    """The bunny on a floor, sky and sun (``scenes.scan_object``), a camera looking down at it
-    so that the floor fills the frame: ``{"surfaces": [bunny, floor], "emitter": None}``."""
-    scene = scenes.scan_object()
-    del floor_cell
-    bunny_obj, floor = scene.scored
-    _camera((0.15, -0.95, 1.05), (0.0, 0.0, 0.17), 50.0)
+def bunny(floor_cell: float = 0.05, stride: int = 1) -> dict:
+    """The bunny on a 4 m floor of ``floor_cell`` grids under a dim sky and a sun (as
+    ``scenes.scan_object``, whose 0.1 m floor cells are too coarse to show the bunny's shadow
+    through their vertices) and a camera looking down at it: ``{"surfaces": [bunny, floor],
+    "emitter": None, "stride": stride}``. The bunny mesh is the whole scan (the path-traced
+    reference renders its triangles); ``stride`` is how ``build`` thins the scan Illumap gets."""
+    scenes._reset()
+    scenes.sky_world(strength=0.5)
+    verts, faces = scenes.read_ply(scenes.BUNNY_PLY)
+    verts = verts[:, [0, 2, 1]] * np.array([1.0, -1.0, 1.0])          # y up -> z up
+    verts = (verts - [verts[:, 0].mean(), verts[:, 1].mean(), verts[:, 2].min()]) \
+        * scenes.BUNNY_SCALE
+    mesh = bpy.data.meshes.new("Bunny")
+    mesh.from_pydata(verts, [], faces)
+    mesh.validate()
+    mesh.materials.append(scenes.diffuse_material("Clay", (0.75, 0.6, 0.45)))
+    bunny_obj = bpy.data.objects.new("Bunny", mesh)
+    bpy.context.scene.collection.objects.link(bunny_obj)
+    floor = scenes.mesh_object(
+        "Floor", scenes.quad_parts([(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], (0, 0, 1),
+                                   floor_cell), scenes.diffuse_material("Grey", (0.6, 0.6, 0.6)))
+    sun = scenes.add_lamp("SUN", (0, 0, 5), name="Sun", energy=3.0, angle=math.radians(2.0))
+    sun.rotation_euler = (math.radians(40.0), 0.0, math.radians(30.0))
+    _camera((0.15, -0.95, 1.05), (0.0, 0.0, 0.12), 50.0)
     bpy.context.view_layer.update()
-    return {"surfaces": [bunny_obj, floor], "emitter": None}
+    return {"surfaces": [bunny_obj, floor], "emitter": None, "stride": stride}
 
 
-def as_scan(meshes, name: str = "Scan"):
+def as_scan(meshes, name: str = "Scan", stride: int = 1):
     """One vertex-only object holding the vertices of ``meshes`` (world space, albedo in
-    ``Col`` from each mesh's material, no normals, no radii); the meshes hidden from the
-    viewport and renders. Returns the scan."""
+    ``Col`` from each mesh's material, no normals, no radii; every ``stride``-th vertex); the
+    meshes hidden from the viewport and renders. Returns the scan."""
     pos, albedo = [], []
     for obj in meshes:
         v = np.empty(len(obj.data.vertices) * 3)
@@ -138,7 +155,7 @@ def as_scan(meshes, name: str = "Scan"):
         albedo.append(np.tile(obj.data.materials[0]["albedo"], (len(v), 1)))
         obj.hide_set(True)
         obj.hide_render = True
-    pos, albedo = np.concatenate(pos), np.concatenate(albedo)
+    pos, albedo = np.concatenate(pos)[::stride], np.concatenate(albedo)[::stride]
     data = bpy.data.meshes.new(name)
     data.vertices.add(len(pos))
     data.vertices.foreach_set("co", pos.astype(np.float32).ravel())
@@ -161,7 +178,8 @@ def scan_values(scan) -> np.ndarray:
 def points_on_meshes(scan, meshes) -> None:
     """Show the values at the scan's points without splats: each mesh of ``meshes`` (whose
     vertices, in order, the scan was made of) gets the scan's ``illumination`` as a point
-    attribute and the mesh preview; the scan is hidden and the meshes shown."""
+    attribute and the mesh preview; the scan is hidden and the meshes shown. Only for a scan
+    of all their vertices (``stride`` 1)."""
     from addon import mesh_preview  # noqa: PLC0415
     values = scan_values(scan)
     start = 0
@@ -193,10 +211,11 @@ def show_scan(scan, meshes) -> None:
 SCENES = ("mesh_room", "scan_room", "scan_bunny")
 
 
-def build(name: str, cell: float = 0.05) -> dict:
+def build(name: str, cell: float = 0.05, stride: int = 1) -> dict:
     """The scene ``name`` (one of SCENES) in an empty file: ``surfaces`` (the meshes of the
     true surfaces), ``emitter`` (or None), ``scan`` (the scan object, or None) and ``lit``
-    (what Illumap is given)."""
+    (what Illumap is given); ``cell``: the rooms' grid or the bunny's floor's (m), ``stride``: the bunny scan keeps
+    every stride-th vertex."""
     if name == "mesh_room":
         s = room(cell)
         return {**s, "scan": None, "lit": s["surfaces"] + [s["emitter"]]}
@@ -205,8 +224,8 @@ def build(name: str, cell: float = 0.05) -> dict:
         scan = as_scan(s["surfaces"])
         return {**s, "scan": scan, "lit": [scan, s["emitter"]]}
     if name == "scan_bunny":
-        s = bunny()
-        scan = as_scan(s["surfaces"][:1])
+        s = bunny(floor_cell=cell, stride=stride)
+        scan = as_scan(s["surfaces"][:1], stride=stride)
         return {**s, "scan": scan, "lit": [scan, s["surfaces"][1]],
                 "scanned": s["surfaces"][:1]}
     raise ValueError(f"unknown preview scene {name!r}; known: {', '.join(SCENES)}")
