@@ -12,7 +12,8 @@ show it.
 * Point clouds and vertex-only meshes (scans): every point of the object is a splat, coloured
   by the light evaluated at that very point, whatever number of surfels the solve used
   (``Illumap Point Preview``): an ellipse in the point's tangent plane, sized from its
-  neighbours and cut back at creases and rims (``point_splats.splat_frames``), instanced from
+  neighbours and cut back at creases and rims (``point_splats.splat_frames``), drawn as a
+  flat double cone so that where splats overlap the nearest point's light shows, instanced from
   four hidden point attributes (``SPLAT_ATTRIBUTES``) that ``build_mesh_preview`` writes and
   ``remove_mesh_preview`` removes; its material reads the point's ``illumination`` through
   an INSTANCER Attribute node. Where those attributes cannot be written (linked data), the
