@@ -25,7 +25,8 @@ point node group reads what ``splat_frames`` returns from hidden point attribute
   top's: no rim over the edge, no seam in a corner. A point on the crease itself keeps only
   a strip ``CREASE_WIDTH`` × r either side of it: a scan of two walls has a point of each
   there, in the same plane but each with its own wall's colour, and a whole ellipse laid
-  the other wall's colour over this one.
+  the other wall's colour over this one (with given normals each lies in its own wall's
+  plane, and keeps its whole ellipse).
 * **Rims** (``_rims``). Where the scan ends (among the ``RIM_NEIGHBOURS`` nearest points the
   widest angle exceeds ``RIM_GAP`` and the centroid lies off the point; a neighbour is a rim
   point facing the same way), a line through the point, across the gap's middle, clips the
@@ -263,8 +264,9 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
     # each, at the same place, with the same plane and each its own colour): its splat would
     # lay one surface's colour over the other's, so it keeps only a strip along the crease
     # (CREASE_WIDTH × r either side), and its neighbours on either side, which reach the
-    # crease, cover the surface up to it.
-    on_crease = c_min == 0
+    # crease, cover the surface up to it. With the scan's own normals each point there lies in
+    # its own surface's plane: its splat is that surface's and stays whole.
+    on_crease = (c_min == 0) & (normals is None)
     # Rims (``_rims``): the scan ends there; the splat reaches RIM_REACH × r beyond the
     # point, and so does its clipping plane (perpendicular to the surface, facing out) for
     # the points around it.

@@ -26,7 +26,7 @@ from bench.reference.preview_vs_cycles import (OUT, RESULTS, SEEDS, compare, emi
                                                off_shares, relative_rms, render, report)
 
 #: The grid each scene is built with unless ``--cell`` (tests/blender/test_preview_render.py).
-CELL = {"mesh_room": 0.05, "scan_room": 0.02, "scan_bunny": 0.025}
+CELL = {"mesh_room": 0.05, "scan_room": 0.02, "scan_room_normals": 0.02, "scan_bunny": 0.025}
 
 
 def _views(scene: dict, name: str, args) -> dict:

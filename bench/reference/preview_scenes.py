@@ -9,6 +9,8 @@ camera (``preview_vs_cycles.py --scene``, tests/blender/test_preview_render.py).
   that the scan's points are the vertices of meshes that are still exactly the room's
   surfaces. Illumap is given one vertex-only object of those points (albedo in ``Col``, no
   normals, no radii); the emitter stays a mesh.
+* ``scan_room_normals``: the same scan with each point's normal given (the scanned mesh's
+  vertex normal, as a scanner that records normals gives).
 * ``scan_bunny``: the Stanford bunny (a real range scan, ``scenes.BUNNY_CREDIT``) × 3.3 on a
   mesh floor under a dim sky and a sun; Illumap is given the bunny's vertices as a scan.
 
@@ -142,14 +144,19 @@ def bunny(floor_cell: float = 0.05, stride: int = 1) -> dict:
     return {"surfaces": [bunny_obj, floor], "emitter": None, "stride": stride}
 
 
-def as_scan(meshes, name: str = "Scan", stride: int = 1):
+def as_scan(meshes, name: str = "Scan", stride: int = 1, normals: bool = False):
     """One vertex-only object holding the vertices of ``meshes`` (world space, albedo in
-    ``Col`` from each mesh's material, no normals, no radii; every ``stride``-th vertex); the
-    meshes hidden from the viewport and renders. Returns the scan."""
-    pos, albedo = [], []
+    ``Col`` from each mesh's material, no radii, and no normals unless ``normals``: then each
+    vertex's normal in a ``normal`` attribute, as a scanner that records them gives; every
+    ``stride``-th vertex); the meshes hidden from the viewport and renders. Returns the
+    scan."""
+    pos, albedo, nrm = [], [], []
     for obj in meshes:
         v = np.empty(len(obj.data.vertices) * 3)
         obj.data.vertices.foreach_get("co", v)
+        vn = np.empty(len(obj.data.vertices) * 3)
+        obj.data.vertices.foreach_get("normal", vn)
+        nrm.append(vn.reshape(-1, 3) @ np.linalg.inv(np.array(obj.matrix_world)[:3, :3]))
         v = v.reshape(-1, 3) @ np.array(obj.matrix_world)[:3, :3].T + np.array(obj.matrix_world)[:3, 3]
         pos.append(v)
         albedo.append(np.tile(obj.data.materials[0]["albedo"], (len(v), 1)))
@@ -162,6 +169,11 @@ def as_scan(meshes, name: str = "Scan", stride: int = 1):
     rgba = np.ones((len(pos), 4), np.float32)
     rgba[:, :3] = albedo
     data.color_attributes.new("Col", "FLOAT_COLOR", "POINT").data.foreach_set("color", rgba.ravel())
+    if normals:
+        vn = np.concatenate(nrm)[::stride]
+        vn /= np.linalg.norm(vn, axis=1, keepdims=True)
+        data.attributes.new("normal", "FLOAT_VECTOR", "POINT").data.foreach_set(
+            "vector", vn.astype(np.float32).ravel())
     obj = bpy.data.objects.new(name, data)
     bpy.context.scene.collection.objects.link(obj)
     return obj
@@ -208,7 +220,7 @@ def show_scan(scan, meshes) -> None:
     scan.hide_render = False
 
 
-SCENES = ("mesh_room", "scan_room", "scan_bunny")
+SCENES = ("mesh_room", "scan_room", "scan_room_normals", "scan_bunny")
 
 
 def build(name: str, cell: float = 0.05, stride: int = 1) -> dict:
@@ -219,9 +231,9 @@ def build(name: str, cell: float = 0.05, stride: int = 1) -> dict:
     if name == "mesh_room":
         s = room(cell)
         return {**s, "scan": None, "lit": s["surfaces"] + [s["emitter"]]}
-    if name == "scan_room":
+    if name in ("scan_room", "scan_room_normals"):
         s = room(cell, JITTER)
-        scan = as_scan(s["surfaces"])
+        scan = as_scan(s["surfaces"], normals=name == "scan_room_normals")
         return {**s, "scan": scan, "lit": [scan, s["emitter"]]}
     if name == "scan_bunny":
         s = bunny(floor_cell=cell, stride=stride)

@@ -92,7 +92,7 @@ SEEDS = (0, 1)
 #: The sample's emitters: their pixels are left out of the "surfaces" figures.
 EMITTERS = ("Light",)
 #: The scenes of preview_scenes.py (``--scene``; preview_scene_run.py runs them).
-SCENE_NAMES = ("mesh_room", "scan_room", "scan_bunny")
+SCENE_NAMES = ("mesh_room", "scan_room", "scan_room_normals", "scan_bunny")
 
 
 def render(size: int, samples: int, seed: int = 0) -> tuple[np.ndarray, float]:
