@@ -101,7 +101,7 @@ def _rims(p, n, nb, far, threads: int) -> tuple[np.ndarray, np.ndarray]:
     among some of the neighbours is never narrower than among all): on a regular scan the
     rows along its rims, on a random one about a fifth."""
     from illumap import _core  # noqa: PLC0415
-    count, k = nb.shape
+    count = len(nb)
     # Single precision suffices for the screen's angles and halves its memory traffic.
     p32, n32 = p.astype(np.float32), n.astype(np.float32)
     cand = np.flatnonzero(_widest_gap(p32[nb] - p32[:, None, :], n32)[0] > RIM_GAP)
@@ -248,7 +248,6 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
         r = np.asarray(radius, dtype=np.float64)
     r = np.where(r > 0, r, np.maximum(far, 1e-6))
     nb = idx[:, 1:]
-    rows = np.arange(count)
     cos = np.einsum("ic,ikc->ik", n, n[nb])
     other = np.abs(cos) < EDGE_COS
     # Only the points with a neighbour on another surface (those by an edge) and then those
