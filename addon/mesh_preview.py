@@ -54,7 +54,8 @@ SPLAT_KEY = "illumap_splats"
 #: Sides of the polygon each splat is drawn as.
 SPLAT_SIDES = 16
 #: Height of each splat's cone (both sides) in units of its first semi-axis: enough for a
-#: renderer's depth to tell neighbours apart, too little to see (0.1 mm on a 2 cm splat; an emitter 1 mm off a wall stays in front).
+#: renderer's depth to tell neighbours apart, too little to see (0.1 mm on a 2 cm splat; an
+#: emitter 1 mm off a wall stays in front).
 SPLAT_CONE = 0.005
 MODIFIER_NAMES = (MODIFIER_NAME, POINT_MODIFIER_NAME)
 MATERIAL_NAME = "Illumap Illumination"
@@ -263,7 +264,7 @@ def _splat_shape(ng):
     radius about the z axis, its apexes ``SPLAT_CONE`` above and below the rim's plane (the
     polygon circumscribes the unit disc, so it covers all of the ellipse). Where splats
     overlap, the renderer shows the highest cone, the one whose point is nearest: each point's
-    light covers its own cell of the surface (the Voronoi cell, as the lower envelope of equal
+    light covers its own cell of the surface (the Voronoi cell, as the envelope of equal
     cones is), not whichever disc the renderer happened to meet first."""
     nodes, links = ng.nodes, ng.links
     cone = nodes.new("GeometryNodeMeshCone")

@@ -187,6 +187,9 @@ def _neighbours_planes(p, n, nb, sub, has, plane_n, plane_d):
     return c[rows, j], w, pm[rows, j], plane_d[nbs][rows, j]
 
 
+#: Changes whenever the splats' attributes change meaning (2: the scale's third component is
+#: the cone's height, where it was 1).
+SPLATS_VERSION = 2
 #: Splats a run computed on its worker for the scans it lights (``prepare_frames``), by
 #: ``fingerprint``, until the preview takes them (``ready_frames``): the preview that follows
 #: a run then costs the main thread only the attributes' writing.
@@ -195,10 +198,12 @@ _READY_MAX = 8
 
 
 def fingerprint(positions, normals=None, radius=None) -> str:
-    """What a scan's splats depend on, in a few numbers: its points (float32, object space),
-    its given normals and radii."""
+    """What a scan's splats depend on, in a few numbers: the splats' version (splats an
+    earlier version wrote are written again), its points (float32, object space), its given
+    normals and radii."""
     pos = np.asarray(positions, dtype=np.float32)
-    parts = [len(pos), float(pos.sum(dtype=np.float64)), float(np.square(pos, dtype=np.float64).sum())]
+    parts = [SPLATS_VERSION, len(pos), float(pos.sum(dtype=np.float64)),
+             float(np.square(pos, dtype=np.float64).sum())]
     for extra in (normals, radius):
         parts.append(None if extra is None else float(np.asarray(extra).sum(dtype=np.float64)))
     return repr(parts)
