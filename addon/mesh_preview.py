@@ -12,7 +12,8 @@ show it.
 * Point clouds and vertex-only meshes (scans): every point of the object is a splat, coloured
   by the light evaluated at that very point, whatever number of surfels the solve used
   (``Illumap Point Preview``): an ellipse in the point's tangent plane, sized from its
-  neighbours and cut back at creases and rims (``point_splats.splat_frames``), instanced from
+  neighbours and cut back at creases and rims (``point_splats.splat_frames``), drawn as a
+  flat double cone so that where splats overlap the nearest point's light shows, instanced from
   four hidden point attributes (``SPLAT_ATTRIBUTES``) that ``build_mesh_preview`` writes and
   ``remove_mesh_preview`` removes; its material reads the point's ``illumination`` through
   an INSTANCER Attribute node. Where those attributes cannot be written (linked data), the
@@ -52,6 +53,10 @@ SPLAT_ATTRIBUTES = {key: f".illumap_splat_{key}" for key in ("normal", "axis", "
 SPLAT_KEY = "illumap_splats"
 #: Sides of the polygon each splat is drawn as.
 SPLAT_SIDES = 16
+#: Height of each splat's cone (both sides) in units of its first semi-axis: enough for a
+#: renderer's depth to tell neighbours apart, too little to see (0.1 mm on a 2 cm splat; an
+#: emitter 1 mm off a wall stays in front).
+SPLAT_CONE = 0.005
 MODIFIER_NAMES = (MODIFIER_NAME, POINT_MODIFIER_NAME)
 MATERIAL_NAME = "Illumap Illumination"
 # The material and node groups Illumap made carry MARKER (as its objects do): a user's own
@@ -237,16 +242,11 @@ def splat_node_group() -> bpy.types.NodeTree:
     axis.location = (450, -350)
     links.new(normal.outputs["Rotation"], axis.inputs["Rotation"])
     links.new(attribute("axis", -550), axis.inputs["Vector"])
-    circle = nodes.new("GeometryNodeMeshCircle")
-    circle.fill_type = "NGON"
-    circle.inputs["Vertices"].default_value = SPLAT_SIDES
-    # The polygon circumscribes the unit disc: it covers all of the ellipse.
-    circle.inputs["Radius"].default_value = 1.0 / math.cos(math.pi / SPLAT_SIDES)
-    circle.location = (450, -150)
+    shape = _splat_shape(ng)
     instance = nodes.new("GeometryNodeInstanceOnPoints")
     instance.location = (700, 0)
     links.new(move.outputs["Geometry"], instance.inputs["Points"])
-    links.new(circle.outputs["Mesh"], instance.inputs["Instance"])
+    links.new(shape, instance.inputs["Instance"])
     links.new(axis.outputs["Rotation"], instance.inputs["Rotation"])
     links.new(attribute("scale", -700), instance.inputs["Scale"])
     set_material = nodes.new("GeometryNodeSetMaterial")
@@ -257,6 +257,36 @@ def splat_node_group() -> bpy.types.NodeTree:
     links.new(instance.outputs["Instances"], set_material.inputs["Geometry"])
     links.new(set_material.outputs["Geometry"], group_out.inputs["Geometry"])
     return ng
+
+
+def _splat_shape(ng):
+    """The shape every splat instances (returns its socket): a flat double cone of unit
+    radius about the z axis, its apexes ``SPLAT_CONE`` above and below the rim's plane (the
+    polygon circumscribes the unit disc, so it covers all of the ellipse). Where splats
+    overlap, the renderer shows the highest cone, the one whose point is nearest: each point's
+    light covers its own cell of the surface (the Voronoi cell, as the envelope of equal
+    cones is), not whichever disc the renderer happened to meet first."""
+    nodes, links = ng.nodes, ng.links
+    cone = nodes.new("GeometryNodeMeshCone")
+    cone.fill_type = "NONE"
+    cone.location = (200, -150)
+    cone.inputs["Vertices"].default_value = SPLAT_SIDES
+    cone.inputs["Radius Top"].default_value = 0.0
+    cone.inputs["Radius Bottom"].default_value = 1.0 / math.cos(math.pi / SPLAT_SIDES)
+    cone.inputs["Depth"].default_value = SPLAT_CONE
+    up = nodes.new("GeometryNodeTransform")
+    up.location = (400, -150)
+    up.inputs["Translation"].default_value = (0.0, 0.0, 0.5 * SPLAT_CONE)
+    links.new(cone.outputs["Mesh"], up.inputs["Geometry"])
+    down = nodes.new("GeometryNodeTransform")
+    down.location = (400, -300)
+    down.inputs["Scale"].default_value = (1.0, 1.0, -1.0)
+    links.new(up.outputs["Geometry"], down.inputs["Geometry"])
+    both = nodes.new("GeometryNodeJoinGeometry")
+    both.location = (550, -150)
+    links.new(down.outputs["Geometry"], both.inputs["Geometry"])
+    links.new(up.outputs["Geometry"], both.inputs["Geometry"])
+    return both.outputs["Geometry"]
 
 
 def is_point_source(obj) -> bool:

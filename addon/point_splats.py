@@ -19,14 +19,26 @@ point node group reads what ``splat_frames`` returns from hidden point attribute
   its own surface's neighbours are on). Of all such lines the nearest one clips: the disc
   becomes the ellipse that touches that line (``EDGE_SLACK`` of the radius past it, so no
   slit opens along the edge: measured, 99% of the splats end within 0.2 spacings of the
-  other plane and the strip along the edge stays covered) and the disc's far side, ``a`` = r along the line and ``b`` =
-  (r + c) / 2 across, its centre moved (r − c) / 2 away from the line. At a box's edge the
-  top's splats end at the side's plane and the side's at the top's: no rim over the edge, no
-  seam in a corner.
-* **Rims.** Where a point's neighbours all lie on one side (their centroid more than
-  ``RIM_SHIFT`` × the neighbour distance off the point, in the tangent plane), the scan ends
-  there: the splat reaches ``RIM_REACH`` × r beyond the point on that side, about where the
-  scanned surface ends, rather than a whole radius past it.
+  other plane and the strip along the edge stays covered) and the disc's far side, ``a`` =
+  r along the line and ``b`` = (r + c) / 2 across, its centre moved (r − c) / 2 away from
+  the line. At a box's edge the top's splats end at the side's plane and the side's at the
+  top's: no rim over the edge, no seam in a corner. A point on the crease itself keeps only
+  a strip ``CREASE_WIDTH`` × r either side of it: a scan of two walls has a point of each
+  there, in the same plane but each with its own wall's colour, and a whole ellipse laid
+  the other wall's colour over this one (with given normals each lies in its own wall's
+  plane, and keeps its whole ellipse).
+* **Rims** (``_rims``). Where the scan ends (among the ``RIM_NEIGHBOURS`` nearest points the
+  widest angle exceeds ``RIM_GAP`` and the centroid lies off the point; a neighbour is a rim
+  point facing the same way), a line through the point, across the gap's middle, clips the
+  splat there (``RIM_REACH`` × r past it, no slack).
+* **Neighbours' lines.** Each point also tries the lines that clipped its neighbours (a
+  point a row or two from an edge or a rim reaches over it too, with no point beyond among
+  its own neighbours); where a second line crosses the one that shaped the ellipse (a room's
+  corner, a crease meeting the rim), the ellipse shrinks about its point until it ends there
+  as well (``_second_lines``).
+
+The instanced shape is a flat double cone, not a flat disc (``mesh_preview._splat_shape``):
+where splats overlap, the renderer shows the nearest point's light.
 
 Everything is in the object's own coordinates: the object's transform maps each tangent plane
 to the world's, as it does the points.
@@ -38,6 +50,9 @@ import numpy as np
 
 #: Neighbours of each point that size and clip its splat.
 NEIGHBOURS = 8
+#: Neighbours that tell a scan's rim: with 8, the widest angle between them exceeds 150° at
+#: 18% of a random sampling's inner points; with 16 at 0.7% (measured on 20k points).
+RIM_NEIGHBOURS = 16
 #: Disc radius in units of the distance to the NEIGHBOURS-th nearest point (module docstring).
 COVER = 1.0
 #: A neighbour is on another surface when |n·m| is below this (about 25°).
@@ -48,9 +63,23 @@ ON_PLANE = 0.05
 EDGE_SLACK = 0.15
 #: The neighbours' centroid this far off the point (in units of the neighbour distance) marks
 #: a rim ...
-RIM_SHIFT = 0.4
-#: ... where the splat reaches this fraction of its radius beyond the point.
-RIM_REACH = 0.5
+RIM_SHIFT = 0.2
+#: ... and the widest angle between neighbours seen from the point, in its plane, exceeds this
+#: (radians, 150°): on a grid's edge 180°, inside a jittered grid never; inside a random
+#: sampling 0.7% of points with 16 neighbours and the shift (18% with 8), before the check below.
+RIM_GAP = np.radians(150.0)
+#: A rim point needs a rim neighbour that faces within acos(this) of its own direction.
+RIM_ALONG = 0.7
+#: A rim's splats reach this fraction of their radius beyond the rim point's line.
+RIM_REACH = 0.0
+#: A second clipping line shrinks a cut ellipse only where it turns from the first by more
+#: than acos(this) (30°).
+PARALLEL_COS = np.cos(np.radians(30.0))
+#: Half the width of the strip along a crease that a point on it covers, in units of its
+#: radius.
+CREASE_WIDTH = 0.3
+#: Rounds in which the neighbours' clipping planes clip a point (reach: that many rings).
+PROPAGATE = 1
 
 
 def _tangent(n: np.ndarray) -> np.ndarray:
@@ -58,6 +87,60 @@ def _tangent(n: np.ndarray) -> np.ndarray:
     helper = np.where((np.abs(n[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
     u = np.cross(n, helper)
     return u / np.linalg.norm(u, axis=1, keepdims=True)
+
+
+def _rims(p, n, nb, far, threads: int) -> tuple[np.ndarray, np.ndarray]:
+    """Which points lie on the scan's rim, and the unit direction out of the scan there (in
+    the tangent plane). Among the point's ``RIM_NEIGHBOURS`` nearest (all of them: beside a
+    crease the other surface's points close the gap on their side, and at a room's open
+    corner they leave the gap toward the open side) the widest angle exceeds ``RIM_GAP``, and
+    their centroid lies ``RIM_SHIFT`` × the farthest one's distance off the point; the
+    direction out halves the gap; and a neighbour is a rim point facing about the same way (a
+    rim is a line of them: a lone one is an uneven sampling's hole in the angles). Only the
+    points with such a gap among their ``NEIGHBOURS`` nearest take the wider search (a gap
+    among some of the neighbours is never narrower than among all): on a regular scan the
+    rows along its rims, on a random one about a fifth."""
+    from illumap import _core  # noqa: PLC0415
+    count = len(nb)
+    # Single precision suffices for the screen's angles and halves its memory traffic.
+    p32, n32 = p.astype(np.float32), n.astype(np.float32)
+    cand = np.flatnonzero(_widest_gap(p32[nb] - p32[:, None, :], n32)[0] > RIM_GAP)
+    del p32, n32
+    rim = np.zeros(count, bool)
+    facing = np.zeros((count, 3))
+    wide = min(RIM_NEIGHBOURS, count - 1)
+    if not len(cand) or wide < 2:
+        return rim, facing
+    idx, dist = _core.knn(p, np.ascontiguousarray(p[cand]), wide + 1, threads=threads)
+    idx, dist = np.asarray(idx)[:, 1:], np.asarray(dist)[:, -1]
+    nc = n[cand]
+    offsets = p[idx] - p[cand, None, :]
+    gc = offsets.mean(axis=1)
+    gc -= np.einsum("ic,ic->i", gc, nc)[:, None] * nc
+    gap, out = _widest_gap(offsets, nc)
+    is_rim = (np.linalg.norm(gc, axis=1) > RIM_SHIFT * dist) & (gap > RIM_GAP)
+    rim[cand] = is_rim
+    facing[cand[is_rim]] = out[is_rim]
+    sub = np.flatnonzero(rim)
+    along = (rim[nb[sub]] & (np.einsum("ic,ikc->ik", facing[sub], facing[nb[sub]])
+                             > RIM_ALONG)).any(axis=1)
+    rim[sub[~along]] = False
+    facing[sub[~along]] = 0.0
+    return rim, facing
+
+
+def _widest_gap(offsets: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The widest angle (radians) between the directions of the neighbours ``offsets``
+    (N, k, 3) seen from each point, in its tangent plane (normal ``n``), and the unit vector
+    that halves it."""
+    u = _tangent(n)
+    v = np.cross(n, u)
+    angle = np.sort(np.arctan2(np.einsum("ikc,ic->ik", offsets, v),
+                               np.einsum("ikc,ic->ik", offsets, u)), axis=1)
+    gaps = np.diff(angle, axis=1, append=angle[:, :1] + 2 * np.pi)
+    j = np.argmax(gaps, axis=1)[:, None]
+    half = (np.take_along_axis(angle, j, axis=1) + 0.5 * np.take_along_axis(gaps, j, axis=1))[:, 0]
+    return gaps.max(axis=1), np.cos(half)[:, None] * u + np.sin(half)[:, None] * v
 
 
 def _crease_lines(p, n, nb, sub, other):
@@ -87,7 +170,8 @@ def _crease_lines(p, n, nb, sub, other):
 
 def _neighbours_planes(p, n, nb, sub, has, plane_n, plane_d):
     """For the points ``sub``: the nearest line where a clipped neighbour's clipping plane
-    cuts the point's plane (distance, inf: none; unit direction toward it)."""
+    cuts the point's plane (distance, inf: none; unit direction toward it; that plane's
+    normal and offset)."""
     ps, ns, nbs = p[sub], n[sub], nb[sub]
     pm = plane_n[nbs]
     cos = np.einsum("ic,ikc->ik", ns, pm)
@@ -100,9 +184,12 @@ def _neighbours_planes(p, n, nb, sub, has, plane_n, plane_d):
     rows = np.arange(len(sub))
     w = -np.sign(h[rows, j])[:, None] * (pm[rows, j] - cos[rows, j][:, None] * ns) \
         / t_len[rows, j][:, None]
-    return c[rows, j], w
+    return c[rows, j], w, pm[rows, j], plane_d[nbs][rows, j]
 
 
+#: Changes whenever the splats' attributes change meaning (2: the scale's third component is
+#: the cone's height, where it was 1).
+SPLATS_VERSION = 2
 #: Splats a run computed on its worker for the scans it lights (``prepare_frames``), by
 #: ``fingerprint``, until the preview takes them (``ready_frames``): the preview that follows
 #: a run then costs the main thread only the attributes' writing.
@@ -111,10 +198,12 @@ _READY_MAX = 8
 
 
 def fingerprint(positions, normals=None, radius=None) -> str:
-    """What a scan's splats depend on, in a few numbers: its points (float32, object space),
-    its given normals and radii."""
+    """What a scan's splats depend on, in a few numbers: the splats' version (splats an
+    earlier version wrote are written again), its points (float32, object space), its given
+    normals and radii."""
     pos = np.asarray(positions, dtype=np.float32)
-    parts = [len(pos), float(pos.sum(dtype=np.float64)), float(np.square(pos, dtype=np.float64).sum())]
+    parts = [SPLATS_VERSION, len(pos), float(pos.sum(dtype=np.float64)),
+             float(np.square(pos, dtype=np.float64).sum())]
     for extra in (normals, radius):
         parts.append(None if extra is None else float(np.asarray(extra).sum(dtype=np.float64)))
     return repr(parts)
@@ -148,24 +237,22 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
     if k < 2:
         n = np.tile([0.0, 0.0, 1.0], (count, 1)) if normals is None else np.asarray(normals)
         r = np.full(count, 0.01) if radius is None else np.asarray(radius, np.float64)
-        return _pack(n, _tangent(n), np.stack([r, r, np.ones(count)], 1), np.zeros((count, 3)),
+        return _pack(n, _tangent(n), np.stack([r, r, r], 1), np.zeros((count, 3)),
                      np.zeros(count, bool))
     idx, dist = _core.knn(p, p, k + 1, threads=threads)
-    idx, dist = np.asarray(idx), np.asarray(dist)
+    idx, far = np.asarray(idx), np.asarray(dist)[:, k]
     if normals is None:
         n = np.asarray(plane_normals(p, idx, threads=threads), dtype=np.float64)
     else:
         n = np.asarray(normals, dtype=np.float64)
         length = np.linalg.norm(n, axis=1, keepdims=True)
         n = np.where(length > 0, n / np.maximum(length, 1e-300), [0.0, 0.0, 1.0])
-    far = dist[:, -1]
     if radius is None:
         r = COVER * far[idx].mean(axis=1)
     else:
         r = np.asarray(radius, dtype=np.float64)
     r = np.where(r > 0, r, np.maximum(far, 1e-6))
     nb = idx[:, 1:]
-    rows = np.arange(count)
     cos = np.einsum("ic,ikc->ik", n, n[nb])
     other = np.abs(cos) < EDGE_COS
     # Only the points with a neighbour on another surface (those by an edge) and then those
@@ -177,26 +264,39 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
     sub = np.flatnonzero(other.any(axis=1))
     if len(sub):
         c_min[sub], w[sub], plane_n[sub], plane_d[sub] = _crease_lines(p, n, nb, sub, other[sub])
+    # A point on the crease itself belongs to both surfaces (a scan of two walls has one on
+    # each, at the same place, with the same plane and each its own colour): its splat would
+    # lay one surface's colour over the other's, so it keeps only a strip along the crease
+    # (CREASE_WIDTH × r either side), and its neighbours on either side, which reach the
+    # crease, cover the surface up to it. With the scan's own normals each point there lies in
+    # its own surface's plane: its splat is that surface's and stays whole.
+    on_crease = (c_min == 0) & (normals is None)
+    # Rims (``_rims``): the scan ends there; the splat reaches RIM_REACH × r beyond the
+    # point, and so does its clipping plane (perpendicular to the surface, facing out) for
+    # the points around it.
+    rim, facing = _rims(p, n, nb, far, threads)
+    rim &= RIM_REACH * r < c_min
+    out = facing[rim]
+    # The line sits EDGE_SLACK × r inside the reach, which every cut adds back: a splat ends
+    # RIM_REACH × r past the rim, where an edge's splats overlap the other face by the slack.
+    c_min[rim] = (RIM_REACH - EDGE_SLACK) * r[rim]
+    w[rim] = out
+    plane_n[rim] = out
+    plane_d[rim] = np.einsum("ic,ic->i", out, p[rim] + c_min[rim][:, None] * out)
     # The planes that clipped the neighbours clip the point too: one a few spacings from an
-    # edge may have no point of the other surface among its own neighbours, yet its splat
-    # reaches over the edge. Each neighbour's clipping plane (its crease neighbour's tangent
-    # plane) is tried as a crease line of the point's own.
-    has = np.isfinite(c_min)
-    sub = np.flatnonzero(has[nb].any(axis=1))
-    if len(sub):
-        c2, w2 = _neighbours_planes(p, n, nb, sub, has, plane_n, plane_d)
+    # edge or a rim may have no point of the other surface (or no rim point) among its own
+    # neighbours, yet its splat reaches over. Each neighbour's clipping plane is tried as a
+    # line of the point's own, twice (so the plane reaches the neighbours' neighbours).
+    for _ in range(PROPAGATE):
+        has = np.isfinite(c_min)
+        sub = np.flatnonzero(has[nb].any(axis=1))
+        if not len(sub):
+            break
+        c2, w2, n2, d2 = _neighbours_planes(p, n, nb, sub, has, plane_n, plane_d)
         better = c2 < c_min[sub]
-        c_min[sub] = np.where(better, c2, c_min[sub])
-        w[sub] = np.where(better[:, None], w2, w[sub])
-    # Rims: the neighbours' centroid (all of them) off the point, in its plane.
-    g = p[nb].mean(axis=1) - p
-    g -= np.einsum("ic,ic->i", g, n)[:, None] * n
-    g_len = np.linalg.norm(g, axis=1)
-    rim = g_len > RIM_SHIFT * far
-    c_rim = np.where(rim, RIM_REACH * r, np.inf)
-    use_rim = c_rim < c_min
-    c_min = np.where(use_rim, c_rim, c_min)
-    w = np.where(use_rim[:, None], -g / np.maximum(g_len, 1e-300)[:, None], w)
+        moved = sub[better]
+        c_min[moved], w[moved] = c2[better], w2[better]
+        plane_n[moved], plane_d[moved] = n2[better], d2[better]
     reach = c_min + EDGE_SLACK * r
     clipped = reach < r
     reach = np.where(clipped, reach, r)
@@ -207,7 +307,60 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
     # The ellipse's first axis runs along the clipping line: across it, w.
     axis = np.where(clipped[:, None], np.cross(w, n), _tangent(n))
     axis /= np.maximum(np.linalg.norm(axis, axis=1, keepdims=True), 1e-300)
-    return _pack(n, axis, np.stack([a, b, np.ones(count)], 1), offset, clipped)
+    # Where a second line cuts (a room's corner, a crease meeting the scan's rim), the ellipse
+    # shrinks about its point until it ends there too.
+    has = np.isfinite(c_min)
+    sub = np.flatnonzero(clipped)
+    if len(sub):
+        shrink = _second_lines(p, n, nb, sub, has, plane_n, plane_d, axis, a, b, offset, r,
+                               np.where(clipped[:, None], w, 0.0))
+        a, b = a.copy(), b.copy()
+        a[sub] *= shrink
+        b[sub] *= shrink
+        offset[sub] *= shrink[:, None]
+        clipped[sub] |= shrink < 1
+    b = np.where(on_crease, CREASE_WIDTH * r, b)
+    offset[on_crease] = 0.0
+    return _pack(n, axis, np.stack([a, b, a], 1), offset, clipped | on_crease)
+
+
+def _second_lines(p, n, nb, sub, has, plane_n, plane_d, axis, a, b, offset, r, primary):
+    """For the points ``sub``: the factor (≤ 1) by which each ellipse shrinks about its point
+    so that it reaches no further than ``EDGE_SLACK`` × r past any clipping plane of its own or
+    of its neighbours (the line where that plane cuts the point's plane); ``primary``: the
+    direction toward the line that cut the ellipse (0: none)."""
+    ps, ns = p[sub], n[sub]
+    near_offsets = p[nb[sub]] - ps[:, None, :]
+    own = (np.abs(np.einsum("ic,ikc->ik", ns, n[nb[sub]])) >= EDGE_COS)[..., None]
+    inward = (near_offsets * own).sum(axis=1) / np.maximum(own.sum(axis=1), 1)
+    cand = np.concatenate([sub[:, None], nb[sub]], axis=1)              # (S, k + 1)
+    pm, pd = plane_n[cand], plane_d[cand]
+    cos = np.einsum("ic,ikc->ik", ns, pm)
+    h = np.einsum("ikc,ic->ik", pm, ps) - pd                            # signed, p off the plane
+    t_len = np.sqrt(np.maximum(1.0 - cos ** 2, 1e-12))
+    near = np.linalg.norm(p[cand] - ps[:, None, :], axis=2)
+    near[:, 0] = 0.0
+    # A point on the plane (a room's corner, where three scans' points coincide) keeps the
+    # side its neighbours are on.
+    side = np.where(np.abs(h) > ON_PLANE * near, np.sign(h),
+                    -np.sign(np.einsum("ikc,ic->ik", pm, inward)))
+    usable = has[cand] & (np.abs(cos) < EDGE_COS) & (side != 0)
+    dist = np.where(np.abs(h) > ON_PLANE * near, np.abs(h), 0.0) / t_len   # p to the line
+    w = -side[..., None] * (pm - cos[..., None] * ns[:, None, :]) / t_len[..., None]
+    bx = np.cross(ns, axis[sub])
+    support = np.einsum("ic,ikc->ik", offset[sub], w) + np.sqrt(
+        (a[sub, None] * np.einsum("ic,ikc->ik", axis[sub], w)) ** 2
+        + (b[sub, None] * np.einsum("ic,ikc->ik", bx, w)) ** 2)
+    # A line along the one the ellipse was cut at (the same edge, seen from a neighbour) is
+    # that cut's business; only a line across it (a corner) shrinks the ellipse.
+    # A line through the point counts only as a second one at a cut point (a corner): at an
+    # uncut one it would shrink the splat to nothing where the cut itself shapes it.
+    cut = np.any(primary[sub] != 0, axis=1)[:, None]
+    across = np.abs(np.einsum("ic,ikc->ik", primary[sub], w)) < PARALLEL_COS
+    usable &= np.where(cut, across, np.abs(h) > ON_PLANE * near)
+    limit = dist + EDGE_SLACK * r[sub, None]
+    scale = np.where(usable & (support > limit), limit / np.maximum(support, 1e-300), 1.0)
+    return scale.min(axis=1)
 
 
 def _pack(n, axis, scale, offset, clipped) -> dict:

@@ -10,7 +10,9 @@ build on the main thread, which only writes them.
 
     .venv/bin/python bench/micro/preview_build.py [1000000 ...]
 
-Writes bench/results/preview_build.json.
+Writes bench/results/preview_build.json for the default size (1M points, no arguments or
+exactly ``1000000``); other sizes go to bench/results/preview_build_<sizes>.json, so a quick
+run at another size never overwrites the recorded one.
 """
 
 from __future__ import annotations
@@ -106,8 +108,11 @@ def main() -> None:
                       f"{after['worker_s']:.2f} s); disc preview "
                       f"{discs['total_s']:.2f} s; shown {points['shown']:,} / "
                       f"{discs['shown']:,}", flush=True)
-    with open(OUT, "w") as f:
+    out = OUT if sizes == [1_000_000] else OUT.replace(
+        ".json", "_" + "_".join(str(n) for n in sizes) + ".json")
+    with open(out, "w") as f:
         json.dump({"blender": bpy.app.version_string, "rows": rows}, f, indent=1)
+    print(f"wrote {out}")
 
 
 if __name__ == "__main__":

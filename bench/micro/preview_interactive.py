@@ -219,8 +219,12 @@ def main() -> None:
     ap.add_argument("--points", type=int, default=1_000_000)
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--eevee", action="store_true", help="also time one EEVEE frame")
-    ap.add_argument("--out", default=OUT)
+    ap.add_argument("--out", default=None, help="default: results/preview_interactive.json "
+                    "at 1M points, else preview_interactive_<points>.json")
     args = ap.parse_args()
+    if args.out is None:
+        args.out = OUT if args.points == 1_000_000 else OUT.replace(
+            ".json", f"_{args.points}.json")
     rows = []
     for kind in ("POINTCLOUD", "MESH"):
         for which in ("point", "disc"):

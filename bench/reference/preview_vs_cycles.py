@@ -56,6 +56,10 @@ Prints the figures and the times, writes ``bench/results/preview_vs_cycles.json`
 
     .venv/bin/python bench/reference/preview_vs_cycles.py [--size 192] [--samples 1024]
         [--preview-samples 256] [--block 4] [--no-write]
+
+With ``--scene mesh_room|scan_room|scan_bunny`` it runs one of ``preview_scenes.py``'s scenes
+instead, the default after Compute (``preview_scene_run.py``), and for the scans also the
+values at the points without splats.
 """
 
 from __future__ import annotations
@@ -87,6 +91,8 @@ OFF = 0.25
 SEEDS = (0, 1)
 #: The sample's emitters: their pixels are left out of the "surfaces" figures.
 EMITTERS = ("Light",)
+#: The scenes of preview_scenes.py (``--scene``; preview_scene_run.py runs them).
+SCENE_NAMES = ("mesh_room", "scan_room", "scan_room_normals", "scan_bunny")
 
 
 def render(size: int, samples: int, seed: int = 0) -> tuple[np.ndarray, float]:
@@ -230,7 +236,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--preview-samples", type=int, default=256)
     ap.add_argument("--block", type=int, default=4, help="k of the k×k blocks the target reads")
     ap.add_argument("--no-write", action="store_true", help="print only")
+    ap.add_argument("--scene", choices=("cornell",) + SCENE_NAMES, default="cornell",
+                    help="the bundled Cornell box (default), or a scene of "
+                    "bench/reference/preview_scenes.py")
+    ap.add_argument("--cell", type=float, default=None,
+                    help="preview_scenes' grid (m; default: the tests')")
+    ap.add_argument("--splat-cone", type=float, default=None,
+                    help="the splats' cone height (mesh_preview.SPLAT_CONE; 0: flat discs)")
     args = ap.parse_args(argv)
+    if args.scene != "cornell":
+        from bench.reference.preview_scene_run import run_scene  # noqa: PLC0415
+        return run_scene(args)
     bpy.ops.wm.open_mainfile(filepath=SAMPLE)
     refs, t_refs = [], []
     for seed in SEEDS:

@@ -34,7 +34,9 @@ def splats(obj):
     mats = [np.array(inst.matrix_world) for inst in depsgraph.object_instances
             if inst.is_instance and inst.parent is not None and inst.parent.original == obj]
     m = np.array(mats).reshape(-1, 4, 4)
-    return m[:, :3, 3], m[:, :3, 0], m[:, :3, 1], m[:, :3, 2]
+    # The third column is the normal scaled by the height of the splat's cone.
+    normal = m[:, :3, 2] / np.linalg.norm(m[:, :3, 2], axis=1, keepdims=True)
+    return m[:, :3, 3], m[:, :3, 0], m[:, :3, 1], normal
 
 
 def covered(q, centres, ax, bx):
