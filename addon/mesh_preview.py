@@ -312,13 +312,13 @@ def point_radius(obj) -> float:
     """Display radius of ``obj``'s points in its own units: ``RADIUS_FACTOR`` × the median
     distance from ``RADIUS_PROBES`` evenly strided points to their ``RADIUS_NEIGHBOUR``-th
     nearest point."""
-    from illumap import _core  # noqa: PLC0415 - native, loaded on use
+    from illumap.neighbours import knn  # noqa: PLC0415 - native, loaded on use
     pos = np.ascontiguousarray(_positions(obj))
     if len(pos) < 2:
         return 0.01
     k = min(RADIUS_NEIGHBOUR, len(pos) - 1) + 1
     probes = np.ascontiguousarray(pos[::max(1, len(pos) // RADIUS_PROBES)])
-    _, dist = _core.knn(pos, probes, k)
+    _, dist = knn(pos, probes, k)
     far = dist[:, -1]
     far = far[far > 0]
     return float(RADIUS_FACTOR * np.median(far)) if len(far) else 0.01

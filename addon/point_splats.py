@@ -100,7 +100,7 @@ def _rims(p, n, nb, far, threads: int) -> tuple[np.ndarray, np.ndarray]:
     points with such a gap among their ``NEIGHBOURS`` nearest take the wider search (a gap
     among some of the neighbours is never narrower than among all): on a regular scan the
     rows along its rims, on a random one about a fifth."""
-    from illumap import _core  # noqa: PLC0415
+    from illumap.neighbours import knn  # noqa: PLC0415 - native, loaded on use
     count = len(nb)
     # Single precision suffices for the screen's angles and halves its memory traffic.
     p32, n32 = p.astype(np.float32), n.astype(np.float32)
@@ -111,8 +111,8 @@ def _rims(p, n, nb, far, threads: int) -> tuple[np.ndarray, np.ndarray]:
     wide = min(RIM_NEIGHBOURS, count - 1)
     if not len(cand) or wide < 2:
         return rim, facing
-    idx, dist = _core.knn(p, np.ascontiguousarray(p[cand]), wide + 1, threads=threads)
-    idx, dist = np.asarray(idx)[:, 1:], np.asarray(dist)[:, -1]
+    idx, dist = knn(p, p[cand], wide + 1, threads=threads)
+    idx, dist = idx[:, 1:], dist[:, -1]
     nc = n[cand]
     offsets = p[idx] - p[cand, None, :]
     gc = offsets.mean(axis=1)
@@ -229,7 +229,7 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
     ``axis`` (N, 3: the in-plane direction of the ellipse's first axis), ``scale`` (N, 3: the
     semi-axes along ``axis`` and across it, and 1) and ``offset`` (N, 3: from the point to
     the ellipse's centre), and ``clipped`` (N,) bool: the splats a crease or rim shaped."""
-    from illumap import _core  # noqa: PLC0415 - native, loaded on use
+    from illumap.neighbours import knn  # noqa: PLC0415 - native, loaded on use
     from illumap.pointcloud import plane_normals  # noqa: PLC0415
     p = np.ascontiguousarray(positions, dtype=np.float64)
     count = len(p)
@@ -239,8 +239,8 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
         r = np.full(count, 0.01) if radius is None else np.asarray(radius, np.float64)
         return _pack(n, _tangent(n), np.stack([r, r, r], 1), np.zeros((count, 3)),
                      np.zeros(count, bool))
-    idx, dist = _core.knn(p, p, k + 1, threads=threads)
-    idx, far = np.asarray(idx), np.asarray(dist)[:, k]
+    idx, dist = knn(p, p, k + 1, threads=threads)
+    far = dist[:, k]
     if normals is None:
         n = np.asarray(plane_normals(p, idx, threads=threads), dtype=np.float64)
     else:

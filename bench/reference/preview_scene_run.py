@@ -25,7 +25,7 @@ from bench.reference import preview_scenes
 from bench.reference.preview_vs_cycles import (OUT, RESULTS, SEEDS, compare, emitter_mask,
                                                off_shares, relative_rms, render, report)
 
-#: The grid each scene is built with unless ``--cell`` (tests/blender/test_preview_render.py).
+#: The grid each scene is built with unless ``--cell`` (tests/blender/preview/test_preview_render.py).
 CELL = {"mesh_room": 0.05, "scan_room": 0.02, "scan_room_normals": 0.02, "scan_bunny": 0.025}
 
 

@@ -1,5 +1,5 @@
 """Scenes whose Object Preview is compared with a path-traced view of the same scene, from a
-camera (``preview_vs_cycles.py --scene``, tests/blender/test_preview_render.py).
+camera (``preview_vs_cycles.py --scene``, tests/blender/preview/test_preview_render.py).
 
 * ``mesh_room``: a 1 m Cornell-like room (open at the front; red left wall, green right wall,
   white floor, ceiling and back wall, grids of ``cell``), a white block on the floor and a

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from illumap_bpy_testing import black_world, emission_material, link, requires_core
-from test_reference_cases import closed_box, diffuse, plane, read_colors
+from reference_helpers import closed_box, diffuse, plane, read_colors
 
 from addon import pipeline
 

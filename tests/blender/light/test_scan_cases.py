@@ -19,7 +19,7 @@ import pytest
 from illumap_bpy_testing import add_lamp, emission_material, link, requires_core
 
 from addon import pipeline
-from test_reference_cases import (closed_box, cycles_outgoing, diffuse, one_sided_emission,
+from reference_helpers import (closed_box, cycles_outgoing, diffuse, one_sided_emission,
                                   plane, positions, relative_rms, report)
 
 pytestmark = requires_core

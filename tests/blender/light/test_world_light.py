@@ -112,7 +112,7 @@ def test_only_faces_pressed_together_are_covered():
     """A box resting on a floor, lit by the sky, with few surfels (they are far apart): the
     box's bottom and the floor under it get no light, every floor corner outside the box's
     footprint does, however close to it."""
-    from test_reference_cases import closed_box, diffuse, plane
+    from reference_helpers import closed_box, diffuse, plane
     set_world()
     floor = plane("Floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], 0.05, diffuse("F"))
     box = closed_box("Box", (-0.25, -0.25, 0.0), (0.25, 0.25, 0.4), 0.1, diffuse("B"))
@@ -141,7 +141,7 @@ def test_a_box_bottom_on_a_coarser_floor_is_covered_everywhere(budget):
     own, lie in those triangles; with few surfels, most of the floor's triangles hold
     none). Uncovered, such a corner looks down past the floor at the sky below and reads
     lit."""
-    from test_reference_cases import closed_box, diffuse, plane
+    from reference_helpers import closed_box, diffuse, plane
     set_world()
     floor = plane("Floor", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], 0.2, diffuse("F"))
     box = closed_box("Box", (-0.4, -0.6, 0.0), (0.6, 0.4, 0.8), 0.1, diffuse("B"))

@@ -40,7 +40,7 @@ import bpy
 import numpy as np
 
 from illumap_bpy_testing import black_world, link, requires_core
-from test_reference_cases import closed_box, diffuse, one_sided_emission, plane
+from reference_helpers import closed_box, diffuse, one_sided_emission, plane
 
 from addon import mesh_preview, pipeline
 from bench.reference.preview_vs_cycles import emitter_mask, off_shares, relative_rms, render
