@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 
 import matplotlib
 
@@ -23,7 +24,8 @@ import numpy as np  # noqa: E402
 from illumap import accuracy  # noqa: E402
 from illumap.accuracy import calibration  # noqa: E402
 
-import calibrate  # noqa: E402  (bench/calibrate.py: the leaf variants' and sampling fits)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "calibration"))
+import calibrate  # noqa: E402  (bench/calibration/calibrate.py: the leaf variants' and sampling fits)
 import scenes as S  # noqa: E402
 
 THRESHOLDS = (0.10, 0.03, 0.01, 0.003)
@@ -388,18 +390,18 @@ def auto_table(points):
 
 
 def leaf_section(leaf):
-    """docs/benchmarks.md's leaf-size section from bench/leaf_size.py's paired solves."""
+    """docs/benchmarks.md's leaf-size section from bench/calibration/leaf_size.py's paired solves."""
     base = str(leaf.get("base_leaf", 32))
     others = [str(x) for x in leaf["leaf_sizes"] if str(x) != base]
     md = ["## Leaf size (paired against 32)", "",
-          f"`bench/leaf_size.py`, `{leaf['mode']}` mode, {leaf['date']}, "
+          f"`bench/calibration/leaf_size.py`, `{leaf['mode']}` mode, {leaf['date']}, "
           f"{core_line(leaf.get('core'))}: each FMM setting the automatic mode can choose, "
           f"solved with leaves of {', '.join(str(x) for x in leaf['leaf_sizes'])} surfels one "
           f"after the other on the same surfels, at the sweep's sizes, on samplings "
           f"{leaf['seeds']} (the grid has one).{runs_line(leaf)} Error ratio: the worst over "
           "sizes and samplings "
           "of error(leaf) / error(32) (against the reference; without visibility, the FMM's "
-          "error against the direct solution), what `bench/calibrate.py` keeps as the "
+          "error against the direct solution), what `bench/calibration/calibrate.py` keeps as the "
           "variant's error factor; time ratio: the median at the smallest and the largest "
           "size. Smaller leaves move node pairs from the near field, where visibility is per "
           "pair, to the far field, where it is classified per node pair.", "",
@@ -425,15 +427,15 @@ def leaf_section(leaf):
 
 
 def sampling_section(spread):
-    """docs/benchmarks.md's sampling section from bench/sampling_spread.py, with the factors
-    bench/calibrate.py fits (against the calibration in use)."""
+    """docs/benchmarks.md's sampling section from bench/calibration/sampling_spread.py, with the factors
+    bench/calibration/calibrate.py fits (against the calibration in use)."""
     md = ["## Sampling spread (the automatic mode's sampling factors)", "",
-          f"`bench/sampling_spread.py`, `{spread['mode']}` mode, {spread['date']}, "
+          f"`bench/calibration/sampling_spread.py`, `{spread['mode']}` mode, {spread['date']}, "
           f"{core_line(spread.get('core'))}: `{spread['setting']}` (its error is the "
           f"discretization's) solved on samplings {spread['seeds']}, kept out of the "
           f"calibration and of the automatic mode's benchmark, at three or four sizes per "
           f"scene.{runs_line(spread)} "
-          "Ratio: error over the calibrated model at that N. The factor `bench/calibrate.py` "
+          "Ratio: error over the calibrated model at that N. The factor `bench/calibration/calibrate.py` "
           f"keeps is exp(mean + {accuracy.SAMPLING_Z:g}·sd) of the log ratios, sd pooled over "
           "the sizes, never below 1 nor below the largest ratio seen; the automatic mode "
           "scales its predictions by it.", "",
@@ -526,7 +528,7 @@ def main(argv=None):
                + ("; not available: " + ", ".join(acc["unavailable"]) if acc["unavailable"]
                   else "") + f"; exact visibility with `{acc.get('exact_keywords')}`."
                + runs_line(acc)
-               + (f" Sweep times re-timed {acc['retimed']['date']} by bench/retime.py "
+               + (f" Sweep times re-timed {acc['retimed']['date']} by bench/calibration/retime.py "
                   f"({acc['retimed']['points']} points, {core_line(acc['retimed'].get('core'))};"
                   f" errors from the sweep)." if acc.get("retimed") else "")
                + (f" Automatic mode re-run {acc['auto_date']}, {core_line(acc.get('auto_core'))}."
@@ -554,7 +556,7 @@ def main(argv=None):
             if scene == "cornell" and cyc:
                 md += ["Cycles here: the fastest bake within the error at any vertex count, from "
                        "`bench/cycles_bake.py`, against Illumap's times from "
-                       "`bench/accuracy_speed.py` (two runs, different vertex sets: Cycles at 371 "
+                       "`bench/calibration/accuracy_speed.py` (two runs, different vertex sets: Cycles at 371 "
                        "vertices has no discretization error, Illumap's 371 surfels do). The "
                        "comparison the target asks for — same run, same vertices — is the "
                        "Cycles section below.", ""]
@@ -585,7 +587,7 @@ def main(argv=None):
                            "on three other samplings of the scene (seeds 1, 3, 5; the grid "
                            "has one) than those that calibrated it; its error column gives "
                            "seed 1's and the worst, the ratios are timed on seed 1. *Best "
-                           "hand-picked* (leaf sizes of bench/leaf_size.py included): the "
+                           "hand-picked* (leaf sizes of bench/calibration/leaf_size.py included): the "
                            "fastest sweep point within the target; *steady*: the fastest whose setting stays within it at "
                            "every larger density swept; *on the automatic mode's samplings too*: "
                            "the fastest that stays within it when the scene is sampled at the "

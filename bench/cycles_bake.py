@@ -9,7 +9,7 @@ diffuse bounces, no clamping, no world); that is incident radiance, and the outg
 ``albedo x baked + emission`` (DESIGN.md section 4). The bake call alone is timed (scene set-up
 excluded). In the same run Illumap solves the same surfels with a few settings and the automatic
 mode, timed the same way (best of 3 under 0.5 s). Both are scored on the same random subset of
-vertices against the converged reference of bench/accuracy_speed.py (direct, exact visibility,
+vertices against the converged reference of bench/calibration/accuracy_speed.py (direct, exact visibility,
 same ``ref_n``, shared cache), gathered at those vertices. Cycles at the highest sample count is
 also the cross-check of that reference: it integrates the true geometry at the vertices.
 
@@ -27,6 +27,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "calibration"))
 import illumap  # noqa: E402
 
 import scenes as S  # noqa: E402
@@ -128,7 +129,7 @@ def main(argv=None):
     ap.add_argument("--grids", nargs="*", default=None, metavar="N:S1,S2",
                     help="grid sizes and sample counts, e.g. 8:4,16,64 (default: the mode's)")
     ap.add_argument("--ref-n", type=int, default=None, help="reference size (default: the "
-                    "mode's, as bench/accuracy_speed.py)")
+                    "mode's, as bench/calibration/accuracy_speed.py)")
     args = ap.parse_args(argv)
     cfg = dict(FULL if args.full else QUICK)
     acfg = dict(AS.FULL if args.full else AS.QUICK)

@@ -6,13 +6,13 @@
     .venv/bin/python bench/run_all.py --charts-only
     .venv/bin/python bench/run_all.py --dry-run   # print the steps and their commands
 
-Runs, in order and each in its own process (with a time limit): bench/accuracy_speed.py (the
-sweep), bench/leaf_size.py (leaves of 16 and 64 against 32, paired),
-bench/sampling_spread.py (one setting on six further samplings), with --full
-bench/grid_steps.py --all-settings (the Cornell grid at every cell count up to 4128 surfels,
-against the full reference), bench/calibrate.py --write (the automatic mode's models, fitted
+Runs, in order and each in its own process (with a time limit): bench/calibration/accuracy_speed.py (the
+sweep), bench/calibration/leaf_size.py (leaves of 16 and 64 against 32, paired),
+bench/calibration/sampling_spread.py (one setting on six further samplings), with --full
+bench/calibration/grid_steps.py --all-settings (the Cornell grid at every cell count up to 4128 surfels,
+against the full reference), bench/calibration/calibrate.py --write (the automatic mode's models, fitted
 on them all),
-scripts/setup_env.sh (reinstalls the package with them), bench/accuracy_speed.py --auto-only
+scripts/setup_env.sh (reinstalls the package with them), bench/calibration/accuracy_speed.py --auto-only
 (the automatic mode), bench/cycles_bake.py, bench/scaling.py (results in bench/results/*.json),
 bench/reference/run.py (Illumap against Cycles bakes on meshes as users build them, the
 table of docs/results.md: bench/results/reference.json; --quick passed through, --reference-scenes to
@@ -50,6 +50,7 @@ def main(argv=None):
     flag = "--full" if args.full else "--quick"
     timeout = args.timeout or (7200 if args.full else 3600)
     results = os.path.join(HERE, "results")
+    calibration = os.path.join(HERE, "calibration")
     acc = os.path.join(results, "accuracy_speed.json")
     leaf = os.path.join(results, "leaf_size.json")
     spread = os.path.join(results, "sampling_spread.json")
@@ -60,16 +61,16 @@ def main(argv=None):
     reference_options = (["--quick"] if not args.full else []) + (
         ["--scenes", *args.reference_scenes] if args.reference_scenes else [])
     steps = [] if args.charts_only else [
-        ("accuracy", py + [os.path.join(HERE, "accuracy_speed.py"), flag, "--out", acc]),
-        ("leaf", py + [os.path.join(HERE, "leaf_size.py"), flag, "--out", leaf]),
-        ("sampling", py + [os.path.join(HERE, "sampling_spread.py"), flag, "--out", spread]),
-        *([("grid", py + [os.path.join(HERE, "grid_steps.py"), "--all-settings", "--cells",
+        ("accuracy", py + [os.path.join(calibration, "accuracy_speed.py"), flag, "--out", acc]),
+        ("leaf", py + [os.path.join(calibration, "leaf_size.py"), flag, "--out", leaf]),
+        ("sampling", py + [os.path.join(calibration, "sampling_spread.py"), flag, "--out", spread]),
+        *([("grid", py + [os.path.join(calibration, "grid_steps.py"), "--all-settings", "--cells",
                             "9", "26", "--sweep", acc, "--out", grid])] if grid else []),
-        ("calibrate", py + [os.path.join(HERE, "calibrate.py"), "--results", acc,
+        ("calibrate", py + [os.path.join(calibration, "calibrate.py"), "--results", acc,
                             "--leaf-results", leaf, "--sampling-results", spread,
                             "--grid-steps-results", grid, "--write"]),
         ("install", [os.path.join(ROOT, "scripts", "setup_env.sh")]),
-        ("auto", py + [os.path.join(HERE, "accuracy_speed.py"), flag, "--auto-only", "--out",
+        ("auto", py + [os.path.join(calibration, "accuracy_speed.py"), flag, "--auto-only", "--out",
                        acc]),
         ("cycles", py + [os.path.join(HERE, "cycles_bake.py"), flag, "--out",
                          os.path.join(results, "cycles_bake.json")]),

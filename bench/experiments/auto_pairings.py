@@ -1,5 +1,5 @@
 """Repeat the automatic mode's time ratio against its robust best hand-picked setting: the same
-two solves that bench/accuracy_speed.py paired once, paired again ``--pairings`` times (each a
+two solves that bench/calibration/accuracy_speed.py paired once, paired again ``--pairings`` times (each a
 set of alternating rounds, least time of each), so that a ratio near a limit can be told from
 the machine's noise. Reads the pairing from bench/results/accuracy_speed.json; writes
 bench/results/auto_pairings.json (one entry per scene, target and best).
@@ -22,6 +22,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # bench/
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "calibration"))
 import accuracy_speed as AS  # noqa: E402
 import scenes as S  # noqa: E402
 

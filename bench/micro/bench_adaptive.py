@@ -4,7 +4,7 @@
 For each count N and setting, ``illumap.accuracy.solve_triangles(..., count=N)`` runs once with
 ``adaptive=True`` (half N uniformly, then N resampled denser where that solution varies) and
 once with ``adaptive=False`` (one uniform pass of N); both are measured against the Cornell
-box's reference (bench/accuracy_speed.py, cached) on up to ERROR_POINTS non-emitting
+box's reference (bench/calibration/accuracy_speed.py, cached) on up to ERROR_POINTS non-emitting
 surfels. The ratio of the errors is what ``illumap.accuracy.ADAPTIVE_ERROR_RATIO`` rounds up;
 the ratio of pass 2's solve time to the uniform pass's (same count, same settings, paired) is
 ``illumap.accuracy.ADAPTIVE_TIME_RATIO``'s: a density that varies packs surfels into fewer
@@ -26,6 +26,7 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))  # bench/
 sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(HERE, "calibration"))
 from illumap import accuracy  # noqa: E402
 from illumap.accuracy import calibration, models  # noqa: E402
 

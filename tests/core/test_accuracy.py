@@ -5,7 +5,7 @@ occlusion, and the a-posteriori estimate bounds the numerical error.
 Scenes are those of bench/scenes.py (the Cornell box with its blocks, the Stanford bunny scan
 as a point cloud, the room with occluders) at small N, with loose targets so that the suite
 stays fast; the heavy measurements (10% … 0.3%, with large references) are in
-bench/accuracy_speed.py --auto and docs/benchmarks.md.
+bench/calibration/accuracy_speed.py --auto and docs/benchmarks.md.
 """
 
 import math
@@ -20,6 +20,7 @@ from illumap import accuracy, scenes
 from illumap.accuracy import calibration, models
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "bench"))
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "bench", "calibration"))
 import scenes as S  # noqa: E402  (bench/scenes.py)
 
 #: A summary's surfel count for meshes: they can be sampled at any count.
@@ -616,11 +617,11 @@ def test_calibrated_leaf_variants_come_from_paired_measurements():
                 assert v["error_factor"] > 0 and v["n_range"][0] <= v["n_range"][1]
                 ns = [n for n, _ in v["time_ratio"]]
                 assert ns == sorted(ns) and all(r > 0 for _, r in v["time_ratio"])
-    assert found > 0, "no leaf variants: run bench/leaf_size.py, then bench/calibrate.py"
+    assert found > 0, "no leaf variants: run bench/calibration/leaf_size.py, then bench/calibration/calibrate.py"
 
 
 def test_fit_leaf_variants_takes_the_worst_paired_error_ratio_and_median_times():
-    import calibrate   # bench/calibrate.py
+    import calibrate   # bench/calibration/calibrate.py
 
     def row(size, n, e16, e32, t16, t32):
         return dict(size=size, n=n, leaves={"16": dict(error=e16, time=t16),
@@ -685,7 +686,7 @@ def test_a_sampling_factor_scales_the_model_and_buys_the_surfels_it_needs(monkey
 
 
 def test_fit_sampling_takes_a_high_quantile_of_the_ratios_never_below_one():
-    import calibrate   # bench/calibrate.py
+    import calibrate   # bench/calibration/calibrate.py
     table = calibration.kind_table("random")
     label = "direct vis=exact"
     entry = table["settings"][label]
@@ -729,7 +730,7 @@ def test_calibrated_sampling_factors_are_measured_where_sampling_varies():
     kinds = calibration.CALIBRATION["kinds"]
     assert "sampling" not in kinds["grid"]      # a grid has one sampling
     found = [k for k, t in kinds.items() if "sampling" in t]
-    assert found, "no sampling factors: run bench/sampling_spread.py, then bench/calibrate.py"
+    assert found, "no sampling factors: run bench/calibration/sampling_spread.py, then bench/calibration/calibrate.py"
     for k in found:
         pts = kinds[k]["sampling"]["points"]
         assert [n for n, _ in pts] == sorted(n for n, _ in pts), k
@@ -738,11 +739,11 @@ def test_calibrated_sampling_factors_are_measured_where_sampling_varies():
 
 
 def test_time_holdout_predicts_each_settings_largest_size_from_the_smaller():
-    """bench/calibrate.py's hold-out of the time models (what ADAPTIVE_TIME_MARGIN is set
+    """bench/calibration/calibrate.py's hold-out of the time models (what ADAPTIVE_TIME_MARGIN is set
     against): a setting whose time is an exact power of N is predicted exactly; a setting
     whose largest size took twice the extrapolated time is off by log 2; settings with too few
     sizes and the automatic mode's points are left out."""
-    import calibrate   # bench/calibrate.py
+    import calibrate   # bench/calibration/calibrate.py
     sizes = (500, 1000, 2000, 4000, 8000)
 
     def points(label, scale_last, family="fmm/exact"):
@@ -756,11 +757,11 @@ def test_time_holdout_predicts_each_settings_largest_size_from_the_smaller():
 
 
 def test_grid_steps_add_measured_cell_counts_that_the_step_model_can_choose(monkeypatch):
-    """bench/calibrate.py with bench/grid_steps.py's rows: the grid scene's settings take in
+    """bench/calibration/calibrate.py with bench/calibration/grid_steps.py's rows: the grid scene's settings take in
     its solves between the sweep's sizes (errors and times), another scene's rows are left
     out, and the step model then chooses the measured count that meets the target instead of
     the next swept size."""
-    import calibrate   # bench/calibrate.py
+    import calibrate   # bench/calibration/calibrate.py
     kw = dict(method="direct", visibility="exact")
 
     def pt(n, error, time, label="direct vis=exact"):
@@ -805,11 +806,11 @@ def test_benchmark_results_are_written_with_their_folder_and_numpy_values(tmp_pa
 
 
 def test_retime_replaces_only_the_sweep_times(monkeypatch):
-    """bench/retime.py: each swept point is solved again on the sweep's surfels and gets the
+    """bench/calibration/retime.py: each swept point is solved again on the sweep's surfels and gets the
     new time (its old one kept as time_before); errors, automatic-mode points and other
     scenes are left alone, and surfels that no longer match the sweep's count are refused."""
-    import accuracy_speed   # bench/accuracy_speed.py
-    import retime           # bench/retime.py
+    import accuracy_speed   # bench/calibration/accuracy_speed.py
+    import retime           # bench/calibration/retime.py
     n = S.build("cornell", 500).n
     kw = dict(method="fmm", order=2, theta=0.5, visibility="none")
     calls = []
@@ -831,14 +832,14 @@ def test_retime_replaces_only_the_sweep_times(monkeypatch):
 
 
 def test_retime_leaves_keeps_errors_and_pairs_the_leaf_sizes(monkeypatch, tmp_path):
-    """bench/retime.py on bench/leaf_size.py's rows: each row's leaf sizes are solved again on
+    """bench/calibration/retime.py on bench/calibration/leaf_size.py's rows: each row's leaf sizes are solved again on
     that row's sampling, one right after the other, with the row's settings and each leaf size;
     errors stay, the first recorded times stay as time_before, each run is appended to the
-    file's ``retimed`` list, and bench/calibrate.py records the last one."""
+    file's ``retimed`` list, and bench/calibration/calibrate.py records the last one."""
     import json
-    import accuracy_speed   # bench/accuracy_speed.py
-    import calibrate        # bench/calibrate.py
-    import retime           # bench/retime.py
+    import accuracy_speed   # bench/calibration/accuracy_speed.py
+    import calibrate        # bench/calibration/calibrate.py
+    import retime           # bench/calibration/retime.py
     n2 = S.build("cornell", 500, seed=2).n
     kw = dict(method="fmm", order=2, theta=0.5, visibility="exact")
     calls = []
@@ -875,11 +876,11 @@ def test_retime_leaves_keeps_errors_and_pairs_the_leaf_sizes(monkeypatch, tmp_pa
 
 
 def test_merged_benchmark_results_replace_only_the_scenes_run(tmp_path):
-    """bench/accuracy_speed.py --merge (and leaf_size.py, sampling_spread.py): a run over one
+    """bench/calibration/accuracy_speed.py --merge (and leaf_size.py, sampling_spread.py): a run over one
     scene replaces that scene in the results file, keeps the others, records which run each
     scene came from, and refuses to mix quick and full runs."""
     import json
-    import accuracy_speed   # bench/accuracy_speed.py
+    import accuracy_speed   # bench/calibration/accuracy_speed.py
     out = tmp_path / "results.json"
     first = dict(mode="full", date="d1", core=dict(commit="c1"), wall_time=10.0,
                  scenes=dict(a=dict(rows=[1]), b=dict(rows=[2])))
@@ -923,10 +924,10 @@ def test_the_time_margin_is_where_one_pass_gives_way_to_two(monkeypatch):
 
 
 def test_time_models_extrapolate_with_the_slope_of_their_top_sizes():
-    """bench/calibrate.py's fit_time: a lower envelope (a size timed slower than a larger one
+    """bench/calibration/calibrate.py's fit_time: a lower envelope (a size timed slower than a larger one
     was disturbed) whose extrapolation slope is the least-squares one of its last
     TIME_SLOPE_SIZES sizes, whatever the smaller sizes do, clamped to [1, 2.5]."""
-    import calibrate   # bench/calibrate.py
+    import calibrate   # bench/calibration/calibrate.py
     sizes = [250, 500, 1000, 2000, 4000, 8000, 16000]
     top = sizes[-calibrate.TIME_SLOPE_SIZES:]
     points = [dict(n=n, time=(1e-5 * n ** 1.4 if n in top else 0.5 * 1e-5 * top[0] ** 1.4))
@@ -944,11 +945,11 @@ def test_time_models_extrapolate_with_the_slope_of_their_top_sizes():
 
 
 def test_grid_step_solves_join_the_hand_picked_settings_of_their_scene_only(tmp_path):
-    """The automatic mode on the grid may choose any cell count bench/grid_steps.py measured,
+    """The automatic mode on the grid may choose any cell count bench/calibration/grid_steps.py measured,
     so the hand-picked settings it is compared with include those solves (with the keywords
     to time them again); other scenes get none."""
     import json
-    import accuracy_speed as AS   # bench/accuracy_speed.py
+    import accuracy_speed as AS   # bench/calibration/accuracy_speed.py
     path = tmp_path / "grid_steps.json"
     kw = dict(method="fmm", order=2, theta=0.5, visibility="exact", tol=1e-4)
     path.write_text(json.dumps(dict(reference=dict(scene="cornell"), rows=[
@@ -963,7 +964,7 @@ def test_grid_step_solves_join_the_hand_picked_settings_of_their_scene_only(tmp_
 
 
 def test_robust_best_searches_cheapest_first_up_to_its_horizon(monkeypatch):
-    """bench/accuracy_speed.py's robust best: the cheapest swept point within the target on
+    """bench/calibration/accuracy_speed.py's robust best: the cheapest swept point within the target on
     every one of the automatic mode's samplings; the search stops at ``horizon`` seconds, and a
     search that found none is redone when asked with a longer horizon."""
     import accuracy_speed as AS
@@ -998,7 +999,7 @@ def test_robust_best_searches_cheapest_first_up_to_its_horizon(monkeypatch):
 
 
 def test_paired_times_alternate_and_keep_each_ones_least_time(monkeypatch):
-    """bench/accuracy_speed.py times the automatic mode and a hand-picked setting in
+    """bench/calibration/accuracy_speed.py times the automatic mode and a hand-picked setting in
     alternating rounds (both under the same load) and keeps each one's least time; as many
     rounds as fit in PAIRED_SECONDS, within PAIRED_ROUNDS."""
     import accuracy_speed as AS
@@ -1026,10 +1027,10 @@ def test_paired_times_alternate_and_keep_each_ones_least_time(monkeypatch):
 
 
 def test_calibrate_writes_the_data_file_the_package_loads(tmp_path):
-    """bench/calibrate.py --write writes JSON (no Python source) that loads back as the same
+    """bench/calibration/calibrate.py --write writes JSON (no Python source) that loads back as the same
     calibration, value for value and type for type."""
     import json
-    import calibrate   # bench/calibrate.py
+    import calibrate   # bench/calibration/calibrate.py
     path = tmp_path / "calibration.json"
     calibrate.write(calibration.CALIBRATION, path=str(path))
     loaded = json.loads(path.read_text(encoding="utf-8"))

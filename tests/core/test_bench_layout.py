@@ -46,6 +46,7 @@ def users():
     yield from python_files(os.path.join(ROOT, "tests"))
     yield from python_files(BENCH, recursive=False)
     yield from python_files(os.path.join(BENCH, "reference"))
+    yield from python_files(os.path.join(BENCH, "calibration"))
 
 
 def test_bench_has_its_micro_and_experiment_folders():

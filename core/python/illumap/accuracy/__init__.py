@@ -1,12 +1,12 @@
 """Automatic accuracy: the user asks for an error, Illumap chooses how to get it cheaply.
 
 ``choose_settings(scene, target_error)`` turns a target error (relative RMS per surfel, emitters
-excluded, against a converged reference with exact visibility, as in bench/accuracy_speed.py)
+excluded, against a converged reference with exact visibility, as in bench/calibration/accuracy_speed.py)
 into settings: surfel count (density), method (direct or FMM), expansion order p, opening angle
 theta, leaf size, visibility mode (``none``, ``seed`` or ``exact``) and solver tolerance.
 
-The error models are calibrated on the benchmarks (bench/accuracy_speed.py, fitted by
-bench/calibrate.py into data/calibration.json, loaded as
+The error models are calibrated on the benchmarks (bench/calibration/accuracy_speed.py, fitted by
+bench/calibration/calibrate.py into data/calibration.json, loaded as
 ``calibration.CALIBRATION``): for each scene kind ("grid": meshes sampled on
 grids, the Cornell box; "random": randomly sampled meshes, the room with occluders;
 "point_cloud": scans, the bunny) and each benchmarked setting (method, p, θ, visibility), the
@@ -19,7 +19,7 @@ An error curve holds everything the setting does: density, expansion, visibility
 shadows at large θ) and the solver at its tolerance. For each candidate setting the model gives
 the N that meets ``SAFETY`` × target and the time it takes there; the cheapest wins.
 
-Leaf size: each FMM setting was swept with leaves of 32 surfels; bench/leaf_size.py solves the
+Leaf size: each FMM setting was swept with leaves of 32 surfels; bench/calibration/leaf_size.py solves the
 same surfels with leaves of 16 and 64 right after, and each setting's ``leaf_variants`` keep the
 worst paired error ratio (``error_factor``, credited below 1 only at the sizes measured) and the
 paired time ratios against N. A variant is a candidate like any setting: smaller leaves move
@@ -28,8 +28,8 @@ the other way, so the leaf size trades error against time differently per scene 
 
 Sampling: the curves are of the calibration's samplings; another sampling of the same scene
 at the same N and settings lands elsewhere (up to 1.25× on a mesh, more on random surfels).
-Each kind's ``sampling`` factor (bench/sampling_spread.py: errors of a near-exact setting on six
-further samplings over the model, fitted by bench/calibrate.py to exp(mean + SAMPLING_Z·sd) of
+Each kind's ``sampling`` factor (bench/calibration/sampling_spread.py: errors of a near-exact setting on six
+further samplings over the model, fitted by bench/calibration/calibrate.py to exp(mean + SAMPLING_Z·sd) of
 their log ratios per size, never below 1) scales the discretization part of its predictions
 (what moves between samplings; expansion and visibility-model errors stay), so that a target
 holds for the user's sampling, not just for ours. Grids are deterministic and have none.

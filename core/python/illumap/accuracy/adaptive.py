@@ -40,7 +40,7 @@ ADAPTIVE_ERROR_RATIO = 0.8
 ADAPTIVE_TIME_RATIO = [[1447, 1.18], [2873, 0.96], [5731, 1.02], [11422, 1.39]]
 #: Two passes run (uncapped) only where predicted at most this share of one uniform pass's
 #: time, exp(-rms) of the time models' own error: each setting's largest swept size predicted
-#: from the smaller ones (bench/calibrate.py's ``time_holdout``, kept in the calibration: 0.42 rms
+#: from the smaller ones (bench/calibration/calibrate.py's ``time_holdout``, kept in the calibration: 0.42 rms
 #: in log time; 0.66), or 0.7 when the calibration has no hold-out. Twice on the triangles at
 #: 5%, two passes predicted at 0.78x one pass's time measured 1.28x and 1.35x, and missed the
 #: target on one sampling (5.11%) where one pass met it.

@@ -1,7 +1,7 @@
 """The measured tables the automatic mode's models read.
 
 ``CALIBRATION``: the error and time curves per scene kind and setting, fitted on the
-benchmarks by bench/calibrate.py and stored in the package's data/calibration.json;
+benchmarks by bench/calibration/calibrate.py and stored in the package's data/calibration.json;
 :data:`FMM_ERROR`, the expansion error alone; the scene kinds, and the visibility keywords the
 calibration was measured with (which the automatic mode must therefore use).
 """
@@ -51,13 +51,13 @@ def visibility_keywords(visibility: str, kind: str = "random") -> dict:
     return dict(EXACT_KEYWORDS[kind])
 
 
-#: Visibility keywords a calibrated setting may fix itself (bench/calibrate.py keeps them):
+#: Visibility keywords a calibrated setting may fix itself (bench/calibration/calibrate.py keeps them):
 #: "per_pair_all" leaf pairs and more samples per node pair take the FMM's visibility error
 #: down to the direct method's.
 SETTING_VISIBILITY_KEYS = ("visibility_leaf_mode", "visibility_samples")
 
 #: The sampling factor's quantile: exp(mean + SAMPLING_Z·sd) of the log error ratios (about
-#: the 98th percentile of a log-normal spread), fitted by bench/calibrate.py.
+#: the 98th percentile of a log-normal spread), fitted by bench/calibration/calibrate.py.
 SAMPLING_Z = 2.0
 
 #: Fewest surfels recommended per kind when the calibration has none (small lights and
@@ -66,14 +66,14 @@ DEFAULT_N_MIN = 250
 
 
 def _load_calibration() -> dict:
-    """The calibration fitted by bench/calibrate.py (``--write``), from the package's
+    """The calibration fitted by bench/calibration/calibrate.py (``--write``), from the package's
     data/calibration.json."""
     path = resources.files("illumap") / "data" / "calibration.json"
     return json.loads(path.read_text(encoding="utf-8"))
 
 
 #: The fitted error and time models per scene kind (see the module docstring), with the
-#: sweeps they were fitted on: data/calibration.json, written by bench/calibrate.py.
+#: sweeps they were fitted on: data/calibration.json, written by bench/calibration/calibrate.py.
 CALIBRATION = _load_calibration()
 
 
@@ -83,4 +83,4 @@ def kind_table(kind: str) -> dict:
     for k in (kind, "random", "grid", *kinds):   # the closest calibrated kind
         if k in kinds:
             return kinds[k]
-    raise InputError("illumap.accuracy has no calibration (run bench/calibrate.py)")
+    raise InputError("illumap.accuracy has no calibration (run bench/calibration/calibrate.py)")

@@ -95,7 +95,7 @@ def _leaf_time_ratio(entry: dict, n: float) -> float:
 
 def settings_with_leaves(table: dict):
     """(label, entry) of every calibrated setting and of each of its leaf variants
-    (``leaf_variants``, from bench/leaf_size.py): the setting's keywords with that
+    (``leaf_variants``, from bench/calibration/leaf_size.py): the setting's keywords with that
     ``leaf_size``, its error and cost curves, the variant's ``error_factor`` and
     ``time_ratio``."""
     for label, entry in table["settings"].items():

@@ -3,7 +3,7 @@
 
 The automatic mode's error models are fitted on the sweep's sampling of each scene (and, for
 the leaf sizes, a second one). Another sampling of the same scene at the same N and settings
-lands elsewhere: 8–10% apart at the median, up to 50% on a scan (bench/leaf_size.py's pairs).
+lands elsewhere: 8–10% apart at the median, up to 50% on a scan (bench/calibration/leaf_size.py's pairs).
 A target meant to hold for the user's sampling, not for ours, needs that spread in the model.
 
 Here one near-exact setting (SETTING: p = 3, exact visibility on every leaf pair, 32 samples
@@ -11,10 +11,10 @@ per node pair, θ = 0.5, whose error is the discretization's) is solved on SEEDS
 kept out of both the calibration (0, 2) and the automatic mode's benchmark (1, 3, 5), at sizes
 spanning what the automatic mode picks. Each error (relative RMS over ``error_points``
 surfels against the scene's reference, as in accuracy_speed.py) is divided by what the
-calibrated model predicts for that setting at that N: bench/calibrate.py fits those ratios
+calibrated model predicts for that setting at that N: bench/calibration/calibrate.py fits those ratios
 into each kind's ``sampling`` factor. The grid scene has one sampling and is not run.
 
-    .venv/bin/python bench/sampling_spread.py --full --out bench/results/sampling_spread.json
+    .venv/bin/python bench/calibration/sampling_spread.py --full --out bench/results/sampling_spread.json
 """
 from __future__ import annotations
 
@@ -22,6 +22,8 @@ import os
 import sys
 import time
 
+# bench/ for the scenes, bench/calibration for the other calibration steps.
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from illumap.accuracy import calibration, models  # noqa: E402
 

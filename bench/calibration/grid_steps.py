@@ -1,15 +1,15 @@
 #!/usr/bin/env python3
 """The Cornell grid at every cell count between two sweep sizes: how erratic its error is.
 
-The sweep (bench/accuracy_speed.py) measures the grid at 506 / 1036 / 1927 / … surfels (wall
+The sweep (bench/calibration/accuracy_speed.py) measures the grid at 506 / 1036 / 1927 / … surfels (wall
 cells n = 9, 13, 18, …). This solves the grid at each n in ``--cells`` with the direct method
 and the FMM settings that win at 5% (exact visibility), or with ``--all-settings`` with every
 setting of the sweep (``--sweep``) up to the largest size the sweep ran it at; error on up to
 4000 surfels against the cached 48k reference (that of ``accuracy_speed.py --full``), each
-time the least of three. bench/calibrate.py adds the rows of calibrated settings to the grid
+time the least of three. bench/calibration/calibrate.py adds the rows of calibrated settings to the grid
 kind's curves, so that its step model can choose every cell count measured here.
 
-    .venv/bin/python bench/grid_steps.py --all-settings --cells 9 26 \
+    .venv/bin/python bench/calibration/grid_steps.py --all-settings --cells 9 26 \
         --out bench/results/grid_steps.json
 """
 from __future__ import annotations
@@ -19,6 +19,8 @@ import json
 import os
 import sys
 
+# bench/ for the scenes, bench/calibration for the other calibration steps.
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import accuracy_speed as AS  # noqa: E402
 import scenes as S  # noqa: E402

@@ -2,13 +2,13 @@
 of bench/results/accuracy_speed.json, and every leaf-size triple of
 bench/results/leaf_size.json, solved again on the same surfels and timed as the original run
 timed it; errors are kept (a core change that leaves the results equal to rounding changes only
-the time models, which bench/calibrate.py then refits).
+the time models, which bench/calibration/calibrate.py then refits).
 
-    .venv/bin/python bench/retime.py [--scenes bunny ...] [--only sweep|leaves]
+    .venv/bin/python bench/calibration/retime.py [--scenes bunny ...] [--only sweep|leaves]
 
 Each re-timed solve keeps its first recorded time as ``time_before``; each file lists its runs
 under ``retimed`` (date, core, seconds, scenes, points). Here (2026-12-03) the sweep took 562 s;
-the leaf sizes, solved leaf after leaf for each row as bench/leaf_size.py does, about 34 min.
+the leaf sizes, solved leaf after leaf for each row as bench/calibration/leaf_size.py does, about 34 min.
 """
 
 from __future__ import annotations
@@ -19,11 +19,13 @@ import os
 import sys
 import time
 
+# bench/ for the scenes, bench/calibration for the other calibration steps.
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import accuracy_speed as AS  # noqa: E402
 import scenes as S  # noqa: E402
 
-RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
+RESULTS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "results")
 
 
 class _Surfels:

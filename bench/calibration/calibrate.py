@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Fit the error and time models of ``illumap.accuracy`` on the benchmark sweep.
 
-Reads bench/results/accuracy_speed.json (bench/accuracy_speed.py) and, for each scene (its
+Reads bench/results/accuracy_speed.json (bench/calibration/accuracy_speed.py) and, for each scene (its
 kind: cornell -> "grid", interior -> "random", bunny -> "point_cloud") and each hand-picked
 setting, fits
 
@@ -11,16 +11,16 @@ setting, fits
 * time(N): the measured wall times as a non-decreasing lower envelope (interpolated log-log),
   with the least-squares slope of its last sizes (TIME_SLOPE_SIZES) for extrapolation.
 
-and, from bench/results/leaf_size.json (bench/leaf_size.py) where it exists, the error
+and, from bench/results/leaf_size.json (bench/calibration/leaf_size.py) where it exists, the error
 curves of the settings it ran also over its other sampling (the worst of both), and each
 setting's leaf variants (leaves of 16 and 64 surfels against the 32 of the sweep, on the same surfels):
 an error factor (the largest paired error ratio) and time ratios against N (see
 ``fit_leaf_variants``),
 
-and, from bench/results/sampling_spread.json (bench/sampling_spread.py) where it exists, each
+and, from bench/results/sampling_spread.json (bench/calibration/sampling_spread.py) where it exists, each
 sampled kind's sampling factor against N (``fit_sampling``),
 
-and, from bench/results/grid_steps.json (bench/grid_steps.py) where it exists, the grid
+and, from bench/results/grid_steps.json (bench/calibration/grid_steps.py) where it exists, the grid
 scene's solves at every cell count between the sweep's sizes, as more points of the same
 curves (the grid's error is a step curve: its model can only choose a measured size),
 
@@ -29,7 +29,7 @@ predicted from the smaller ones; its rms sets ``ADAPTIVE_TIME_MARGIN``), and wri
 to core/python/illumap/data/calibration.json (loaded as ``illumap.accuracy.calibration.CALIBRATION``),
 with the run's date and core commit.
 
-    .venv/bin/python bench/calibrate.py --results bench/results/accuracy_speed.json --write
+    .venv/bin/python bench/calibration/calibrate.py --results bench/results/accuracy_speed.json --write
 """
 from __future__ import annotations
 
@@ -41,8 +41,10 @@ import sys
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
+#: bench/, where the scenes and the results are (this script is in bench/calibration).
+HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import scenes as S  # noqa: E402
 from illumap import accuracy  # noqa: E402
 from illumap.accuracy import models  # noqa: E402
@@ -112,7 +114,7 @@ def fit_time(points):
 
 
 def fit_leaf_variants(rows, floor, base_leaf=32):
-    """Each leaf size's variant of one setting from paired rows (bench/leaf_size.py: the same
+    """Each leaf size's variant of one setting from paired rows (bench/calibration/leaf_size.py: the same
     surfels solved at every leaf size, one after the other): ``error_factor``, the largest
     ratio error(leaf) / error(base) over sizes and samplings (errors below ``floor``, what the
     reference resolves, raised to it; rows without visibility, measured against the direct
@@ -141,7 +143,7 @@ def fit_leaf_variants(rows, floor, base_leaf=32):
 
 
 def other_samplings(leaf_results, scene, label, sweep_seed=0):
-    """bench/leaf_size.py's solves of setting ``label`` at its base leaf size on samplings
+    """bench/calibration/leaf_size.py's solves of setting ``label`` at its base leaf size on samplings
     other than the sweep's, as sweep points (n, error, time)."""
     base = str(leaf_results.get("base_leaf", 32))
     data = leaf_results["scenes"].get(scene, {})
@@ -151,7 +153,7 @@ def other_samplings(leaf_results, scene, label, sweep_seed=0):
 
 
 def _retimed(results) -> dict:
-    """Where bench/retime.py re-timed a results file: its last run's date and core commit."""
+    """Where bench/calibration/retime.py re-timed a results file: its last run's date and core commit."""
     runs = results.get("retimed")
     if not runs:
         return {}
@@ -161,7 +163,7 @@ def _retimed(results) -> dict:
 
 
 def add_leaf_variants(calibration, leaf_results, floors):
-    """Attach bench/leaf_size.py's variants to the calibrated settings of each scene kind."""
+    """Attach bench/calibration/leaf_size.py's variants to the calibrated settings of each scene kind."""
     base = int(leaf_results.get("base_leaf", 32))
     for scene, data in leaf_results["scenes"].items():
         table = calibration["kinds"].get(S.KIND[scene])
@@ -178,7 +180,7 @@ def add_leaf_variants(calibration, leaf_results, floors):
 
 
 def sampling_ratios(rows, table):
-    """bench/sampling_spread.py's rows grouped by size: {size: [(n, error / model), …]}, the
+    """bench/calibration/sampling_spread.py's rows grouped by size: {size: [(n, error / model), …]}, the
     model being the setting's curve in ``table`` without a sampling factor."""
     by_size = {}
     for r in rows:
@@ -191,7 +193,7 @@ def sampling_ratios(rows, table):
 
 
 def fit_sampling(rows, table, z=accuracy.SAMPLING_Z):
-    """A kind's sampling factor from bench/sampling_spread.py's rows (one setting solved on
+    """A kind's sampling factor from bench/calibration/sampling_spread.py's rows (one setting solved on
     several samplings per size): per size, exp(mean + z·sd) of log(error / model), with the
     model the freshly fitted curve of that setting (``table``) and sd pooled over the sizes
     (six samplings give a poor sd each); never below 1 nor below the largest ratio seen."""
@@ -210,7 +212,7 @@ def fit_sampling(rows, table, z=accuracy.SAMPLING_Z):
 
 
 def add_sampling(calibration, sampling_results):
-    """Attach bench/sampling_spread.py's factors to the kinds whose scene it ran."""
+    """Attach bench/calibration/sampling_spread.py's factors to the kinds whose scene it ran."""
     for scene, data in sampling_results["scenes"].items():
         table = calibration["kinds"].get(S.KIND[scene])
         if table is None or table["scene"] != scene:
@@ -246,7 +248,7 @@ def time_holdout(results, min_sizes=5):
 
 
 def grid_step_points(grid_results, scene, label):
-    """bench/grid_steps.py's solves of setting ``label`` on ``scene`` (its reference's scene),
+    """bench/calibration/grid_steps.py's solves of setting ``label`` on ``scene`` (its reference's scene),
     as sweep points (n, error, time): the grid at cell counts between the sweep's sizes."""
     if grid_results is None or grid_results.get("reference", {}).get("scene") != scene:
         return []
@@ -256,10 +258,10 @@ def grid_step_points(grid_results, scene, label):
 
 def calibrate(results, leaf_results=None, sampling_results=None, grid_results=None):
     """The calibration of every scene kind from the sweep; with ``leaf_results``
-    (bench/leaf_size.py), each setting's error curve also takes in its solves on the leaf
+    (bench/calibration/leaf_size.py), each setting's error curve also takes in its solves on the leaf
     benchmark's other samplings (the envelope is then the worst of the samplings: at equal N
     two samplings differ by a median 8–10%, up to 51%), and each setting gets its leaf
-    variants (``add_leaf_variants``); with ``grid_results`` (bench/grid_steps.py), the grid
+    variants (``add_leaf_variants``); with ``grid_results`` (bench/calibration/grid_steps.py), the grid
     scene's settings also take in its solves at the cell counts between the sweep's sizes,
     errors and times alike (``grid_step_points``)."""
     kinds = {}
@@ -346,14 +348,14 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--results", default=os.path.join(HERE, "results", "accuracy_speed.json"))
     ap.add_argument("--leaf-results", default=os.path.join(HERE, "results", "leaf_size.json"),
-                    help="bench/leaf_size.py's pairs (leaf variants; skipped when absent)")
+                    help="bench/calibration/leaf_size.py's pairs (leaf variants; skipped when absent)")
     ap.add_argument("--sampling-results",
                     default=os.path.join(HERE, "results", "sampling_spread.json"),
-                    help="bench/sampling_spread.py's samplings (sampling factors; skipped "
+                    help="bench/calibration/sampling_spread.py's samplings (sampling factors; skipped "
                          "when absent)")
     ap.add_argument("--grid-steps-results",
                     default=os.path.join(HERE, "results", "grid_steps.json"),
-                    help="bench/grid_steps.py's grid solves between the sweep's sizes (skipped "
+                    help="bench/calibration/grid_steps.py's grid solves between the sweep's sizes (skipped "
                          "when absent)")
     ap.add_argument("--write", action="store_true", help="write the calibration to core/python/illumap/data/calibration.json")
     args = ap.parse_args(argv)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Leaf size against the default 32, paired: the same surfels, the same run.
 
-For every FMM setting the automatic mode can choose (bench/accuracy_speed.py's FMM settings at
+For every FMM setting the automatic mode can choose (bench/calibration/accuracy_speed.py's FMM settings at
 p ≤ 4 with visibility "none" or "exact"), on each benchmark scene at the sweep's sizes and on
 ``--samplings`` samplings (the grid scene has one), the setting is solved with leaves of 16, 32
 and 64 surfels, one right after the other, and for each leaf size the error and the wall time
@@ -10,12 +10,12 @@ accuracy_speed.py) with visibility "exact"; with visibility "none", whose error 
 reference is the missing occlusion, the FMM's own error against the direct solution without
 visibility on the same surfels (sizes up to the sweep's ``direct_max``).
 
-bench/calibrate.py turns the pairs into each setting's leaf variants: an error factor (the
+bench/calibration/calibrate.py turns the pairs into each setting's leaf variants: an error factor (the
 largest ratio error(leaf) / error(32) over sizes and samplings) and time ratios against N. A
 paired ratio does not carry the sampling noise (±10–15% between samplings at equal N) that
 fitting each leaf size's own error curve did.
 
-    .venv/bin/python bench/leaf_size.py --full --out bench/results/leaf_size.json
+    .venv/bin/python bench/calibration/leaf_size.py --full --out bench/results/leaf_size.json
 """
 from __future__ import annotations
 
@@ -23,6 +23,8 @@ import os
 import sys
 import time
 
+# bench/ for the scenes, bench/calibration for the other calibration steps.
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import illumap  # noqa: E402
 

@@ -23,7 +23,7 @@ With --auto the automatic mode (``illumap.accuracy``) runs at 10%, 5%, 3%, 1% an
 the reference resolves the target, on three samplings of each scene other than the sweep's
 (AUTO_SEED and AUTO_MORE_SEEDS; the grid has one): ``worst_error`` is the worst of them.
 
-    .venv/bin/python bench/accuracy_speed.py --quick --auto --out bench/results/accuracy_speed.json
+    .venv/bin/python bench/calibration/accuracy_speed.py --quick --auto --out bench/results/accuracy_speed.json
 
 Times are from this run on this machine; compare ratios, not absolute times.
 """
@@ -40,6 +40,9 @@ import time
 
 import numpy as np
 
+# bench/ for the scenes, bench/calibration for the other calibration steps.
+BENCH = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, BENCH)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import illumap  # noqa: E402
 from illumap.accuracy import NO_SURFEL_LIMIT  # noqa: E402
@@ -76,13 +79,13 @@ FULL = dict(ref_n=dict(cornell=48000, bunny=S.BUNNY_MAX, interior=48000),
             direct_max=8500,
             direct_vis_max=dict(seed=3000, exact=12500), error_points=1200,
             auto_error_points=4000, high_order_max=2500, seed_max=4500)
-#: bench/leaf_size.py's results: its leaf-16 and leaf-64 solves join the hand-picked settings
+#: bench/calibration/leaf_size.py's results: its leaf-16 and leaf-64 solves join the hand-picked settings
 #: the automatic mode is compared with.
-LEAF_RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results",
+LEAF_RESULTS = os.path.join(BENCH, "results",
                             "leaf_size.json")
-#: bench/grid_steps.py's results: its solves of the grid at cell counts between the sweep's
+#: bench/calibration/grid_steps.py's results: its solves of the grid at cell counts between the sweep's
 #: sizes join them too (the automatic mode's models are calibrated on them).
-GRID_STEPS_RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results",
+GRID_STEPS_RESULTS = os.path.join(BENCH, "results",
                                   "grid_steps.json")
 #: The bunny's reference is the whole scan (77k surfels with its floor), its check the scan
 #: decimated evenly to half. (Random subsets of the scan did not converge: their gaps leak light
@@ -263,7 +266,7 @@ def run_scene(name, cfg, visibilities, auto_targets, log, sweep=True, hand=None)
 
 
 def leaf_points(path, name):
-    """bench/leaf_size.py's solves at leaves other than 32 on the sweep's sampling, against the
+    """bench/calibration/leaf_size.py's solves at leaves other than 32 on the sweep's sampling, against the
     reference, as hand-picked sweep points (for the automatic mode's comparisons)."""
     if not os.path.exists(path):
         return []
@@ -282,7 +285,7 @@ def leaf_points(path, name):
 
 
 def grid_step_points(path, name):
-    """bench/grid_steps.py's solves of the grid scene at every cell count it ran (the sweep's
+    """bench/calibration/grid_steps.py's solves of the grid scene at every cell count it ran (the sweep's
     settings between the sweep's sizes, which the automatic mode's step model can choose), as
     hand-picked sweep points."""
     if not os.path.exists(path):
