@@ -565,10 +565,12 @@ class ScanPatches:
             (gap > SIDE_SETTLED_SHARE * (along + against))
         return side, settled[self.part]
 
-    def sample(self, share: float, whole: int) -> np.ndarray:
+    def sample(self, share: float, whole: int, most: int | None = None) -> np.ndarray:
         """Points (ascending rows) that stand for their patches: every point of a patch of at
         most ``whole`` points, about ``share`` of a larger one's (every 1/share-th in row
-        order), at least ``whole`` of each."""
+        order), at least ``whole`` of each; with ``most``, about that many at most of each
+        (every ceil(size / most)-th): a wall of a dense scan decides its side on its sums as
+        well from thousands of points as from hundreds of thousands."""
         order = np.argsort(self.part, kind="stable")
         sizes = np.bincount(self.part)
         starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
@@ -576,6 +578,8 @@ class ScanPatches:
         rank[order] = np.arange(len(order)) - starts[self.part[order]]
         size = sizes[self.part]
         stride = np.maximum(1, np.minimum(np.rint(1.0 / share), size // max(whole, 1))).astype(np.int64)
+        if most is not None:
+            stride = np.maximum(stride, -(-size // max(int(most), 1)))
         return np.flatnonzero(rank % stride == 0)
 
 
