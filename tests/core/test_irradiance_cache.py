@@ -217,3 +217,18 @@ def test_a_floor_still_keeps_light_from_spilling_under_a_panel():
     assert got.records[hidden].mean() < 0.8          # they share records among themselves now
     with pytest.raises(illumap.InputError, match="min_reach"):
         cached_gather(field, p, n, max_reach=2.0, min_reach=-1.0)
+
+
+def test_receivers_weighed_in_chunks_take_the_same_values(monkeypatch):
+    """The records are weighed a chunk of receivers at a time, for bounded memory: any chunk
+    size gives the same bits."""
+    import illumap.irradiance_cache as ic
+    p, n = floor(0.02)
+    wave = lambda q: np.c_[1.0 + 0.3 * np.sin(6 * q[:, 0]), np.ones(len(q)), 0.5 + q[:, 1]]
+    crease = lambda q: 2.0 * np.maximum(q[:, 0], 1e-4)
+    whole = cached_gather(Field(p, wave, crease), p, n, max_reach=2.0, min_reach=0.1)
+    monkeypatch.setattr(ic, "_CHUNK", 97)
+    pieces = cached_gather(Field(p, wave, crease), p, n, max_reach=2.0, min_reach=0.1)
+    for name in ("radiance", "stderr", "records", "open", "halves"):
+        np.testing.assert_array_equal(getattr(whole, name), getattr(pieces, name))
+    assert whole.rays == pieces.rays

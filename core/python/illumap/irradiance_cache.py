@@ -166,31 +166,44 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
             record[rows] = True
         if finest or not (~record & ~covered).any():
             break
-        rest = np.flatnonzero(~record & ~covered)
-        covered[rest] = _weights(p, n, group, reach, own, record, rest, accuracy,
-                                 raw, min_reach)[2].sum(axis=1) >= MIN_RECORDS
+        for rest in _chunks(np.flatnonzero(~record & ~covered)):
+            covered[rest] = _weights(p, n, group, reach, own, record, rest, accuracy,
+                                     raw, min_reach)[2].sum(axis=1) >= MIN_RECORDS
         cell *= 0.5
-    rest = np.flatnonzero(~record)
-    if len(rest):
+    # The rest take their records' values, a chunk at a time (bounded memory); the records
+    # are final here, but for the lost ones, which no valid weight names.
+    lost = []
+    for rest in _chunks(np.flatnonzero(~record)):
         idx, w, _ = _weights(p, n, group, reach, own, record, rest, accuracy, raw, min_reach)
         total = w.sum(axis=1)
         # A valid record pushed out of the nearest ones by later records: gather there too.
         alone = total <= 0
-        lost = rest[alone]
-        if len(lost):
-            g = gather_rows(lost)
-            radiance[lost], stderr[lost], halves[lost] = g.radiance, g.stderr, _halves(g)
-            sky[lost] = _open(g)
-            rays += int(g.rays)
-            record[lost] = True
+        lost.append(rest[alone])
         keep = ~alone
         rest, idx, w, total = rest[keep], idx[keep], w[keep], total[keep]
         radiance[rest] = _fitted(p, n, radiance, rest, idx, w)
         stderr[rest] = np.sqrt(np.einsum("rk,rk->r", w * w, stderr[idx] ** 2)) / total
         sky[rest] = np.einsum("rk,rk->r", w, sky[idx]) / total
         halves[rest] = np.einsum("rk,rk->r", w, halves[idx]) / total
+    lost = np.concatenate(lost) if lost else np.zeros(0, dtype=np.int64)
+    if len(lost):
+        g = gather_rows(lost)
+        radiance[lost], stderr[lost], halves[lost] = g.radiance, g.stderr, _halves(g)
+        sky[lost] = _open(g)
+        rays += int(g.rays)
+        record[lost] = True
     return CachedGather(radiance=radiance, stderr=stderr, rays=rays, records=record, open=sky,
                         halves=halves)
+
+
+#: Receivers whose records are weighed at once (about 600 bytes each).
+_CHUNK = 262144
+
+
+def _chunks(rows: np.ndarray):
+    """``rows`` in pieces of at most ``_CHUNK``."""
+    for lo in range(0, len(rows), _CHUNK):
+        yield rows[lo:lo + _CHUNK]
 
 
 def _halves(g: GatherResult) -> np.ndarray | float:
