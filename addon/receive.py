@@ -1024,7 +1024,10 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
                     values = faces.mean(values, front.emission[r] + front.albedo[r] * extra)
                     creases += int(len(np.unique(r)))
             lap("creases")
-            values, replaced = rc.remove_specks(front.points, outward, values)
+            # A cloud of unknown orientation: its patches found the same neighbours already.
+            shared_nn = None if other is None else part[0].neighbours
+            values, replaced = rc.remove_specks(front.points, outward, values,
+                                                neighbours=shared_nn)
             lap("specks")
             specks += replaced
             scan_values.append(values)
