@@ -240,7 +240,7 @@ def covered_receivers(job: Job, points: np.ndarray, normals: np.ndarray, toleran
     -1): a box's own surfels crowd its bottom's neighbourhood, and a sparse floor's
     triangles hold fewer than one surfel each. One covers it when it faces the receiver,
     lies within ``tolerance`` (m) of its plane and contains its point."""
-    from illumap import _core
+    from illumap.neighbours import knn
     sources = [src for src in job.sources if src.kind == "MESH"]
     if not sources or len(points) == 0 or job.triangles is None or job.mesh_triangle_start is None:
         return np.zeros(len(points), dtype=bool)
@@ -249,8 +249,7 @@ def covered_receivers(job: Job, points: np.ndarray, normals: np.ndarray, toleran
     source = np.concatenate([np.full(src.stop - src.start, i) for i, src in enumerate(sources)])
     triangle = job.mesh_triangle_start[source] + job.triangle[rows]
     k = min(_COVER_NEIGHBOURS, len(rows))
-    idx, dist = _core.knn(job.positions[rows], points, k)
-    idx = np.asarray(idx)
+    idx, dist = knn(job.positions[rows], points, k)
     # A triangle that covers a point holds it within ``tolerance`` of its plane, and its
     # surfel lies in it too: no farther from the point than the triangle's longest edge
     # and the tolerance. Only points near such a surfel are tested (a scan's points far
@@ -258,7 +257,7 @@ def covered_receivers(job: Job, points: np.ndarray, normals: np.ndarray, toleran
     corners = job.triangles[triangle]
     longest = np.sqrt(np.max([((corners[:, a] - corners[:, b]) ** 2).sum(axis=1)
                               for a, b in ((0, 1), (1, 2), (2, 0))], axis=0))
-    near = np.flatnonzero((np.asarray(dist) <= longest[idx] * (1 + 1e-6) + tolerance).any(axis=1))
+    near = np.flatnonzero((dist <= longest[idx] * (1 + 1e-6) + tolerance).any(axis=1))
     covered = np.zeros(len(points), dtype=bool)
     covered[near] = _covered(job.triangles, triangle[idx[near]], points[near], normals[near],
                              tolerance)
@@ -275,8 +274,8 @@ def covered_receivers(job: Job, points: np.ndarray, normals: np.ndarray, toleran
         if len(mine) == 0 or len(others) == 0:
             continue
         tree = np.ascontiguousarray(centroids[others])
-        nearest, _ = _core.knn(tree, points[mine], 1)
-        first = job.triangles[others[np.asarray(nearest)[:, 0]]]
+        nearest, _ = knn(tree, points[mine], 1)
+        first = job.triangles[others[nearest[:, 0]]]
         face = np.cross(first[:, 1] - first[:, 0], first[:, 2] - first[:, 0])
         face /= np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-300)
         flat = (np.abs(np.einsum("mc,mc->m", points[mine] - first[:, 0], face)) < tolerance) & \
@@ -284,8 +283,8 @@ def covered_receivers(job: Job, points: np.ndarray, normals: np.ndarray, toleran
         mine = mine[flat]
         if len(mine) == 0:
             continue
-        got, _ = _core.knn(tree, points[mine], min(_COVER_OTHERS, len(others)))
-        covered[mine] = _covered(job.triangles, others[np.asarray(got)], points[mine],
+        got, _ = knn(tree, points[mine], min(_COVER_OTHERS, len(others)))
+        covered[mine] = _covered(job.triangles, others[got], points[mine],
                                  normals[mine], tolerance)
     return covered
 
@@ -661,17 +660,42 @@ def _across_gaps(job: Job, occ, exact, gatherer, front: np.ndarray, points: np.n
     (GAP_SHARE, above): the mean over GAP_RAYS probe rays of the light at the hits across it
     (the lamps' cast there, the rest gathered there) less what the gather's tables hold.
     Returns how many receivers and the rays cast. Needs the exact part (its field: the
-    ``front`` surfels' light less their lamp light)."""
-    from illumap import receivers as rc
+    ``front`` surfels' light less their lamp light). Receivers are taken GAP_CHUNK at a
+    time (each one's rays follow from its id alone, so the chunks change no result): a
+    dense scan's candidates' rays and hits would otherwise hold gigabytes at once."""
     all_lamps = list(job.lamps) + list(job.emitters)
     s = job.settings
     if exact is None or job.world is not None or not all_lamps or not s.lamp_shadows:
         return 0, 0
+    from illumap import receivers as rc
     pos, nrm = job.positions[front], job.normals[front]
     reach = exact.rest.reach
-    rows = _gap_candidates(points, normals, pos, nrm, reach)
-    if not rows.size:
-        return 0, 0
+    albedo_field = None
+    fixed_count = cast_rays = 0
+    for lo in range(0, len(points), GAP_CHUNK):
+        hi = min(lo + GAP_CHUNK, len(points))
+        rows = lo + _gap_candidates(points[lo:hi], normals[lo:hi], pos, nrm, reach)
+        if not rows.size:
+            continue
+        if albedo_field is None:
+            albedo_field = rc.SurfelField(pos, nrm, job.albedo[front])
+        fixed, cast = _gap_rows(job, occ, gatherer, albedo_field, all_lamps, reach, rows,
+                                points, normals, ids, rays, radiance)
+        fixed_count += fixed
+        cast_rays += cast
+    return fixed_count, cast_rays
+
+
+#: Receivers ``_across_gaps`` takes at once (GAP_RAYS rays each).
+GAP_CHUNK = 65536
+
+
+def _gap_rows(job: Job, occ, gatherer, albedo_field, all_lamps, reach: float,
+              rows: np.ndarray, points: np.ndarray, normals: np.ndarray, ids: np.ndarray,
+              rays: int, radiance: np.ndarray) -> tuple[int, int]:
+    """``_across_gaps`` for the candidate receivers ``rows``: (receivers corrected, rays)."""
+    from illumap import receivers as rc
+    s = job.settings
     k = min(int(rays), GAP_RAYS)
     dirs = rc.cosine_directions(normals[rows], k, ids[rows], s.seed).reshape(-1, 3)
     origins = np.repeat(points[rows] + occ.offset * normals[rows], k, axis=0)
@@ -694,7 +718,7 @@ def _across_gaps(job: Job, occ, exact, gatherer, front: np.ndarray, points: np.n
     # Each hit's random streams follow from its receiver's id and its ray, not from which
     # other receivers are in the batch.
     hit_ids = ids[rows][cast // k].astype(np.int64) * k + cast % k
-    albedo = rc.SurfelField(pos, nrm, job.albedo[front]).at(p_, n_)
+    albedo = albedo_field.at(p_, n_)
     shadows = lights.Shadows(occ.segment_query(n_), samples=GAP_SHADOW_SAMPLES, seed=s.seed,
                             extent=occ.extent, ids=hit_ids)
     # The light bounced in the gap gathered afresh from each hit too: the surfels' own
@@ -721,6 +745,11 @@ SIDE_PROBE_MIN_RAYS = 8
 #: SIDE_PROBE_WHOLE_PATCH): a patch's sides are judged on its sums (``ScanPatches.sides``).
 SIDE_PROBE_POINTS = 1 / 4
 SIDE_PROBE_WHOLE_PATCH = 64
+#: ... and at most about this many of any patch: the probe's cost then stops growing with
+#: the scan's density (a 990k-point Cornell box scan probed 250k points with 16M rays); a
+#: patch still decides on the sums over thousands of points. Scans of under 4 × this many
+#: points per patch (the bench scans) are probed as before.
+SIDE_PROBE_MOST_POINTS = 8192
 
 
 def _rows_of(rec, rows: np.ndarray, normals: np.ndarray | None = None):
@@ -745,7 +774,7 @@ def _probe_sides(front, back, incident_at, gather_rays: int, shadow_samples: int
     rays = max(SIDE_PROBE_MIN_RAYS, int(gather_rays * SIDE_PROBE_SHARE))
     if n == 0 or 2 * rays >= gather_rays:
         return patches, np.ones(n, dtype=bool), np.zeros(n, dtype=bool), 0
-    ids = patches.sample(SIDE_PROBE_POINTS, SIDE_PROBE_WHOLE_PATCH)
+    ids = patches.sample(SIDE_PROBE_POINTS, SIDE_PROBE_WHOLE_PATCH, SIDE_PROBE_MOST_POINTS)
     m = len(ids)
     incident, gathered, cast, _ = incident_at(
         np.concatenate([front.points[ids], back.points[ids]]),
@@ -796,11 +825,21 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
     gather_rays, shadow_samples = receiver_rays(s) if per_receiver is None else per_receiver
     background = None if job.world is None else job.world.color
     sides = _gather_sides(job)
+    # Seconds of each part (``result.timings['receivers: …']``), for the scaling benchmark.
+    phases: dict[str, float] = {}
+    mark = [time.perf_counter()]
+
+    def lap(name: str) -> None:
+        now = time.perf_counter()
+        phases[name] = phases.get(name, 0.0) + now - mark[0]
+        mark[0] = now
+
     straddling = _regather_straddling(job, result, occ, sent, back, owners, back_owners,
                                       gather_rays, background, sides)
     field_ = rc.SurfelField(job.positions[~back], job.normals[~back], sent[~back])
     back_field = (rc.SurfelField(job.positions[back], job.normals[back], sent[back])
                   if back.any() else None)
+    lap("straddling")
     exact, lattice_lit = _exact_direct(job, occ, sent, ~back, field_, owners, sides,
                                        shadow_samples)
     exact, contact_points = _gathered_at_contacts(job, occ, exact, ~back, field_, back_field,
@@ -817,32 +856,59 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
         return gatherer.gather(points, normals, rays=rays, seed=s.seed, ids=ids, progress=report)
 
     def incident_at(points, normals, ids, meshes=None, rays=gather_rays, shared=None,
-                    samples=shadow_samples, gaps=False):
+                    samples=shadow_samples, gaps=False, timed=False):
         """Incident radiance (M, 3) at receivers, the gather's result, the rays cast and the
         receivers found covered (inside or under another surface: no light). ``shared`` (M,)
         int: receivers of one group (≥ 0) share the gather through an irradiance cache
         (``illumap.irradiance_cache``); -1 or None: each gathers itself. ``gaps``: correct
-        the receivers that face a gap (``_across_gaps``; the main batch's)."""
+        the receivers that face a gap (``_across_gaps``; the main batch's). ``timed``: its
+        parts go into ``phases``."""
         nonlocal gap_receivers
+        if timed:
+            lap("corners and side probe")
         shadows = None
         if all_lamps and s.lamp_shadows:
             shadows = lights.Shadows(occ.segment_query(normals), samples=samples,
                                     seed=s.seed, extent=occ.extent, ids=ids)
         direct = lights.incident_radiance(all_lamps, points, normals, shadows=shadows)
+        if timed:
+            lap("direct")
+        gap_cast = 0
         if shared is not None and s.gather_cache > 0 and (shared >= 0).any():
-            from illumap.irradiance_cache import cached_gather
+            from illumap.irradiance_cache import MIN_REACH_SHARE, cached_gather
+
+            def full_gather(rows, rays_=None):
+                """The cache's gathers; those in full (not its probes) corrected across gaps
+                here, so that the receivers between records take the corrected light."""
+                nonlocal gap_receivers, gap_cast
+                g = gather_at(points[rows], normals[rows], ids[rows], rays if rays_ is None else rays_)
+                if gaps and rays_ is None:
+                    fixed, cast_ = _across_gaps(job, occ, exact, gatherer, ~back, points[rows],
+                                                normals[rows], ids[rows], rays, g.radiance)
+                    gap_receivers += fixed
+                    gap_cast += cast_
+                return g
+
             gathered = cached_gather(
-                lambda rows, rays=rays: gather_at(points[rows], normals[rows], ids[rows], rays),
-                points, normals, groups=shared, accuracy=s.gather_cache, max_reach=occ.extent)
+                lambda rows, rays=None: full_gather(rows, rays),
+                points, normals, groups=shared, accuracy=s.gather_cache, max_reach=occ.extent,
+                min_reach=MIN_REACH_SHARE * field_.reach)
+            if timed:
+                lap("gather")
         else:
             gathered = gather_at(points, normals, ids, rays)
-        gap_cast = 0
-        if gaps:
-            gap_receivers, gap_cast = _across_gaps(job, occ, exact, gatherer, ~back, points,
-                                                   normals, ids, rays, gathered.radiance)
+            if timed:
+                lap("gather")
+            if gaps:
+                gap_receivers, gap_cast = _across_gaps(job, occ, exact, gatherer, ~back, points,
+                                                       normals, ids, rays, gathered.radiance)
+        if timed:
+            lap("gaps")
         incident = direct + gathered.radiance
         hidden = covered_receivers(job, points, normals, 2.0 * occ.offset, meshes)
         incident[hidden] = 0.0
+        if timed:
+            lap("covered")
         cast = gathered.rays + gap_cast + (shadows.rays if shadows is not None else 0)
         return incident, gathered, cast, int(hidden.sum())
 
@@ -851,6 +917,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
         gatherer = rc.Gatherer(occ, field_, background=background, back_field=back_field,
                                two_sided=sides, owners=owners, back_owners=back_owners,
                                exact=exact, progress=report)
+        lap("tables")
         # Every object's receivers in one batch (the gather tabulates the surfels' light
         # once), corners that see the same light evaluated once. A point cloud of unknown
         # orientation brings the side of each point that a probe found facing out, and both
@@ -907,7 +974,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
                                  for part, (rows, _) in enumerate(merged)])
 
         incident, gathered, cast, covered = incident_at(points, normals, ids, batch_meshes,
-                                                        shared=shared, gaps=True)
+                                                        shared=shared, gaps=True, timed=True)
         rays += cast
         values_of = []
         for rec, lo, (_, index) in zip(batch, offsets[:-1], merged):
@@ -929,6 +996,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
                 gathered_lum = np.maximum(gathered_lum - gathered.open[rows] * (background @ lum), 0.0)
             from_surfels += float((rho * gathered_lum).sum())
             total += float((values @ lum).sum())
+        lap("values")
         rest = iter(values_of[len(job.receivers):])
         scan_values, specks, creases = [], 0, 0
         for (front, other), part in zip(point_sets, scan_parts):
@@ -954,7 +1022,12 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
                     rays += more
                     values = faces.mean(values, front.emission[r] + front.albedo[r] * extra)
                     creases += int(len(np.unique(r)))
-            values, replaced = rc.remove_specks(front.points, outward, values)
+            lap("creases")
+            # A cloud of unknown orientation: its patches found the same neighbours already.
+            shared_nn = None if other is None else part[0].neighbours
+            values, replaced = rc.remove_specks(front.points, outward, values,
+                                                neighbours=shared_nn)
+            lap("specks")
             specks += replaced
             scan_values.append(values)
     except IllumapError:
@@ -969,6 +1042,8 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
     for (front, _), values in zip(point_sets, scan_values):
         result.point_receiver_values[front.name] = values
     result.timings["receivers"] = time.perf_counter() - t0
+    lap("rest")
+    result.timings.update({f"receivers: {k}": v for k, v in phases.items()})
     gather_noise = float(np.sqrt(noise2 / light2)) if light2 > 0 else 0.0
     share = indirect / total if total > 0 else 0.0
     surfel_share = from_surfels / total if total > 0 else 0.0
@@ -983,6 +1058,8 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
                                      lattice_shadowed=lattice_lit,
                                      contact_points=contact_points,
                                      gap_receivers=gap_receivers,
+                                     cache_records=(int(gathered.records.sum())
+                                                    if hasattr(gathered, "records") else None),
                                      gather_noise=gather_noise, indirect_share=float(share),
                                      surfel_share=float(surfel_share))
     more = None if per_receiver is not None else more_rays(s, gather_noise, gather_rays)

@@ -177,3 +177,58 @@ def test_native_fitted_values_are_the_numpy_formulas():
         _core.fitted_values(p, n, values, rows, near, np.zeros_like(w))
     with pytest.raises(ValueError, match="out of range"):
         _core.fitted_values(p, n, values, rows, near + len(p), w)
+
+
+def test_a_floor_on_the_reach_bounds_the_records_as_the_points_grow_denser():
+    """Beside a crease (a wall along x = 0) every point's surroundings are as near as the
+    wall: without a floor the records crowd towards it as densely as the points allow, with
+    one (``min_reach``) their number stops growing with the points' density, and the smooth
+    light is still followed."""
+    light = lambda q: np.c_[0.5 + q[:, 0], 0.5 + 0.5 * q[:, 0], np.full(len(q), 0.3)]
+    crease = lambda q: 2.0 * np.maximum(q[:, 0], 1e-4)
+    counts = {}
+    for floor_m in (0.0, 0.2):
+        for spacing in (0.01, 0.005):
+            p, n = floor(spacing)
+            got = cached_gather(Field(p, light, crease), p, n, max_reach=2.0, min_reach=floor_m)
+            counts[floor_m, spacing] = int(got.records.sum())
+            # first order: off by at most the slope (1 per m) times a record's domain
+            # (a × the floor, 0.03 m), and only where the records do not span the plane
+            err = np.abs(got.radiance - light(p)).max(axis=1)
+            assert err.max() < DEFAULT_ACCURACY * 0.2 and err.mean() < 1e-3, (err.max(), err.mean())
+    assert counts[0.0, 0.005] > 1.5 * counts[0.0, 0.01], counts      # the crease's records
+    assert counts[0.2, 0.005] < 1.15 * counts[0.2, 0.01], counts     # bounded by the floor
+    assert counts[0.2, 0.005] < 0.5 * counts[0.0, 0.005], counts
+
+
+def test_a_floor_still_keeps_light_from_spilling_under_a_panel():
+    """The panel hung 1 mm under the ceiling again, with a floor on the reach 200 times the
+    panel's gap and wider than the records' domains: the points under it take only records
+    whose own surroundings are as near (``NEAR_RECORD_FLOORS``), never the lit ceiling's."""
+    p, n = floor()
+    n = -n
+    under = lambda q: (q[:, 0] > 0.3) & (q[:, 0] < 0.6) & (q[:, 1] > 0.3) & (q[:, 1] < 0.6)
+    field = Field(p, lambda q: np.where(under(q)[:, None], 0.0, 1.0) * np.ones((len(q), 3)),
+                  lambda q: np.where(under(q), 1e-3, 2.0))
+    got = cached_gather(field, p, n, max_reach=2.0, min_reach=0.2)
+    hidden = under(p)
+    assert (got.radiance[hidden] == 0).all()
+    assert (got.radiance[~hidden] == 1).all()
+    assert got.records[hidden].mean() < 0.8          # they share records among themselves now
+    with pytest.raises(illumap.InputError, match="min_reach"):
+        cached_gather(field, p, n, max_reach=2.0, min_reach=-1.0)
+
+
+def test_receivers_weighed_in_chunks_take_the_same_values(monkeypatch):
+    """The records are weighed a chunk of receivers at a time, for bounded memory: any chunk
+    size gives the same bits."""
+    import illumap.irradiance_cache as ic
+    p, n = floor(0.02)
+    wave = lambda q: np.c_[1.0 + 0.3 * np.sin(6 * q[:, 0]), np.ones(len(q)), 0.5 + q[:, 1]]
+    crease = lambda q: 2.0 * np.maximum(q[:, 0], 1e-4)
+    whole = cached_gather(Field(p, wave, crease), p, n, max_reach=2.0, min_reach=0.1)
+    monkeypatch.setattr(ic, "_CHUNK", 97)
+    pieces = cached_gather(Field(p, wave, crease), p, n, max_reach=2.0, min_reach=0.1)
+    for name in ("radiance", "stderr", "records", "open", "halves"):
+        np.testing.assert_array_equal(getattr(whole, name), getattr(pieces, name))
+    assert whole.rays == pieces.rays

@@ -34,6 +34,18 @@ def test_isolated_specks_take_their_neighbours_light():
     np.testing.assert_array_equal(out[keep], values[keep])
 
 
+def test_specks_found_with_the_patches_neighbours_are_the_same():
+    """``ScanPatches`` keeps the neighbours it searched; ``remove_specks`` given them finds
+    the same specks and values as searching them itself."""
+    pts, nrm = jittered_plane(seed=3)
+    values = 0.4 + 0.4 * pts[:, :1] * np.ones((1, 3))
+    values[[10, 500, 1500]] = 0.01
+    own = remove_specks(pts, nrm, values)
+    shared = remove_specks(pts, nrm, values, neighbours=ScanPatches(pts, nrm).neighbours)
+    assert own[1] == shared[1] == 3
+    np.testing.assert_array_equal(own[0], shared[0])
+
+
 def test_shadow_edges_and_extremes_are_kept():
     """A hard shadow edge across the plane and a bright spot with a smooth peak: no point of
     either is a speck."""

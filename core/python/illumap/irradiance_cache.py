@@ -22,6 +22,15 @@ gathers itself), then half that, and so on; each level places records only among
 that the records so far leave uncovered (valid records fewer than ``MIN_RECORDS``), and at the receivers' own spacing every point still uncovered gathers
 itself. The records depend on the points alone and each gathers with its own id (the rays it
 would cast uncached), so results do not depend on threads or timing.
+
+No reach counts as nearer than a floor (``min_reach``; the pipeline's is ``MIN_REACH_SHARE``
+× the solved surfels' spacing, ``SurfelField.reach``). Without it, a record's domain beside a
+crease or a contact shrinks with the distance to it, which only the points' spacing bounds,
+and the records there multiply as a scan gets denser (a 990k-point Cornell box scan: 89k
+records, 45M of its 136M rays; with the floor 35k). The light the gather looks up is the
+surfels' field, which has no detail finer than their spacing. A receiver whose own
+surroundings lie nearer than the floor and a record whose surroundings lie beyond
+``NEAR_RECORD_FLOORS`` floors (or the other way round) see different light, and do not share.
 """
 
 from __future__ import annotations
@@ -55,6 +64,19 @@ BEHIND_SLACK = 0.05
 #: ISOLATED_SPACING times as far as the group's median gathers itself (``_isolated``).
 ISOLATED_NEIGHBOUR = 4
 ISOLATED_SPACING = 10.0
+#: The floor of every reach (a record's and a receiver's own) as a share of the solved
+#: surfels' spacing (``SurfelField.reach``, the median distance to the 8th nearest surfel;
+#: see the module docstring). On the Cornell box scanned at 7 mm (990k points, default
+#: settings): 89k records without a floor, 82k at 1, 35k at 4, and 4.39%, 4.39%, 4.42% from
+#: the Cycles bake (bench/scaling_scans.py); the bench scans read 4.63% and 4.11% with it
+#: (bench/results/reference_scans.json had 4.6% and 4.1%).
+MIN_REACH_SHARE = 4.0
+#: A receiver whose own reach (not floored) lies below the floor takes no record whose own
+#: reach lies beyond this many floors, nor the other way round: beside a crease both are
+#: near and the records serve it; under an emitter hung 1 mm below a ceiling the ceiling's
+#: lit records beside it reach metres and do not, nor do the dark ones under it serve the
+#: lit ceiling.
+NEAR_RECORD_FLOORS = 2.0
 #: Rays each receiver measures its own reach with: one in 16 that meets a surface nearby
 #: brings its reach down to that distance × 16.
 PROBE_RAYS = 16
@@ -74,7 +96,8 @@ class CachedGather:
 
 
 def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
-                  max_reach: float, groups=None, accuracy: float = DEFAULT_ACCURACY) -> CachedGather:
+                  max_reach: float, groups=None, accuracy: float = DEFAULT_ACCURACY,
+                  min_reach: float = 0.0) -> CachedGather:
     """The final gather at receivers ``points`` with unit ``normals`` (M, 3; m), gathering in
     full only at records: ``gather_rows(rows, rays=None)`` gathers at the receivers ``rows``
     (int64) with the gather's own ray count or ``rays``, and returns their ``GatherResult``
@@ -83,7 +106,10 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
     the largest side of the box of the receivers that share records.
     ``groups`` (M,) int: a record serves only receivers of its own group (an object, a side);
     -1: the receiver always gathers itself, as does one far from the rest of its group
-    (``_isolated``). ``accuracy``: Ward's a (0 < a ≤ 1; smaller is more records)."""
+    (``_isolated``). ``accuracy``: Ward's a (0 < a ≤ 1; smaller is more records).
+    ``min_reach`` (m, ≥ 0): no reach, a record's or a receiver's own, counts as nearer than
+    this (``MIN_REACH_SHARE``): the records then cover any surface with a number of them
+    that its area and shape set, whatever the receivers' density."""
     p = np.ascontiguousarray(points, dtype=np.float64)
     n = np.ascontiguousarray(normals, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 3 or n.shape != p.shape:
@@ -92,6 +118,8 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
         raise InputError(f"accuracy must be in (0, 1], got {accuracy}")
     if not (np.isfinite(max_reach) and max_reach > 0):
         raise InputError(f"max_reach must be a finite length > 0, got {max_reach}")
+    if not (np.isfinite(min_reach) and min_reach >= 0):
+        raise InputError(f"min_reach must be a finite length >= 0, got {min_reach}")
     m = len(p)
     group = (np.zeros(m, dtype=np.int64) if groups is None
              else np.ascontiguousarray(groups, dtype=np.int64).reshape(-1))
@@ -114,12 +142,15 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
     span = float(np.ptp(p[shared], axis=0).max()) if len(shared) > 1 else 0.0
     if span > 0:
         max_reach = min(max_reach, span)
+    min_reach = min(float(min_reach), max_reach)
     origin = p[shared].min(axis=0) if len(shared) else np.zeros(3)
     reach = np.full(m, max_reach)
+    raw = np.full(m, max_reach)           # reaches before the floor
     if len(shared):
         probe = gather_rows(shared, rays=PROBE_RAYS)
-        reach[shared] = _bounded(probe.reach, max_reach)
+        raw[shared] = _bounded(probe.reach, max_reach)
         rays += int(probe.rays)
+    reach = np.maximum(raw, min_reach)
     own = reach.copy()
     cell = accuracy * max_reach
     pending = np.flatnonzero(record)      # receivers that gather themselves: with level 0
@@ -133,35 +164,50 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
             g = gather_rows(rows)
             radiance[rows], stderr[rows], halves[rows] = g.radiance, g.stderr, _halves(g)
             sky[rows] = _open(g)
-            reach[rows] = own[rows] = _bounded(g.reach, max_reach)
+            raw[rows] = _bounded(g.reach, max_reach)
+            reach[rows] = own[rows] = np.maximum(raw[rows], min_reach)
             rays += int(g.rays)
             record[rows] = True
         if finest or not (~record & ~covered).any():
             break
-        rest = np.flatnonzero(~record & ~covered)
-        covered[rest] = _weights(p, n, group, reach, own, record, rest, accuracy)[2].sum(axis=1) \
-            >= MIN_RECORDS
+        for rest in _chunks(np.flatnonzero(~record & ~covered)):
+            covered[rest] = _weights(p, n, group, reach, own, record, rest, accuracy,
+                                     raw, min_reach)[2].sum(axis=1) >= MIN_RECORDS
         cell *= 0.5
-    rest = np.flatnonzero(~record)
-    if len(rest):
-        idx, w, _ = _weights(p, n, group, reach, own, record, rest, accuracy)
+    # The rest take their records' values, a chunk at a time (bounded memory); the records
+    # are final here, but for the lost ones, which no valid weight names.
+    lost = []
+    for rest in _chunks(np.flatnonzero(~record)):
+        idx, w, _ = _weights(p, n, group, reach, own, record, rest, accuracy, raw, min_reach)
         total = w.sum(axis=1)
         # A valid record pushed out of the nearest ones by later records: gather there too.
-        lost = rest[total <= 0]
-        if len(lost):
-            g = gather_rows(lost)
-            radiance[lost], stderr[lost], halves[lost] = g.radiance, g.stderr, _halves(g)
-            sky[lost] = _open(g)
-            rays += int(g.rays)
-            record[lost] = True
-        keep = total > 0
+        alone = total <= 0
+        lost.append(rest[alone])
+        keep = ~alone
         rest, idx, w, total = rest[keep], idx[keep], w[keep], total[keep]
         radiance[rest] = _fitted(p, n, radiance, rest, idx, w)
         stderr[rest] = np.sqrt(np.einsum("rk,rk->r", w * w, stderr[idx] ** 2)) / total
         sky[rest] = np.einsum("rk,rk->r", w, sky[idx]) / total
         halves[rest] = np.einsum("rk,rk->r", w, halves[idx]) / total
+    lost = np.concatenate(lost) if lost else np.zeros(0, dtype=np.int64)
+    if len(lost):
+        g = gather_rows(lost)
+        radiance[lost], stderr[lost], halves[lost] = g.radiance, g.stderr, _halves(g)
+        sky[lost] = _open(g)
+        rays += int(g.rays)
+        record[lost] = True
     return CachedGather(radiance=radiance, stderr=stderr, rays=rays, records=record, open=sky,
                         halves=halves)
+
+
+#: Receivers whose records are weighed at once (about 600 bytes each).
+_CHUNK = 262144
+
+
+def _chunks(rows: np.ndarray):
+    """``rows`` in pieces of at most ``_CHUNK``."""
+    for lo in range(0, len(rows), _CHUNK):
+        yield rows[lo:lo + _CHUNK]
 
 
 def _halves(g: GatherResult) -> np.ndarray | float:
@@ -187,9 +233,10 @@ def _fitted(p: np.ndarray, n: np.ndarray, values: np.ndarray, rows: np.ndarray,
                                np.ascontiguousarray(w, dtype=np.float64))
 
 
-def _bounded(reach: np.ndarray, max_reach: float) -> np.ndarray:
-    """A gather's reach (m) within (0, max_reach]; no hit (inf) is max_reach."""
-    return np.clip(np.nan_to_num(reach, posinf=max_reach), 1e-300, max_reach)
+def _bounded(reach: np.ndarray, max_reach: float, min_reach: float = 0.0) -> np.ndarray:
+    """A gather's reach (m) within [min_reach, max_reach] (and > 0); no hit (inf) is
+    max_reach."""
+    return np.clip(np.nan_to_num(reach, posinf=max_reach), max(min_reach, 1e-300), max_reach)
 
 
 def _spacing(points: np.ndarray) -> float:
@@ -239,9 +286,11 @@ def _one_per_cell(p: np.ndarray, rows: np.ndarray, group: np.ndarray, cell: floa
     return np.sort(rows[order[first]])
 
 
-def _weights(p, n, group, reach, own, record, rows, accuracy):
+def _weights(p, n, group, reach, own, record, rows, accuracy, raw=None, min_reach=0.0):
     """For receivers ``rows``: their nearest records (R, K) as rows of p, the records' weights
-    (R, K) (zero where not valid) and which are valid (R, K) bool."""
+    (R, K) (zero where not valid) and which are valid (R, K) bool. ``raw`` (M,): each
+    receiver's and record's reach before the floor ``min_reach``: a receiver below it takes
+    only records below NEAR_RECORD_FLOORS floors."""
     k = RECORD_NEIGHBOURS
     idx = np.zeros((len(rows), k), dtype=np.int64)
     w = np.zeros((len(rows), k))
@@ -258,7 +307,15 @@ def _weights(p, n, group, reach, own, record, rows, accuracy):
         wm, ok = _core.record_weights(p, n, reach, own, np.ascontiguousarray(rows[mine]),
                                       np.ascontiguousarray(near), np.ascontiguousarray(dist),
                                       accuracy=float(accuracy), behind_slack=BEHIND_SLACK)
+        ok = np.asarray(ok, dtype=bool)
+        if raw is not None and min_reach > 0:
+            # One near its surroundings (below the floor) and one far from them (beyond
+            # NEAR_RECORD_FLOORS floors) see different light, whatever the floor says.
+            me, them = raw[rows[mine]][:, None], raw[near]
+            far = NEAR_RECORD_FLOORS * min_reach
+            ok = ok & ~(((me < min_reach) & (them >= far)) | ((me >= far) & (them < min_reach)))
+            wm = np.where(ok, wm, 0.0)
         idx[mine, :kk] = near
-        valid[mine, :kk] = np.asarray(ok, dtype=bool)
+        valid[mine, :kk] = ok
         w[mine, :kk] = wm
     return idx, w, valid

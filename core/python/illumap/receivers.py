@@ -448,7 +448,8 @@ SPECK_RATIO = 0.25
 SPECK_FLOOR = 0.02
 
 
-def remove_specks(points, normals, values, *, k: int = SPECK_NEIGHBOURS) -> tuple[np.ndarray, int]:
+def remove_specks(points, normals, values, *, k: int = SPECK_NEIGHBOURS,
+                  neighbours: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """Values at scan points with isolated specks replaced: (values (P, 3), specks replaced).
 
     A point evaluated on a splat model can come out far darker than everything around it (a
@@ -459,7 +460,9 @@ def remove_specks(points, normals, values, *, k: int = SPECK_NEIGHBOURS) -> tupl
     same-surface neighbours (``k`` nearest with |n·n'| ≥ ``SPECK_MIN_COS``, at least four of
     them) by ``SPECK_RATIO`` is a speck and takes the value of its median neighbour; points on
     shadow edges, gradients and extremes of smooth light keep theirs. Positions in metres,
-    values in any radiance unit.
+    values in any radiance unit. ``neighbours`` (P, k + 1): the points' own k + 1 nearest
+    (``_core.knn(points, points, k + 1)``, as ``ScanPatches.neighbours`` holds them), not
+    searched again.
     """
     p = _rows3("points", points)
     n = _rows3("normals", normals, len(p))
@@ -467,8 +470,11 @@ def remove_specks(points, normals, values, *, k: int = SPECK_NEIGHBOURS) -> tupl
     if len(p) <= 4:
         return v.copy(), 0
     kk = int(min(k, len(p) - 1))
-    idx, _ = _core.knn(p, p, kk + 1)
-    idx = np.asarray(idx)[:, 1:]
+    if neighbours is not None and np.shape(neighbours) == (len(p), kk + 1):
+        idx = np.asarray(neighbours)[:, 1:]
+    else:
+        idx, _ = _core.knn(p, p, kk + 1)
+        idx = np.asarray(idx)[:, 1:]
     lum = v @ LUMINANCE_WEIGHTS
     same = np.abs(np.einsum("pc,pkc->pk", n, n[idx])) >= SPECK_MIN_COS
     neighbour = np.where(same, lum[idx], np.nan)
@@ -527,10 +533,14 @@ class ScanPatches:
         if len(p) < 2:
             self.part = np.zeros(len(p), dtype=np.int64)
             self.along_front = np.ones(len(p), dtype=bool)
+            self.neighbours = None
             return
         kk = int(min(k, len(p) - 1))
         idx, _ = _core.knn(p, p, kk + 1)
         idx = np.asarray(idx, dtype=np.int64)
+        #: (P, k + 1) each point's nearest, itself among them: ``remove_specks`` takes them
+        #: too, rather than search the same neighbours again
+        self.neighbours = idx
         smooth = np.abs(np.einsum("pc,pkc->pk", n, n[idx])) >= PATCH_MIN_COS
         idx = np.ascontiguousarray(np.where(smooth, idx, np.arange(len(p))[:, None]))
         oriented, part = _core.orient_normals(p, n, idx)
@@ -565,10 +575,12 @@ class ScanPatches:
             (gap > SIDE_SETTLED_SHARE * (along + against))
         return side, settled[self.part]
 
-    def sample(self, share: float, whole: int) -> np.ndarray:
+    def sample(self, share: float, whole: int, most: int | None = None) -> np.ndarray:
         """Points (ascending rows) that stand for their patches: every point of a patch of at
         most ``whole`` points, about ``share`` of a larger one's (every 1/share-th in row
-        order), at least ``whole`` of each."""
+        order), at least ``whole`` of each; with ``most``, about that many at most of each
+        (every ceil(size / most)-th): a wall of a dense scan decides its side on its sums as
+        well from thousands of points as from hundreds of thousands."""
         order = np.argsort(self.part, kind="stable")
         sizes = np.bincount(self.part)
         starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
@@ -576,6 +588,8 @@ class ScanPatches:
         rank[order] = np.arange(len(order)) - starts[self.part[order]]
         size = sizes[self.part]
         stride = np.maximum(1, np.minimum(np.rint(1.0 / share), size // max(whole, 1))).astype(np.int64)
+        if most is not None:
+            stride = np.maximum(stride, -(-size // max(int(most), 1)))
         return np.flatnonzero(rank % stride == 0)
 
 
