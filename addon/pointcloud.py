@@ -265,8 +265,9 @@ def with_normals(samples: PointSamples) -> PointSamples:
         return samples
     pos = samples.positions
     k = min(K_NEIGHBOURS, len(pos) - 1)
-    normal = estimate_normals(pos, k)
-    from illumap.pointcloud import pca_normals  # noqa: PLC0415 - native, loaded on use
-    spread = pca_normals(pos, k)
+    from illumap import pointcloud as core_pointcloud  # noqa: PLC0415 - native, loaded on use
+    around = core_pointcloud.nearest(pos, k)     # one search for both fits
+    normal = core_pointcloud.estimate_normals(pos, k, neighbours=around)
+    spread = core_pointcloud.pca_normals(pos, k, neighbours=around)
     receiver = spread * np.where(np.einsum("ij,ij->i", spread, normal) < 0, -1.0, 1.0)[:, None]
     return replace(samples, normals=normal, receiver_normals=receiver)

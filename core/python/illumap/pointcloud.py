@@ -106,14 +106,16 @@ def orient_normals(points: np.ndarray, normals: np.ndarray, k: int = DEFAULT_K, 
 
 
 def estimate_normals(points: np.ndarray, k: int = DEFAULT_K, *, threads: int = 0,
-                     progress: Callable[[float, str], bool | None] | None = None) -> np.ndarray:
+                     progress: Callable[[float, str], bool | None] | None = None,
+                     neighbours: np.ndarray | None = None) -> np.ndarray:
     """Unit normals (P, 3) of a point cloud (P, 3, m): the plane that most of the ``k``
     nearest neighbours lie on (``plane_normals``; PCA on a smooth surface), oriented by
-    :func:`orient_normals`."""
+    :func:`orient_normals`. ``neighbours``: the search :func:`nearest` made for the same
+    points and ``k``, when the caller has it (it is not made again)."""
     pts = _checked_points(points)
     if len(pts) < 3:
         raise InputError(f"points: PCA normals need at least 3 points, got {len(pts)}")
-    idx = _neighbours(pts, k, threads)
+    idx = _neighbours(pts, k, threads) if neighbours is None else neighbours
     return _oriented(pts, plane_normals(pts, idx, threads=threads, progress=progress), idx,
                      None, threads, progress)[0]
 
@@ -125,16 +127,26 @@ def _neighbours(pts: np.ndarray, k: int, threads: int) -> np.ndarray:
     return np.asarray(idx)
 
 
-def pca_normals(points: np.ndarray, k: int = DEFAULT_K, *, threads: int = 0) -> np.ndarray:
+def nearest(points: np.ndarray, k: int = DEFAULT_K, *, threads: int = 0) -> np.ndarray:
+    """Each point's ``k`` nearest points and itself (P, k + 1) int64, as
+    :func:`estimate_normals` and :func:`pca_normals` search them (k clamped to [2, P - 1]),
+    so that a caller needing both searches once."""
+    return _neighbours(_checked_points(points), k, threads)
+
+
+def pca_normals(points: np.ndarray, k: int = DEFAULT_K, *, threads: int = 0,
+                neighbours: np.ndarray | None = None) -> np.ndarray:
     """Unit normals (P, 3), unoriented: the smallest eigenvector of the covariance of each
     point's ``k`` nearest neighbours (itself included). Where two surfaces meet it tilts
     between them: the mean of the surfaces, which is what a vertex on a crease shows.
-    Native (``illumap._core.covariance_normals``)."""
+    ``neighbours``: as for :func:`estimate_normals`. Native
+    (``illumap._core.covariance_normals``)."""
     from . import _core
     pts = _checked_points(points)
     if len(pts) < 3:
         raise InputError(f"points: PCA normals need at least 3 points, got {len(pts)}")
-    return np.asarray(_core.covariance_normals(pts, _neighbours(pts, k, threads), threads=threads))
+    idx = _neighbours(pts, k, threads) if neighbours is None else neighbours
+    return np.asarray(_core.covariance_normals(pts, idx, threads=threads))
 
 
 #: A neighbour lies on a candidate plane within this fraction of the median neighbour distance.
