@@ -118,10 +118,12 @@ def bound_stray_areas(areas: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]
     return np.where(stray, typical, areas), stray, typical
 
 
-def estimate_normals(positions: np.ndarray, k: int = K_NEIGHBOURS) -> np.ndarray:
-    """Unit normals (N, 3) by PCA over k neighbours, oriented consistently (module docstring)."""
+def estimate_normals(positions: np.ndarray, k: int = K_NEIGHBOURS,
+                     neighbours: np.ndarray | None = None) -> np.ndarray:
+    """Unit normals (N, 3) by PCA over k neighbours, oriented consistently (module docstring);
+    ``neighbours``: ``illumap.pointcloud.nearest`` of the same points, when at hand."""
     from illumap import pointcloud as core_pointcloud  # noqa: PLC0415 - native, loaded on use
-    return core_pointcloud.estimate_normals(positions, k)
+    return core_pointcloud.estimate_normals(positions, k, neighbours=neighbours)
 
 
 def read_points(obj, depsgraph, warnings: list[str]) -> PointSamples:
@@ -267,7 +269,7 @@ def with_normals(samples: PointSamples) -> PointSamples:
     k = min(K_NEIGHBOURS, len(pos) - 1)
     from illumap import pointcloud as core_pointcloud  # noqa: PLC0415 - native, loaded on use
     around = core_pointcloud.nearest(pos, k)     # one search for both fits
-    normal = core_pointcloud.estimate_normals(pos, k, neighbours=around)
+    normal = estimate_normals(pos, k, neighbours=around)
     spread = core_pointcloud.pca_normals(pos, k, neighbours=around)
     receiver = spread * np.where(np.einsum("ij,ij->i", spread, normal) < 0, -1.0, 1.0)[:, None]
     return replace(samples, normals=normal, receiver_normals=receiver)
