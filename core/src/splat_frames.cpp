@@ -4,10 +4,12 @@
 #include "splat_frames.hpp"
 
 #include "knn.hpp"
+#include "normals.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <utility>
 #include <vector>
@@ -242,27 +244,68 @@ std::vector<std::size_t> morton_order(const double* points, std::size_t n) {
 
 }  // namespace
 
-void splat_frames(Context& ctx, const double* points, const double* normals, std::size_t n,
-                  const std::int64_t* nearest, std::size_t k1, const double* far,
-                  const double* given_radii, double cover, const SplatFrameOptions& o,
-                  double* frames) {
-    if (k1 < 3) throw std::invalid_argument("splat_frames needs at least two neighbours per point");
-    const std::size_t k = k1 - 1;
-    for (std::size_t i = 0; i < n * k1; ++i) checked(nearest[i], n);
-    ctx.set_phase("splats", 0.0, 0.05);
+void splat_frames(Context& ctx, const double* points_in, std::size_t n, const double* normals_in,
+                  const double* radii_in, std::size_t k, const PlaneFitOptions& fit,
+                  const SplatFrameOptions& o, double* frames) {
+    if (k < 2 || k + 1 > n) throw std::invalid_argument("splat_frames needs 2 <= k < n");
+    const std::size_t k1 = k + 1;
+    ctx.set_phase("splats", 0.0, 0.1);
     checkpoint(ctx, 0.0);
-    const std::vector<std::size_t> order = morton_order(points, n);
-    // Each pass visits the points in Morton order; each point writes only its own rows.
+    // One tree for both searches (the k nearest of every point, the rim candidates' wider
+    // one), built while the Morton order is sorted. The passes work on copies in that order
+    // (point t is the input's order[t], neighbours renumbered): a scan in random order would
+    // make every neighbour a cache miss. The neighbours themselves, and so every result,
+    // are those of the input's order.
+    std::unique_ptr<KdTree> tree;
+    std::vector<std::size_t> order;
+    parallel_for(ctx, 2, 1, [&](std::size_t b, std::size_t) {
+        if (b == 0)
+            tree = std::make_unique<KdTree>(points_in, n);
+        else
+            order = morton_order(points_in, n);
+    });
+    std::vector<std::int64_t> rank(n);
+    for (std::size_t t = 0; t < n; ++t) rank[order[t]] = std::int64_t(t);
+    std::vector<double> sorted(3 * n), sorted_normals(normals_in ? 3 * n : 0),
+        sorted_radii(radii_in ? n : 0);
+    for (std::size_t t = 0; t < n; ++t) {
+        const std::size_t i = order[t];
+        std::copy(points_in + 3 * i, points_in + 3 * i + 3, sorted.data() + 3 * t);
+        if (normals_in) std::copy(normals_in + 3 * i, normals_in + 3 * i + 3, sorted_normals.data() + 3 * t);
+        if (radii_in) sorted_radii[t] = radii_in[i];
+    }
+    const double* points = sorted.data();
+    const double* given_radii = radii_in ? sorted_radii.data() : nullptr;
     auto each = [&](double base, double span, auto&& fn) {
         ctx.set_phase("splats", base, span);
         parallel_for(ctx, n, 2048, [&](std::size_t b, std::size_t e) {
-            for (std::size_t t = b; t < e; ++t) fn(order[t]);
+            for (std::size_t i = b; i < e; ++i) fn(i);
         });
     };
+    std::vector<std::int64_t> nearest_(n * k1);
+    std::vector<double> far(n);
+    ctx.set_phase("splats", 0.1, 0.2);
+    parallel_for(ctx, n, 2048, [&](std::size_t b, std::size_t e) {
+        KdTree::Best best(k1);
+        for (std::size_t i = b; i < e; ++i) {
+            tree->nearest(points + 3 * i, best);
+            for (std::size_t j = 0; j < k1; ++j) nearest_[i * k1 + j] = rank[best.h[j].second];
+            far[i] = std::sqrt(best.h[k].first);
+        }
+    });
+    const std::int64_t* nearest = nearest_.data();
+    std::vector<double> fitted;
+    const double* normals = normals_in ? sorted_normals.data() : nullptr;
+    if (!normals) {
+        fitted.resize(3 * n);
+        ctx.set_phase("splats", 0.3, 0.15);
+        plane_normals(ctx, points, n, nearest, k1, fit, fitted.data());
+        normals = fitted.data();
+    }
     // Pass 1: the radii; the rim candidates (a gap wider than rim_gap among the k nearest).
     std::vector<double> radii(n);
     std::vector<unsigned char> candidate(n, 0);
-    each(0.05, 0.15, [&](std::size_t i) {
+    each(0.45, 0.1, [&](std::size_t i) {
         const std::int64_t* row = nearest + i * k1;
         double r;
         if (given_radii) {
@@ -270,43 +313,50 @@ void splat_frames(Context& ctx, const double* points, const double* normals, std
         } else {
             double sum = 0.0;
             for (std::size_t j = 0; j < k1; ++j) sum += far[row[j]];
-            r = cover * (sum / double(k1));
+            r = o.cover * (sum / double(k1));
         }
         radii[i] = r > 0 ? r : std::max(far[i], 1e-6);
         thread_local std::vector<double> angle;
         candidate[i] = widest_gap(points, at(points, i), at(normals, i), row + 1, k, n, angle,
                                   nullptr) > o.rim_gap;
     });
-    const Inputs in{points, normals, radii.data(), n, nearest + 1, k, k1};
     // The candidates' wider neighbourhoods.
+    const std::size_t kw = std::min<std::size_t>(o.rim_neighbours, n - 1);
     std::vector<std::int64_t> cand;
     for (std::size_t i = 0; i < n; ++i)
         if (candidate[i]) cand.push_back(std::int64_t(i));
-    const std::size_t m = cand.size(), kw = std::min<std::size_t>(o.rim_neighbours, n - 1);
-    std::vector<double> queries(3 * m), wide_dist(m * (kw + 1));
-    std::vector<std::int64_t> wide(m * (kw + 1));
-    for (std::size_t c = 0; c < m; ++c) put(queries.data(), c, at(points, std::size_t(cand[c])));
-    ctx.set_phase("splats", 0.2, 0.3);
-    if (m) knn(ctx, points, n, queries.data(), m, kw + 1, wide.data(), wide_dist.data());
+    const std::size_t m = cand.size();
+    std::vector<double> wide_dist(m);
+    std::vector<std::int64_t> wide(m * kw);
+    ctx.set_phase("splats", 0.55, 0.15);
+    parallel_for(ctx, m, 512, [&](std::size_t b, std::size_t e) {
+        KdTree::Best best(kw + 1);
+        for (std::size_t c = b; c < e; ++c) {
+            tree->nearest(points + 3 * std::size_t(cand[c]), best);
+            for (std::size_t j = 0; j < kw; ++j) wide[c * kw + j] = rank[best.h[j + 1].second];
+            wide_dist[c] = std::sqrt(best.h[kw].first);
+        }
+    });
+    const Inputs in{points, normals, radii.data(), n, nearest + 1, k, k1};
     // Pass 2: creases; the candidates' wide test (rim, and the direction out of the scan).
     Clip clip(n);
     std::vector<unsigned char> rim0(n, 0), rim(n, 0);
     std::vector<double> facing(3 * n, 0.0);
-    each(0.5, 0.1, [&](std::size_t i) { crease_line(in, o, i, clip); });
-    ctx.set_phase("splats", 0.6, 0.05);
+    each(0.7, 0.05, [&](std::size_t i) { crease_line(in, o, i, clip); });
+    ctx.set_phase("splats", 0.75, 0.02);
     parallel_for(ctx, m, 1024, [&](std::size_t b, std::size_t e) {
         std::vector<double> angle;
         for (std::size_t c = b; c < e; ++c) {
             const std::size_t i = std::size_t(cand[c]);
             const V3 p = at(points, i), nv = at(normals, i);
-            const std::int64_t* row = wide.data() + c * (kw + 1) + 1;
+            const std::int64_t* row = wide.data() + c * kw;
             V3 centroid;
             for (std::size_t j = 0; j < kw; ++j) centroid = centroid + (at(points, std::size_t(row[j])) - p);
             centroid = (1.0 / double(kw)) * centroid;
             centroid = centroid - dot(centroid, nv) * nv;
             V3 out;
             const double gap = widest_gap(points, p, nv, row, kw, n, angle, &out);
-            if (norm(centroid) > o.rim_shift * wide_dist[c * (kw + 1) + kw] && gap > o.rim_gap) {
+            if (norm(centroid) > o.rim_shift * wide_dist[c] && gap > o.rim_gap) {
                 rim0[i] = 1;
                 put(facing.data(), i, out);
             }
@@ -314,7 +364,7 @@ void splat_frames(Context& ctx, const double* points, const double* normals, std
     });
     std::vector<unsigned char> on_crease(n, 0);
     // Pass 3: a rim point needs a rim neighbour facing the same way; its line clips it.
-    each(0.65, 0.05, [&](std::size_t i) {
+    each(0.77, 0.03, [&](std::size_t i) {
         on_crease[i] = o.crease_strips && clip.c[i] == 0.0;
         if (!rim0[i]) return;
         const V3 f = at(facing.data(), i);
@@ -337,11 +387,15 @@ void splat_frames(Context& ctx, const double* points, const double* normals, std
     // Pass 4: the planes that clipped the neighbours clip the point too.
     for (int round = 0; round < o.propagate; ++round) {
         Clip next = clip;
-        each(0.7, 0.1, [&](std::size_t i) { neighbours_planes(in, o, i, clip, next); });
+        each(0.8, 0.08, [&](std::size_t i) { neighbours_planes(in, o, i, clip, next); });
         clip = std::move(next);
     }
     // Pass 5: the ellipses.
-    each(0.8, 0.2, [&](std::size_t i) { ellipse(in, o, i, clip, on_crease[i], frames + 10 * i); });
+    each(0.88, 0.12, [&](std::size_t i) {
+        double* frame = frames + 13 * order[i];
+        std::copy(normals + 3 * i, normals + 3 * i + 3, frame);
+        ellipse(in, o, i, clip, on_crease[i], frame + 3);
+    });
 }
 
 }  // namespace illumap

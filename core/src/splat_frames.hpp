@@ -3,6 +3,7 @@
 // rules and their constants; this is its per-point work, one point per task).
 #pragma once
 
+#include "normals.hpp"
 #include "parallel.hpp"
 
 #include <cstddef>
@@ -11,6 +12,7 @@
 namespace illumap {
 
 struct SplatFrameOptions {
+    double cover = 1.0;           // disc radius in units of the k-th neighbour's distance
     double edge_cos = 0.9;        // a neighbour's normal turned further: another surface
     double on_plane = 0.05;       // "on a plane": within this fraction of the distance
     double edge_slack = 0.15;     // splats reach past a clipping line by this fraction of r
@@ -25,15 +27,14 @@ struct SplatFrameOptions {
     bool crease_strips = true;    // points on a crease keep a strip (normals were estimated)
 };
 
-// Each point's splat. nearest (n x k1 indices, k1 >= 3): each point's k1 nearest points, the
-// point itself first, and far (n) the distance to the last of them; given_radii (n) the scan's
-// own radii, or null: cover x the mean of far over the point's nearest. Finds the rim
-// candidates' rim_neighbours nearest itself. Writes frames (n x 10): the ellipse's first axis
-// (3, unit), its semi-axes (a, b, a), the offset from the point to its centre (3) and 1 where
-// a crease or rim shaped it, else 0.
-void splat_frames(Context& ctx, const double* points, const double* normals, std::size_t n,
-                  const std::int64_t* nearest, std::size_t k1, const double* far,
-                  const double* given_radii, double cover, const SplatFrameOptions& options,
-                  double* frames);
+// Each point's splat, from its k nearest points (2 <= k < n). given_normals (n x 3, unit) the
+// scan's own, or null: fitted (plane_normals, options fit); given_radii (n) the scan's own, or
+// null: cover x the mean, over the point and its k nearest, of the distance to their k-th
+// nearest. Writes frames (n x 13): the normal (3), the ellipse's first axis (3, unit), its
+// semi-axes (a, b, a), the offset from the point to its centre (3) and 1 where a crease or
+// rim shaped it, else 0.
+void splat_frames(Context& ctx, const double* points, std::size_t n, const double* given_normals,
+                  const double* given_radii, std::size_t k, const PlaneFitOptions& fit,
+                  const SplatFrameOptions& options, double* frames);
 
 }  // namespace illumap

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _core
-from .pointcloud import settled_normals
+from .pointcloud import PLANE_INLIER, PLANE_SHARE, PLANE_SPREAD, settled_normals
 from .surfels import InputError
 
 #: Radius of the unclipped splat in units of the point's own radius sqrt(A/π): large enough
@@ -203,8 +203,6 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0,
     bool: the splats a crease or rim shaped. ``normals`` (N, 3) and ``radius`` (N,) are the
     scan's own where it has them. ``threads``: worker threads (0: all); ``progress(fraction,
     phase)`` may cancel (``illumap.Cancelled``)."""
-    from .neighbours import knn
-    from .pointcloud import plane_normals
     p = np.ascontiguousarray(positions, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 3:
         raise InputError(f"splat_frames: positions must be an (N, 3) array, got {p.shape}")
@@ -222,27 +220,23 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0,
         return _pack(n, _tangent(n), np.stack([r, r, r], 1), np.zeros((count, 3)),
                      np.zeros(count, bool))
 
-    def phase(base: float, span: float):
-        if progress is None:
-            return None
-        return lambda fraction, name: progress(base + span * fraction, name)
-
-    idx, dist = knn(p, p, k + 1, threads=threads, progress=phase(0.0, 0.4))
-    far = dist[:, k]
-    if normals is None:
-        n = np.asarray(plane_normals(p, idx, threads=threads, progress=phase(0.4, 0.2)),
-                       dtype=np.float64)
-    else:
+    if not np.isfinite(p).all():
+        bad = int(np.flatnonzero(~np.isfinite(p).all(axis=1))[0])
+        raise InputError(f"splat_frames: position {bad} is not finite")
+    n = None
+    if normals is not None:
         n = np.asarray(normals, dtype=np.float64)
         length = np.linalg.norm(n, axis=1, keepdims=True)
-        n = np.where(length > 0, n / np.maximum(length, 1e-300), [0.0, 0.0, 1.0])
-    n = np.ascontiguousarray(n)
+        n = np.ascontiguousarray(np.where(length > 0, n / np.maximum(length, 1e-300),
+                                          [0.0, 0.0, 1.0]))
     if radius is not None:
         radius = np.ascontiguousarray(radius, dtype=np.float64)
     frames = np.asarray(_core.splat_frames(
-        p, n, np.ascontiguousarray(idx), np.ascontiguousarray(far), radius, cover=PREVIEW_COVER,
-        edge_cos=PREVIEW_EDGE_COS, on_plane=ON_PLANE, edge_slack=EDGE_SLACK, rim_shift=RIM_SHIFT,
-        rim_gap=RIM_GAP, rim_along=RIM_ALONG, rim_reach=RIM_REACH, parallel_cos=PARALLEL_COS,
-        crease_width=CREASE_WIDTH, propagate=PROPAGATE, rim_neighbours=RIM_NEIGHBOURS,
-        crease_strips=normals is None, threads=threads, progress=phase(0.6, 0.4)))
-    return _pack(n, frames[:, 0:3], frames[:, 3:6], frames[:, 6:9], frames[:, 9] > 0.5)
+        p, n, radius, k=k, inlier=PLANE_INLIER, share=PLANE_SHARE, spread=PLANE_SPREAD,
+        cover=PREVIEW_COVER, edge_cos=PREVIEW_EDGE_COS, on_plane=ON_PLANE, edge_slack=EDGE_SLACK,
+        rim_shift=RIM_SHIFT, rim_gap=RIM_GAP, rim_along=RIM_ALONG, rim_reach=RIM_REACH,
+        parallel_cos=PARALLEL_COS, crease_width=CREASE_WIDTH, propagate=PROPAGATE,
+        rim_neighbours=RIM_NEIGHBOURS, crease_strips=normals is None, threads=threads,
+        progress=progress))
+    return _pack(frames[:, 0:3], frames[:, 3:6], frames[:, 6:9], frames[:, 9:12],
+                 frames[:, 12] > 0.5)
