@@ -9,7 +9,8 @@ splats computed first as a run's worker does (``point_splats.prepare_frames``), 
 build on the main thread, which only writes them. Beside them, the splats alone: the native
 ``illumap.splats.splat_frames`` against the numpy version it replaced
 (tests/core/splat_frames_reference.py) on the same points, with the scan's normals and with
-normals estimated, one after the other in this run (their ratio), and the load average seen.
+normals estimated, one after the other in this run (their ratio; wall and process CPU
+seconds, the CPU time less sensitive to other jobs on the machine), and the load average seen.
 
     .venv/bin/python bench/micro/preview_build.py [--splats-only] [1000000 ...]
 
@@ -92,20 +93,22 @@ def splats_alone(n: int) -> list[dict]:
     rows = []
     for normals in (np.tile(np.float32([0, 0, 1]), (n, 1)), None):
         load = os.getloadavg()[0]
-        t0 = time.perf_counter()
+        c0, t0 = time.process_time(), time.perf_counter()
         new = splat_frames(pts, normals)
-        t1 = time.perf_counter()
+        c1, t1 = time.process_time(), time.perf_counter()
         old = splat_frames_reference.splat_frames(pts, normals)
-        t2 = time.perf_counter()
+        c2, t2 = time.process_time(), time.perf_counter()
         diff = max(float(np.abs(new[k] - old[k]).max()) for k in ("axis", "scale", "offset"))
         row = {"points": n, "normals": "given" if normals is not None else "estimated",
                "native_s": t1 - t0, "numpy_s": t2 - t1, "ratio": (t2 - t1) / (t1 - t0),
+               "native_cpu_s": c1 - c0, "numpy_cpu_s": c2 - c1,
                "max_difference": diff,
                "clipped_differ": int((new["clipped"] != old["clipped"]).sum()),
                "load_before": load, "load_after": os.getloadavg()[0]}
         rows.append(row)
         print(f"{n:>9,} splats, normals {row['normals']:<9}: native {row['native_s']:.2f} s, "
-              f"numpy {row['numpy_s']:.2f} s ({row['ratio']:.1f}x); frames differ by "
+              f"numpy {row['numpy_s']:.2f} s ({row['ratio']:.1f}x; CPU {row['native_cpu_s']:.2f} "
+              f"vs {row['numpy_cpu_s']:.2f} s); frames differ by "
               f"{diff:.1e}, clipped flags by {row['clipped_differ']}; load average "
               f"{load:.1f} -> {row['load_after']:.1f}", flush=True)
     return rows
