@@ -242,6 +242,53 @@ std::vector<std::size_t> morton_order(const double* points, std::size_t n) {
     return order;
 }
 
+// values (rows of `width`) in `order`: row t is values' row order[t] (none without values).
+std::vector<double> reordered(const double* values, std::size_t width,
+                              const std::vector<std::size_t>& order) {
+    if (!values) return {};
+    std::vector<double> out(width * order.size());
+    for (std::size_t t = 0; t < order.size(); ++t)
+        std::copy(values + width * order[t], values + width * (order[t] + 1), out.data() + width * t);
+    return out;
+}
+
+// The rim test of the candidates (points whose k nearest leave a gap wider than rim_gap):
+// among their rim_neighbours nearest (from `tree`, renumbered by `rank`), the gap is still that
+// wide and their centroid lies rim_shift x the farthest one's distance off the point. Marks
+// rim0 and the unit direction out of the scan (facing, n x 3).
+void rim_test(Context& ctx, const KdTree& tree, const std::int64_t* rank, const double* points,
+              const double* normals, std::size_t n, const std::vector<unsigned char>& candidate,
+              const SplatFrameOptions& o, std::vector<unsigned char>& rim0,
+              std::vector<double>& facing) {
+    const std::size_t kw = std::min<std::size_t>(o.rim_neighbours, n - 1);
+    std::vector<std::size_t> cand;
+    for (std::size_t i = 0; i < n; ++i)
+        if (candidate[i]) cand.push_back(i);
+    ctx.set_phase("splats", 0.55, 0.15);
+    parallel_for(ctx, cand.size(), 512, [&](std::size_t b, std::size_t e) {
+        KdTree::Best best(kw + 1);
+        std::vector<std::int64_t> row(kw);
+        std::vector<double> angle;
+        for (std::size_t c = b; c < e; ++c) {
+            const std::size_t i = cand[c];
+            tree.nearest(points + 3 * i, best);
+            for (std::size_t j = 0; j < kw; ++j) row[j] = rank[best.h[j + 1].second];
+            const double far = std::sqrt(best.h[kw].first);
+            const V3 p = at(points, i), nv = at(normals, i);
+            V3 centroid;
+            for (std::size_t j = 0; j < kw; ++j) centroid = centroid + (at(points, std::size_t(row[j])) - p);
+            centroid = (1.0 / double(kw)) * centroid;
+            centroid = centroid - dot(centroid, nv) * nv;
+            V3 out;
+            const double gap = widest_gap(points, p, nv, row.data(), kw, n, angle, &out);
+            if (norm(centroid) > o.rim_shift * far && gap > o.rim_gap) {
+                rim0[i] = 1;
+                put(facing.data(), i, out);
+            }
+        }
+    });
+}
+
 }  // namespace
 
 void splat_frames(Context& ctx, const double* points_in, std::size_t n, const double* normals_in,
@@ -266,14 +313,9 @@ void splat_frames(Context& ctx, const double* points_in, std::size_t n, const do
     });
     std::vector<std::int64_t> rank(n);
     for (std::size_t t = 0; t < n; ++t) rank[order[t]] = std::int64_t(t);
-    std::vector<double> sorted(3 * n), sorted_normals(normals_in ? 3 * n : 0),
-        sorted_radii(radii_in ? n : 0);
-    for (std::size_t t = 0; t < n; ++t) {
-        const std::size_t i = order[t];
-        std::copy(points_in + 3 * i, points_in + 3 * i + 3, sorted.data() + 3 * t);
-        if (normals_in) std::copy(normals_in + 3 * i, normals_in + 3 * i + 3, sorted_normals.data() + 3 * t);
-        if (radii_in) sorted_radii[t] = radii_in[i];
-    }
+    const std::vector<double> sorted = reordered(points_in, 3, order),
+                              sorted_normals = reordered(normals_in, 3, order),
+                              sorted_radii = reordered(radii_in, 1, order);
     const double* points = sorted.data();
     const double* given_radii = radii_in ? sorted_radii.data() : nullptr;
     auto each = [&](double base, double span, auto&& fn) {
@@ -320,48 +362,13 @@ void splat_frames(Context& ctx, const double* points_in, std::size_t n, const do
         candidate[i] = widest_gap(points, at(points, i), at(normals, i), row + 1, k, n, angle,
                                   nullptr) > o.rim_gap;
     });
-    // The candidates' wider neighbourhoods.
-    const std::size_t kw = std::min<std::size_t>(o.rim_neighbours, n - 1);
-    std::vector<std::int64_t> cand;
-    for (std::size_t i = 0; i < n; ++i)
-        if (candidate[i]) cand.push_back(std::int64_t(i));
-    const std::size_t m = cand.size();
-    std::vector<double> wide_dist(m);
-    std::vector<std::int64_t> wide(m * kw);
-    ctx.set_phase("splats", 0.55, 0.15);
-    parallel_for(ctx, m, 512, [&](std::size_t b, std::size_t e) {
-        KdTree::Best best(kw + 1);
-        for (std::size_t c = b; c < e; ++c) {
-            tree->nearest(points + 3 * std::size_t(cand[c]), best);
-            for (std::size_t j = 0; j < kw; ++j) wide[c * kw + j] = rank[best.h[j + 1].second];
-            wide_dist[c] = std::sqrt(best.h[kw].first);
-        }
-    });
     const Inputs in{points, normals, radii.data(), n, nearest + 1, k, k1};
-    // Pass 2: creases; the candidates' wide test (rim, and the direction out of the scan).
+    // Pass 2: the candidates' wide test (rim, and the direction out of the scan); creases.
     Clip clip(n);
     std::vector<unsigned char> rim0(n, 0), rim(n, 0);
     std::vector<double> facing(3 * n, 0.0);
-    each(0.7, 0.05, [&](std::size_t i) { crease_line(in, o, i, clip); });
-    ctx.set_phase("splats", 0.75, 0.02);
-    parallel_for(ctx, m, 1024, [&](std::size_t b, std::size_t e) {
-        std::vector<double> angle;
-        for (std::size_t c = b; c < e; ++c) {
-            const std::size_t i = std::size_t(cand[c]);
-            const V3 p = at(points, i), nv = at(normals, i);
-            const std::int64_t* row = wide.data() + c * kw;
-            V3 centroid;
-            for (std::size_t j = 0; j < kw; ++j) centroid = centroid + (at(points, std::size_t(row[j])) - p);
-            centroid = (1.0 / double(kw)) * centroid;
-            centroid = centroid - dot(centroid, nv) * nv;
-            V3 out;
-            const double gap = widest_gap(points, p, nv, row, kw, n, angle, &out);
-            if (norm(centroid) > o.rim_shift * wide_dist[c] && gap > o.rim_gap) {
-                rim0[i] = 1;
-                put(facing.data(), i, out);
-            }
-        }
-    });
+    rim_test(ctx, *tree, rank.data(), points, normals, n, candidate, o, rim0, facing);
+    each(0.7, 0.07, [&](std::size_t i) { crease_line(in, o, i, clip); });
     std::vector<unsigned char> on_crease(n, 0);
     // Pass 3: a rim point needs a rim neighbour facing the same way; its line clips it.
     each(0.77, 0.03, [&](std::size_t i) {
