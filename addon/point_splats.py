@@ -35,11 +35,13 @@ def fingerprint(positions, normals=None, radius=None) -> str:
     return repr(parts)
 
 
-def prepare_frames(positions, normals=None, radius=None) -> None:
+def prepare_frames(positions, normals=None, radius=None, *, progress=None) -> None:
     """Compute the splats of one scan ahead of its preview (numpy and the core only: safe on
-    a worker thread)."""
+    a worker thread). ``progress(fraction, phase)`` returning False cancels (the core's
+    ``Cancelled``)."""
     key = fingerprint(positions, normals, radius)
-    frames = splat_frames(np.asarray(positions, dtype=np.float32), normals, radius)
+    frames = splat_frames(np.asarray(positions, dtype=np.float32), normals, radius,
+                          progress=progress)
     while len(_READY) >= _READY_MAX:
         _READY.pop(next(iter(_READY)))
     _READY[key] = frames
@@ -50,8 +52,9 @@ def ready_frames(key: str) -> dict | None:
     return _READY.pop(key, None)
 
 
-def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> dict:
+def splat_frames(positions, normals=None, radius=None, *, threads: int = 0,
+                 progress=None) -> dict:
     """Each point's splat: ``illumap.splats.splat_frames`` (float32 ``normal``, ``axis``,
     ``scale``, ``offset`` (N, 3) and bool ``clipped`` (N,), in the positions' unit)."""
     from illumap.splats import splat_frames as frames  # noqa: PLC0415 - native, loaded on use
-    return frames(positions, normals, radius, threads=threads)
+    return frames(positions, normals, radius, threads=threads, progress=progress)
