@@ -1,4 +1,5 @@
-"""Splats: the surface a point cloud stands for, as triangles.
+"""Splats: the surface a point cloud stands for, as triangles (``splat_triangles``, for rays),
+and as the Object Preview's ellipses of a scan (``splat_frames``, below).
 
 A point model has no faces, yet shadows, visibility and the final gather need a surface to
 stop rays. Each point p (normal n, area A) gets a splat: a disc of radius
