@@ -263,7 +263,12 @@ def _build(scene: _ReadScene, progress: Progress | None = None) -> Job:
     job.receivers = scene.receivers
     for inputs in scene.splat_inputs:
         stop_if_cancelled()
-        point_splats.prepare_frames(*inputs)
+        try:
+            point_splats.prepare_frames(*inputs, progress=going_on)
+        except Exception as exc:  # noqa: BLE001 - the core's Cancelled
+            if core_cancelled(exc):
+                raise IllumapCancelled("Cancelled") from None
+            raise
     return job
 
 

@@ -6,9 +6,13 @@ depsgraph evaluation; beside it the disc preview of the same N points as surfels
 (``addon.preview.build_preview``: one instanced disc per point), timed the same way. Both in
 this process, one after the other, so the ratio is measured in one run. "After a run": the
 splats computed first as a run's worker does (``point_splats.prepare_frames``), then the same
-build on the main thread, which only writes them.
+build on the main thread, which only writes them. Beside them, the splats alone: the native
+``illumap.splats.splat_frames`` against the numpy version it replaced
+(tests/core/splat_frames_reference.py) on the same points, with the scan's normals and with
+normals estimated, one after the other in this run (their ratio; wall and process CPU
+seconds, the CPU time less sensitive to other jobs on the machine), and the load average seen.
 
-    .venv/bin/python bench/micro/preview_build.py [1000000 ...]
+    .venv/bin/python bench/micro/preview_build.py [--splats-only] [1000000 ...]
 
 Writes bench/results/preview_build.json for the default size (1M points, no arguments or
 exactly ``1000000``); other sizes go to bench/results/preview_build_<sizes>.json, so a quick
@@ -31,6 +35,7 @@ import numpy as np  # noqa: E402
 from addon import mesh_preview, point_splats, preview  # noqa: E402
 
 OUT = os.path.join(REPO, "bench", "results", "preview_build.json")
+sys.path.insert(0, os.path.join(REPO, "tests", "core"))
 
 
 def scan(n: int, kind: str, radius: bool = True) -> bpy.types.Object:
@@ -77,10 +82,51 @@ def timed(build, obj) -> dict:
     return {"build_s": t1 - t0, "evaluate_s": t2 - t1, "total_s": t2 - t0, "shown": shown}
 
 
-def main() -> None:
-    sizes = [int(a) for a in sys.argv[1:]] or [1_000_000]
+def splats_alone(n: int) -> list[dict]:
+    """Seconds for the splats of n random points on the bench's floor (float32, as a scan
+    gives them), native and numpy, with the given normals and with estimated ones; the largest
+    difference between their frames."""
+    import splat_frames_reference  # noqa: PLC0415 - the numpy version (tests/core)
+    from illumap.splats import splat_frames  # noqa: PLC0415
+    rng = np.random.default_rng(0)
+    pts = np.column_stack([rng.random((n, 2)) * 10.0, np.zeros(n)]).astype(np.float32)
     rows = []
+    for normals in (np.tile(np.float32([0, 0, 1]), (n, 1)), None):
+        load = os.getloadavg()[0]
+        c0, t0 = time.process_time(), time.perf_counter()
+        new = splat_frames(pts, normals)
+        c1, t1 = time.process_time(), time.perf_counter()
+        old = splat_frames_reference.splat_frames(pts, normals)
+        c2, t2 = time.process_time(), time.perf_counter()
+        diff = max(float(np.abs(new[k] - old[k]).max()) for k in ("axis", "scale", "offset"))
+        row = {"points": n, "normals": "given" if normals is not None else "estimated",
+               "native_s": t1 - t0, "numpy_s": t2 - t1, "ratio": (t2 - t1) / (t1 - t0),
+               "native_cpu_s": c1 - c0, "numpy_cpu_s": c2 - c1,
+               "max_difference": diff,
+               "clipped_differ": int((new["clipped"] != old["clipped"]).sum()),
+               "load_before": load, "load_after": os.getloadavg()[0]}
+        rows.append(row)
+        print(f"{n:>9,} splats, normals {row['normals']:<9}: native {row['native_s']:.2f} s, "
+              f"numpy {row['numpy_s']:.2f} s ({row['ratio']:.1f}x; CPU {row['native_cpu_s']:.2f} "
+              f"vs {row['numpy_cpu_s']:.2f} s); frames differ by "
+              f"{diff:.1e}, clipped flags by {row['clipped_differ']}; load average "
+              f"{load:.1f} -> {row['load_after']:.1f}", flush=True)
+    return rows
+
+
+def main() -> None:
+    args = sys.argv[1:]
+    if "-h" in args or "--help" in args:
+        print(__doc__)
+        return
+    only = "--splats-only" in args
+    sizes = [int(a) for a in args if a != "--splats-only"] or [1_000_000]
+    rows = []
+    splat_rows = []
     for n in sizes:
+        splat_rows += splats_alone(n)
+        if only:
+            continue
         for kind in ("MESH", "POINTCLOUD"):
             for radius in (True, False):
                 bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -108,10 +154,11 @@ def main() -> None:
                       f"{after['worker_s']:.2f} s); disc preview "
                       f"{discs['total_s']:.2f} s; shown {points['shown']:,} / "
                       f"{discs['shown']:,}", flush=True)
-    out = OUT if sizes == [1_000_000] else OUT.replace(
-        ".json", "_" + "_".join(str(n) for n in sizes) + ".json")
+    out = OUT if sizes == [1_000_000] and not only else OUT.replace(
+        ".json", "_" + "_".join(str(n) for n in sizes) + ("_splats" if only else "") + ".json")
     with open(out, "w") as f:
-        json.dump({"blender": bpy.app.version_string, "rows": rows}, f, indent=1)
+        json.dump({"blender": bpy.app.version_string, "cpus": os.cpu_count(), "rows": rows,
+                   "splats": splat_rows}, f, indent=1)
     print(f"wrote {out}")
 
 

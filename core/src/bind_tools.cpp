@@ -9,6 +9,7 @@
 #include "knn.hpp"
 #include "lamp_samples.hpp"
 #include "normals.hpp"
+#include "splat_frames.hpp"
 #include "splats.hpp"
 
 namespace illumap::bindings {
@@ -329,6 +330,65 @@ void bind_point_tools(nb::module_& m) {
           nb::arg("progress") = nb::none(),
           "Radii (N, sides) in m of each point's clipped splat along cos(t) u + sin(t) v. "
           "See splats.hpp and illumap/splats.py.");
+
+    m.def("splat_frames",
+          [](nb::handle points, nb::handle normals, nb::handle radii, std::int64_t k,
+             double inlier, double share, double spread, double cover, double edge_cos,
+             double on_plane, double edge_slack, double rim_shift, double rim_gap,
+             double rim_along, double rim_reach, double parallel_cos, double crease_width,
+             int propagate, int rim_neighbours, bool crease_strips, int threads,
+             nb::handle progress) {
+              std::size_t n, rows;
+              nb::object keep[3];
+              const double* P = view<double>(points, "points", 2, 3, n, keep[0]);
+              const double* N = nullptr;
+              const double* R = nullptr;
+              if (!normals.is_none()) {
+                  N = view<double>(normals, "normals", 2, 3, rows, keep[1]);
+                  if (rows != n) throw nb::value_error("normals must have one row per point");
+              }
+              if (!radii.is_none()) {
+                  R = view<double>(radii, "radii", 1, 0, rows, keep[2]);
+                  if (rows != n) throw nb::value_error("radii must have one value per point");
+              }
+              if (k < 2 || std::size_t(k) >= n)
+                  throw nb::value_error(("splat_frames needs 2 <= k < the number of points (" +
+                                         std::to_string(n) + "), got k = " +
+                                         std::to_string(k)).c_str());
+              if (propagate < 0 || rim_neighbours < 2)
+                  throw nb::value_error("propagate must be >= 0 and rim_neighbours >= 2");
+              double* out;
+              auto O = new_array(n, 13, &out);
+              const PlaneFitOptions fit{inlier, share, spread};
+              SplatFrameOptions options;
+              options.cover = cover;
+              options.edge_cos = edge_cos;
+              options.on_plane = on_plane;
+              options.edge_slack = edge_slack;
+              options.rim_shift = rim_shift;
+              options.rim_gap = rim_gap;
+              options.rim_along = rim_along;
+              options.rim_reach = rim_reach;
+              options.parallel_cos = parallel_cos;
+              options.crease_width = crease_width;
+              options.propagate = propagate;
+              options.rim_neighbours = rim_neighbours;
+              options.crease_strips = crease_strips;
+              run_released(threads, progress, [&](Context& ctx) {
+                  splat_frames(ctx, P, n, N, R, std::size_t(k), fit, options, out);
+              });
+              return O;
+          },
+          nb::arg("points"), nb::arg("normals").none(), nb::arg("radii").none(), nb::kw_only(),
+          nb::arg("k"), nb::arg("inlier"), nb::arg("share"), nb::arg("spread"), nb::arg("cover"),
+          nb::arg("edge_cos"), nb::arg("on_plane"), nb::arg("edge_slack"), nb::arg("rim_shift"),
+          nb::arg("rim_gap"), nb::arg("rim_along"), nb::arg("rim_reach"),
+          nb::arg("parallel_cos"), nb::arg("crease_width"), nb::arg("propagate"),
+          nb::arg("rim_neighbours"), nb::arg("crease_strips"), nb::arg("threads") = 0,
+          nb::arg("progress") = nb::none(),
+          "The preview's splat of each point (N, 13): normal (3), axis (3), semi-axes (a, b, "
+          "a), offset (3), clipped (1 or 0), from its k nearest points; normals (N, 3, unit) and "
+          "radii (N,) the scan's own, or None. See splat_frames.hpp and illumap/splats.py.");
 
     m.def("splat_fans",
           [](nb::handle points, nb::handle u, nb::handle v, nb::handle radii, nb::handle facing,

@@ -1,0 +1,114 @@
+"""The preview's splat frames (illumap.splats.splat_frames, native) against the numpy
+reference they were ported from (splat_frames_reference.py), on synthetic scans that take
+every rule: a plane (its rims), a box corner (three faces: creases and a corner), a crease
+(two planes at 35°)."""
+
+import numpy as np
+import pytest
+
+import illumap
+from illumap import splats
+
+pytestmark = pytest.mark.skipif(not illumap.native_available(), reason="needs the native core")
+
+#: Both compute the same float64 arithmetic (up to the order of a few sums) and round to
+#: float32: differences beyond a few float32 ulps of the splat's size are a real disagreement.
+RELATIVE = 1e-5
+
+
+def jittered(n, rng):
+    """n × n points jittered within the cells of the unit square (no two distances tie, so
+    neither version's choice among equal candidates depends on rounding)."""
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(n), np.arange(n)))
+    return (np.column_stack([i, j]) + rng.uniform(0.1, 0.9, (n * n, 2))) / n
+
+
+def plane(rng):
+    uv = jittered(40, rng)
+    return np.column_stack([uv, np.zeros(len(uv))])
+
+
+def box_corner(rng):
+    faces = []
+    for axis in range(3):
+        uv = jittered(20, rng)
+        q = np.zeros((len(uv), 3))
+        q[:, [a for a in range(3) if a != axis]] = uv
+        faces.append(q)
+    return np.concatenate(faces)
+
+
+def crease(rng):
+    a = rng.random((3000, 2))
+    x = 2.0 * a[:, 0] - 1.0
+    return np.column_stack([x, a[:, 1], np.where(x < 0, 0.0, np.tan(np.radians(35)) * x)])
+
+
+CLOUDS = {"plane": plane, "box corner": box_corner, "crease": crease}
+
+
+def assert_same(native, reference):
+    assert native["clipped"].tolist() == reference["clipped"].tolist()
+    size = float(np.abs(reference["scale"]).max())
+    for key, tol in (("normal", RELATIVE), ("axis", RELATIVE), ("scale", RELATIVE * size),
+                     ("offset", RELATIVE * size)):
+        assert native[key].shape == reference[key].shape
+        np.testing.assert_allclose(native[key], reference[key], rtol=0, atol=tol, err_msg=key)
+
+
+@pytest.mark.parametrize("name", sorted(CLOUDS))
+@pytest.mark.parametrize("given", [False, True], ids=["estimated normals", "given normals"])
+def test_native_frames_match_numpy(name, given):
+    import splat_frames_reference as ref
+    p = CLOUDS[name](np.random.default_rng(7))
+    normals = radius = None
+    if given:
+        # The scan's own normals (the fitted ones, flipped at random: orientation must not
+        # matter) and radii.
+        rng = np.random.default_rng(8)
+        normals = ref.splat_frames(p)["normal"] * rng.choice([-1.0, 1.0], (len(p), 1))
+        radius = rng.uniform(0.01, 0.03, len(p))
+    reference = ref.splat_frames(p, normals, radius)
+    native = splats.splat_frames(p, normals, radius)
+    assert_same(native, reference)
+    # The clouds take the rules being compared: some splats clipped, some not.
+    assert 0 < native["clipped"].sum() < len(p)
+
+
+def test_frames_do_not_depend_on_threads():
+    p = box_corner(np.random.default_rng(3))
+    one = splats.splat_frames(p, threads=1)
+    two = splats.splat_frames(p, threads=2)
+    for key in one:
+        assert np.array_equal(one[key], two[key]), key
+
+
+def test_rims_and_creases_are_cut():
+    """On the box corner, splats along the open rims and at the creases are clipped, those in
+    the middle of a face are whole discs."""
+    p = box_corner(np.random.default_rng(4))
+    frames = splats.splat_frames(p)
+    scale = frames["scale"]
+    on_face = p.max(axis=1)                       # distance to the faces' far rims
+    in_face = np.sort(p, axis=1)[:, 1]            # distance to the nearest crease
+    middle = (on_face < 0.8) & (in_face > 0.2)
+    edge = (on_face > 0.97) | (in_face < 0.03)
+    assert not frames["clipped"][middle].any()
+    np.testing.assert_allclose(scale[middle, 0], scale[middle, 1], rtol=1e-6)
+    assert frames["clipped"][edge].mean() > 0.9
+
+
+def test_progress_can_cancel():
+    p = plane(np.random.default_rng(5))
+    seen = []
+    splats.splat_frames(p, progress=lambda f, phase: seen.append((f, phase)))
+    assert seen and all(0.0 <= f <= 1.0 for f, _ in seen)
+    with pytest.raises(illumap.Cancelled):
+        splats.splat_frames(p, progress=lambda f, phase: False)
+
+
+def test_bad_input_is_named():
+    with pytest.raises(illumap.InputError, match="positions"):
+        splats.splat_frames(np.zeros((10, 2)))
+    with pytest.raises(illumap.InputError, match="normals"):
+        splats.splat_frames(np.zeros((10, 3)), normals=np.zeros((9, 3)))
