@@ -310,9 +310,11 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
 }
 
-// The face under each surfel: a ray from radius() above it along its normal back down through
-// it (to as far below), whose first hit is the face it lies on; that face's normal, turned to
-// the surfel's side (a smooth normal stays within 90 degrees of its face's).
+// The face each surfel lies on: a ray along its normal back down through it, from radius()
+// above it, that looks for a face only within half of that of the surfel itself (a scan's
+// neighbouring splats, which pass near but not through its point, are not its face); that
+// face's normal, turned to the surfel's side (a smooth normal stays within 90 degrees of its
+// face's). A surfel without one keeps no test.
 void OccluderScene::find_faces(Context& ctx, const SurfelSoA& s) {
     const std::size_t n = s.n;
     face_normal_.assign(3 * n, 0.0f);
@@ -330,8 +332,8 @@ void OccluderScene::find_faces(Context& ctx, const SurfelSoA& s) {
             rh.ray.dir_x = -m[0];
             rh.ray.dir_y = -m[1];
             rh.ray.dir_z = -m[2];
-            rh.ray.tnear = 0.0f;
-            rh.ray.tfar = float(2.0 * lift);
+            rh.ray.tnear = float(0.5 * lift);
+            rh.ray.tfar = float(1.5 * lift);
             rh.ray.time = 0.0f;
             rh.ray.mask = 0xffffffffu;
             rh.ray.id = 0;
