@@ -300,6 +300,7 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
             run_watched(ctx, [&] { rtcCommitScene(impl_->scene); });
         if (ctx.cancel.load()) throw Cancelled();
         throw_embree(impl_->device, "BVH build");
+        if (n_tri_ > 0 && n > 0) find_faces(ctx, s);
     } catch (...) {
         delete impl_;
         impl_ = nullptr;
@@ -309,14 +310,62 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
 }
 
+// The face each surfel lies on: a ray along its normal back down through it, from radius()
+// above it, that looks for a face only within half of that of the surfel itself (a scan's
+// neighbouring splats, which pass near but not through its point, are not its face); that
+// face's normal, turned to the surfel's side (a smooth normal stays within 90 degrees of its
+// face's). A surfel without one keeps no test.
+void OccluderScene::find_faces(Context& ctx, const SurfelSoA& s) {
+    const std::size_t n = s.n;
+    face_normal_.assign(3 * n, 0.0f);
+    parallel_for(ctx, n, 1 << 12, [&](std::size_t b, std::size_t e) {
+        RTCIntersectContext c;
+        rtcInitIntersectContext(&c);
+        for (std::size_t i = b; i < e; ++i) {
+            const float* m = &normal_[3 * i];
+            if (m[0] == 0.0f && m[1] == 0.0f && m[2] == 0.0f) continue;
+            const double lift = double(radius_[i]);
+            RTCRayHit rh;
+            rh.ray.org_x = float(s.px[i] + lift * m[0] - center_[0]);
+            rh.ray.org_y = float(s.py[i] + lift * m[1] - center_[1]);
+            rh.ray.org_z = float(s.pz[i] + lift * m[2] - center_[2]);
+            rh.ray.dir_x = -m[0];
+            rh.ray.dir_y = -m[1];
+            rh.ray.dir_z = -m[2];
+            rh.ray.tnear = float(0.5 * lift);
+            rh.ray.tfar = float(1.5 * lift);
+            rh.ray.time = 0.0f;
+            rh.ray.mask = 0xffffffffu;
+            rh.ray.id = 0;
+            rh.ray.flags = 0;
+            rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+            rtcIntersect1(impl_->scene, &c, &rh);
+            if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
+            double g[3] = {rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z};
+            const double gl = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+            if (!(gl > 0) || !std::isfinite(gl)) continue;
+            const double side = (g[0] * m[0] + g[1] * m[1] + g[2] * m[2]) < 0.0 ? -1.0 : 1.0;
+            for (int d = 0; d < 3; ++d) face_normal_[3 * i + d] = float(side * g[d] / gl);
+        }
+    });
+}
+
+bool OccluderScene::leaves_front(std::uint32_t k, const double* u) const {
+    if (face_normal_.empty()) return true;
+    const float* g = &face_normal_[3 * std::size_t(k)];
+    if (g[0] == 0.0f && g[1] == 0.0f && g[2] == 0.0f) return true;
+    return double(g[0]) * u[0] + double(g[1]) * u[1] + double(g[2]) * u[2] > 0.0;
+}
+
 OccluderScene::~OccluderScene() { delete impl_; }
 
 void* OccluderScene::rtc_scene() const { return impl_->scene; }
 
 std::size_t OccluderScene::bytes() const {
     // Buffers (discs 16 + 12 bytes, quads as two triangles 72 + 24, octagons as eight 204 +
-    // 96), our radii, and Embree's BVH (estimated as 64 bytes per primitive).
-    if (n_tri_ > 0) return n_tri_ * (36 + 12 + 64) + size() * 16;
+    // 96), our radii (and the faces' normals), and Embree's BVH (estimated as 64 bytes per
+    // primitive).
+    if (n_tri_ > 0) return n_tri_ * (36 + 12 + 64) + size() * (16 + 12);
     switch (shape_) {
         case VisibilityOptions::Shape::Quad: return size() * (72 + 24 + 4 + 2 * 64);
         case VisibilityOptions::Shape::Octagon: return size() * (204 + 96 + 4 + 8 * 64);
@@ -418,27 +467,32 @@ RaycastVisibility::RaycastVisibility(Context& ctx, const Octree& tree,
 
 RaycastVisibility::~RaycastVisibility() = default;
 
-// Surfel pair i < j, trimmed at both ends (OccluderScene::trim).
-bool RaycastVisibility::make_pair_ray(std::uint32_t i, std::uint32_t j, void* r) const {
+// Surfel pair i < j, trimmed at both ends (OccluderScene::trim). A segment that leaves or
+// reaches either end behind the face it lies on is blocked without a ray.
+RaycastVisibility::PairRay RaycastVisibility::make_pair_ray(std::uint32_t i, std::uint32_t j,
+                                                            void* r) const {
     const SurfelSoA& s = tree_.s;
     const double p[3] = {s.px[i], s.py[i], s.pz[i]}, q[3] = {s.px[j], s.py[j], s.pz[j]};
     double u[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]};
     const double len = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-    if (!(len > 0) || !std::isfinite(len)) return false;
+    if (!(len > 0) || !std::isfinite(len)) return PairRay::Visible;
     for (double& x : u) x /= len;
+    const double back[3] = {-u[0], -u[1], -u[2]};
+    if (!scene_->leaves_front(i, u) || !scene_->leaves_front(j, back)) return PairRay::Blocked;
     const double off = opt_.endpoint_offset;
     // Surfel centres lie inside the occluders' box: no clipping (OccluderScene::make_ray).
     const double s0 = scene_->trim(i, u, off), s1 = len - scene_->trim(j, u, off);
-    if (!(s1 > s0)) return false;
+    if (!(s1 > s0)) return PairRay::Visible;
     scene_->fill_ray(p, u, 0.0, len, s0, s1, r);
-    return true;
+    return PairRay::Cast;
 }
 
 float RaycastVisibility::pair(std::uint32_t i, std::uint32_t j) const {
     if (i == j) return 1.0f;
     if (i > j) std::swap(i, j);
     RTCRay r;
-    if (!make_pair_ray(i, j, &r)) return 1.0f;
+    const PairRay k = make_pair_ray(i, j, &r);
+    if (k != PairRay::Cast) return k == PairRay::Blocked ? 0.0f : 1.0f;
     RTCIntersectContext c;
     rtcInitIntersectContext(&c);
     rtcOccluded1(static_cast<RTCScene>(scene_->rtc_scene()), &c, &r);
@@ -453,8 +507,10 @@ void RaycastVisibility::pairs(const std::uint32_t* I, const std::uint32_t* J, st
         std::uint32_t i = I[m], j = J[m];
         if (i > j) std::swap(i, j);
         visible[m] = 1.0f;
-        if (i == j || !make_pair_ray(i, j, &batch.next(m))) continue;
-        batch.commit();
+        if (i == j) continue;
+        const PairRay k = make_pair_ray(i, j, &batch.next(m));
+        if (k == PairRay::Cast) batch.commit();
+        else if (k == PairRay::Blocked) visible[m] = 0.0f;
     }
     batch.flush();
     count_queries(batch.cast());
@@ -478,7 +534,10 @@ void RaycastVisibility::pairs_batch(const std::uint32_t* I, const std::uint32_t*
             std::uint32_t i = I[k], j = J[k];
             if (i > j) std::swap(i, j);
             RTCRay r;
-            if (i == j || !make_pair_ray(i, j, &r)) continue;
+            if (i == j) continue;
+            const PairRay kind = make_pair_ray(i, j, &r);
+            if (kind == PairRay::Blocked) out[k] = 0.0f;
+            if (kind != PairRay::Cast) continue;
             valid[l] = -1;
             p.org_x[l] = r.org_x; p.org_y[l] = r.org_y; p.org_z[l] = r.org_z;
             p.dir_x[l] = r.dir_x; p.dir_y[l] = r.dir_y; p.dir_z[l] = r.dir_z;
@@ -506,8 +565,9 @@ void RaycastVisibility::block(std::int32_t a, std::int32_t b, float* out,
             out[o] = 1.0f;
             if (i == j || !vis_facing(tree_.s, i, j)) continue;
             const std::uint32_t lo = i < j ? i : j, hi = i < j ? j : i;
-            if (!make_pair_ray(lo, hi, &batch.next(o))) continue;
-            batch.commit();
+            const PairRay kind = make_pair_ray(lo, hi, &batch.next(o));
+            if (kind == PairRay::Cast) batch.commit();
+            else if (kind == PairRay::Blocked) out[o] = 0.0f;
         }
     batch.flush();
     count_queries(batch.cast());

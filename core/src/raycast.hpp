@@ -13,6 +13,10 @@
 //     surface (they pass ~d^2/2R above the endpoint) blocked rays leaving at up to ~10 degrees
 //     and made most near leaf pairs on a sphere PARTIAL;
 //   * pairs closer than the two trims together, and coincident pairs, are visible (V = 1);
+//   * with triangles as occluders, a segment that leaves or reaches a surfel behind the face
+//     the surfel lies on is blocked without a ray (OccluderScene::leaves_front): a smooth
+//     normal tilts off its face near a crease, and the trims would let such a segment, which
+//     crosses the surfel's own face at its end, couple a part's inside to its outside;
 //   * a disc seen exactly edge-on (the segment lies in its plane) does not occlude (Embree's
 //     disc test divides by n.d = 0 and reports no hit; no NaN reaches our side).
 // Positions are shifted to the scene's box centre before conversion to float, so precision is
@@ -70,6 +74,13 @@ public:
     // kTrimReach * r_k (see raycast.cpp).
     double trim(std::uint32_t k, const double* u, double off) const;
     static constexpr double kTrimReach = 2.0;
+    // Whether a segment leaving surfel k along unit u leaves on the front of the face k lies
+    // on (given triangles only; true without them). A smooth-shaded surfel's normal tilts
+    // away from its face near a crease, so a neighbour can face it by normals while the
+    // segment between them runs behind the face, inside the part: such a pair sees nothing
+    // of each other, as a renderer drops the directions below a face. The trims, which clear
+    // the surfel's own face, would otherwise let that segment through.
+    bool leaves_front(std::uint32_t k, const double* u) const;
     const float* radii() const { return radius_.data(); }
     VisibilityOptions::Shape shape() const { return shape_; }
     bool triangles() const { return n_tri_ > 0; }
@@ -98,6 +109,10 @@ private:
     Impl* impl_ = nullptr;
     std::vector<float> radius_;  // disc radius per surfel
     std::vector<float> normal_;  // unit normal per surfel (3 floats), for the trims
+    // Given triangles: the unit normal of the face each surfel lies on, turned to the
+    // surfel's side (3 floats; zero where no face was found), for leaves_front().
+    std::vector<float> face_normal_;
+    void find_faces(Context& ctx, const SurfelSoA& s);
     VisibilityOptions::Shape shape_;
     std::size_t n_tri_ = 0;  // > 0: the occluders are given triangles
     double center_[3] = {0, 0, 0};
@@ -131,7 +146,10 @@ public:
     const OccluderScene& scene() const { return *scene_; }
 
 private:
-    bool make_pair_ray(std::uint32_t i, std::uint32_t j, void* rtc_ray) const;
+    // What a pair needs: no ray (visible: coincident, or closer than the trims), a ray
+    // (filled in rtc_ray), or none because it is blocked (behind an endpoint's face).
+    enum class PairRay { Visible, Cast, Blocked };
+    PairRay make_pair_ray(std::uint32_t i, std::uint32_t j, void* rtc_ray) const;
     std::unique_ptr<OccluderScene> scene_;
 };
 

@@ -165,6 +165,34 @@ def test_triangle_occluders_block_exactly_the_pairs_they_cover(method):
     assert 0.4 < ref / full < 0.6
 
 
+@pytest.mark.parametrize("method", METHODS)
+def test_a_segment_behind_an_endpoints_own_face_is_blocked(method):
+    """A smooth-shaded surfel's normal tilts off its face near a crease, so a surfel under the
+    face can face it by normals while the segment between them reaches it from behind its own
+    face, inside the part (Suzanne's inside coupled to its outside this way: the furnace read
+    her sealed pockets 0.95 where Cycles reads 0.02). The crossing lies at the endpoint, where
+    the trims ignore occluders, so only the face's side can block it: a renderer drops the
+    directions below a face. A surfel above the face, which the segment leaves on the front
+    of it, keeps the full kernel."""
+    tilt = np.radians(60.0)
+    P = np.array([[0.0, 0.0, 0.0],       # on the floor's face, normal tilted towards +x
+                  [1.0, 0.0, -0.2],      # on a face under the floor, facing up towards it
+                  [1.0, 0.0, 0.2]])      # above the floor, facing down towards the first
+    N = np.array([[np.sin(tilt), 0.0, np.cos(tilt)], [-0.5, 0.0, np.sqrt(0.75)], [-0.6, 0.0, -0.8]])
+    s = illumap.Surfels(P, N, np.full(3, 1e-3), np.full((3, 3), 0.5), np.zeros((3, 3)))
+    faces = np.concatenate([square_triangles(-0.5, 0.5, -0.5, 0.5, 0.0),
+                            square_triangles(0.9, 1.1, -0.1, 0.1, -0.2)])
+    op = illumap.TransportOperator(s, method=method, visibility="exact", occluder_triangles=faces)
+    bare = illumap.TransportOperator(s, method=method)
+    x = np.eye(3)[:, :, None].repeat(3, axis=2)          # x[k]: 1 on surfel k
+    under = [op.apply(x[k])[1 - k, 0] for k in (0, 1)]   # 0 <-> 1, through the floor's face
+    assert bare.apply(x[1])[0, 0] > 0.0                   # the kernel couples them
+    assert under == [0.0, 0.0]
+    above = [op.apply(x[k])[2 - k, 0] for k in (0, 2)]   # 0 <-> 2, in front of both
+    assert above == pytest.approx([bare.apply(x[0])[2, 0], bare.apply(x[2])[0, 0]], rel=1e-12)
+    assert min(above) > 0.0
+
+
 def test_the_cornell_box_meshed_finely_or_coarsely_occludes_alike():
     """The scaling bench's mesh occluders (bench/scenes.py ``cornell_surface``): the box's 16
     quads as 32 triangles or as 10,368 give the same solution, but for the few segments that
