@@ -80,6 +80,15 @@ ISA_OPTIONS = {
 # Debug printers that newer clang rejects (members that do not exist in a template); they are
 # never called. (file, text, replacement)
 SOURCE_FIXES = (
+    # SSE2 + AVX2 without AVX: Embree compiles its 8-wide BVH and primitives only for the lowest
+    # AVX-class ISA, which it fixes to AVX unless AVX is the first one enabled.
+    ("CMakeLists.txt",
+     "IF (EMBREE_ISA_AVX2)\n  ADD_DEFINITIONS(-DEMBREE_TARGET_AVX2)\n",
+     "IF (EMBREE_ISA_AVX2)\n  ADD_DEFINITIONS(-DEMBREE_TARGET_AVX2)\n"
+     "  IF (NOT EMBREE_ISA_AVX)\n    SET(ISA_LOWEST_AVX ${AVX2})\n  ENDIF()\n"),
+    ("kernels/CMakeLists.txt",
+     "  IF (${ISA} EQUAL ${AVX})\n    LIST(APPEND ${TARGET}\n      bvh/bvh.cpp\n",
+     "  IF (${ISA} EQUAL ${ISA_LOWEST_AVX})\n    LIST(APPEND ${TARGET}\n      bvh/bvh.cpp\n"),
     ("kernels/subdiv/bezier_curve.h",
      'return cout << "QuadraticBezierCurve ( (" << a.u.lower << ", " << a.u.upper << "), " << a.v0',
      'return cout << "QuadraticBezierCurve ( " << a.v0'),
@@ -129,7 +138,8 @@ def fetch_source() -> Path:
     log(f"downloading Debian's source package {DEBIAN_SOURCE}")
     # Only the upstream tarball is used; the Debian packaging tarball may be gone from the
     # archive's pool, which makes apt-get fail after it has the two files we need.
-    run("apt-get", "source", "-qq", "--download-only", DEBIAN_SOURCE, cwd=folder, check=False)
+    run("apt-get", "source", "-qq", "--download-only", f"{DEBIAN_SOURCE}/bookworm", cwd=folder,
+        check=False)
     dscs = sorted(folder.glob(f"embree_{VERSION}*.dsc"))
     if not tarball.is_file() or not dscs:
         raise SystemExit(f"apt-get source {DEBIAN_SOURCE} did not bring {ORIG_TARBALL}")
@@ -191,7 +201,9 @@ def build(target: Target) -> Path:
     run("cmake", "-G", "Ninja", "-S", source, "-B", work, f"-DCMAKE_TOOLCHAIN_FILE={toolchain}",
         f"-DCMAKE_INSTALL_PREFIX={install}", *(f"-D{k}={v}" for k, v in options.items()))
     run("cmake", "--build", work)
-    run("cmake", "--install", work)
+    # Headers, static libraries and CMake config ("devel"); the "lib" component would also
+    # install documents that Debian's repacked source does not carry.
+    run("cmake", "--install", work, "--component", "devel")
     if not config.is_dir():
         raise SystemExit(f"Embree installed no CMake config at {config}")
     stamp.write_text(key)

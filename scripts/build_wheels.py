@@ -62,6 +62,19 @@ def check(wheel: Path) -> Path:
     return wheel
 
 
+def cpu_model_object(target: Target) -> Path:
+    """libgcc's cpuinfo.o (the CPU model that target_clones' resolvers read, which Zig's runtime
+    lacks), taken from the system GCC's libgcc.a into build/toolchain/<platform>/."""
+    gcc = shutil.which("gcc")
+    if gcc is None:
+        raise SystemExit("gcc is missing (scripts/setup_env.sh installs g++)")
+    libgcc = Path(subprocess.run([gcc, "-print-libgcc-file-name"], text=True,
+                                 capture_output=True, check=True).stdout.strip())
+    folder = toolchain_file(target).parent
+    subprocess.run(["ar", "x", str(libgcc), "cpuinfo.o"], cwd=folder, check=True)
+    return folder / "cpuinfo.o"
+
+
 def build_linux(python: Path, target: Target, output_dir: Path) -> Path:
     """The manylinux wheel for ``python``: scikit-build-core with the Zig toolchain, then
     ``auditwheel repair`` for the manylinux tag (it grafts nothing: the module needs only libc
@@ -75,7 +88,8 @@ def build_linux(python: Path, target: Target, output_dir: Path) -> Path:
         "--no-deps", "./core", "-w", raw_dir,
         "--config-settings", f"build-dir=build/{target.name}-{{wheel_tag}}",
         "--config-settings", f"cmake.define.CMAKE_TOOLCHAIN_FILE={toolchain}",
-        "--config-settings", f"cmake.define.ILLUMAP_EMBREE_DIR={embree}")
+        "--config-settings", f"cmake.define.ILLUMAP_EMBREE_DIR={embree}",
+        "--config-settings", f"cmake.define.ILLUMAP_CPU_MODEL_OBJECT={cpu_model_object(target)}")
     (raw,) = raw_dir.glob(f"illumap-*-{tag}-*.whl")
     for old in output_dir.glob(f"illumap-*-{tag}-{tag}-{target.wheel_platform}.whl"):
         old.unlink()

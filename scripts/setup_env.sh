@@ -127,9 +127,6 @@ esac
 #    libraries are installed when bpy first fails to import.
 command -v g++ >/dev/null 2>&1 || apt_install g++
 apt_install libembree-dev
-# Wine runs the Windows build's native tests (scripts/windows_native_tests.py) for the test
-# suite; only --all (the tests' set-up) needs it.
-[ "$BLENDER50" -eq 1 ] && apt_install wine64
 
 # What the core wheel is made of: its sources and the scripts that build it.
 CORE_HASH="$(cd "$ROOT" && { find core -type f \( -name '*.cpp' -o -name '*.hpp' -o -name '*.py' \
