@@ -5,9 +5,10 @@
 #     include(cmake/visibility.cmake)
 #     illumap_add_visibility(illumap_native)
 #
-# Embree is a shared library (Debian: libembree3.so.3, which pulls libtbb.so.12); the wheel
-# must bundle it (auditwheel repair grafts both). Set ILLUMAP_EMBREE_DIR to point at another
-# Embree 3 CMake config (e.g. an official Embree release) if needed.
+# Which Embree: ILLUMAP_EMBREE_DIR names an Embree 3 CMake config folder. The portable wheels
+# (scripts/build_wheels.py) point it at the static Embree that scripts/build_embree.py builds
+# without TBB; without it, find_package finds the system's (Debian: libembree3.so.3, which pulls
+# libtbb.so.12), as a plain `pip install ./core` does for development.
 include_guard(GLOBAL)
 
 set(ILLUMAP_VISIBILITY_SOURCES

@@ -1,0 +1,224 @@
+"""Builds Embree 3.13.5 from Debian's source package as a static library for one target platform,
+with the Zig toolchain (scripts/zig_toolchain.py), for the portable wheels.
+
+    .venv/bin/python scripts/build_embree.py linux-x64     # -> build/embree/linux-x64/install
+
+Why this Embree: a static library with Embree's own tasking system needs no TBB at all, so the
+wheel cannot clash with the TBB that bpy loads (in either import order), and it bundles no shared
+library. Only what Illumap uses is built (triangles and oriented-disc points, single rays, ray
+streams and packets of 8) for two ISAs, SSE2 (every x86-64) and AVX2 (most machines since 2013),
+which keeps the one-off build to a few minutes on two cores.
+
+The source comes from Debian's archive (``apt-get source embree``: a deb-src line for Debian's own
+archive is added when missing). Idempotent: a stamp records the configuration; a second run with
+the same one does nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tarfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from zig_toolchain import ROOT, TARGETS, Target, toolchain_file  # noqa: E402
+
+VERSION = "3.13.5"
+DEBIAN_SOURCE = "embree"  # Debian bookworm: 3.13.5+dfsg-2
+ORIG_TARBALL = f"embree_{VERSION}+dfsg.orig.tar.xz"
+EMBREE_DIR = ROOT / "build" / "embree"
+DEB_SRC_FILE = Path("/etc/apt/sources.list.d/illumap-debian-src.sources")
+DEB_SRC = """Types: deb-src
+URIs: http://deb.debian.org/debian
+Suites: bookworm
+Components: main
+Signed-By: /usr/share/keyrings/debian-archive-keyring.gpg
+"""
+
+# Embree's CMake options. Geometry types and ISAs Illumap does not use are off: the build is
+# about a third of the full one.
+OPTIONS = {
+    "EMBREE_STATIC_LIB": "ON",
+    "EMBREE_TASKING_SYSTEM": "INTERNAL",
+    "EMBREE_ISPC_SUPPORT": "OFF",
+    "EMBREE_TUTORIALS": "OFF",
+    "EMBREE_GEOMETRY_TRIANGLE": "ON",
+    "EMBREE_GEOMETRY_POINT": "ON",
+    "EMBREE_GEOMETRY_QUAD": "OFF",
+    "EMBREE_GEOMETRY_CURVE": "OFF",
+    "EMBREE_GEOMETRY_SUBDIVISION": "OFF",
+    "EMBREE_GEOMETRY_USER": "OFF",
+    "EMBREE_GEOMETRY_INSTANCE": "OFF",
+    "EMBREE_GEOMETRY_GRID": "OFF",
+    "EMBREE_RAY_PACKETS": "ON",  # rtcOccluded8 (VisibilityOptions::packets)
+    # Embree 3.13.5 predates CMake 4, which refuses its cmake_minimum_required(3.1).
+    "CMAKE_POLICY_VERSION_MINIMUM": "3.5",
+    "CMAKE_BUILD_TYPE": "Release",
+}
+# The kernels: SSE2 (every x86-64 CPU) and AVX2 (most since 2013, picked at run time). Embree's
+# AVX2 flags lack -mpopcnt, which newer clang needs for its popcnt intrinsic under AVX2.
+ISA_OPTIONS = {
+    "linux-x64": {"EMBREE_MAX_ISA": "NONE", "EMBREE_ISA_SSE2": "ON", "EMBREE_ISA_SSE42": "OFF",
+                  "EMBREE_ISA_AVX": "OFF", "EMBREE_ISA_AVX2": "ON", "EMBREE_ISA_AVX512": "OFF",
+                  "FLAGS_AVX2": "-mf16c -mavx2 -mfma -mlzcnt -mbmi -mbmi2 -mpopcnt"},
+    # Windows: SSE2 kernels only for now (the AVX2 set doubles a build that takes most of an
+    # hour on this shared machine; turning it on is this one option, as on Linux). MinGW's
+    # math.h hides M_PI unless _USE_MATH_DEFINES comes before its first include.
+    "windows-x64": {"EMBREE_MAX_ISA": "NONE", "EMBREE_ISA_SSE2": "ON", "EMBREE_ISA_SSE42": "OFF",
+                    "EMBREE_ISA_AVX": "OFF", "EMBREE_ISA_AVX2": "OFF", "EMBREE_ISA_AVX512": "OFF",
+                    "EMBREE_IGNORE_CMAKE_CXX_FLAGS": "OFF", "CMAKE_CXX_FLAGS": "-D_USE_MATH_DEFINES"},
+    # Apple silicon: Embree maps its SSE code onto NEON.
+    "macos-arm64": {"EMBREE_MAX_ISA": "NONE", "EMBREE_ISA_NEON": "ON", "EMBREE_ISA_NEON2X": "OFF"},
+}
+# Debug printers that newer clang rejects (members that do not exist in a template); they are
+# never called. (file, text, replacement)
+SOURCE_FIXES = (
+    # SSE2 + AVX2 without AVX: Embree compiles its 8-wide BVH and primitives only for the lowest
+    # AVX-class ISA, which it fixes to AVX unless AVX is the first one enabled.
+    ("CMakeLists.txt",
+     "IF (EMBREE_ISA_AVX2)\n  ADD_DEFINITIONS(-DEMBREE_TARGET_AVX2)\n",
+     "IF (EMBREE_ISA_AVX2)\n  ADD_DEFINITIONS(-DEMBREE_TARGET_AVX2)\n"
+     "  IF (NOT EMBREE_ISA_AVX)\n    SET(ISA_LOWEST_AVX ${AVX2})\n  ENDIF()\n"),
+    ("kernels/CMakeLists.txt",
+     "  IF (${ISA} EQUAL ${AVX})\n    LIST(APPEND ${TARGET}\n      bvh/bvh.cpp\n",
+     "  IF (${ISA} EQUAL ${ISA_LOWEST_AVX})\n    LIST(APPEND ${TARGET}\n      bvh/bvh.cpp\n"),
+    ("kernels/subdiv/bezier_curve.h",
+     'return cout << "QuadraticBezierCurve ( (" << a.u.lower << ", " << a.u.upper << "), " << a.v0',
+     'return cout << "QuadraticBezierCurve ( " << a.v0'),
+    ("kernels/geometry/pointi.h",
+     '<< "i {" << line.v0 << ", " << line.geomID()',
+     '<< "i {" << line.geomID()'),
+)
+
+
+def log(message: str) -> None:
+    print(f"[embree] {message}", file=sys.stderr, flush=True)
+
+
+def run(*cmd: str | Path, cwd: Path | None = None, check: bool = True) -> int:
+    """Run ``cmd``; cmake and ninja are the ones installed beside this interpreter."""
+    env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
+    result = subprocess.run([str(c) for c in cmd], cwd=cwd, env=env)
+    if check and result.returncode != 0:
+        raise SystemExit(f"command failed ({result.returncode}): {' '.join(map(str, cmd))}")
+    return result.returncode
+
+
+def sudo() -> list[str]:
+    return [] if os.geteuid() == 0 else ["sudo"]
+
+
+def expected_sha256(dsc: Path) -> str:
+    """The orig tarball's SHA-256 as Debian's signed .dsc lists it."""
+    match = re.search(rf"^ ([0-9a-f]{{64}}) \d+ {re.escape(ORIG_TARBALL)}$", dsc.read_text(), re.M)
+    if not match:
+        raise SystemExit(f"{dsc} lists no SHA-256 for {ORIG_TARBALL}")
+    return match.group(1)
+
+
+def fetch_source() -> Path:
+    """Debian's Embree source tarball under build/embree/debian (downloaded once)."""
+    folder = EMBREE_DIR / "debian"
+    tarball = folder / ORIG_TARBALL
+    if tarball.is_file():
+        return tarball
+    folder.mkdir(parents=True, exist_ok=True)
+    if not DEB_SRC_FILE.is_file():
+        log(f"adding Debian's source archive ({DEB_SRC_FILE})")
+        subprocess.run([*sudo(), "tee", str(DEB_SRC_FILE)], input=DEB_SRC, text=True,
+                       stdout=subprocess.DEVNULL, check=True)
+        run(*sudo(), "apt-get", "update", "-qq")
+    log(f"downloading Debian's source package {DEBIAN_SOURCE}")
+    # Only the upstream tarball is used; the Debian packaging tarball may be gone from the
+    # archive's pool, which makes apt-get fail after it has the two files we need.
+    run("apt-get", "source", "-qq", "--download-only", f"{DEBIAN_SOURCE}/bookworm", cwd=folder,
+        check=False)
+    dscs = sorted(folder.glob(f"embree_{VERSION}*.dsc"))
+    if not tarball.is_file() or not dscs:
+        raise SystemExit(f"apt-get source {DEBIAN_SOURCE} did not bring {ORIG_TARBALL}")
+    digest = hashlib.sha256(tarball.read_bytes()).hexdigest()
+    if digest != expected_sha256(dscs[-1]):
+        tarball.unlink()
+        raise SystemExit(f"{ORIG_TARBALL}: SHA-256 does not match Debian's .dsc")
+    return tarball
+
+
+def unpack(tarball: Path) -> Path:
+    """The patched source tree under build/embree/src (unpacked once)."""
+    source = EMBREE_DIR / "src" / f"embree-{VERSION}"
+    if (source / ".illumap-unpacked").is_file():
+        return source
+    shutil.rmtree(source.parent, ignore_errors=True)
+    source.parent.mkdir(parents=True)
+    with tarfile.open(tarball) as archive:
+        archive.extractall(source.parent, filter="data")
+    for relative, old, new in SOURCE_FIXES:
+        path = source / relative
+        text = path.read_text()
+        if text.count(old) != 1:
+            raise SystemExit(f"{relative}: the text to fix is not there once")
+        path.write_text(text.replace(old, new))
+    (source / ".illumap-unpacked").write_text("ok\n")
+    return source
+
+
+def cmake_dir(target: Target) -> Path:
+    """Where the installed Embree's CMake config lives for ``target``."""
+    return EMBREE_DIR / target.name / "install" / "lib" / "cmake" / f"embree-{VERSION}"
+
+
+def configuration(target: Target) -> tuple[dict[str, str], str]:
+    """Embree's CMake options for ``target`` and a key that changes when they or the toolchain
+    change (the stamp of a finished build)."""
+    options = {**OPTIONS, **ISA_OPTIONS[target.name]}
+    key = hashlib.sha256(repr((sorted(options.items()), toolchain_file(target).read_text(),
+                               SOURCE_FIXES)).encode()).hexdigest()
+    return options, key
+
+
+def build(target: Target) -> Path:
+    """Build and install Embree for ``target``; return its CMake config folder."""
+    toolchain = toolchain_file(target)
+    options, key = configuration(target)
+    stamp = EMBREE_DIR / target.name / "stamp"
+    config = cmake_dir(target)
+    if stamp.is_file() and stamp.read_text() == key and config.is_dir():
+        log(f"{target.name}: up to date ({config})")
+        return config
+    source = unpack(fetch_source())
+    work = EMBREE_DIR / target.name / "build"
+    install = EMBREE_DIR / target.name / "install"
+    shutil.rmtree(install, ignore_errors=True)
+    started = time.monotonic()
+    log(f"{target.name}: configuring and building (once; several minutes on two cores)")
+    run("cmake", "-G", "Ninja", "-S", source, "-B", work, f"-DCMAKE_TOOLCHAIN_FILE={toolchain}",
+        f"-DCMAKE_INSTALL_PREFIX={install}", *(f"-D{k}={v}" for k, v in options.items()))
+    run("cmake", "--build", work)
+    # Headers, static libraries and CMake config ("devel"); the "lib" component would also
+    # install documents that Debian's repacked source does not carry.
+    run("cmake", "--install", work, "--component", "devel")
+    if not config.is_dir():
+        raise SystemExit(f"Embree installed no CMake config at {config}")
+    stamp.write_text(key)
+    log(f"{target.name}: built in {time.monotonic() - started:.0f} s")
+    return config
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("targets", nargs="*", default=["linux-x64"], choices=sorted(TARGETS))
+    args = parser.parse_args()
+    for name in args.targets:
+        print(build(TARGETS[name]))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

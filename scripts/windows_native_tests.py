@@ -1,0 +1,96 @@
+"""Cross-compiles the native visibility tests (core/tests_native/test_visibility.cpp: Embree's
+oriented discs and squares, the seed method, cancellation, threads) for Windows x64 with the
+toolchain and static Embree of the Windows wheel, and runs them under Wine.
+
+    .venv/bin/python scripts/windows_native_tests.py            # exit 0 when every test passes
+    .venv/bin/python scripts/windows_native_tests.py --build-only
+
+This checks, on this Linux machine, that the Windows build of the visibility code and of Embree
+(internal tasking, SSE2/AVX2 kernels, MinGW-w64 runtime, static libc++) computes what the Linux
+build computes. Wine comes from Debian's ``wine64`` package (scripts/setup_env.sh installs it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import build_embree  # noqa: E402
+from zig_toolchain import ROOT, TARGETS, toolchain_file  # noqa: E402
+
+SRC = ROOT / "core" / "src"
+TESTS = ROOT / "core" / "tests_native"
+OUT = ROOT / "build" / "windows-native"
+SOURCES = ("visibility.cpp", "visibility_factory.cpp", "raycast.cpp", "seed_visibility.cpp",
+           "octree.cpp")
+# Embree's static libraries, the kernels first (they use the others).
+EMBREE_LIBRARIES = ("embree3", "embree_avx2", "embree_sse42", "embree_avx", "lexers", "tasking",
+                    "sys", "math", "simd")
+WINE_CANDIDATES = ("wine64", "/usr/lib/wine/wine64", "wine")
+
+
+def wine() -> str | None:
+    """The Wine launcher for 64-bit programs, or None when Wine is not installed."""
+    for candidate in WINE_CANDIDATES:
+        found = shutil.which(candidate) or (candidate if Path(candidate).is_file() else None)
+        if found:
+            return found
+    return None
+
+
+def build() -> Path:
+    """Compile and link test_visibility.exe; return its path."""
+    target = TARGETS["windows-x64"]
+    embree_cmake = build_embree.build(target)
+    install = embree_cmake.parents[2]  # <install>/lib/cmake/embree-x.y.z
+    compiler = toolchain_file(target).parent / "c++"
+    OUT.mkdir(parents=True, exist_ok=True)
+    exe = OUT / "test_visibility.exe"
+    libraries = [f"-l{name}" for name in EMBREE_LIBRARIES
+                 if (install / "lib" / f"lib{name}.a").is_file()]
+    command = [str(compiler), "-std=c++17", "-O2", "-Wall", "-I", str(SRC),
+               "-I", str(install / "include"), str(TESTS / "test_visibility.cpp"),
+               *(str(SRC / name) for name in SOURCES), "-L", str(install / "lib"),
+               "-Wl,--start-group", *libraries, "-Wl,--end-group", "-o", str(exe)]
+    result = subprocess.run(command, text=True, capture_output=True)
+    if result.returncode != 0:
+        sys.stderr.write(result.stdout + result.stderr)
+        raise SystemExit("test_visibility.exe did not build")
+    return exe
+
+
+def run(exe: Path, only: str = "", shape: str = "") -> int:
+    """Run ``exe`` under Wine (a private prefix under build/); return its exit status."""
+    launcher = wine()
+    if launcher is None:
+        raise SystemExit("Wine is not installed (Debian: apt-get install wine64)")
+    env = {**os.environ, "WINEPREFIX": str(ROOT / "build" / "wine-prefix"), "WINEDEBUG": "-all",
+           "WINEDLLOVERRIDES": "mscoree,mshtml="}
+    if shape:
+        env["ILLUMAP_VIS_SHAPE"] = shape
+    return subprocess.run([launcher, str(exe), *([only] if only else [])], env=env).returncode
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--build-only", action="store_true")
+    parser.add_argument("only", nargs="?", default="",
+                        help="run only the tests whose names appear in this text")
+    args = parser.parse_args()
+    exe = build()
+    print(exe)
+    if args.build_only:
+        return 0
+    status = run(exe, args.only)
+    # The exact-mode tests again with squares instead of discs, as core/tests_native/run.sh does.
+    quad = run(exe, "degenerate occluder half rooms scale reciprocity furnace coverage", "quad")
+    return status or quad
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
