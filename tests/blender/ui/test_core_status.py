@@ -8,7 +8,7 @@ import importlib.util
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 _spec = importlib.util.spec_from_file_location("illumap_core_status",
                                                ROOT / "addon" / "core_status.py")
 core_status = importlib.util.module_from_spec(_spec)
