@@ -11,7 +11,7 @@ import bpy
 from bpy.app.handlers import persistent
 
 from . import operators, panel, preferences, preview, properties, tool_operators
-from .core_status import check_core, core_error
+from .core_status import check_native, core_error
 
 _registered = []
 
@@ -22,7 +22,7 @@ def _on_load_post(*_args):
 
 
 def register():
-    check_core()
+    check_native()
     classes = list(properties.classes) + list(preferences.classes) + \
         list(tool_operators.classes) + list(panel.classes)
     if core_error() is None:
@@ -50,5 +50,5 @@ def unregister():
         bpy.utils.unregister_class(cls)
 
 
-__all__ = ["register", "unregister", "core_error", "check_core", "build_preview"]
+__all__ = ["register", "unregister", "core_error", "check_native", "build_preview"]
 build_preview = preview.build_preview

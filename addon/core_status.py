@@ -11,19 +11,19 @@ import re
 import sys
 from pathlib import Path
 
-_core_error_message = None
+_native_error_message = None
 # The glibc the Linux wheels are built for (manylinux_2_28: Blender's own baseline).
 MIN_GLIBC = (2, 28)
 # The extension's root folder (the manifest lies there in the installed extension).
 _EXTENSION_ROOT = Path(__file__).resolve().parent.parent
 
 
-def _import_core():
+def _import_native():
     """Import the native core and the pipeline; raise whatever the import raises."""
     import illumap  # the core package, installed from the bundled wheel
-    native_available = getattr(illumap, "native_available", None)
-    if native_available is not None and not native_available():
-        from illumap import _core  # noqa: F401  (raises the ImportError that says why)
+    load_native = getattr(illumap, "load_native", None)
+    if load_native is not None:
+        load_native()     # raises the ImportError that says why
     from . import pipeline  # noqa: F401
 
 
@@ -112,18 +112,18 @@ def _explain(error, manifest=None, here=None, glibc=None):
                       f"it."])
 
 
-def check_core():
+def check_native():
     """Try the import again and return the problem as text (None when the core works)."""
-    global _core_error_message
+    global _native_error_message
     try:
-        _import_core()
+        _import_native()
     except Exception as error:  # any failure means the reduced UI
-        _core_error_message = _explain(error)
+        _native_error_message = _explain(error)
     else:
-        _core_error_message = None
-    return _core_error_message
+        _native_error_message = None
+    return _native_error_message
 
 
 def core_error():
     """Why the native module is unavailable, or None when it works."""
-    return _core_error_message
+    return _native_error_message

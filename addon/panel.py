@@ -13,7 +13,7 @@ from . import solid_preview
 from .core_status import core_error
 
 
-def draw_core_missing(layout, error):
+def draw_native_missing(layout, error):
     box = layout.box()
     box.alert = True
     lines = error.splitlines() or ["The native module is missing"]
@@ -214,7 +214,7 @@ class VIEW3D_PT_illumap(_IllumapPanel, bpy.types.Panel):
     def draw(self, context):
         error = core_error()
         if error:
-            draw_core_missing(self.layout, error)
+            draw_native_missing(self.layout, error)
         else:
             draw_main(self.layout, context)
 

@@ -49,14 +49,21 @@ def __dir__():
 __all__ = [
     "Surfels", "TransportOperator", "Occluders", "solve", "Solution", "InputError", "Cancelled",
     "DEFAULT_METHOD", "DEFAULT_ORDER", "DEFAULT_THETA", "DEFAULT_LEAF_SIZE",
-    "DEFAULT_NEAR_FIELD", "DEFAULT_VISIBILITY", "DEFAULT_TOL", "native_available", "accuracy",
+    "DEFAULT_NEAR_FIELD", "DEFAULT_VISIBILITY", "DEFAULT_TOL", "native_available", "load_native",
+    "accuracy",
 ]
 
 
 def native_available() -> bool:
     """True when the native module illumap._core is importable."""
     try:
-        from . import _core  # noqa: F401
+        load_native()
     except ImportError:
         return False
     return True
+
+
+def load_native() -> None:
+    """Import the native module illumap._core; raises the ImportError that says why it cannot
+    load (a missing build, another platform's or Python's, a library the loader lacks)."""
+    from . import _core  # noqa: F401

@@ -136,16 +136,16 @@ def fake_pipeline(registered_addon):
     addon = registered_addon
     saved_module = sys.modules.get("addon.pipeline")
     saved_attr = addon.__dict__.get("pipeline")
-    saved_import = addon.core_status._import_core
+    saved_import = addon.core_status._import_native
     fake = _make_fake_pipeline()
     sys.modules["addon.pipeline"] = fake
     addon.pipeline = fake
-    addon.core_status._import_core = lambda: None
+    addon.core_status._import_native = lambda: None
     _reregister(addon)
     try:
         yield fake
     finally:
-        addon.core_status._import_core = saved_import
+        addon.core_status._import_native = saved_import
         if saved_module is not None:
             sys.modules["addon.pipeline"] = saved_module
         else:
@@ -886,8 +886,8 @@ def test_reduced_ui_when_the_core_is_missing(registered_addon):
     def missing():
         raise ModuleNotFoundError("No module named 'illumap'", name="illumap")
 
-    saved = addon.core_status._import_core
-    addon.core_status._import_core = missing
+    saved = addon.core_status._import_native
+    addon.core_status._import_native = missing
     try:
         _reregister(addon)
         assert not hasattr(bpy.types, "ILLUMAP_OT_compute_illumination_map")
@@ -898,7 +898,7 @@ def test_reduced_ui_when_the_core_is_missing(registered_addon):
         assert "%d.%d" % sys.version_info[:2] in error  # Blender's Python, whichever it is
         assert not bpy.types.VIEW3D_PT_illumap_advanced.poll(bpy.context)
         layout = LayoutRecorder()
-        panel.draw_core_missing(layout, error)
+        panel.draw_native_missing(layout, error)
         labels = layout.texts("label")
         assert "Illumap is unavailable" in labels
         assert "The native module 'illumap' is not installed." in labels
@@ -914,10 +914,10 @@ def test_reduced_ui_when_the_core_is_missing(registered_addon):
         assert labels[0] == "The native module 'illumap' is not installed."
         assert "default_preset" in fake_prefs.layout.texts("prop")
         # A broken build says what failed to load.
-        addon.core_status._import_core = lambda: importlib.import_module("illumap._no_such_module")
-        assert "could not be loaded" in addon.check_core()
+        addon.core_status._import_native = lambda: importlib.import_module("illumap._no_such_module")
+        assert "could not be loaded" in addon.check_native()
     finally:
-        addon.core_status._import_core = saved
+        addon.core_status._import_native = saved
         _reregister(addon)
     assert addon.core_error() is None or "illumap" in addon.core_error()
 
