@@ -768,9 +768,9 @@ def _probe_sides(front, back, incident_at, gather_rays: int, shadow_samples: int
     Returns (``ScanPatches``, side (P,) bool: True where the front normal faces out,
     settled (P,) bool: whose patch the probe decided, rays cast); a gather too short to
     probe decides nothing."""
-    from illumap import receivers as rc
+    from illumap.scan_values import ScanPatches
     n = len(front.points)
-    patches = rc.ScanPatches(front.points, front.normals)
+    patches = ScanPatches(front.points, front.normals)
     rays = max(SIDE_PROBE_MIN_RAYS, int(gather_rays * SIDE_PROBE_SHARE))
     if n == 0 or 2 * rays >= gather_rays:
         return patches, np.ones(n, dtype=bool), np.zeros(n, dtype=bool), 0
@@ -998,6 +998,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
             total += float((values @ lum).sum())
         lap("values")
         rest = iter(values_of[len(job.receivers):])
+        from illumap.scan_values import crease_surfaces, remove_specks
         scan_values, specks, creases = [], 0, 0
         for (front, other), part in zip(point_sets, scan_parts):
             if other is None:
@@ -1015,7 +1016,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
                 values[done] = chosen
                 values[both] = np.where(side[both, None], along, against)
                 outward = np.where(side[:, None], front.normals, -front.normals)
-                faces = rc.crease_surfaces(front.points, outward)
+                faces = crease_surfaces(front.points, outward)
                 if len(faces.rows):
                     r = faces.rows
                     extra, _, more, _ = incident_at(faces.points, faces.normals, r)
@@ -1025,7 +1026,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
             lap("creases")
             # A cloud of unknown orientation: its patches found the same neighbours already.
             shared_nn = None if other is None else part[0].neighbours
-            values, replaced = rc.remove_specks(front.points, outward, values,
+            values, replaced = remove_specks(front.points, outward, values,
                                                 neighbours=shared_nn)
             lap("specks")
             specks += replaced

@@ -7,8 +7,8 @@ import pytest
 
 import illumap
 from illumap.pointcloud import pca_normals
-from illumap.receivers import (Creases, ScanPatches, crease_surfaces, outward_sides,
-                               remove_specks)
+from illumap.scan_values import (Creases, ScanPatches, crease_surfaces, outward_sides,
+                                 remove_specks)
 
 pytestmark = pytest.mark.skipif(not illumap.native_available(), reason="needs the native core")
 
@@ -287,18 +287,18 @@ def test_only_points_beside_a_second_face_are_grouped_and_nothing_changes():
     whose plane they lie on disagrees with their own normal (or that are missing from their
     own neighbours): the result is the grouping of every point's, to the bit."""
     from illumap import _core
-    from illumap import receivers
+    from illumap import scan_values
     p, n = noisy_box_on_floor()
     got = crease_surfaces(p, n)
-    k = receivers.CREASE_NEIGHBOURS
+    k = scan_values.CREASE_NEIGHBOURS
     idx, dist = _core.knn(p, p, k + 1)
     idx, dist = np.asarray(idx, dtype=np.int64), np.asarray(dist)
     rows = np.arange(len(p))
     crease = np.zeros(len(p), dtype=bool)
-    want_rows, want_normals, want_points = receivers._crease_faces(p, n, rows, idx, dist, crease)
+    want_rows, want_normals, want_points = scan_values._crease_faces(p, n, rows, idx, dist, crease)
     np.testing.assert_array_equal(got.rows, want_rows)
     np.testing.assert_array_equal(got.normals, want_normals)
     np.testing.assert_array_equal(got.points, want_points)
     np.testing.assert_array_equal(got.own, ~crease)
-    looked = receivers._may_crease(p, n, rows, idx, dist)
+    looked = scan_values._may_crease(p, n, rows, idx, dist)
     assert crease.sum() > 50 and looked[crease].all() and looked.mean() < 0.5
