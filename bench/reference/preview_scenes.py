@@ -65,24 +65,6 @@ def _camera(location, target, lens: float):
     return obj
 
 
-def _box_faces(lo, hi, skip: str = "") -> list:
-    """The corners of the axis-aligned box's faces (outward), ``skip`` left out ('-z')."""
-    faces = []
-    for axis in range(3):
-        for side, value in (("-", lo[axis]), ("+", hi[axis])):
-            if f"{side}{'xyz'[axis]}" == skip:
-                continue
-            a, b = [k for k in range(3) if k != axis]
-            corners = np.zeros((4, 3))
-            corners[:, axis] = value
-            corners[:, a] = [lo[a], hi[a], hi[a], lo[a]]
-            corners[:, b] = [lo[b], lo[b], hi[b], hi[b]]
-            out = np.zeros(3)
-            out[axis] = 1.0 if side == "+" else -1.0
-            faces.append(scenes._facing(corners, out))
-    return faces
-
-
 def room(cell: float = 0.05, jitter: float = 0.0, seed: int = 0) -> dict:
     """The room in an empty file: ``{"surfaces": [meshes], "emitter": mesh}`` and the scene
     camera looking in through the open side."""
@@ -104,7 +86,7 @@ def room(cell: float = 0.05, jitter: float = 0.0, seed: int = 0) -> dict:
         surfaces.append(scenes.mesh_object(name, [part], mat))
     lo, hi = np.array([0.25, 0.35, 0.0]), np.array([0.55, 0.65, 0.35])
     block_faces = [_jittered_patch(corners, cell, jitter, rng)
-                   for corners in _box_faces(lo, hi, skip="-z")]
+                   for corners in scenes.box_faces(lo, hi, skip=("-z",))]
     surfaces.append(scenes.mesh_object("Block", block_faces, white))
     z = 1 - 0.001
     emitter = scenes.mesh_object(

@@ -277,12 +277,12 @@ def mesh_object(name: str, parts, material, *, weld: bool = True, triangulate: b
     return obj
 
 
-def box_parts(lo, hi, cell: float, *, inward: bool = False, skip=()) -> list:
-    """Grid parts of the six faces of the axis-aligned box ``lo``–``hi`` (m), outward (or
-    ``inward``) normals; ``skip`` names faces left out ('-x', '+x', '-y', '+y', '-z', '+z')."""
+def box_faces(lo, hi, *, inward: bool = False, skip=()) -> list:
+    """The corners (4, 3) of the six faces of the axis-aligned box ``lo``–``hi`` (m), wound for
+    outward (or ``inward``) normals; ``skip`` names faces left out ('-x', '+x', '-y', '+y',
+    '-z', '+z')."""
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    centre = (lo + hi) / 2
-    parts = []
+    faces = []
     for axis in range(3):
         for side, value in (("-", lo[axis]), ("+", hi[axis])):
             if f"{side}{'xyz'[axis]}" in skip:
@@ -294,8 +294,13 @@ def box_parts(lo, hi, cell: float, *, inward: bool = False, skip=()) -> list:
             corners[:, b] = [lo[b], lo[b], hi[b], hi[b]]
             out = np.zeros(3)
             out[axis] = 1.0 if side == "+" else -1.0
-            parts.append(grid_patch(_facing(corners, -out if inward else out), cell))
-    return parts
+            faces.append(_facing(corners, -out if inward else out))
+    return faces
+
+
+def box_parts(lo, hi, cell: float, *, inward: bool = False, skip=()) -> list:
+    """Grid parts of the faces of ``box_faces``."""
+    return [grid_patch(corners, cell) for corners in box_faces(lo, hi, inward=inward, skip=skip)]
 
 
 def quad_parts(corners, toward, cell: float) -> list:
