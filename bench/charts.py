@@ -26,7 +26,7 @@ from illumap.accuracy import calibration  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "calibration"))
 import calibrate  # noqa: E402  (bench/calibration/calibrate.py: the leaf variants' and sampling fits)
-import scenes as S  # noqa: E402
+from scenes import surfels as S  # noqa: E402
 
 THRESHOLDS = (0.10, 0.03, 0.01, 0.003)
 SCENE_TITLES = {"cornell": "Cornell box with its two blocks (0.556 m, grid surfels)",

@@ -30,7 +30,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "calibration"))
 import illumap  # noqa: E402
 
-import scenes as S  # noqa: E402
+from scenes import surfels as S  # noqa: E402
 import accuracy_speed as AS  # noqa: E402
 
 SAMPLES = (4, 16, 64, 256, 1024, 4096)

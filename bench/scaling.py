@@ -67,7 +67,7 @@ CHILD = r"""
 import json, resource, sys, time
 sys.path.insert(0, sys.argv[7])
 import illumap
-import scenes as S
+from scenes import surfels as S
 n, scene, method, order, theta, tol, vis = (int(sys.argv[1]), sys.argv[2], sys.argv[3],
                                             int(sys.argv[4]), float(sys.argv[5]),
                                             float(sys.argv[6]), sys.argv[8])
@@ -132,7 +132,7 @@ def case_key(scene, method, vis):
 
 
 def main(argv=None):
-    import scenes as S
+    from scenes import surfels as S
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     mode = ap.add_mutually_exclusive_group()
     mode.add_argument("--quick", action="store_true")

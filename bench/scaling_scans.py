@@ -44,7 +44,8 @@ def one_size(cell: float, score: bool) -> dict:
     sys.path.insert(0, REPO)
     sys.path.insert(0, BENCH)
     import bpy  # noqa: F401
-    from reference import run, scenes
+    from reference import run
+    from scenes import blender as scenes
     pipeline = run.register_addon()
     t0 = time.perf_counter()
     objects, spans = run.scan_objects(scenes.cornell_scan(cell))
@@ -104,7 +105,7 @@ def score_against_cycles(values: np.ndarray, spans: dict) -> dict:
                 farthest_m=far)
 
 
-#: The bench scans (bench/reference/scenes.py) whose error the cache must keep within 10% of
+#: The bench scans (bench/scenes/meshes.py) whose error the cache must keep within 10% of
 #: the full gather's.
 BENCH_SCANS = ("scan_room", "scan_object")
 
@@ -116,7 +117,8 @@ def bench_scans_accuracy() -> list[dict]:
     sys.path.insert(0, REPO)
     sys.path.insert(0, BENCH)
     import bpy
-    from reference import run, scenes
+    from reference import run
+    from scenes import blender as scenes
     pipeline = run.register_addon()
     rows = []
     for name in BENCH_SCANS:

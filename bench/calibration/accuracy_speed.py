@@ -48,7 +48,7 @@ import illumap  # noqa: E402
 from illumap.accuracy import NO_SURFEL_LIMIT  # noqa: E402
 from illumap.operator import VISIBILITIES  # noqa: E402
 
-import scenes as S  # noqa: E402
+from scenes import surfels as S  # noqa: E402
 
 ORDERS = (0, 2, 3, 4, 6, 8)
 VISIBILITY_MODES = ("none", "seed", "exact")

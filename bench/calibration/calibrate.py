@@ -45,7 +45,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import scenes as S  # noqa: E402
+from scenes import surfels as S  # noqa: E402
 from illumap import accuracy  # noqa: E402
 from illumap.accuracy import models  # noqa: E402
 

@@ -23,7 +23,7 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import accuracy_speed as AS  # noqa: E402
-import scenes as S  # noqa: E402
+from scenes import surfels as S  # noqa: E402
 
 VIS = dict(visibility="exact", endpoint_offset=1.0)
 ALL_PAIRS = dict(VIS, visibility_leaf_mode="per_pair_all", visibility_samples=16)

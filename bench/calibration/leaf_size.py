@@ -29,7 +29,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import illumap  # noqa: E402
 
 import accuracy_speed as A  # noqa: E402
-import scenes as S  # noqa: E402
+from scenes import surfels as S  # noqa: E402
 
 LEAF_SIZES = (16, 32, 64)
 BASE_LEAF = 32

@@ -28,7 +28,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from illumap.accuracy import calibration, models  # noqa: E402
 
 import accuracy_speed as A  # noqa: E402
-import scenes as S  # noqa: E402
+from scenes import surfels as S  # noqa: E402
 
 SETTING = "FMM p=3 vis=exact all-pairs s=32 θ=0.5"
 #: Disjoint from the sweep's (0), the leaf benchmark's (0, 2) and the automatic mode's

@@ -38,7 +38,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, ".."))
 sys.path.insert(0, os.path.join(HERE, "..", "micro"))
 import illumap  # noqa: E402
-import scenes as S  # noqa: E402
+from scenes import surfels as S  # noqa: E402
 
 FAR = (1e2, 1e4, 1e6, 1e8)
 FMM = dict(method="fmm", order=4, theta=0.5)

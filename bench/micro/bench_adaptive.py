@@ -31,7 +31,7 @@ from illumap import accuracy  # noqa: E402
 from illumap.accuracy import calibration, models  # noqa: E402
 
 import accuracy_speed as AS  # noqa: E402
-import scenes as S  # noqa: E402
+from scenes import surfels as S  # noqa: E402
 
 # the settings the automatic mode picks for the triangles at 10% and 5%, and the one the ratio
 # was first measured with; the leaf mode is set so none inherits the chosen setting's

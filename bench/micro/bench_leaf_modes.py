@@ -22,7 +22,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # bench/
 import illumap  # noqa: E402
-import scenes as S  # noqa: E402
+from scenes import surfels as S  # noqa: E402
 
 MODES = (("per_pair", 8), ("per_pair", 32), ("per_pair_all", 8), ("per_pair_all", 16),
          ("per_pair_all", 32))

@@ -15,7 +15,7 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # bench/
 import illumap  # noqa: E402
 
-import scenes as S  # noqa: E402
+from scenes import surfels as S  # noqa: E402
 
 SETTINGS = {"all-pairs s=16 θ=0.3": dict(order=3, theta=0.3, visibility_leaf_mode="per_pair_all",
                                          visibility_samples=16),

@@ -32,7 +32,8 @@ sys.path.insert(0, BENCH)
 
 import bpy  # noqa: E402
 
-from reference import run, scenes  # noqa: E402
+from reference import run  # noqa: E402
+from scenes import blender as scenes  # noqa: E402
 
 OUT = os.path.join(REPO, "bench", "results", "scan_prepare.json")
 JOB_ARRAYS = ("positions", "normals", "areas", "albedo", "emission", "triangles", "two_sided",

@@ -30,7 +30,8 @@ sys.path.insert(0, BENCH)
 
 import bpy  # noqa: E402
 
-from reference import run, scenes  # noqa: E402
+from reference import run  # noqa: E402
+from scenes import blender as scenes  # noqa: E402
 
 OUT = os.path.join(REPO, "bench", "results", "scan_receivers.json")
 

@@ -23,7 +23,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # bench/
-import scenes as S  # noqa: E402
+from scenes import surfels as S  # noqa: E402
 
 import illumap  # noqa: E402
 from illumap import accuracy  # noqa: E402

@@ -2,7 +2,7 @@
 """Fingerprints of the light on every bench scene at default settings, to show that a change
 which should not move the light (a refactor, a build change) moves no bit.
 
-Runs each scene of ``bench/reference/scenes.py`` through the add-on (``pipeline.compute`` with
+Runs each scene of ``bench/scenes/meshes.py`` (``REFERENCE``) through the add-on (``pipeline.compute`` with
 the default settings, as ``run.py`` does) and writes, per scene, the SHA-256 of the surfels'
 light and of each scored object's ``illumination`` attribute (float32 bytes), with the
 surfel count. ``--repo`` runs another checkout's add-on and scenes (its ``illumap`` package
@@ -40,7 +40,11 @@ def fingerprints(repo: str, names: list[str] | None) -> dict:
     import bpy  # noqa: F401  (bpy before illumap: the native module's TBB)
     import numpy as np
     from addon import pipeline
-    from bench.reference import run, scenes
+    from bench.reference import run
+    try:
+        from bench.scenes import blender as scenes
+    except ImportError:                   # a checkout from before the one scene library
+        from bench.reference import scenes
 
     out = {}
     for name in names or list(scenes.SCENES):

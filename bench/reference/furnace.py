@@ -29,7 +29,7 @@ relative RMS difference of the two bakes.
 Cases (``CASES``; ``CLASSES`` are the seven, the rest diagnostics run when named):
 
 * ``monkey``: Suzanne (bmesh, subdivided once, smooth, shade_smooth) resting on a floor: an
-  open mesh whose eyes are separate parts pushed into the head (``scenes.monkey``'s
+  open mesh whose eyes are separate parts pushed into the head (``scenes.meshes.monkey``'s
   geometry). Cycles drops the directions a smooth normal's hemisphere has below a face:
   Suzanne's reference mean is 0.83 smooth, 0.93 flat (``monkey_flat``, the diagnostic).
 * ``intersecting``: two closed boxes that interpenetrate, standing on a floor (no vertex of
@@ -39,7 +39,7 @@ Cases (``CASES``; ``CLASSES`` are the seven, the rest diagnostics run when named
 * ``plate``: a single open quad grid (1 m, horizontal at 0.5 m) above a floor: both faces of
   the plate, and the floor under it, read 1.
 * ``scan``: the Stanford bunny's 35,947 vertices (``scenes.BUNNY_PLY`` placed as
-  ``scenes.scan_object`` does) as a point cloud without normals on a mesh floor; Cycles bakes
+  ``scenes.meshes.scan_object`` does) as a point cloud without normals on a mesh floor; Cycles bakes
   the scan's triangles, with the five holes in its base filled (faces only, no new vertices)
   so that its inside is sealed and each point's brighter side is its outside.
 * ``scan_normals``: the same, with a ``normal`` point attribute (the name
@@ -92,10 +92,15 @@ import bmesh  # noqa: E402
 
 if __package__ in (None, ""):          # run as a script: bench/ on the path
     sys.path.insert(0, os.path.dirname(HERE))
-    from reference import bake, scenes  # noqa: E402
+    from reference import bake  # noqa: E402
+    from scenes import blender as scenes  # noqa: E402
     from reference import run as reference_run  # noqa: E402
 else:
-    from . import bake, scenes  # noqa: E402
+    from . import bake  # noqa: E402
+    if __package__.startswith("bench."):
+        from bench.scenes import blender as scenes  # noqa: E402
+    else:                              # ``reference.…`` with bench/ on the path
+        from scenes import blender as scenes  # noqa: E402
     from . import run as reference_run  # noqa: E402
 
 #: Seeds of the two reference bakes (their mean is the reference, their difference its noise).
@@ -141,14 +146,14 @@ def floor(half: float, cell: float, material, name: str = "Floor"):
 
 
 def _start() -> "bpy.types.Material":
-    scenes._reset()
+    scenes.reset()
     white_world()
     return white()
 
 
 def _finish(name: str, scored: list, notes: str, scan=(), normals=None,
             back_sides=()) -> FurnaceCase:
-    scene = scenes._finish(name, scored, [], [], notes)
+    scene = scenes.finish(name, scored, [], [], notes)
     scene.scan = list(scan)
     return FurnaceCase(name, scene, dict(normals or {}), notes, tuple(back_sides))
 
@@ -206,9 +211,7 @@ def _bunny(mat, fill_normals: bool = False):
     """The Stanford bunny as ``scenes.scan_object`` places it, its holes filled (below), and
     the scan's vertex normals (V, 3): those of its own triangles, before the holes are filled
     (``fill_normals``: after, which tilts 211 rim normals by up to 48°)."""
-    verts, faces = scenes.read_ply(scenes.BUNNY_PLY)
-    verts = verts[:, [0, 2, 1]] * np.array([1.0, -1.0, 1.0])          # y up -> z up
-    verts = verts - [verts[:, 0].mean(), verts[:, 1].mean(), verts[:, 2].min()]
+    verts, faces = scenes.bunny_scan()
     verts = verts * scenes.BUNNY_SCALE
     mesh = bpy.data.meshes.new("Bunny")
     mesh.from_pydata(verts, [], faces)

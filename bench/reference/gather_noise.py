@@ -30,7 +30,8 @@ for path in (REPO_ROOT, os.path.dirname(HERE)):
 
 import bpy  # noqa: E402
 
-from reference import run, scenes  # noqa: E402
+from reference import run  # noqa: E402
+from scenes import blender as scenes  # noqa: E402
 
 DEFAULT_OUT = os.path.join(REPO_ROOT, "bench", "results", "gather_noise.json")
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])

@@ -1,4 +1,4 @@
-"""One scene of ``preview_scenes.py`` from its camera: the default after Compute against the
+"""One scene of ``bench/scenes/preview.py`` from its camera: the default after Compute against the
 path-traced view (``preview_vs_cycles.py --scene NAME``; the figures are that script's).
 
 For a scan it also renders the scan's values on the scanned meshes without splats
@@ -21,7 +21,7 @@ import time
 import bpy
 import numpy as np
 
-from bench.reference import preview_scenes
+from bench.scenes import preview as preview_scenes
 from bench.reference.preview_vs_cycles import (OUT, RESULTS, SEEDS, compare, emitter_mask,
                                                off_shares, relative_rms, render, report)
 
@@ -126,7 +126,7 @@ def run_scene(args) -> int:
                + ("" if args.cell is None else f" --cell {args.cell:g}")
                + ("" if args.splat_cone is None else f" --splat-cone {args.splat_cone:g}"))
     record = {
-        "scene": f"bench/reference/preview_scenes.py {name}, cell {cell:g} m, scene camera",
+        "scene": f"bench/scenes/preview.py {name}, cell {cell:g} m, scene camera",
         "settings": "pipeline.Settings() (defaults), the default after Compute "
                     "(operators.after_write)",
         "scan_points": scan_points, "size": args.size, "samples": args.samples,

@@ -57,7 +57,7 @@ Prints the figures and the times, writes ``bench/results/preview_vs_cycles.json`
     .venv/bin/python bench/reference/preview_vs_cycles.py [--size 192] [--samples 1024]
         [--preview-samples 256] [--block 4] [--no-write]
 
-With ``--scene mesh_room|scan_room|scan_bunny`` it runs one of ``preview_scenes.py``'s scenes
+With ``--scene mesh_room|scan_room|scan_bunny`` it runs one of ``bench/scenes/preview.py``'s scenes
 instead, the default after Compute (``preview_scene_run.py``), and for the scans also the
 values at the points without splats.
 """
@@ -91,7 +91,7 @@ OFF = 0.25
 SEEDS = (0, 1)
 #: The sample's emitters: their pixels are left out of the "surfaces" figures.
 EMITTERS = ("Light",)
-#: The scenes of preview_scenes.py (``--scene``; preview_scene_run.py runs them).
+#: The scenes of bench/scenes/preview.py (``--scene``; preview_scene_run.py runs them).
 SCENE_NAMES = ("mesh_room", "scan_room", "scan_room_normals", "scan_bunny")
 
 
@@ -238,9 +238,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-write", action="store_true", help="print only")
     ap.add_argument("--scene", choices=("cornell",) + SCENE_NAMES, default="cornell",
                     help="the bundled Cornell box (default), or a scene of "
-                    "bench/reference/preview_scenes.py")
+                    "bench/scenes/preview.py")
     ap.add_argument("--cell", type=float, default=None,
-                    help="preview_scenes' grid (m; default: the tests')")
+                    help="the preview scenes' grid (m; default: the tests')")
     ap.add_argument("--splat-cone", type=float, default=None,
                     help="the splats' cone height (mesh_preview.SPLAT_CONE; 0: flat discs)")
     args = ap.parse_args(argv)

@@ -40,9 +40,14 @@ import bpy  # noqa: E402
 
 if __package__ in (None, ""):          # run as a script: bench/ on the path
     sys.path.insert(0, os.path.dirname(HERE))
-    from reference import bake, scenes, score  # noqa: E402
+    from reference import bake, score  # noqa: E402
+    from scenes import blender as scenes  # noqa: E402
 else:
-    from . import bake, scenes, score  # noqa: E402
+    from . import bake, score  # noqa: E402
+    if __package__.startswith("bench."):
+        from bench.scenes import blender as scenes  # noqa: E402
+    else:                              # ``reference.…`` with bench/ on the path
+        from scenes import blender as scenes  # noqa: E402
 
 #: Illumap settings to score: (label, keywords). ``preset`` picks
 #: ``pipeline.settings_from_preset``; other keys are ``pipeline.Settings`` fields.

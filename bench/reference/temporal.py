@@ -3,7 +3,7 @@
 (``scripts/blender -b … --python scripts/illumap_batch.py -- --frames …``), one job for all
 frames as a farm runs it, scored where the true light did not change.
 
-* ``turntable``: the open scene (``scenes.world``: floor, box, sphere, wall, emissive panel,
+* ``turntable``: the open scene (``scenes.meshes.world``: floor, box, sphere, wall, emissive panel,
   under the sky) plus a sun, with a camera circling it. Nothing lit moves, so every vertex
   must read the same on every frame: the change is reported as the largest |difference|.
 * ``moving``: the same scene with the box moved by 1% of its size (1 cm) from frame to frame.
@@ -43,10 +43,15 @@ import bpy  # noqa: E402
 
 if __package__ in (None, ""):          # run as a script: bench/ on the path
     sys.path.insert(0, os.path.dirname(HERE))
-    from reference import bake, scenes  # noqa: E402
+    from reference import bake  # noqa: E402
+    from scenes import blender as scenes  # noqa: E402
     from reference import run as reference_run  # noqa: E402
 else:
-    from . import bake, scenes  # noqa: E402
+    from . import bake  # noqa: E402
+    if __package__.startswith("bench."):
+        from bench.scenes import blender as scenes  # noqa: E402
+    else:                              # ``reference.…`` with bench/ on the path
+        from scenes import blender as scenes  # noqa: E402
     from . import run as reference_run  # noqa: E402
 
 DEFAULT_OUT = os.path.join(REPO_ROOT, "bench", "results", "temporal.json")
@@ -60,7 +65,7 @@ ALLOWANCE = 1e-3
 
 def build(sequence: str, frames: int) -> list[str]:
     """The open scene with a sun, a camera and the sequence's animation; the scored names."""
-    scene = scenes.world()
+    scene = scenes.build("world")
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
     sun.data.energy = 3.0
     sun.rotation_euler = (0.6, 0.3, 0.5)

@@ -21,7 +21,7 @@ from illumap.accuracy import calibration, models
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "bench"))
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "bench", "calibration"))
-import scenes as S  # noqa: E402  (bench/scenes.py)
+from scenes import surfels as S  # noqa: E402  (bench/scenes/surfels.py)
 
 #: A summary's surfel count for meshes: they can be sampled at any count.
 NO_LIMIT = accuracy.NO_SURFEL_LIMIT

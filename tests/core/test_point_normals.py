@@ -16,7 +16,7 @@ import illumap
 from illumap import pointcloud
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "bench"))
-import scenes as S  # noqa: E402
+from scenes import surfels as S  # noqa: E402
 
 
 def torus(count, R=1.0, r=0.3, seed=0):

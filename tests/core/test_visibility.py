@@ -199,7 +199,7 @@ def test_the_cornell_box_meshed_finely_or_coarsely_occludes_alike():
     end within rounding of a surface (which meshing decides them: 1.4e-6 of the brightest value
     with Embree's watertight mode on AMD EPYC); the blocks cast shadows."""
     sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "bench"))
-    import scenes as S
+    from scenes import surfels as S
     s = S.build("cornell", 10_000, seed=1)
     B = {}
     for cells in (1, S.CORNELL_MESH_CELLS):

@@ -48,7 +48,7 @@ import pytest
 
 from illumap_bpy_testing import requires_core
 
-from bench.reference import preview_scenes
+from bench.scenes import preview as preview_scenes
 from bench.reference.preview_vs_cycles import emitter_mask, off_shares, relative_rms, render
 
 pytestmark = [requires_core, pytest.mark.slow]

@@ -11,8 +11,11 @@ camera (``preview_vs_cycles.py --scene``, tests/blender/preview/test_preview_ren
   normals, no radii); the emitter stays a mesh.
 * ``scan_room_normals``: the same scan with each point's normal given (the scanned mesh's
   vertex normal, as a scanner that records normals gives).
-* ``scan_bunny``: the Stanford bunny (a real range scan, ``scenes.BUNNY_CREDIT``) × 3.3 on a
+* ``scan_bunny``: the Stanford bunny (a real range scan, ``shapes.BUNNY_CREDIT``) × 3.3 on a
   mesh floor under a dim sky and a sun; Illumap is given the bunny's vertices as a scan.
+
+The scenes are declared as data in ``meshes.py`` (``preview_room``, ``preview_bunny``) and
+built by ``blender.build_objects``; this module makes the scan of them and shows the result.
 
 Because the scan's points are vertices of meshes that lie on the true surfaces, the **values
 at the points** can be shown without splats: the scan's ``illumination`` copied to those
@@ -23,107 +26,35 @@ path-traced view the light's (the values at the points, and their linear interpo
 
 from __future__ import annotations
 
-import math
-
 import bpy
 import numpy as np
 
-from bench.reference import scenes
+from . import blender
+from .meshes import preview_bunny, preview_room
 
 #: The scan's points move up to this fraction of a cell about their grid position.
 JITTER = 0.35
-RED, GREEN, WHITE = (0.63, 0.065, 0.05), (0.14, 0.45, 0.091), (0.73, 0.73, 0.73)
-EMITTER_RADIANCE = (15.0, 15.0, 15.0)
-
-
-def _jittered_patch(corners, cell: float, jitter: float, rng) -> tuple:
-    """``scenes.grid_patch`` with each vertex moved up to ``jitter`` cells in the quad's plane
-    (a vertex on the patch's edge along that edge; corners kept)."""
-    verts, quads, uvs = scenes.grid_patch(corners, cell)
-    if jitter > 0:
-        c = np.asarray(corners, float)
-        s, t = uvs[:, 0].copy(), uvs[:, 1].copy()
-        nu = round(1 / max(np.diff(np.unique(s)).min(), 1e-9))
-        nv = round(1 / max(np.diff(np.unique(t)).min(), 1e-9))
-        ds = rng.uniform(-jitter, jitter, len(s)) / nu
-        dt = rng.uniform(-jitter, jitter, len(t)) / nv
-        s = np.where((s > 0) & (s < 1), s + ds, s)
-        t = np.where((t > 0) & (t < 1), t + dt, t)
-        s, t = s[:, None], t[:, None]
-        verts = (1 - s) * (1 - t) * c[0] + s * (1 - t) * c[1] + s * t * c[2] + (1 - s) * t * c[3]
-    return verts, quads, uvs
-
-
-def _camera(location, target, lens: float):
-    cam = bpy.data.cameras.new("Camera")
-    cam.lens = lens
-    obj = bpy.data.objects.new("Camera", cam)
-    bpy.context.scene.collection.objects.link(obj)
-    obj.location = location
-    scenes.aim(obj, target)
-    bpy.context.scene.camera = obj
-    return obj
 
 
 def room(cell: float = 0.05, jitter: float = 0.0, seed: int = 0) -> dict:
     """The room in an empty file: ``{"surfaces": [meshes], "emitter": mesh}`` and the scene
     camera looking in through the open side."""
-    scenes._reset()
-    rng = np.random.default_rng(seed)
-    white = scenes.diffuse_material("White", WHITE)
-    quads = {
-        "Floor": ([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], (0, 0, 1), white),
-        "Ceiling": ([(0, 0, 1), (0, 1, 1), (1, 1, 1), (1, 0, 1)], (0, 0, -1), white),
-        "Back": ([(0, 1, 0), (1, 1, 0), (1, 1, 1), (0, 1, 1)], (0, -1, 0), white),
-        "Left": ([(0, 0, 0), (0, 1, 0), (0, 1, 1), (0, 0, 1)], (1, 0, 0),
-                 scenes.diffuse_material("Red", RED)),
-        "Right": ([(1, 0, 0), (1, 0, 1), (1, 1, 1), (1, 1, 0)], (-1, 0, 0),
-                  scenes.diffuse_material("Green", GREEN)),
-    }
-    surfaces = []
-    for name, (corners, toward, mat) in quads.items():
-        part = _jittered_patch(scenes._facing(corners, toward), cell, jitter, rng)
-        surfaces.append(scenes.mesh_object(name, [part], mat))
-    lo, hi = np.array([0.25, 0.35, 0.0]), np.array([0.55, 0.65, 0.35])
-    block_faces = [_jittered_patch(corners, cell, jitter, rng)
-                   for corners in scenes.box_faces(lo, hi, skip=("-z",))]
-    surfaces.append(scenes.mesh_object("Block", block_faces, white))
-    z = 1 - 0.001
-    emitter = scenes.mesh_object(
-        "Emitter", scenes.quad_parts([(.35, .35, z), (.35, .65, z), (.65, .65, z), (.65, .35, z)],
-                                     (0, 0, -1), 1.0),
-        scenes.one_sided_emission("Emit", EMITTER_RADIANCE))
-    _camera((0.5, -1.25, 0.5), (0.5, 0.0, 0.5), 35.0)
-    bpy.context.view_layer.update()
-    return {"surfaces": surfaces, "emitter": emitter}
+    scene = preview_room(cell, jitter, seed)
+    objects = blender.build_objects(scene)
+    return {"surfaces": [objects[m.name] for m in scene.meshes("scored")],
+            "emitter": objects["Emitter"]}
 
 
 def bunny(floor_cell: float = 0.05, stride: int = 1) -> dict:
     """The bunny on a 4 m floor of ``floor_cell`` grids under a dim sky and a sun (as
-    ``scenes.scan_object``, whose 0.1 m floor cells are too coarse to show the bunny's shadow
+    ``meshes.scan_object``, whose 0.1 m floor cells are too coarse to show the bunny's shadow
     through their vertices) and a camera looking down at it: ``{"surfaces": [bunny, floor],
     "emitter": None, "stride": stride}``. The bunny mesh is the whole scan (the path-traced
     reference renders its triangles); ``stride`` is how ``build`` thins the scan Illumap gets."""
-    scenes._reset()
-    scenes.sky_world(strength=0.5)
-    verts, faces = scenes.read_ply(scenes.BUNNY_PLY)
-    verts = verts[:, [0, 2, 1]] * np.array([1.0, -1.0, 1.0])          # y up -> z up
-    verts = (verts - [verts[:, 0].mean(), verts[:, 1].mean(), verts[:, 2].min()]) \
-        * scenes.BUNNY_SCALE
-    mesh = bpy.data.meshes.new("Bunny")
-    mesh.from_pydata(verts, [], faces)
-    mesh.validate()
-    mesh.materials.append(scenes.diffuse_material("Clay", (0.75, 0.6, 0.45)))
-    bunny_obj = bpy.data.objects.new("Bunny", mesh)
-    bpy.context.scene.collection.objects.link(bunny_obj)
-    floor = scenes.mesh_object(
-        "Floor", scenes.quad_parts([(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], (0, 0, 1),
-                                   floor_cell), scenes.diffuse_material("Grey", (0.6, 0.6, 0.6)))
-    sun = scenes.add_lamp("SUN", (0, 0, 5), name="Sun", energy=3.0, angle=math.radians(2.0))
-    sun.rotation_euler = (math.radians(40.0), 0.0, math.radians(30.0))
-    _camera((0.15, -0.95, 1.05), (0.0, 0.0, 0.12), 50.0)
-    bpy.context.view_layer.update()
-    return {"surfaces": [bunny_obj, floor], "emitter": None, "stride": stride}
+    scene = preview_bunny(floor_cell)
+    objects = blender.build_objects(scene)
+    return {"surfaces": [objects[m.name] for m in scene.meshes("scored")], "emitter": None,
+            "stride": stride}
 
 
 def as_scan(meshes, name: str = "Scan", stride: int = 1, normals: bool = False):

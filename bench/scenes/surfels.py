@@ -1,4 +1,5 @@
-"""Benchmark scenes shared by bench/*.py and tests/core/test_accuracy.py (numpy + illumap only).
+"""The surfel scenes of the benchmarks and calibration, and their references (numpy + illumap,
+no bpy): shared by bench/*.py, bench/calibration, bench/micro and tests/core.
 
 Four scenes, each built at a requested density so that error can be charted against cost:
 
@@ -8,7 +9,8 @@ Four scenes, each built at a requested density so that error can be charted agai
   an n x n grid of cells, each block face and the light a grid of cells of about the same size,
   with a surfel at each midpoint; Cycles bakes at exactly the same points (bench/cycles_bake.py
   builds meshes from ``cornell_grid_meshes`` whose interior vertices are those midpoints).
-  ``cornell_geometry`` gives the same box as planar quads (for other samplings).
+  ``cornell_geometry`` gives the same box as planar quads (for other samplings): the regular
+  form of the one Cornell box, ``cornell.regular_quads``.
 * ``cornell_sampled(n)`` (scene ``cornell_mesh``) -- the same box as triangles
   (``cornell_triangles``) with stratified surfels, as the add-on samples meshes; measured
   against the Cornell box's reference.
@@ -35,15 +37,11 @@ import illumap
 from illumap import accuracy, pointcloud, sampling
 from illumap import scenes as core_scenes
 
-BOX = 0.556
-WHITE, RED, GREEN = (0.725, 0.71, 0.68), (0.63, 0.065, 0.05), (0.14, 0.45, 0.091)
-LIGHT_RADIANCE = (17.0, 12.0, 4.0)
-LIGHT_HALF = (0.065, 0.0525)   # Cornell's light: 130 x 105 mm
-
-BUNNY_PLY = os.environ.get("ILLUMAP_BUNNY",
-                           "/work/shared/data/stanford-bunny/bun_zipper.ply")
-BUNNY_CREDIT = ("Stanford Bunny: Stanford 3D Scanning Repository, Stanford University Computer "
-                "Graphics Laboratory (Greg Turk and Marc Levoy, 1994)")
+from . import cornell as cornell_box, shapes
+from .cornell import BOX, GREEN, LIGHT_HALF, RED, WHITE, block_footprints
+from .cornell import RADIANCE as LIGHT_RADIANCE
+from .records import provenance, utc_now, write_json  # noqa: F401  (the scripts' S.write_json)
+from .shapes import BUNNY_CREDIT, BUNNY_PLY  # noqa: F401
 
 SCENES = ("cornell", "cornell_mesh", "bunny", "interior")
 
@@ -64,92 +62,10 @@ BUNNY_MAX = 52000
 # ------------------------------------------------------------------------------------------------
 # Cornell box with its two blocks, on vertex grids
 
-#: Cornell's blocks (mm, Cornell's frame: x across, y up, z depth): footprint corners, height.
-_SHORT_BLOCK = (((130.0, 65.0), (82.0, 225.0), (240.0, 272.0), (290.0, 114.0)), 165.0)
-_TALL_BLOCK = (((423.0, 247.0), (265.0, 296.0), (314.0, 456.0), (472.0, 406.0)), 330.0)
-
-
-def _cornell_xy(x_mm, z_mm):
-    """Cornell's (x, depth) in mm to ours in m: x mirrored so the red wall is at x = 0."""
-    return np.array([BOX - 1e-3 * x_mm, 1e-3 * z_mm])
-
-
-def block_footprints():
-    """The two blocks' footprints (4 x 2 arrays, counter-clockwise seen from above) and
-    heights, in metres."""
-    out = []
-    for corners, height in (_SHORT_BLOCK, _TALL_BLOCK):
-        fp = np.array([_cornell_xy(x, z) for x, z in corners])
-        c = fp.mean(axis=0)
-        ang = np.arctan2(fp[:, 1] - c[1], fp[:, 0] - c[0])
-        out.append((fp[np.argsort(ang)], 1e-3 * height))
-    return out
-
-
-def _inside_footprints(xy):
-    """True for the points (K x 2) that lie inside a block's footprint."""
-    inside = np.zeros(len(xy), bool)
-    for fp, _ in block_footprints():
-        ok = np.ones(len(xy), bool)
-        for k in range(4):
-            a, b = fp[k], fp[(k + 1) % 4]
-            ok &= (b[0] - a[0]) * (xy[:, 1] - a[1]) - (b[1] - a[1]) * (xy[:, 0] - a[0]) > 0
-        inside |= ok
-    return inside
-
-
 def cornell_geometry(blocks=True):
-    """The Cornell box as planar quads: a list of dicts ``name``, ``origin``, ``u``, ``v``
-    (edge vectors, m; normal = u x v, into the box or out of a block), ``albedo``,
-    ``emission`` (radiance). The light is the 130 x 105 mm quad 0.1 mm below the ceiling;
-    the box is 0.556 m wide, deep and high, open at y = 0."""
-    L = BOX
-    quads = [
-        ("Floor", (0, 0, 0), (L, 0, 0), (0, L, 0), WHITE),
-        ("Back", (0, L, 0), (L, 0, 0), (0, 0, L), WHITE),
-        ("Left", (0, 0, 0), (0, L, 0), (0, 0, L), RED),       # x = 0, normal +x
-        ("Right", (L, 0, 0), (0, 0, L), (0, L, 0), GREEN),    # x = L, normal -x
-        ("Ceiling", (0, 0, L), (0, L, 0), (L, 0, 0), WHITE),  # normal -z
-    ]
-    if blocks:
-        for label, (fp, height) in zip(("Short", "Tall"), block_footprints()):
-            quads.append((f"{label}Top", (*fp[0], height), (*(fp[1] - fp[0]), 0),
-                          (*(fp[3] - fp[0]), 0), WHITE))
-            for k in range(4):
-                a, b = fp[k], fp[(k + 1) % 4]
-                quads.append((f"{label}Side{k}", (*a, 0), (*(b - a), 0), (0, 0, height), WHITE))
-    out = []
-    for name, origin, u, v, albedo in quads:
-        origin, u, v = (np.array(x, float) for x in (origin, u, v))
-        normal = np.cross(u, v)
-        if name.endswith("Top") and normal[2] < 0:
-            u, v = v, u
-        out.append(dict(name=name, origin=origin, u=u, v=v, albedo=np.array(albedo, float),
-                        emission=np.zeros(3)))
-    c = np.array([L / 2, L / 2])
-    out.append(dict(name="Light", origin=np.array([c[0] - LIGHT_HALF[0], c[1] - LIGHT_HALF[1],
-                                                   L - 1e-4]),
-                    u=np.array([0, 2 * LIGHT_HALF[1], 0.0]), v=np.array([2 * LIGHT_HALF[0], 0, 0.0]),
-                    albedo=np.zeros(3), emission=np.array(LIGHT_RADIANCE, float)))
-    return out
-
-
-def _grid_mesh(origin, u, v, nu, nv):
-    """A grid mesh on origin + s u + t v whose interior vertices are the nu x nv cell
-    midpoints and whose border ring lies on the quad's edges. Returns verts, faces, interior
-    (bool per vertex), the midpoints' (s, t)."""
-    su = np.concatenate([[0.0], (np.arange(nu) + 0.5) / nu, [1.0]])
-    sv = np.concatenate([[0.0], (np.arange(nv) + 0.5) / nv, [1.0]])
-    mu, mv = len(su), len(sv)
-    a, b = np.meshgrid(su, sv, indexing="xy")        # vertex (row b, column a)
-    verts = origin + a.reshape(-1, 1) * u + b.reshape(-1, 1) * v
-    j, i = np.meshgrid(np.arange(mv - 1), np.arange(mu - 1), indexing="ij")
-    j, i = j.ravel(), i.ravel()
-    faces = np.stack([j * mu + i, j * mu + i + 1, (j + 1) * mu + i + 1, (j + 1) * mu + i],
-                     axis=1).astype(np.int64)
-    interior = np.zeros((mv, mu), bool)
-    interior[1:-1, 1:-1] = True
-    return verts, faces, interior.reshape(-1)
+    """The Cornell box as planar quads (``cornell.regular_quads``): dicts ``name``, ``origin``,
+    ``u``, ``v`` (edge vectors, m; normal = u x v), ``albedo``, ``emission`` (radiance)."""
+    return cornell_box.regular_quads(blocks)
 
 
 def cornell_grid_meshes(n, blocks=True):
@@ -174,13 +90,13 @@ def cornell_grid_meshes(n, blocks=True):
         lu, lv = np.linalg.norm(q["u"]), np.linalg.norm(q["v"])
         least = 2 if q["name"] == "Light" else 1
         nu, nv = max(least, int(round(lu / h))), max(least, int(round(lv / h)))
-        verts, faces, interior = _grid_mesh(q["origin"], q["u"], q["v"], nu, nv)
+        verts, faces, interior = shapes.midpoint_grid_mesh(q["origin"], q["u"], q["v"], nu, nv)
         surfel = interior.copy()
         if q["name"] == "Ceiling":
             surfel &= ~((np.abs(verts[:, 0] - L / 2) < LIGHT_HALF[0])
                         & (np.abs(verts[:, 1] - L / 2) < LIGHT_HALF[1]))
         if q["name"] == "Floor" and blocks:
-            surfel &= ~_inside_footprints(verts[:, :2])
+            surfel &= ~cornell_box.inside_footprints(verts[:, :2])
         normal = np.cross(q["u"], q["v"])
         out.append(dict(name=q["name"], verts=verts, faces=faces,
                         normal=normal / np.linalg.norm(normal), albedo=q["albedo"],
@@ -217,14 +133,8 @@ def cornell_surface(cells=CORNELL_MESH_CELLS, blocks=True):
 
 
 def _quad_triangles(q, cells):
-    """Quad ``q`` (``cornell_geometry``) as cells x cells squares of two triangles each,
-    (2 cells², 3, 3): first every square's (o, o+u, o+u+v) half, then its (o, o+u+v, o+v)."""
-    s = np.arange(cells + 1) / cells
-    grid = q["origin"] + s[:, None, None] * q["u"] + s[None, :, None] * q["v"]
-    a, b = grid[:-1, :-1], grid[1:, :-1]
-    c, d = grid[1:, 1:], grid[:-1, 1:]
-    return np.concatenate([np.stack([a, b, c], axis=2).reshape(-1, 3, 3),
-                           np.stack([a, c, d], axis=2).reshape(-1, 3, 3)])
+    """Quad ``q`` (``cornell_geometry``) as cells x cells squares of two triangles each."""
+    return shapes.quad_triangles(q["origin"], q["u"], q["v"], cells)
 
 
 def cornell_triangles(blocks=True):
@@ -238,10 +148,9 @@ def cornell_triangles(blocks=True):
     emission = np.repeat([q["emission"] for q in quads], 2, axis=0)
 
     def keep(p):
-        under = (np.abs(p[:, 2]) < 1e-9) & _inside_footprints(p[:, :2]) if blocks else False
-        behind = ((np.abs(p[:, 2] - BOX) < 1e-9) & (np.abs(p[:, 0] - BOX / 2) < LIGHT_HALF[0])
-                  & (np.abs(p[:, 1] - BOX / 2) < LIGHT_HALF[1]))
-        return ~(under | behind)
+        under = ((np.abs(p[:, 2]) < 1e-9) & cornell_box.inside_footprints(p[:, :2])
+                 if blocks else False)
+        return ~(under | cornell_box.behind_light(p))
     return corners, albedo, emission, keep
 
 
@@ -273,21 +182,8 @@ _BUNNY_CACHE = {}
 
 
 def bunny_points():
-    """The 35,947 scan vertices (x, y, z in metres, y up), converted to z up."""
-    if "points" not in _BUNNY_CACHE:
-        with open(BUNNY_PLY, "r") as f:
-            count = None
-            while True:
-                line = f.readline()
-                if line.startswith("element vertex"):
-                    count = int(line.split()[2])
-                if line.strip() == "end_header":
-                    break
-            data = np.loadtxt(f, max_rows=count, usecols=(0, 1, 2))
-        pts = np.stack([data[:, 0], -data[:, 2], data[:, 1]], axis=1)   # y up -> z up
-        pts -= [pts[:, 0].mean(), pts[:, 1].mean(), pts[:, 2].min()]
-        _BUNNY_CACHE["points"] = pts
-    return _BUNNY_CACHE["points"]
+    """The 35,947 scan vertices (m, z up, standing at z = 0: ``shapes.bunny_scan``)."""
+    return shapes.bunny_scan()[0]
 
 
 def estimate_areas(points, k=12):
@@ -464,61 +360,22 @@ def relative_rms(B, B_ref, emission=None):
     return float(math.sqrt(np.mean(d * d)) / math.sqrt(np.mean(B_ref[mask] ** 2)))
 
 
-def provenance() -> dict:
-    """Where the results come from: the repository's HEAD commit (short hash and subject), the
-    last commit that changed core/src, whether core/src has uncommitted changes, and the native
-    module's file time (UTC)."""
-    import subprocess
-    import time as _time
-    from illumap import _core
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-    def git(*args):
-        try:
-            return subprocess.run(["git", "-C", root, *args], capture_output=True, text=True,
-                                  timeout=20).stdout.strip()
-        except (OSError, subprocess.SubprocessError):
-            return ""
-    path = getattr(_core, "__file__", "") or ""
-    built = (_time.strftime("%Y-%m-%d %H:%M UTC", _time.gmtime(os.path.getmtime(path)))
-             if path and os.path.exists(path) else None)
-    return dict(commit=git("rev-parse", "--short", "HEAD"),
-                subject=git("log", "-1", "--format=%s"),
-                core_src_commit=git("log", "-1", "--format=%h", "--", "core/src"),
-                core_src_modified=bool(git("status", "--porcelain", "--", "core/src")),
-                core_module_built=built)
-
-
-def utc_now() -> str:
-    """The current time as the results files record it ("YYYY-MM-DD HH:MM UTC")."""
-    import time as _time
-    return _time.strftime("%Y-%m-%d %H:%M UTC", _time.gmtime())
-
-
-def write_json(path: str, doc: dict, quiet: bool = False) -> None:
-    """Write a results document to ``path`` (its folder made if needed; numpy scalars as
-    floats) and, unless ``quiet``, say so."""
-    import json
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    with open(path, "w") as f:
-        json.dump(doc, f, indent=1, default=float)
-    if not quiet:
-        print(f"wrote {path}")
-
-
 def source_hash(name) -> str:
     """A hash of the code that builds scene ``name`` and its reference (cache key)."""
     import hashlib
     import inspect
     name = reference_scene(name)
-    funcs = {"cornell": (cornell_geometry, block_footprints, _inside_footprints, _grid_mesh,
+    funcs = {"cornell": (cornell_box.regular_quads, cornell_box.block_footprints,
+                         cornell_box.inside_footprints, shapes.midpoint_grid_mesh,
                          cornell_grid_meshes, cornell, cornell_n_for),
-             "bunny": (bunny_points, estimate_areas, pointcloud.estimate_normals,
+             "bunny": (shapes.read_ply, shapes.bunny_scan, estimate_areas,
+                       pointcloud.estimate_normals,
                        pointcloud.orient_normals, sampling.thin_points, bunny),
              "interior": (interior, core_scenes.box_room)}[name]
     text = "".join(inspect.getsource(f) for f in funcs + (reference_solution,))
     if name == "bunny":   # the scan's normals come from the native orientation
-        with open(os.path.join(os.path.dirname(__file__), "..", "core", "src", "normals.cpp")) as f:
+        with open(os.path.join(os.path.dirname(__file__), "..", "..", "core", "src",
+                               "normals.cpp")) as f:
             text += f.read()
     return hashlib.sha1(text.encode()).hexdigest()
 
