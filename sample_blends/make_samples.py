@@ -41,34 +41,22 @@ import sys
 import bpy
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+if os.path.dirname(HERE) not in sys.path:     # the repository root: the scene library
+    sys.path.insert(0, os.path.dirname(HERE))
 
-WHITE = (0.725, 0.71, 0.68)
-RED = (0.63, 0.065, 0.05)
-GREEN = (0.14, 0.45, 0.091)
-LIGHT = (17.0, 12.0, 4.0)
+from bench.scenes import cornell  # noqa: E402  (the one Cornell box: numpy only)
 
-# Cornell's published geometry, millimetres, y up. Each entry: name, material, quads.
-CORNELL = [
-    ("Floor", "White", [[(552.8, 0, 0), (0, 0, 0), (0, 0, 559.2), (549.6, 0, 559.2)]]),
-    ("Ceiling", "White", [[(556, 548.8, 0), (556, 548.8, 559.2), (0, 548.8, 559.2), (0, 548.8, 0)]]),
-    ("Back Wall", "White", [[(549.6, 0, 559.2), (0, 0, 559.2), (0, 548.8, 559.2), (556, 548.8, 559.2)]]),
-    ("Right Wall", "Green", [[(0, 0, 559.2), (0, 0, 0), (0, 548.8, 0), (0, 548.8, 559.2)]]),
-    ("Left Wall", "Red", [[(552.8, 0, 0), (549.6, 0, 559.2), (556, 548.8, 559.2), (556, 548.8, 0)]]),
-    ("Short Block", "White", [
-        [(130, 165, 65), (82, 165, 225), (240, 165, 272), (290, 165, 114)],
-        [(290, 0, 114), (290, 165, 114), (240, 165, 272), (240, 0, 272)],
-        [(130, 0, 65), (130, 165, 65), (290, 165, 114), (290, 0, 114)],
-        [(82, 0, 225), (82, 165, 225), (130, 165, 65), (130, 0, 65)],
-        [(240, 0, 272), (240, 165, 272), (82, 165, 225), (82, 0, 225)]]),
-    ("Tall Block", "White", [
-        [(423, 330, 247), (265, 330, 296), (314, 330, 456), (472, 330, 406)],
-        [(423, 0, 247), (423, 330, 247), (472, 330, 406), (472, 0, 406)],
-        [(472, 0, 406), (472, 330, 406), (314, 330, 456), (314, 0, 456)],
-        [(314, 0, 456), (314, 330, 456), (265, 330, 296), (265, 0, 296)],
-        [(265, 0, 296), (265, 330, 296), (423, 330, 247), (423, 0, 247)]]),
-    # 1 mm below the ceiling (Cornell: in the ceiling plane, y = 548.8).
-    ("Light", "Light", [[(343, 547.8, 227), (343, 547.8, 332), (213, 547.8, 332), (213, 547.8, 227)]]),
-]
+WHITE, RED, GREEN, LIGHT = cornell.WHITE, cornell.RED, cornell.GREEN, cornell.RADIANCE
+#: The sample's object names for the published surfaces.
+_NAMES = {"BackWall": "Back Wall", "RightWall": "Right Wall", "LeftWall": "Left Wall",
+          "ShortBlock": "Short Block", "TallBlock": "Tall Block"}
+_MATERIALS = {WHITE: "White", RED: "Red", GREEN: "Green"}
+#: The published geometry (mm, y up) as (name, material, quads), the light 1 mm below the
+#: ceiling (Cornell: in the ceiling plane, y = 548.8).
+CORNELL = [(_NAMES.get(name, name), _MATERIALS.get(cornell.COLOURS.get(name), "Light"),
+            [[(x, y - 1.0, z) for x, y, z in quad] for quad in quads] if name == "Light"
+            else quads)
+           for name, quads in cornell.PUBLISHED_MM.items()]
 CORNELL_CAMERA_MM = (278.0, 273.0, -800.0)
 #: Grid cell of the walls and blocks (m): the light lands on their vertices, so they are fine
 #: enough to show the blocks' soft shadows in the mesh preview.
