@@ -555,7 +555,7 @@ def main(argv=None):
                                 if cy_pts else "Cycles at equal error"), ""]
             if scene == "cornell" and cyc:
                 md += ["Cycles here: the fastest bake within the error at any vertex count, from "
-                       "`bench/cycles_bake.py`, against Illumap's times from "
+                       "`bench/reference/cycles_bake.py`, against Illumap's times from "
                        "`bench/calibration/accuracy_speed.py` (two runs, different vertex sets: Cycles at 371 "
                        "vertices has no discretization error, Illumap's 371 surfels do). The "
                        "comparison the target asks for — same run, same vertices — is the "

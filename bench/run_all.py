@@ -13,7 +13,7 @@ bench/calibration/grid_steps.py --all-settings (the Cornell grid at every cell c
 against the full reference), bench/calibration/calibrate.py --write (the automatic mode's models, fitted
 on them all),
 scripts/setup_env.sh (reinstalls the package with them), bench/calibration/accuracy_speed.py --auto-only
-(the automatic mode), bench/cycles_bake.py, bench/scaling.py (results in bench/results/*.json),
+(the automatic mode), bench/reference/cycles_bake.py, bench/micro/scaling.py (results in bench/results/*.json),
 bench/reference/run.py (Illumap against Cycles bakes on meshes as users build them, the
 table of docs/results.md: bench/results/reference.json; --quick passed through, --reference-scenes to
 its --scenes), bench/reference/preview_vs_cycles.py (docs/images/cornell_vs_cycles.png),
@@ -72,9 +72,9 @@ def main(argv=None):
         ("install", [os.path.join(ROOT, "scripts", "setup_env.sh")]),
         ("auto", py + [os.path.join(calibration, "accuracy_speed.py"), flag, "--auto-only", "--out",
                        acc]),
-        ("cycles", py + [os.path.join(HERE, "cycles_bake.py"), flag, "--out",
+        ("cycles", py + [os.path.join(reference, "cycles_bake.py"), flag, "--out",
                          os.path.join(results, "cycles_bake.json")]),
-        ("scaling", py + [os.path.join(HERE, "scaling.py"), flag, "--out",
+        ("scaling", py + [os.path.join(HERE, "micro", "scaling.py"), flag, "--out",
                           os.path.join(results, "scaling.json")]),
         ("reference", py + [os.path.join(reference, "run.py"), *reference_options]),
         ("preview", py + [os.path.join(reference, "preview_vs_cycles.py")]),

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Error against wall time for every method, on the three benchmark scenes (bench/scenes.py).
+"""Error against wall time for every method, on the three benchmark scenes (bench/scenes/surfels.py).
 
 Reference, per scene: the direct O(N^2) operator with exact visibility (rays against the
 surfels as discs, ``scenes.exact_keywords(name)``) at high density (``--ref-n``), CG to a relative

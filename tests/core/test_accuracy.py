@@ -2,7 +2,7 @@
 scene with the chosen settings shown in the stats, visibility is chosen by the scene's
 occlusion, and the a-posteriori estimate bounds the numerical error.
 
-Scenes are those of bench/scenes.py (the Cornell box with its blocks, the Stanford bunny scan
+Scenes are those of bench/scenes/surfels.py (the Cornell box with its blocks, the Stanford bunny scan
 as a point cloud, the room with occluders) at small N, with loose targets so that the suite
 stays fast; the heavy measurements (10% … 0.3%, with large references) are in
 bench/calibration/accuracy_speed.py --auto and docs/benchmarks.md.
@@ -793,7 +793,7 @@ def test_grid_steps_add_measured_cell_counts_that_the_step_model_can_choose(monk
 
 
 def test_benchmark_results_are_written_with_their_folder_and_numpy_values(tmp_path, capsys):
-    """bench/scenes.py write_json, which every benchmark's results go through: the folder is
+    """bench/scenes/surfels.py write_json, which every benchmark's results go through: the folder is
     made, numpy scalars come back as numbers, and the file is named unless quiet."""
     import json
     path = tmp_path / "new" / "results.json"

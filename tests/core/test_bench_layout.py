@@ -1,7 +1,9 @@
-"""The bench's layout (bench/README.md): the tests and the front door (bench/*.py, the steps
-bench/run_all.py runs, and bench/reference/) use only modules the front door owns; nothing of
-theirs imports a micro-benchmark (bench/micro/) or an experiment (bench/experiments/), which may
-change or go without a test noticing."""
+"""The bench's layout (bench/README.md): the front door (bench/run_all.py, bench/charts.py), the
+scene library (bench/scenes/), the evidence against Cycles (bench/reference/), the calibration
+that writes what the extension ships (bench/calibration/), timings (bench/micro/) and
+experiments (bench/experiments/), and nothing else. The tests and the front door's own code use
+only modules the front door owns; nothing of theirs imports a micro-benchmark or an experiment,
+which may change or go without a test noticing."""
 import ast
 import os
 
@@ -10,6 +12,10 @@ import pytest
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
 BENCH = os.path.join(ROOT, "bench")
 SIDE = ("micro", "experiments")
+#: What bench/ holds: its folders and its loose scripts (the front door). scaling_scans.py
+#: joins bench/micro/ once issue-58, which reworks it, is merged.
+FOLDERS = {"calibration", "experiments", "micro", "reference", "results", "scenes"}
+FRONT_DOOR = {"run_all.py", "charts.py", "scaling_scans.py"}
 
 
 def python_files(folder, recursive=True):
@@ -45,8 +51,24 @@ def users():
     """The tests and the front door's own code."""
     yield from python_files(os.path.join(ROOT, "tests"))
     yield from python_files(BENCH, recursive=False)
+    yield from python_files(os.path.join(BENCH, "scenes"))
     yield from python_files(os.path.join(BENCH, "reference"))
     yield from python_files(os.path.join(BENCH, "calibration"))
+
+
+def test_bench_holds_its_kinds_and_nothing_else():
+    entries = [e for e in os.listdir(BENCH) if e != "__pycache__"]
+    folders = {e for e in entries if os.path.isdir(os.path.join(BENCH, e))}
+    scripts = {e for e in entries if e.endswith(".py")}
+    assert folders == FOLDERS, f"bench/ folders: {sorted(folders ^ FOLDERS)} differ"
+    assert scripts == FRONT_DOOR, f"loose scripts in bench/: {sorted(scripts - FRONT_DOOR)}"
+
+
+def test_one_scene_library():
+    """Scenes are built in bench/scenes/ only: no other scenes module under bench/."""
+    others = [p for p in python_files(BENCH) if os.path.basename(p) in ("scenes.py",
+                                                                      "preview_scenes.py")]
+    assert not others, f"scene modules outside bench/scenes/: {others}"
 
 
 def test_bench_has_its_micro_and_experiment_folders():

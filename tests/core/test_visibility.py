@@ -194,7 +194,7 @@ def test_a_segment_behind_an_endpoints_own_face_is_blocked(method):
 
 
 def test_the_cornell_box_meshed_finely_or_coarsely_occludes_alike():
-    """The scaling bench's mesh occluders (bench/scenes.py ``cornell_surface``): the box's 16
+    """The scaling bench's mesh occluders (bench/scenes/surfels.py ``cornell_surface``): the box's 16
     quads as 32 triangles or as 10,368 give the same solution, but for the few segments that
     end within rounding of a surface (which meshing decides them: 1.4e-6 of the brightest value
     with Embree's watertight mode on AMD EPYC); the blocks cast shadows."""

@@ -1,5 +1,5 @@
 """What the user sees after Compute, rendered from the scene camera, against a path-traced
-view of the same scene (``bench/reference/preview_scenes.py`` builds the scenes,
+view of the same scene (``bench/scenes/preview.py`` builds the scenes,
 ``preview_vs_cycles.py`` derives the figures):
 
 * ``mesh_room``: a Cornell-like room of meshes; the default after Compute shows the meshes'

@@ -5,7 +5,7 @@ Cases (scene, method, visibility), each size in its own subprocess so that its p
 (``ru_maxrss``) is its own; the time is the wall time of ``illumap.solve`` (operator build + CG
 to 1e-4), with the build and solve phases recorded apart. FMM: order p=3, theta=0.5.
 
-* ``cornell`` (bench/scenes.py, the box with its two blocks, grid surfels), FMM, no
+* ``cornell`` (bench/scenes/surfels.py, the box with its two blocks, grid surfels), FMM, no
   visibility: 10k up to 4M surfels (--full).
 * ``cornell``, FMM, exact visibility against the box's own mesh (``exact-mesh``: 10,368
   triangles, ``scenes.cornell_surface``, given as ``occluder_triangles`` as the add-on gives a
@@ -26,10 +26,10 @@ records the process's CPU seconds (``build_cpu``, ``total_cpu``: all threads), s
 wall time when other jobs share the cores. ``--sizes`` replaces the mode's sizes for the
 selected cases, e.g. the exact-visibility slope from 100k to 1M alone:
 
-    .venv/bin/python bench/scaling.py --only cornell/fmm/exact --sizes 100000 300000 1000000 \
+    .venv/bin/python bench/micro/scaling.py --only cornell/fmm/exact --sizes 100000 300000 1000000 \
         --out bench/results/scaling_exact_1m.json
 
-    .venv/bin/python bench/scaling.py --quick --out bench/results/scaling.json
+    .venv/bin/python bench/micro/scaling.py --quick --out bench/results/scaling.json
 """
 from __future__ import annotations
 
@@ -43,8 +43,8 @@ import time
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, HERE)
+BENCH = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, BENCH)
 
 QUICK = dict(cases=[("cornell", "fmm", "none", (10_000, 30_000, 100_000, 300_000, 1_000_000)),
                     ("cornell", "fmm", "exact-mesh",
@@ -101,7 +101,7 @@ print(json.dumps(dict(n=s.n, scene=scene, method=method, visibility=vis, build=t
 
 def run_one(scene, n, method, vis, timeout):
     cmd = [sys.executable, "-c", CHILD, str(n), scene, method, str(ORDER), str(THETA), str(TOL),
-           HERE, vis]
+           BENCH, vis]
     try:
         out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Cycles "Bake to Color Attribute" against Illumap on the same vertices (the Cornell box).
 
-For each grid n, the Cornell box of bench/scenes.py (with its two blocks) is built as Blender
+For each grid n, the Cornell box of bench/scenes/surfels.py (with its two blocks) is built as Blender
 meshes whose interior vertices are exactly Illumap's surfels
 (``scenes.cornell_grid_meshes``). Cycles bakes ``bpy.ops.object.bake(type='DIFFUSE', pass_filter={'DIRECT','INDIRECT'},
 target='VERTEX_COLORS')`` into a POINT FLOAT_COLOR attribute at 4 ... 4096 samples (CPU, 64
@@ -13,7 +13,7 @@ vertices against the converged reference of bench/calibration/accuracy_speed.py 
 same ``ref_n``, shared cache), gathered at those vertices. Cycles at the highest sample count is
 also the cross-check of that reference: it integrates the true geometry at the vertices.
 
-    .venv/bin/python bench/cycles_bake.py --quick --out bench/results/cycles_bake.json
+    .venv/bin/python bench/reference/cycles_bake.py --quick --out bench/results/cycles_bake.json
 """
 from __future__ import annotations
 
@@ -26,8 +26,9 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "calibration"))
+BENCH = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, BENCH)
+sys.path.insert(0, os.path.join(BENCH, "calibration"))
 import illumap  # noqa: E402
 
 from scenes import surfels as S  # noqa: E402
