@@ -67,9 +67,13 @@ def test_every_order_up_to_ten_runs_and_small_n_is_exact():
     P, N, A = sphere(200, seed=5)
     x = np.random.default_rng(6).random((200, 3))
     y = _core.Operator(P, N, A, method="direct").apply(x)
-    for p in range(11):
-        op = _core.Operator(P, N, A, order=p, theta=0.6, leaf_size=8)
-        assert rel(op.apply(x), y) < 0.2
+    theta = 0.6
+    errs = [rel(_core.Operator(P, N, A, order=p, theta=theta, leaf_size=8).apply(x), y)
+            for p in range(11)]
+    assert max(errs) < 0.2, errs
+    # each order is used: the expansion's error falls geometrically, by at least θ per order
+    # (θ² per two: the even and the odd orders converge each at their own pace)
+    assert all(errs[p + 2] <= theta ** 2 * errs[p] for p in range(9)), errs
     # a tiny opening angle accepts only pairs of single surfels (exact in the far field too)
     # and sums everything else directly, so it is exact
     op = _core.Operator(P, N, A, order=2, theta=1e-3)

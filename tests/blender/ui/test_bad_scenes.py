@@ -474,7 +474,10 @@ def test_batch_frames_are_parsed_without_listing():
     tracemalloc.stop()
     assert peak < 1 << 20
     assert batch.parse_frames("1-9000,1-9000,8000-10000", 1) == list(range(1, 10001))
-    assert batch.MAX_FRAMES == 10_000
+    # the limit is where the message puts it: its last frame passes, the next one does not
+    assert len(batch.parse_frames(f"1-{batch.MAX_FRAMES}", 1)) == batch.MAX_FRAMES
+    with pytest.raises(batch.UsageError, match=f"more than {batch.MAX_FRAMES:,} frames"):
+        batch.parse_frames(f"0-{batch.MAX_FRAMES}", 1)
 
 
 def test_batch_help_documents_exit_codes(capsys):

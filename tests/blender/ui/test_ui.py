@@ -790,14 +790,17 @@ def test_real_pipeline_lamp_shadow_phase_reports_progress_and_timings(registered
         seen.append((fraction, phase))
         return report(fraction, phase)
     task.progress = recording
+    started = time.perf_counter()
     assert task.start().wait(120) == "DONE", task.error
+    elapsed = time.perf_counter() - started
     shadow = [f for f, ph in seen if ph == lights.PHASE]
     first_other = next(i for i, (_, ph) in enumerate(seen) if ph != lights.PHASE)
     assert seen[0][1] == lights.PHASE and all(ph != lights.PHASE for _, ph in seen[first_other:])
     assert shadow[0] == 0.0 and shadow[-1] == 1.0 and np.all(np.diff(shadow) >= 0)
     assert len(shadow) >= 3
     timings = task.result.timings
-    assert timings["shadow rays"] > 0 and timings["direct light"] >= timings["shadow rays"]
+    # seconds of nested spans: the shadows within the direct light, within the whole run
+    assert 0 < timings["shadow rays"] <= timings["direct light"] <= elapsed, (timings, elapsed)
     assert task.result.stats["shadow_rays"] > 16 * 1600 * 0.5
     assert operators.finish_task(bpy.context, task, lambda k, m: None) == {"FINISHED"}
     phases = {p.name: p.seconds for p in bpy.context.scene.illumap.stats.phases}
