@@ -57,8 +57,8 @@ import math
 import numpy as np
 
 from . import cornell as cornell_box
-from .shapes import (BUNNY_CREDIT, box_faces, box_parts, bunny_scan, facing, grid_patch,  # noqa: F401
-                     jittered_patch, quad_parts)
+from .shapes import (box_faces, box_parts, bunny_scan, facing, grid_patch, jittered_patch,
+                     quad_parts)
 from .spec import Camera, Lamp, Material, Mesh, Scene, raw_part
 
 #: Metres per published millimetre of the Cornell box (see the module docstring).

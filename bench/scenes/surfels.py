@@ -39,10 +39,9 @@ from illumap import accuracy, pointcloud, sampling
 from illumap import scenes as core_scenes
 
 from . import cornell as cornell_box, shapes
-from .cornell import BOX, GREEN, LIGHT_HALF, RED, WHITE, block_footprints
-from .cornell import RADIANCE as LIGHT_RADIANCE
+from .cornell import BOX, LIGHT_HALF
 from .records import provenance, utc_now, write_json  # noqa: F401  (the scripts' S.write_json)
-from .shapes import BUNNY_CREDIT, BUNNY_PLY  # noqa: F401
+from .shapes import BUNNY_PLY  # noqa: F401  (the scripts' S.BUNNY_PLY)
 
 SCENES = ("cornell", "cornell_mesh", "bunny", "interior")
 
