@@ -271,15 +271,18 @@ def test_noisy_normals_degrade_smoothly():
     s = s.replace(emission=emission)
     clean = illumap.solve(s, method="fmm", tol=1e-8).radiosity
     rng = np.random.default_rng(1)
-    errs = []
-    for degrees in (2.0, 10.0):
+    errs, noise = [], (2.0, 10.0)
+    for degrees in noise:
         noisy = s.normals + rng.normal(scale=math.radians(degrees), size=s.normals.shape)
         noisy /= np.linalg.norm(noisy, axis=1)[:, None]
         sol = illumap.solve(s.replace(normals=noisy), method="fmm", tol=1e-8)
         assert sol.converged and np.all(np.isfinite(sol.radiosity))
         errs.append(rel_rms(sol.radiosity, clean))
-    assert errs[0] < errs[1] < 0.5
-    assert errs[0] < 0.1
+    # to first order a tilt of δ radians moves each cosine of the kernel by at most about δ
+    # of its value: the error stays below the noise's own size, and grows with it in step
+    # (at most twice faster than in proportion)
+    assert all(e < math.radians(d) for e, d in zip(errs, noise)), errs
+    assert errs[0] < errs[1] < 2 * (noise[1] / noise[0]) * errs[0], errs
 
 
 def test_noisy_normals_and_exact_visibility_on_a_convex_scan():
