@@ -29,6 +29,10 @@ import numpy as np
 BENCH = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, BENCH)
 sys.path.insert(0, os.path.join(BENCH, "calibration"))
+try:                                   # bpy before illumap: Blender's TBB, or bpy fails to load
+    import bpy  # noqa: F401
+except ImportError:
+    pass
 import illumap  # noqa: E402
 
 from scenes import surfels as S  # noqa: E402

@@ -8,8 +8,9 @@ Four scenes, each built at a requested density so that error can be charted agai
   radiance (17, 12, 4) on a 0.13 x 0.105 m quad just below the ceiling) with its two blocks
   (Cornell's published footprints and heights): occluders, so visibility matters. Every wall is
   an n x n grid of cells, each block face and the light a grid of cells of about the same size,
-  with a surfel at each midpoint; Cycles bakes at exactly the same points (bench/reference/cycles_bake.py
-  builds meshes from ``cornell_grid_meshes`` whose interior vertices are those midpoints).
+  with a surfel at each midpoint; Cycles bakes at exactly the same points
+  (bench/reference/cycles_bake.py builds meshes from ``cornell_grid_meshes`` whose interior
+  vertices are those midpoints).
   ``cornell_geometry`` gives the same box as planar quads (for other samplings): the regular
   form of the one Cornell box, ``cornell.regular_quads``.
 * ``cornell_sampled(n)`` (scene ``cornell_mesh``) -- the same box as triangles
