@@ -109,7 +109,9 @@ def behind_light(p: np.ndarray) -> np.ndarray:
 def regular_quads(blocks: bool = True) -> list[dict]:
     """The regular box as planar quads: dicts ``name``, ``origin``, ``u``, ``v`` (edge vectors,
     m; normal = u × v, into the box or out of a block), ``albedo``, ``emission`` (radiance).
-    The box is 0.556 m wide, deep and high, open at y = 0; the light (last) is the published
+    The box is 0.556 m wide, deep and high, open at y = 0; each block side stands on a
+    published footprint edge, each block top is the parallelogram on three published corners
+    (the published tops are 2–3 mm off a parallelogram); the light (last) is the published
     130 × 105 mm quad, centred, 0.1 mm below the ceiling."""
     L = BOX
     quads = [
