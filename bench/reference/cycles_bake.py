@@ -56,38 +56,19 @@ ILLUMAP_SETTINGS = [
 AUTO_TARGETS = (0.1, 0.03)
 
 
-def _material(bpy, name, albedo=None, emission=None):
-    mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
-    nodes = mat.node_tree.nodes
-    nodes.clear()
-    out = nodes.new("ShaderNodeOutputMaterial")
-    if emission is not None:
-        node = nodes.new("ShaderNodeEmission")
-        strength = float(max(emission))
-        node.inputs["Color"].default_value = (*[c / strength for c in emission], 1.0)
-        node.inputs["Strength"].default_value = strength
-        mat.node_tree.links.new(node.outputs["Emission"], out.inputs["Surface"])
-    else:
-        node = nodes.new("ShaderNodeBsdfDiffuse")
-        node.inputs["Color"].default_value = (*albedo, 1.0)
-        mat.node_tree.links.new(node.outputs["BSDF"], out.inputs["Surface"])
-    return mat
-
-
 def build_blender_scene(bpy, n):
+    """The Cornell box's grid meshes (``S.cornell_grid_meshes(n)``) in an empty file, through
+    the library's Blender builder (a plain Emission shader on the light, as Cycles bakes it
+    here); returns the non-emitting (object, grid mesh) pairs."""
+    from scenes import blender as B  # noqa: PLC0415  (bpy is loaded: main imports it first)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     walls = []
     for w in S.cornell_grid_meshes(n):
-        mesh = bpy.data.meshes.new(w["name"])
-        mesh.from_pydata([tuple(p) for p in w["verts"]], [], [tuple(f) for f in w["faces"]])
-        mesh.validate()
         if w["name"] == "Light":
-            mesh.materials.append(_material(bpy, "Light", emission=tuple(w["emission"])))
+            mat = B.two_sided_emission("Light", tuple(w["emission"]))
         else:
-            mesh.materials.append(_material(bpy, w["name"], albedo=tuple(w["albedo"])))
-        obj = bpy.data.objects.new(w["name"], mesh)
-        bpy.context.scene.collection.objects.link(obj)
+            mat = B.diffuse_material(w["name"], tuple(w["albedo"]))
+        obj = B.mesh_object(w["name"], [(w["verts"], w["faces"], None)], mat, weld=False)
         if w["name"] != "Light":
             walls.append((obj, w))
     return walls
