@@ -68,6 +68,38 @@ double widest_gap(const double* points, V3 p, V3 nv, const std::int64_t* idx, st
     return best;
 }
 
+// Whether widest_gap(...) > wide (radians, in (pi/2, pi); cos_wide its cosine), without the atan2s: the directions
+// sorted by a pseudo-angle (monotone in the angle; half a turn adds 2), each gap then wide
+// when it spans half a turn or more, or when its cosine is below cos(wide).
+bool gap_wider(const double* points, V3 p, V3 nv, const std::int64_t* idx, std::size_t count,
+               std::size_t n, double wide, double cos_wide, std::vector<double>& angle) {
+    struct Dir {
+        double pseudo, x, y;
+    };
+    thread_local std::vector<Dir> dirs;
+    const V3 u = tangent(nv), v = cross(nv, u);
+    dirs.resize(count);
+    for (std::size_t j = 0; j < count; ++j) {
+        const V3 d = at(points, checked(idx[j], n)) - p;
+        const double x = dot(d, u), y = dot(d, v), s = std::fabs(x) + std::fabs(y);
+        // A neighbour on the point itself has no direction: the angles decide as before.
+        if (!(s > 0)) return widest_gap(points, p, nv, idx, count, n, angle, nullptr) > wide;
+        dirs[j] = {y >= 0 ? (x >= 0 ? y / s : 1 - x / s) : (x < 0 ? 2 - y / s : 3 + x / s), x, y};
+    }
+    for (std::size_t j = 1; j < count; ++j)  // insertion sort: a few neighbours
+        for (std::size_t i = j; i > 0 && dirs[i].pseudo < dirs[i - 1].pseudo; --i)
+            std::swap(dirs[i], dirs[i - 1]);
+    for (std::size_t j = 0; j < count; ++j) {
+        const Dir& a = dirs[j];
+        const Dir& b = dirs[j + 1 < count ? j + 1 : 0];
+        const double turn = b.pseudo - a.pseudo + (j + 1 < count ? 0.0 : 4.0);
+        if (turn >= 2.0) return true;
+        if (a.x * b.x + a.y * b.y < cos_wide * std::sqrt((a.x * a.x + a.y * a.y) * (b.x * b.x + b.y * b.y)))
+            return true;
+    }
+    return false;
+}
+
 // What clips a point: the distance in its plane to the line (inf: none; negative at a rim),
 // the unit direction toward it, and the clipping plane (normal, offset).
 struct Clip {
@@ -212,43 +244,16 @@ void ellipse(const Inputs& in, const SplatFrameOptions& o, std::size_t i, const 
     std::copy(row, row + 10, frame);
 }
 
-// The points in Morton order: consecutive points share most neighbours, so the passes below
-// find them in cache (in a scan's random order every neighbour is a cache miss).
-std::vector<std::size_t> morton_order(const double* points, std::size_t n) {
-    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-    for (std::size_t i = 0; i < n; ++i)
-        for (int d = 0; d < 3; ++d) {
-            lo[d] = std::min(lo[d], points[3 * i + d]);
-            hi[d] = std::max(hi[d], points[3 * i + d]);
-        }
-    const double ext = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-300});
-    auto spread = [](std::uint64_t v) {
-        std::uint64_t r = 0;
-        for (int b = 0; b < 21; ++b) r |= ((v >> b) & 1u) << (3 * b);
-        return r;
-    };
-    std::vector<std::pair<std::uint64_t, std::size_t>> keyed(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        std::uint64_t c[3];
-        for (int d = 0; d < 3; ++d) {
-            const double v = (points[3 * i + d] - lo[d]) / ext * 2097151.0;
-            c[d] = std::uint64_t(std::min(2097151.0, std::max(0.0, v)));
-        }
-        keyed[i] = {spread(c[0]) << 2 | spread(c[1]) << 1 | spread(c[2]), i};
-    }
-    std::sort(keyed.begin(), keyed.end());
-    std::vector<std::size_t> order(n);
-    for (std::size_t i = 0; i < n; ++i) order[i] = keyed[i].second;
-    return order;
-}
-
 // values (rows of `width`) in `order`: row t is values' row order[t] (none without values).
-std::vector<double> reordered(const double* values, std::size_t width,
-                              const std::vector<std::size_t>& order) {
+std::vector<double> reordered(Context& ctx, const double* values, std::size_t width,
+                              const std::vector<std::int64_t>& order) {
     if (!values) return {};
     std::vector<double> out(width * order.size());
-    for (std::size_t t = 0; t < order.size(); ++t)
-        std::copy(values + width * order[t], values + width * (order[t] + 1), out.data() + width * t);
+    parallel_for(ctx, order.size(), 65536, [&](std::size_t b, std::size_t e) {
+        for (std::size_t t = b; t < e; ++t)
+            std::copy(values + width * order[t], values + width * (order[t] + 1),
+                      out.data() + width * t);
+    });
     return out;
 }
 
@@ -299,24 +304,19 @@ void splat_frames(Context& ctx, const double* points_in, std::size_t n, const do
     ctx.set_phase("splats", 0.0, 0.1);
     checkpoint(ctx, 0.0);
     // One tree for both searches (the k nearest of every point, the rim candidates' wider
-    // one), built while the Morton order is sorted. The passes work on copies in that order
-    // (point t is the input's order[t], neighbours renumbered): a scan in random order would
-    // make every neighbour a cache miss. The neighbours themselves, and so every result,
-    // are those of the input's order.
-    std::unique_ptr<KdTree> tree;
-    std::vector<std::size_t> order;
-    parallel_for(ctx, 2, 1, [&](std::size_t b, std::size_t) {
-        if (b == 0)
-            tree = std::make_unique<KdTree>(points_in, n);
-        else
-            order = morton_order(points_in, n);
-    });
+    // one). The passes work on copies in the tree's order (point t is the input's order[t],
+    // neighbours renumbered): neighbouring points are close in memory there, where a scan's
+    // own order would make every neighbour a cache miss. The neighbours themselves, and so
+    // every result, are those of the input's order.
+    const KdTree tree(ctx, points_in, n);
+    const std::vector<std::int64_t>& order = tree.order();
     std::vector<std::int64_t> rank(n);
-    for (std::size_t t = 0; t < n; ++t) rank[order[t]] = std::int64_t(t);
-    const std::vector<double> sorted = reordered(points_in, 3, order),
-                              sorted_normals = reordered(normals_in, 3, order),
-                              sorted_radii = reordered(radii_in, 1, order);
-    const double* points = sorted.data();
+    parallel_for(ctx, n, 65536, [&](std::size_t b, std::size_t e) {
+        for (std::size_t t = b; t < e; ++t) rank[std::size_t(order[t])] = std::int64_t(t);
+    });
+    const std::vector<double> sorted_normals = reordered(ctx, normals_in, 3, order),
+                              sorted_radii = reordered(ctx, radii_in, 1, order);
+    const double* points = tree.sorted_points().data();
     const double* given_radii = radii_in ? sorted_radii.data() : nullptr;
     auto each = [&](double base, double span, auto&& fn) {
         ctx.set_phase("splats", base, span);
@@ -330,7 +330,7 @@ void splat_frames(Context& ctx, const double* points_in, std::size_t n, const do
     parallel_for(ctx, n, 2048, [&](std::size_t b, std::size_t e) {
         KdTree::Best best(k1);
         for (std::size_t i = b; i < e; ++i) {
-            tree->nearest(points + 3 * i, best);
+            tree.nearest(points + 3 * i, best);
             for (std::size_t j = 0; j < k1; ++j) nearest_[i * k1 + j] = rank[best.h[j].second];
             far[i] = std::sqrt(best.h[k].first);
         }
@@ -347,6 +347,7 @@ void splat_frames(Context& ctx, const double* points_in, std::size_t n, const do
     // Pass 1: the radii; the rim candidates (a gap wider than rim_gap among the k nearest).
     std::vector<double> radii(n);
     std::vector<unsigned char> candidate(n, 0);
+    const double cos_rim_gap = std::cos(o.rim_gap);
     each(0.45, 0.1, [&](std::size_t i) {
         const std::int64_t* row = nearest + i * k1;
         double r;
@@ -359,18 +360,19 @@ void splat_frames(Context& ctx, const double* points_in, std::size_t n, const do
         }
         radii[i] = r > 0 ? r : std::max(far[i], 1e-6);
         thread_local std::vector<double> angle;
-        candidate[i] = widest_gap(points, at(points, i), at(normals, i), row + 1, k, n, angle,
-                                  nullptr) > o.rim_gap;
+        candidate[i] = gap_wider(points, at(points, i), at(normals, i), row + 1, k, n, o.rim_gap,
+                                 cos_rim_gap, angle);
     });
     const Inputs in{points, normals, radii.data(), n, nearest + 1, k, k1};
     // Pass 2: the candidates' wide test (rim, and the direction out of the scan); creases.
     Clip clip(n);
-    std::vector<unsigned char> rim0(n, 0), rim(n, 0);
+    std::vector<unsigned char> rim0(n, 0);
     std::vector<double> facing(3 * n, 0.0);
-    rim_test(ctx, *tree, rank.data(), points, normals, n, candidate, o, rim0, facing);
+    rim_test(ctx, tree, rank.data(), points, normals, n, candidate, o, rim0, facing);
     each(0.7, 0.07, [&](std::size_t i) { crease_line(in, o, i, clip); });
     std::vector<unsigned char> on_crease(n, 0);
-    // Pass 3: a rim point needs a rim neighbour facing the same way; its line clips it.
+    // Pass 3: a rim point needs a rim neighbour facing the same way; then its line clips it
+    // (its own rows of clip only: no other point reads them in this pass).
     each(0.77, 0.03, [&](std::size_t i) {
         on_crease[i] = o.crease_strips && clip.c[i] == 0.0;
         if (!rim0[i]) return;
@@ -380,26 +382,27 @@ void splat_frames(Context& ctx, const double* points_in, std::size_t n, const do
             const std::size_t q = std::size_t(in.nb[i * k1 + j]);
             along = rim0[q] && dot(f, at(facing.data(), q)) > o.rim_along;
         }
-        rim[i] = along && o.rim_reach * radii[i] < clip.c[i];
-    });
-    for (std::size_t i = 0; i < n; ++i) {
-        if (!rim[i]) continue;
-        const V3 out = at(facing.data(), i);
+        if (!(along && o.rim_reach * radii[i] < clip.c[i])) return;
         const double c = (o.rim_reach - o.edge_slack) * radii[i];
         clip.c[i] = c;
-        put(clip.w.data(), i, out);
-        put(clip.pn.data(), i, out);
-        clip.pd[i] = dot(out, at(points, i) + c * out);
-    }
+        put(clip.w.data(), i, f);
+        put(clip.pn.data(), i, f);
+        clip.pd[i] = dot(f, at(points, i) + c * f);
+    });
     // Pass 4: the planes that clipped the neighbours clip the point too.
     for (int round = 0; round < o.propagate; ++round) {
-        Clip next = clip;
-        each(0.8, 0.08, [&](std::size_t i) { neighbours_planes(in, o, i, clip, next); });
+        Clip next(n);
+        each(0.8, 0.08, [&](std::size_t i) {
+            next.c[i] = clip.c[i], next.pd[i] = clip.pd[i];
+            put(next.w.data(), i, at(clip.w.data(), i));
+            put(next.pn.data(), i, at(clip.pn.data(), i));
+            neighbours_planes(in, o, i, clip, next);
+        });
         clip = std::move(next);
     }
     // Pass 5: the ellipses.
     each(0.88, 0.12, [&](std::size_t i) {
-        double* frame = frames + 13 * order[i];
+        double* frame = frames + 13 * std::size_t(order[i]);
         std::copy(normals + 3 * i, normals + 3 * i + 3, frame);
         ellipse(in, o, i, clip, on_crease[i], frame + 3);
     });

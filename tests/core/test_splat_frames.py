@@ -83,6 +83,20 @@ def test_frames_do_not_depend_on_threads():
         assert np.array_equal(one[key], two[key]), key
 
 
+@pytest.mark.parametrize("given", [False, True], ids=["estimated normals", "given normals"])
+def test_frames_on_a_tied_grid_do_not_depend_on_threads(given):
+    """A regular grid (every point's neighbours tie in distance) large enough that its tree is
+    built on two workers: the same frames as on one, bit for bit, rims included."""
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(260), np.arange(260)))
+    p = np.column_stack([i, j, np.zeros(len(i))]) * 0.01
+    normals = np.tile([0.0, 0.0, 1.0], (len(p), 1)) if given else None
+    one = splats.splat_frames(p, normals, threads=1)
+    two = splats.splat_frames(p, normals, threads=2)
+    for key in one:
+        assert np.array_equal(one[key], two[key]), key
+    assert one["clipped"].any()  # the grid's rims are cut
+
+
 def test_rims_and_creases_are_cut():
     """On the box corner, splats along the open rims and at the creases are clipped, those in
     the middle of a face are whole discs."""
