@@ -114,7 +114,8 @@ std::int32_t KdTree::build(std::vector<Item>& items, std::vector<Node>& out, std
     return id;
 }
 
-void KdTree::search(std::int32_t id, const double q[3], Best& best) const {
+void KdTree::search(std::int32_t id, const double q[3], Best& best, double rd,
+                    double off[3]) const {
     const Node& nd = nodes[id];
     if (nd.left < 0) {
         double worst = best.worst();
@@ -131,13 +132,23 @@ void KdTree::search(std::int32_t id, const double q[3], Best& best) const {
     }
     double diff = q[nd.dim] - nd.split;
     std::int32_t near = diff < 0 ? nd.left : nd.right, far = diff < 0 ? nd.right : nd.left;
-    search(near, q, best);
-    if (diff * diff <= best.worst()) search(far, q, best);
+    search(near, q, best, rd, off);
+    // The far side only if its cell may hold a point nearer than the worst kept: every point
+    // there is at least rd_far away, and offer refuses any point not nearer than the worst,
+    // so skipping it changes nothing (the margin covers rd_far's rounding).
+    const double old = off[nd.dim];
+    const double rd_far = rd - old * old + diff * diff;
+    if (rd_far <= best.worst() * (1.0 + 1e-9)) {
+        off[nd.dim] = diff;
+        search(far, q, best, rd_far, off);
+        off[nd.dim] = old;
+    }
 }
 
 void KdTree::nearest(const double q[3], Best& best) const {
     best.h.clear();
-    if (!nodes.empty()) search(0, q, best);
+    double off[3] = {0.0, 0.0, 0.0};
+    if (!nodes.empty()) search(0, q, best, 0.0, off);
 }
 
 void knn(Context& ctx, const double* points, std::size_t n, const double* queries, std::size_t m,

@@ -79,7 +79,9 @@ private:
     static std::int32_t build(std::vector<Item>& items, std::vector<Node>& out, std::uint32_t b,
                               std::uint32_t e, int depth, std::vector<Subtree>* tasks);
     void unpack(Context* ctx, const std::vector<Item>& items);  // idx and pts from items
-    void search(std::int32_t id, const double q[3], Best& best) const;
+    // rd: a lower bound on the squared distance from q to the node's cell (the sum of the
+    // squared offsets `off` past the splits that bound it along each axis).
+    void search(std::int32_t id, const double q[3], Best& best, double rd, double off[3]) const;
 };
 
 // points: n x 3, queries: m x 3 (row-major). Writes indices (m x k, int64) and Euclidean

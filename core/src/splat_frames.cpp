@@ -68,34 +68,38 @@ double widest_gap(const double* points, V3 p, V3 nv, const std::int64_t* idx, st
     return best;
 }
 
-// Whether widest_gap(...) > wide (radians, in (pi/2, pi); cos_wide its cosine), without the atan2s: the directions
-// sorted by a pseudo-angle (monotone in the angle; half a turn adds 2), each gap then wide
-// when it spans half a turn or more, or when its cosine is below cos(wide).
+// Whether widest_gap(...) > wide (radians, in (0, pi); cos_wide its cosine), without the
+// atan2s and the sort: a gap that wide starts at a direction a when no other direction b lies
+// within [0, wide] counter-clockwise of a (cross(a, b) >= 0 and a cosine of at least
+// cos(wide); of directions that coincide, the last one listed starts the gap). Branch-free
+// over the pairs, a few neighbours.
 bool gap_wider(const double* points, V3 p, V3 nv, const std::int64_t* idx, std::size_t count,
-               std::size_t n, double wide, double cos_wide, std::vector<double>& angle) {
-    struct Dir {
-        double pseudo, x, y;
-    };
-    thread_local std::vector<Dir> dirs;
+               std::size_t n, double wide, double cos_wide) {
+    constexpr std::size_t kFew = 32;
+    if (count > kFew) {
+        std::vector<double> angle;
+        return widest_gap(points, p, nv, idx, count, n, angle, nullptr) > wide;
+    }
+    double x[kFew], y[kFew], len[kFew];
     const V3 u = tangent(nv), v = cross(nv, u);
-    dirs.resize(count);
     for (std::size_t j = 0; j < count; ++j) {
         const V3 d = at(points, checked(idx[j], n)) - p;
-        const double x = dot(d, u), y = dot(d, v), s = std::fabs(x) + std::fabs(y);
+        x[j] = dot(d, u), y[j] = dot(d, v);
+        len[j] = std::sqrt(x[j] * x[j] + y[j] * y[j]);
         // A neighbour on the point itself has no direction: the angles decide as before.
-        if (!(s > 0)) return widest_gap(points, p, nv, idx, count, n, angle, nullptr) > wide;
-        dirs[j] = {y >= 0 ? (x >= 0 ? y / s : 1 - x / s) : (x < 0 ? 2 - y / s : 3 + x / s), x, y};
+        if (!(len[j] > 0)) {
+            std::vector<double> angle;
+            return widest_gap(points, p, nv, idx, count, n, angle, nullptr) > wide;
+        }
     }
-    for (std::size_t j = 1; j < count; ++j)  // insertion sort: a few neighbours
-        for (std::size_t i = j; i > 0 && dirs[i].pseudo < dirs[i - 1].pseudo; --i)
-            std::swap(dirs[i], dirs[i - 1]);
-    for (std::size_t j = 0; j < count; ++j) {
-        const Dir& a = dirs[j];
-        const Dir& b = dirs[j + 1 < count ? j + 1 : 0];
-        const double turn = b.pseudo - a.pseudo + (j + 1 < count ? 0.0 : 4.0);
-        if (turn >= 2.0) return true;
-        if (a.x * b.x + a.y * b.y < cos_wide * std::sqrt((a.x * a.x + a.y * a.y) * (b.x * b.x + b.y * b.y)))
-            return true;
+    for (std::size_t a = 0; a < count; ++a) {
+        bool closed = false;
+        for (std::size_t b = 0; b < count; ++b) {
+            const double c = x[a] * y[b] - y[a] * x[b], d = x[a] * x[b] + y[a] * y[b];
+            const bool ahead = (c > 0) | ((c == 0) & (b > a));
+            closed |= ahead & (d >= cos_wide * len[a] * len[b]);
+        }
+        if (!closed) return true;
     }
     return false;
 }
@@ -359,9 +363,8 @@ void splat_frames(Context& ctx, const double* points_in, std::size_t n, const do
             r = o.cover * (sum / double(k1));
         }
         radii[i] = r > 0 ? r : std::max(far[i], 1e-6);
-        thread_local std::vector<double> angle;
         candidate[i] = gap_wider(points, at(points, i), at(normals, i), row + 1, k, n, o.rim_gap,
-                                 cos_rim_gap, angle);
+                                 cos_rim_gap);
     });
     const Inputs in{points, normals, radii.data(), n, nearest + 1, k, k1};
     // Pass 2: the candidates' wide test (rim, and the direction out of the scan); creases.
