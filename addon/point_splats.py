@@ -58,3 +58,10 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0,
     ``scale``, ``offset`` (N, 3) and bool ``clipped`` (N,), in the positions' unit)."""
     from illumap.splats import splat_frames as frames  # noqa: PLC0415 - native, loaded on use
     return frames(positions, normals, radius, threads=threads, progress=progress)
+
+
+def splat_shading(positions, frames: dict, values) -> dict:
+    """Each splat's linear shading from the points' light ``values`` (n, 3 or 4):
+    ``illumap.splat_shading.splat_shading`` (float32 ``base``, ``dx``, ``dy`` (n, 3))."""
+    from illumap.splat_shading import splat_shading as shading  # noqa: PLC0415 - loaded on use
+    return shading(positions, frames, values)

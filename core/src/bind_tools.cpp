@@ -336,8 +336,8 @@ void bind_point_tools(nb::module_& m) {
              double inlier, double share, double spread, double cover, double edge_cos,
              double on_plane, double edge_slack, double rim_shift, double rim_gap,
              double rim_along, double rim_reach, double parallel_cos, double crease_width,
-             int propagate, int rim_neighbours, bool crease_strips, int threads,
-             nb::handle progress) {
+             int propagate, int rim_neighbours, bool crease_strips, double convex_slack,
+             int threads, nb::handle progress) {
               std::size_t n, rows;
               nb::object keep[3];
               const double* P = view<double>(points, "points", 2, 3, n, keep[0]);
@@ -374,6 +374,7 @@ void bind_point_tools(nb::module_& m) {
               options.propagate = propagate;
               options.rim_neighbours = rim_neighbours;
               options.crease_strips = crease_strips;
+              options.convex_slack = convex_slack;
               run_released(threads, progress, [&](Context& ctx) {
                   splat_frames(ctx, P, n, N, R, std::size_t(k), fit, options, out);
               });
@@ -384,8 +385,8 @@ void bind_point_tools(nb::module_& m) {
           nb::arg("edge_cos"), nb::arg("on_plane"), nb::arg("edge_slack"), nb::arg("rim_shift"),
           nb::arg("rim_gap"), nb::arg("rim_along"), nb::arg("rim_reach"),
           nb::arg("parallel_cos"), nb::arg("crease_width"), nb::arg("propagate"),
-          nb::arg("rim_neighbours"), nb::arg("crease_strips"), nb::arg("threads") = 0,
-          nb::arg("progress") = nb::none(),
+          nb::arg("rim_neighbours"), nb::arg("crease_strips"), nb::arg("convex_slack") = -1.0,
+          nb::arg("threads") = 0, nb::arg("progress") = nb::none(),
           "The preview's splat of each point (N, 13): normal (3), axis (3), semi-axes (a, b, "
           "a), offset (3), clipped (1 or 0), from its k nearest points; normals (N, 3, unit) and "
           "radii (N,) the scan's own, or None. See splat_frames.hpp and illumap/splats.py.");

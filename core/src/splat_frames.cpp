@@ -105,11 +105,22 @@ bool gap_wider(const double* points, V3 p, V3 nv, const std::int64_t* idx, std::
 }
 
 // What clips a point: the distance in its plane to the line (inf: none; negative at a rim),
-// the unit direction toward it, and the clipping plane (normal, offset).
+// the unit direction toward it, the clipping plane (normal, offset), and whether that plane
+// is a rim's (its normal points out of the scan, not out of a surface).
 struct Clip {
     std::vector<double> c, w, pn, pd;
-    explicit Clip(std::size_t n) : c(n, kInf), w(3 * n, 0.0), pn(3 * n, 0.0), pd(n, 0.0) {}
+    std::vector<unsigned char> rim;
+    explicit Clip(std::size_t n)
+        : c(n, kInf), w(3 * n, 0.0), pn(3 * n, 0.0), pd(n, 0.0), rim(n, 0) {}
 };
+
+// How far (x r) a splat may reach past the line where the plane of normal pm cuts it, w the
+// direction toward that line: less past a convex crease, where the normals are oriented (see
+// SplatFrameOptions::convex_slack).
+double slack(const SplatFrameOptions& o, bool rim_plane, V3 pm, V3 w) {
+    const bool convex = o.convex_slack >= 0 && !rim_plane && dot(pm, w) > 0;
+    return convex ? o.convex_slack : o.edge_slack;
+}
 
 struct Inputs {
     const double *p, *nrm, *r;
@@ -124,10 +135,11 @@ void crease_line(const Inputs& in, const SplatFrameOptions& o, std::size_t i, Cl
     const V3 p = at(in.p, i), nv = at(in.nrm, i);
     const std::int64_t* row = in.nb + i * in.stride;
     bool any = false;
-    V3 centroid;
+    V3 centroid, all;
     double same = 0.0;
     for (std::size_t j = 0; j < in.k; ++j) {
         const std::size_t q = checked(row[j], in.n);
+        all = all + (at(in.p, q) - p);
         if (std::fabs(dot(nv, at(in.nrm, q))) < o.edge_cos) {
             any = true;
         } else {
@@ -136,7 +148,9 @@ void crease_line(const Inputs& in, const SplatFrameOptions& o, std::size_t i, Cl
         }
     }
     if (!any) return;
-    centroid = (1.0 / std::max(same, 1.0)) * centroid;
+    // No neighbour on the point's own surface (a corner whose normal is its faces' mean):
+    // it keeps the side where its neighbours are.
+    centroid = same > 0 ? (1.0 / same) * centroid : (1.0 / double(in.k)) * all;
     double best = kInf, best_side = 0.0, best_cos = 0.0, best_t = 1.0;
     std::size_t jbest = 0;
     for (std::size_t j = 0; j < in.k; ++j) {
@@ -188,6 +202,7 @@ void neighbours_planes(const Inputs& in, const SplatFrameOptions& o, std::size_t
     put(to.w.data(), i, (-sign(best_h) / best_t) * (pm - best_cos * nv));
     put(to.pn.data(), i, pm);
     to.pd[i] = from.pd[q];
+    to.rim[i] = from.rim[q];
 }
 
 // The ellipse of one point: its axis, semi-axes and offset, shrunk where a second line cuts
@@ -196,7 +211,8 @@ void ellipse(const Inputs& in, const SplatFrameOptions& o, std::size_t i, const 
              bool on_crease, double* frame) {
     const V3 p = at(in.p, i), nv = at(in.nrm, i);
     const double r = in.r[i];
-    const double reach = clip.c[i] + o.edge_slack * r;
+    const double reach =
+        clip.c[i] + slack(o, clip.rim[i], at(clip.pn.data(), i), at(clip.w.data(), i)) * r;
     bool clipped = reach < r;
     double a = r, b = clipped ? 0.5 * (r + reach) : r;
     const V3 w = clipped ? at(clip.w.data(), i) : V3{};
@@ -205,16 +221,17 @@ void ellipse(const Inputs& in, const SplatFrameOptions& o, std::size_t i, const 
     axis = (1.0 / std::max(norm(axis), 1e-300)) * axis;
     if (clipped) {
         const std::int64_t* row = in.nb + i * in.stride;
-        V3 inward;
+        V3 inward, all;
         double own = 0.0;
         for (std::size_t j = 0; j < in.k; ++j) {
             const std::size_t q = std::size_t(row[j]);
+            all = all + (at(in.p, q) - p);
             if (std::fabs(dot(nv, at(in.nrm, q))) >= o.edge_cos) {
                 inward = inward + (at(in.p, q) - p);
                 own += 1.0;
             }
         }
-        inward = (1.0 / std::max(own, 1.0)) * inward;
+        inward = own > 0 ? (1.0 / own) * inward : (1.0 / double(in.k)) * all;
         const V3 bx = cross(nv, axis);
         const bool cut = w.x != 0 || w.y != 0 || w.z != 0;
         double shrink = kInf;
@@ -232,7 +249,7 @@ void ellipse(const Inputs& in, const SplatFrameOptions& o, std::size_t i, const 
             const double along = a * dot(axis, wl), across = b * dot(bx, wl);
             const double support = dot(offset, wl) + std::sqrt(along * along + across * across);
             usable = usable && (cut ? std::fabs(dot(w, wl)) < o.parallel_cos : off);
-            const double limit = dist + o.edge_slack * r;
+            const double limit = dist + slack(o, clip.rim[q], pm, wl) * r;
             shrink = std::min(shrink, usable && support > limit ? limit / std::max(support, 1e-300) : 1.0);
         }
         a *= shrink, b *= shrink;
@@ -391,12 +408,13 @@ void splat_frames(Context& ctx, const double* points_in, std::size_t n, const do
         put(clip.w.data(), i, f);
         put(clip.pn.data(), i, f);
         clip.pd[i] = dot(f, at(points, i) + c * f);
+        clip.rim[i] = 1;
     });
     // Pass 4: the planes that clipped the neighbours clip the point too.
     for (int round = 0; round < o.propagate; ++round) {
         Clip next(n);
         each(0.8, 0.08, [&](std::size_t i) {
-            next.c[i] = clip.c[i], next.pd[i] = clip.pd[i];
+            next.c[i] = clip.c[i], next.pd[i] = clip.pd[i], next.rim[i] = clip.rim[i];
             put(next.w.data(), i, at(clip.w.data(), i));
             put(next.pn.data(), i, at(clip.pn.data(), i));
             neighbours_planes(in, o, i, clip, next);

@@ -16,6 +16,12 @@ struct SplatFrameOptions {
     double edge_cos = 0.9;        // a neighbour's normal turned further: another surface
     double on_plane = 0.05;       // "on a plane": within this fraction of the distance
     double edge_slack = 0.15;     // splats reach past a clipping line by this fraction of r
+    // ... past a convex crease's line (the clipping surface's normal points beyond it); only
+    // for oriented normals (a scanner's, facing out of the surfaces); < 0: edge_slack (normals
+    // estimated: unoriented, a convex crease and a concave one look alike). What reaches past
+    // a convex edge stands out of the surface, and where the other face is seen at a grazing
+    // angle it hides a strip of it.
+    double convex_slack = -1.0;
     double rim_shift = 0.2;       // the neighbours' centroid this far off (x the 16th distance)
     double rim_gap = 2.6179938779914944;  // ... and a wider gap (radians) between them: a rim
     double rim_along = 0.7;       // a rim point needs a rim neighbour facing within acos(this)

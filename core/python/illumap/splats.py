@@ -164,6 +164,12 @@ PREVIEW_EDGE_COS = 0.9
 ON_PLANE = 0.05
 #: Splats reach past the line that clips them by this fraction of their radius.
 EDGE_SLACK = 0.15
+#: ... past a convex crease's line (the clipping surface's normal points beyond it) where the
+#: normals were given: those are oriented (a scanner's face out of the surfaces), and what
+#: reaches past a convex edge stands out of the surface and, where the other face is seen at
+#: a grazing angle, hides a strip of it (the top of a box seen from a little above). Estimated
+#: normals are unoriented: convex and concave creases look alike, and EDGE_SLACK holds.
+CONVEX_SLACK = 0.05
 #: The neighbours' centroid this far off the point (in units of the farthest one's distance)
 #: marks a rim ...
 RIM_SHIFT = 0.2
@@ -237,7 +243,8 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0,
         cover=PREVIEW_COVER, edge_cos=PREVIEW_EDGE_COS, on_plane=ON_PLANE, edge_slack=EDGE_SLACK,
         rim_shift=RIM_SHIFT, rim_gap=RIM_GAP, rim_along=RIM_ALONG, rim_reach=RIM_REACH,
         parallel_cos=PARALLEL_COS, crease_width=CREASE_WIDTH, propagate=PROPAGATE,
-        rim_neighbours=RIM_NEIGHBOURS, crease_strips=normals is None, threads=threads,
+        rim_neighbours=RIM_NEIGHBOURS, crease_strips=normals is None,
+        convex_slack=CONVEX_SLACK if normals is not None else -1.0, threads=threads,
         progress=progress))
     return _pack(frames[:, 0:3], frames[:, 3:6], frames[:, 6:9], frames[:, 9:12],
                  frames[:, 12] > 0.5)
