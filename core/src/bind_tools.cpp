@@ -10,6 +10,7 @@
 #include "lamp_samples.hpp"
 #include "normals.hpp"
 #include "splat_frames.hpp"
+#include "splat_shading.hpp"
 #include "splats.hpp"
 
 namespace illumap::bindings {
@@ -390,6 +391,45 @@ void bind_point_tools(nb::module_& m) {
           "The preview's splat of each point (N, 13): normal (3), axis (3), semi-axes (a, b, "
           "a), offset (3), clipped (1 or 0), from its k nearest points; normals (N, 3, unit) and "
           "radii (N,) the scan's own, or None. See splat_frames.hpp and illumap/splats.py.");
+
+    m.def("splat_shading",
+          [](nb::handle points, nb::handle normals, nb::handle axes, nb::handle scales,
+             nb::handle offsets, nb::handle values, std::int64_t k, double edge_cos, double ridge,
+             int threads, nb::handle progress) {
+              std::size_t n, rows;
+              nb::object keep[6];
+              const double* P = view<double>(points, "points", 2, 3, n, keep[0]);
+              const double* arrays[5];
+              const char* names[5] = {"normals", "axes", "scales", "offsets", "values"};
+              nb::handle given[5] = {normals, axes, scales, offsets, values};
+              for (int a = 0; a < 5; ++a) {
+                  arrays[a] = view<double>(given[a], names[a], 2, 3, rows, keep[a + 1]);
+                  if (rows != n)
+                      throw nb::value_error((std::string(names[a]) +
+                                             " must have one row per point").c_str());
+              }
+              if (k < 1 || std::size_t(k) >= n)
+                  throw nb::value_error(("splat_shading needs 1 <= k < the number of points (" +
+                                         std::to_string(n) + "), got k = " +
+                                         std::to_string(k)).c_str());
+              double* out;
+              auto O = new_array(n, 9, &out);
+              SplatShadingOptions options;
+              options.edge_cos = edge_cos;
+              options.ridge = ridge;
+              run_released(threads, progress, [&](Context& ctx) {
+                  splat_shading(ctx, P, arrays[0], arrays[1], arrays[2], arrays[3], arrays[4], n,
+                                std::size_t(k), options, out);
+              });
+              return O;
+          },
+          nb::arg("points"), nb::arg("normals"), nb::arg("axes"), nb::arg("scales"),
+          nb::arg("offsets"), nb::arg("values"), nb::kw_only(), nb::arg("k"),
+          nb::arg("edge_cos"), nb::arg("ridge"), nb::arg("threads") = 0,
+          nb::arg("progress") = nb::none(),
+          "Each splat's linear shading (N, 9): the value at its centre (3) and its change per "
+          "unit of the instanced disc's X (3) and Y (3). See splat_shading.hpp and "
+          "illumap/splat_shading.py.");
 
     m.def("splat_fans",
           [](nb::handle points, nb::handle u, nb::handle v, nb::handle radii, nb::handle facing,

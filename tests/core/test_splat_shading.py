@@ -100,3 +100,18 @@ def test_bad_values_are_named():
     frames = splats.splat_frames(p)
     with pytest.raises(illumap.InputError, match="values"):
         splat_shading(p, frames, np.zeros((len(p) - 1, 3)))
+
+
+def test_native_shading_is_the_numpy_version():
+    """The native shading against the numpy version it was ported from, on the box corner
+    of test_splat_frames (creases, rims) under light that varies across it."""
+    import splat_shading_reference as ref
+    from test_splat_frames import box_corner
+
+    p = box_corner(np.random.default_rng(9))
+    values = np.column_stack([np.sin(3 * p[:, 0]) + 1, p[:, 1] ** 2, np.exp(-p[:, 2])])
+    frames = splats.splat_frames(p)
+    native, numpy = splat_shading(p, frames, values), ref.splat_shading(p, frames, values)
+    for key in ("base", "dx", "dy"):
+        np.testing.assert_allclose(native[key], numpy[key], rtol=0, atol=1e-5, err_msg=key)
+    assert np.abs(native["dx"]).max() > 0.01  # the light does change across the splats
