@@ -432,9 +432,10 @@ def write_splats(obj) -> bool:
     attrs = data.attributes
     if data.get(SPLAT_KEY) == key and all(
             name in attrs and len(attrs[name].data) == len(pos) for name in SPLAT_ATTRIBUTES.values()):
-        write_shading(obj, pos)
+        write_shading(obj, pos, key=key)
         return True
-    frames = point_splats.ready_frames(key) or point_splats.splat_frames(pos, normals, radius)
+    frames = point_splats.ready_frames(key) or point_splats.splat_frames(pos, normals, radius,
+                                                                         key=key)
     for name_key, name in SPLAT_ATTRIBUTES.items():
         attr = attrs.get(name)
         if attr is not None and (attr.data_type != "FLOAT_VECTOR" or attr.domain != "POINT"):
@@ -444,7 +445,7 @@ def write_splats(obj) -> bool:
             attr = attrs.new(name, "FLOAT_VECTOR", "POINT")
         attr.data.foreach_set("vector", frames[name_key].ravel())
     data[SPLAT_KEY] = key
-    write_shading(obj, pos, frames)
+    write_shading(obj, pos, frames, key=key)
     return True
 
 
@@ -469,10 +470,11 @@ def _frames_of(obj) -> dict:
     return frames
 
 
-def write_shading(obj, pos=None, frames=None) -> None:
+def write_shading(obj, pos=None, frames=None, key: str | None = None) -> None:
     """Write the splats' shading (``point_splats.splat_shading``) from ``obj``'s
     ``illumination`` into its hidden attributes ``SHADING_ATTRIBUTES``: the light's gradient
-    across each splat, or flat splats (``SPLAT_SHADING`` off, or no illumination)."""
+    across each splat, or flat splats (``SPLAT_SHADING`` off, or no illumination). ``key``:
+    the splats' fingerprint (their neighbours are reused where still kept)."""
     values = _point_colours(obj, ATTRIBUTE)
     if pos is None:
         pos = _positions(obj).astype(np.float32)
@@ -481,7 +483,7 @@ def write_shading(obj, pos=None, frames=None) -> None:
     if values is None:
         values = np.zeros((len(pos), 4), np.float32)
     if SPLAT_SHADING:
-        shading = point_splats.splat_shading(pos, frames, values)
+        shading = point_splats.splat_shading(pos, frames, values, key)
     else:
         zero = np.zeros((len(pos), 3), np.float32)
         shading = {"base": np.ascontiguousarray(values[:, :3]), "dx": zero, "dy": zero}

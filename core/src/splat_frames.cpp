@@ -319,7 +319,8 @@ void rim_test(Context& ctx, const KdTree& tree, const std::int64_t* rank, const 
 
 void splat_frames(Context& ctx, const double* points_in, std::size_t n, const double* normals_in,
                   const double* radii_in, std::size_t k, const PlaneFitOptions& fit,
-                  const SplatFrameOptions& o, double* frames) {
+                  const SplatFrameOptions& o, double* frames, std::int64_t* order_out,
+                  std::int64_t* neighbours) {
     if (k < 2 || k + 1 > n) throw std::invalid_argument("splat_frames needs 2 <= k < n");
     const std::size_t k1 = k + 1;
     ctx.set_phase("splats", 0.0, 0.1);
@@ -426,6 +427,8 @@ void splat_frames(Context& ctx, const double* points_in, std::size_t n, const do
         double* frame = frames + 13 * std::size_t(order[i]);
         std::copy(normals + 3 * i, normals + 3 * i + 3, frame);
         ellipse(in, o, i, clip, on_crease[i], frame + 3);
+        if (order_out) order_out[i] = order[i];
+        if (neighbours) std::copy(in.nb + i * k1, in.nb + i * k1 + k, neighbours + k * i);
     });
 }
 

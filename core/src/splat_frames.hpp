@@ -38,9 +38,13 @@ struct SplatFrameOptions {
 // null: cover x the mean, over the point and its k nearest, of the distance to their k-th
 // nearest. Writes frames (n x 13): the normal (3), the ellipse's first axis (3, unit), its
 // semi-axes (a, b, a), the offset from the point to its centre (3) and 1 where a crease or
-// rim shaped it, else 0.
+// rim shaped it, else 0. order (n) and neighbours (n x k), or null: the kd-tree's order of
+// the points (input indices; neighbouring entries lie close in space) and, in that order,
+// each point's k nearest others, nearest first, as positions in that order (what
+// splat_shading needs to fit each splat without a search, its reads near each other).
 void splat_frames(Context& ctx, const double* points, std::size_t n, const double* given_normals,
                   const double* given_radii, std::size_t k, const PlaneFitOptions& fit,
-                  const SplatFrameOptions& options, double* frames);
+                  const SplatFrameOptions& options, double* frames,
+                  std::int64_t* order_out = nullptr, std::int64_t* neighbours = nullptr);
 
 }  // namespace illumap

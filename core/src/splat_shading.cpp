@@ -69,29 +69,73 @@ void shade(const double* points, const double* normals, const double* axes, cons
     }
 }
 
+// The shading of all points in `order` (input indices), each with its k neighbours given as
+// positions in that order (local, n x k): on copies in that order, so that a point's
+// neighbours are near it in memory (in a scan's own order each of their reads would be a
+// cache miss), written back to the input's order.
+void shade_in_order(Context& ctx, const double* const inputs[6], std::size_t n, std::size_t k,
+                    const std::int64_t* order, const std::int64_t* local,
+                    const SplatShadingOptions& o, double* out) {
+    std::vector<double> sorted[6];
+    for (auto& a : sorted) a.resize(3 * n);
+    std::vector<double> result(9 * n);
+    parallel_for(ctx, n, 8192, [&](std::size_t b, std::size_t e) {
+        for (int a = 0; a < 6; ++a)
+            for (std::size_t t = b; t < e; ++t)
+                std::copy(inputs[a] + 3 * order[t], inputs[a] + 3 * order[t] + 3,
+                          sorted[a].data() + 3 * t);
+    });
+    parallel_for(ctx, n, 4096, [&](std::size_t b, std::size_t e) {
+        std::vector<double> st_of;
+        for (std::size_t t = b; t < e; ++t)
+            shade(sorted[0].data(), sorted[1].data(), sorted[2].data(), sorted[3].data(),
+                  sorted[4].data(), sorted[5].data(), t, local + k * t, k, o, st_of,
+                  result.data() + 9 * t);
+    });
+    parallel_for(ctx, n, 8192, [&](std::size_t b, std::size_t e) {
+        for (std::size_t t = b; t < e; ++t)
+            std::copy(result.data() + 9 * t, result.data() + 9 * t + 9, out + 9 * order[t]);
+    });
+}
+
 }  // namespace
 
 void splat_shading(Context& ctx, const double* points, const double* normals, const double* axes,
                    const double* scales, const double* offsets, const double* values,
-                   std::size_t n, std::size_t k, const SplatShadingOptions& o, double* out) {
+                   std::size_t n, std::size_t k, const SplatShadingOptions& o, double* out,
+                   const std::int64_t* order, const std::int64_t* neighbours) {
     if (k < 1 || k + 1 > n) throw std::invalid_argument("splat_shading needs 1 <= k < n");
+    const double* const inputs[6] = {points, normals, axes, scales, offsets, values};
+    if (order && neighbours) {
+        for (std::size_t t = 0; t < n; ++t)
+            if (order[t] < 0 || std::size_t(order[t]) >= n)
+                throw std::out_of_range("order index out of range");
+        for (std::size_t j = 0; j < n * k; ++j)
+            if (neighbours[j] < 0 || std::size_t(neighbours[j]) >= n)
+                throw std::out_of_range("neighbour index out of range");
+        ctx.set_phase("shading", 0.0, 1.0);
+        shade_in_order(ctx, inputs, n, k, order, neighbours, o, out);
+        return;
+    }
+    // No neighbours given: the kd-tree's order and each point's k nearest others in it.
     ctx.set_phase("shading", 0.0, 0.3);
     checkpoint(ctx, 0.0);
     const KdTree tree(ctx, points, n);
-    const std::vector<std::int64_t>& order = tree.order();  // visit in the tree's order (cache)
-    ctx.set_phase("shading", 0.3, 0.7);
+    const std::vector<std::int64_t>& tree_order = tree.order();
+    std::vector<std::int64_t> rank(n), local(n * k);
+    for (std::size_t t = 0; t < n; ++t) rank[std::size_t(tree_order[t])] = std::int64_t(t);
+    ctx.set_phase("shading", 0.3, 0.4);
+    const double* sorted_points = tree.sorted_points().data();
     parallel_for(ctx, n, 2048, [&](std::size_t b, std::size_t e) {
         KdTree::Best best(k + 1);
-        std::vector<std::int64_t> nb(k);
-        std::vector<double> st_of;
         for (std::size_t t = b; t < e; ++t) {
-            const std::size_t i = std::size_t(order[t]);
-            tree.nearest(points + 3 * i, best);
-            for (std::size_t j = 0; j < k; ++j) nb[j] = best.h[j + 1].second;  // the first: itself
-            shade(points, normals, axes, scales, offsets, values, i, nb.data(), k, o, st_of,
-                  out + 9 * i);
+            tree.nearest(sorted_points + 3 * t, best);
+            for (std::size_t j = 0; j < k; ++j)  // the first: the point itself
+                local[k * t + j] = rank[std::size_t(best.h[j + 1].second)];
         }
     });
+    ctx.set_phase("shading", 0.7, 0.3);
+    shade_in_order(ctx, inputs, n, k, tree_order.data(), local.data(), o, out);
 }
 
 }  // namespace illumap

@@ -6,6 +6,7 @@
 #include "parallel.hpp"
 
 #include <cstddef>
+#include <cstdint>
 
 namespace illumap {
 
@@ -16,11 +17,14 @@ struct SplatShadingOptions {
 
 // points (n x 3); the splats' normals, axes (unit), semi-axes (a, b, .) and offsets (n x 3
 // each, splat_frames'); values (n x 3, the light at the points). Fits each point's gradient
-// to its k nearest others on its own surface (found here), limits it (Barth-Jespersen,
-// half-way to each of them) and writes out (n x 9): the value at the ellipse's centre (3)
-// and its change per unit of the instanced disc's X (3) and Y (3). Requires 1 <= k < n.
+// to its k nearest others on its own surface, limits it (Barth-Jespersen, half-way to each
+// of them) and writes out (n x 9): the value at the ellipse's centre (3) and its change per
+// unit of the instanced disc's X (3) and Y (3). The neighbours: splat_frames' order (n) and
+// neighbours (n x k, positions in that order), or, both null, found here. Requires
+// 1 <= k < n.
 void splat_shading(Context& ctx, const double* points, const double* normals, const double* axes,
                    const double* scales, const double* offsets, const double* values,
-                   std::size_t n, std::size_t k, const SplatShadingOptions& options, double* out);
+                   std::size_t n, std::size_t k, const SplatShadingOptions& options, double* out,
+                   const std::int64_t* order = nullptr, const std::int64_t* neighbours = nullptr);
 
 }  // namespace illumap

@@ -115,3 +115,25 @@ def test_native_shading_is_the_numpy_version():
     for key in ("base", "dx", "dy"):
         np.testing.assert_allclose(native[key], numpy[key], rtol=0, atol=1e-5, err_msg=key)
     assert np.abs(native["dx"]).max() > 0.01  # the light does change across the splats
+
+
+def test_the_frames_neighbours_serve_the_shading():
+    """splat_frames(with_neighbours=True) gives each point's nearest others (the k-d search's,
+    nearest first, itself left out); the shading fitted to them is the one that searches
+    its own."""
+    from test_splat_frames import box_corner
+
+    p = box_corner(np.random.default_rng(10))
+    values = np.column_stack([p[:, 0] + p[:, 2], np.cos(4 * p[:, 1]), p[:, 0] * p[:, 1]])
+    frames = splats.splat_frames(p, with_neighbours=True)
+    order, neighbours = frames.pop("order"), frames.pop("neighbours")
+    assert sorted(order) == list(range(len(p)))
+    by_input = np.empty_like(neighbours)
+    by_input[order] = order[neighbours]
+    np.testing.assert_array_equal(by_input, knn(p, p, splats.PREVIEW_NEIGHBOURS + 1)[0][:, 1:])
+    given = splat_shading(p, frames, values, order=order, neighbours=neighbours)
+    found = splat_shading(p, frames, values)
+    for key in given:
+        np.testing.assert_array_equal(given[key], found[key])
+    with pytest.raises(illumap.InputError, match="neighbours"):
+        splat_shading(p, frames, values, order=order, neighbours=neighbours[:, :3])

@@ -29,22 +29,25 @@ from __future__ import annotations
 import numpy as np
 
 from . import _core
+from .splats import PREVIEW_NEIGHBOURS
 from .surfels import InputError
 
-#: Neighbours the gradient is fitted to (the splats' own count, ``splats.PREVIEW_NEIGHBOURS``).
-SHADING_NEIGHBOURS = 8
+#: Neighbours the gradient is fitted to: the splats' own (their search serves both).
+SHADING_NEIGHBOURS = PREVIEW_NEIGHBOURS
 #: A neighbour lies on the point's surface when |n·m| is at least this (about 25°).
 EDGE_COS = 0.9
 #: Ridge term of the fit, as a fraction of the neighbours' mean squared distance: keeps the
 #: normal equations defined when the neighbours lie on a line (a scan's rim, one row).
 RIDGE = 1e-3
-def splat_shading(positions, frames: dict, values, *, threads: int = 0,
-                  progress=None) -> dict:
+def splat_shading(positions, frames: dict, values, *, order=None, neighbours=None,
+                  threads: int = 0, progress=None) -> dict:
     """Each splat's linear shading (the rules above) as float32 (N, 3) arrays: ``base`` (the
     value at the ellipse's centre), ``dx`` and ``dy`` (its change per unit of the instanced
     disc's X and Y). ``positions`` (N, 3) the scan's points, ``frames`` their
     ``splats.splat_frames``, ``values`` (N, 3) or (N, 4) their light (RGB; a fourth column is
-    ignored). Native (``_core.splat_shading``, splat_shading.cpp), its own neighbour search;
+    ignored). ``order`` (N,) and ``neighbours`` (N, SHADING_NEIGHBOURS) int: the search
+    ``splats.splat_frames(..., with_neighbours=True)`` made, or None: searched here.
+    Native (``_core.splat_shading``, splat_shading.cpp);
     ``threads``: worker threads (0: all); ``progress(fraction, phase)`` may cancel
     (``illumap.Cancelled``)."""
     p = np.ascontiguousarray(positions, dtype=np.float64)
@@ -63,9 +66,17 @@ def splat_shading(positions, frames: dict, values, *, threads: int = 0,
         raise InputError("splat_shading: positions and values must be finite")
     f = {key: np.ascontiguousarray(frames[key], dtype=np.float64)
          for key in ("normal", "axis", "scale", "offset")}
+    k = min(SHADING_NEIGHBOURS, count - 1)
+    if (order is None) != (neighbours is None):
+        raise InputError("splat_shading: give both order and neighbours, or neither")
+    if neighbours is not None:
+        order = np.ascontiguousarray(order, dtype=np.int64)
+        neighbours = np.ascontiguousarray(neighbours, dtype=np.int64)
+        if order.shape != (count,) or neighbours.shape != (count, k):
+            raise InputError(f"splat_shading: order must be ({count},) and neighbours "
+                             f"({count}, {k}), got {order.shape} and {neighbours.shape}")
     out = np.asarray(_core.splat_shading(
-        p, f["normal"], f["axis"], f["scale"], f["offset"], v,
-        k=min(SHADING_NEIGHBOURS, count - 1), edge_cos=EDGE_COS, ridge=RIDGE, threads=threads,
+        p, f["normal"], f["axis"], f["scale"], f["offset"], v, order, neighbours, k=k, edge_cos=EDGE_COS, ridge=RIDGE, threads=threads,
         progress=progress))
     return {"base": np.ascontiguousarray(out[:, 0:3], dtype=np.float32),
             "dx": np.ascontiguousarray(out[:, 3:6], dtype=np.float32),
