@@ -34,6 +34,7 @@ import bpy
 import numpy as np
 
 from . import compat, point_splats
+from .splat_shading import SHADING_ATTRIBUTES, SHADING_NAMES, vector_attribute, write_shading
 from .kinds import RESULT_TYPES
 from .output import ATTRIBUTE, MARKER
 
@@ -48,14 +49,8 @@ SPLAT_MATERIAL_NAME = "Illumap Splat Illumination"
 #: point's splat (``point_splats.splat_frames``); written by ``build_mesh_preview`` and
 #: removed with the preview.
 SPLAT_ATTRIBUTES = {key: f".illumap_splat_{key}" for key in ("normal", "axis", "scale", "offset")}
-#: The hidden point attributes of each splat's linear shading (``point_splats.splat_shading``):
-#: its value at the ellipse's centre and its change along the instanced disc's X and Y.
-#: Written at every build (they follow the light); the node group copies them to the
-#: instances under ``SHADING_NAMES``, which the splats' material reads.
-SHADING_ATTRIBUTES = {key: f".illumap_splat_{key}" for key in ("base", "dx", "dy")}
-SHADING_NAMES = {key: f"illumap_splat_{key}" for key in ("base", "dx", "dy")}
-#: Shade each splat with its value's gradient (False: one flat value per splat).
-SPLAT_SHADING = True
+# Each splat's linear shading: hidden point attributes (``splat_shading.SHADING_ATTRIBUTES``)
+# that the node group copies to the instances under ``SHADING_NAMES`` for the material.
 #: Custom property on a scan's data: what its splats were computed from (``_fingerprint``),
 #: so that a refresh of an unchanged scan writes nothing again.
 SPLAT_KEY = "illumap_splats"
@@ -432,70 +427,25 @@ def write_splats(obj) -> bool:
     attrs = data.attributes
     if data.get(SPLAT_KEY) == key and all(
             name in attrs and len(attrs[name].data) == len(pos) for name in SPLAT_ATTRIBUTES.values()):
-        write_shading(obj, pos, key=key)
+        write_shading(obj, pos, frames_of(obj), key=key)
         return True
     frames = point_splats.ready_frames(key) or point_splats.splat_frames(pos, normals, radius,
                                                                          key=key)
     for name_key, name in SPLAT_ATTRIBUTES.items():
-        attr = attrs.get(name)
-        if attr is not None and (attr.data_type != "FLOAT_VECTOR" or attr.domain != "POINT"):
-            attrs.remove(attr)
-            attr = None
-        if attr is None:
-            attr = attrs.new(name, "FLOAT_VECTOR", "POINT")
-        attr.data.foreach_set("vector", frames[name_key].ravel())
+        vector_attribute(attrs, name).data.foreach_set("vector", frames[name_key].ravel())
     data[SPLAT_KEY] = key
     write_shading(obj, pos, frames, key=key)
     return True
 
 
-def _point_colours(obj, name) -> np.ndarray | None:
-    """The point-domain colour attribute ``name`` of ``obj`` as (n, 4) float32, or None."""
-    attr = obj.data.attributes.get(name)
-    if attr is None or attr.domain != "POINT" or attr.data_type not in ("FLOAT_COLOR",
-                                                                        "BYTE_COLOR"):
-        return None
-    out = np.empty(len(attr.data) * 4, np.float32)
-    attr.data.foreach_get("color", out)
-    return out.reshape(-1, 4)
-
-
-def _frames_of(obj) -> dict:
-    """The splats' frames as stored in ``obj``'s hidden attributes."""
+def frames_of(obj) -> dict:
+    """The splats' frames as stored in ``obj``'s hidden attributes ``SPLAT_ATTRIBUTES``."""
     frames = {}
     for key, name in SPLAT_ATTRIBUTES.items():
         out = np.empty(len(obj.data.attributes[name].data) * 3, np.float32)
         obj.data.attributes[name].data.foreach_get("vector", out)
         frames[key] = out.reshape(-1, 3)
     return frames
-
-
-def write_shading(obj, pos=None, frames=None, key: str | None = None) -> None:
-    """Write the splats' shading (``point_splats.splat_shading``) from ``obj``'s
-    ``illumination`` into its hidden attributes ``SHADING_ATTRIBUTES``: the light's gradient
-    across each splat, or flat splats (``SPLAT_SHADING`` off, or no illumination). ``key``:
-    the splats' fingerprint (their neighbours are reused where still kept)."""
-    values = _point_colours(obj, ATTRIBUTE)
-    if pos is None:
-        pos = _positions(obj).astype(np.float32)
-    if frames is None:
-        frames = _frames_of(obj)
-    if values is None:
-        values = np.zeros((len(pos), 4), np.float32)
-    if SPLAT_SHADING:
-        shading = point_splats.splat_shading(pos, frames, values, key)
-    else:
-        zero = np.zeros((len(pos), 3), np.float32)
-        shading = {"base": np.ascontiguousarray(values[:, :3]), "dx": zero, "dy": zero}
-    attrs = obj.data.attributes
-    for key, name in SHADING_ATTRIBUTES.items():
-        attr = attrs.get(name)
-        if attr is not None and (attr.data_type != "FLOAT_VECTOR" or attr.domain != "POINT"):
-            attrs.remove(attr)
-            attr = None
-        if attr is None:
-            attr = attrs.new(name, "FLOAT_VECTOR", "POINT")
-        attr.data.foreach_set("vector", np.ascontiguousarray(shading[key], np.float32).ravel())
 
 
 def remove_splats(data) -> None:
