@@ -76,7 +76,8 @@ def splat_shading(positions, frames: dict, values, *, order=None, neighbours=Non
             raise InputError(f"splat_shading: order must be ({count},) and neighbours "
                              f"({count}, {k}), got {order.shape} and {neighbours.shape}")
     out = np.asarray(_core.splat_shading(
-        p, f["normal"], f["axis"], f["scale"], f["offset"], v, order, neighbours, k=k, edge_cos=EDGE_COS, ridge=RIDGE, threads=threads,
+        p, f["normal"], f["axis"], f["scale"], f["offset"], v, order, neighbours, k=k,
+        edge_cos=EDGE_COS, ridge=RIDGE, threads=threads,
         progress=progress))
     return {"base": np.ascontiguousarray(out[:, 0:3], dtype=np.float32),
             "dx": np.ascontiguousarray(out[:, 3:6], dtype=np.float32),

@@ -42,10 +42,10 @@ splats' own error (docs/results.md).
 Measured (``pytest -s``), Blender 5.2, 12-sided splats: mesh room 1.17% ± 0.09%, 0 of 641
 lit blocks off (0.45% of lit pixels); room scan 2.52% ± 0.22%, 0.31% of blocks (0.77% of
 pixels); room scan with normals 2.34% ± 0.12%, 0 (0.53%); bunny scan 1.84% ± 0.12%, 0 of 1024
-(0.20%); with 16 sides 2.51%, 2.33%, 1.84%. Before the
-splats' shading and convex creases: room scan 2.62%, bunny 1.89%. Blender 5.0 (before): 1.15%,
-0; 2.62%, 0.31% (1.10% of pixels); 1.85%, 0. At the start of this issue's splat work the room
-scan gave 10.3% and 15.8% of blocks (docs/results.md). About 55–110 s for the four on 2 loaded cores.
+(0.20%); with 16 sides 2.51%, 2.33%, 1.84%. Before the splats' shading and convex creases:
+room scan 2.62%, bunny 1.89%. Blender 5.0 (before): 1.15%, 0; 2.62%, 0.31% (1.10% of pixels);
+1.85%, 0. At the start of this issue's splat work the room scan gave 10.3% and 15.8% of blocks
+(docs/results.md). About 55–110 s for the four on 2 loaded cores.
 """
 
 import bpy
