@@ -21,6 +21,12 @@ SPLATS_VERSION = 2
 #: a run then costs the main thread only the attributes' writing.
 _READY: dict[str, dict] = {}
 _READY_MAX = 8
+#: Each scan's splat neighbours (the frames' search: its order and neighbours, int32), by
+#: ``fingerprint``: the shading that every preview after a run writes (the light changed,
+#: the splats did not) fits each splat to them without a search of its own. The latest few
+#: scans only.
+_NEIGHBOURS: dict[str, tuple] = {}
+_NEIGHBOURS_MAX = 4
 
 
 def fingerprint(positions, normals=None, radius=None) -> str:
@@ -41,7 +47,7 @@ def prepare_frames(positions, normals=None, radius=None, *, progress=None) -> No
     ``Cancelled``)."""
     key = fingerprint(positions, normals, radius)
     frames = splat_frames(np.asarray(positions, dtype=np.float32), normals, radius,
-                          progress=progress)
+                          progress=progress, key=key)
     while len(_READY) >= _READY_MAX:
         _READY.pop(next(iter(_READY)))
     _READY[key] = frames
@@ -53,8 +59,28 @@ def ready_frames(key: str) -> dict | None:
 
 
 def splat_frames(positions, normals=None, radius=None, *, threads: int = 0,
-                 progress=None) -> dict:
+                 progress=None, key: str | None = None) -> dict:
     """Each point's splat: ``illumap.splats.splat_frames`` (float32 ``normal``, ``axis``,
-    ``scale``, ``offset`` (N, 3) and bool ``clipped`` (N,), in the positions' unit)."""
+    ``scale``, ``offset`` (N, 3) and bool ``clipped`` (N,), in the positions' unit). With
+    ``key`` (the scan's ``fingerprint``) its neighbours are kept for ``splat_shading``."""
     from illumap.splats import splat_frames as frames  # noqa: PLC0415 - native, loaded on use
-    return frames(positions, normals, radius, threads=threads, progress=progress)
+    out = frames(positions, normals, radius, threads=threads, progress=progress,
+                 with_neighbours=key is not None)
+    if key is not None:
+        order, neighbours = out.pop("order"), out.pop("neighbours")
+        if neighbours is not None:
+            while len(_NEIGHBOURS) >= _NEIGHBOURS_MAX:
+                _NEIGHBOURS.pop(next(iter(_NEIGHBOURS)))
+            _NEIGHBOURS[key] = (order.astype(np.int32), neighbours.astype(np.int32))
+    return out
+
+
+def splat_shading(positions, frames: dict, values, key: str | None = None) -> dict:
+    """Each splat's linear shading from the points' light ``values`` (n, 3 or 4):
+    ``illumap.splat_shading.splat_shading`` (float32 ``base``, ``dx``, ``dy`` (n, 3)), with
+    the neighbours the frames of ``key`` found where they are still kept."""
+    from illumap.splat_shading import splat_shading as shading  # noqa: PLC0415 - loaded on use
+    order, neighbours = _NEIGHBOURS.get(key, (None, None)) if key is not None else (None, None)
+    if neighbours is not None and len(neighbours) != len(positions):
+        order = neighbours = None
+    return shading(positions, frames, values, order=order, neighbours=neighbours)

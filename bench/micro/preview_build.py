@@ -11,8 +11,12 @@ build on the main thread, which only writes them. Beside them, the splats alone:
 (tests/core/splat_frames_reference.py) on the same points, with the scan's normals and with
 normals estimated, one after the other in this run (their ratio; wall and process CPU
 seconds, the CPU time less sensitive to other jobs on the machine), and the load average seen.
+With ``--baseline DIR`` (DIR holding an earlier ``illumap`` package, e.g. a copy of an
+earlier install's site-packages/illumap), the splats of that build too, on the same points in
+a subprocess right after this one's: its seconds, the ratio, and whether the frames are the
+same bit for bit.
 
-    .venv/bin/python bench/micro/preview_build.py [--splats-only] [1000000 ...]
+    .venv/bin/python bench/micro/preview_build.py [--splats-only] [--baseline DIR] [1000000 ...]
 
 Writes bench/results/preview_build.json for the default size (1M points, no arguments or
 exactly ``1000000``); other sizes go to bench/results/preview_build_<sizes>.json, so a quick
@@ -72,17 +76,51 @@ def scan(n: int, kind: str, radius: bool = True) -> bpy.types.Object:
 def timed(build, obj) -> dict:
     """Seconds to build the preview and to evaluate it once (the evaluated geometry read back:
     its points, or its instances)."""
-    t0 = time.perf_counter()
+    c0, t0 = time.process_time(), time.perf_counter()
     build()
-    t1 = time.perf_counter()
+    c1, t1 = time.process_time(), time.perf_counter()
     geometry = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).evaluated_geometry()
     shown = (len(geometry.pointcloud.points) if geometry.pointcloud is not None
              else len(geometry.instances_pointcloud().points))
     t2 = time.perf_counter()
-    return {"build_s": t1 - t0, "evaluate_s": t2 - t1, "total_s": t2 - t0, "shown": shown}
+    return {"build_s": t1 - t0, "build_cpu_s": c1 - c0, "evaluate_s": t2 - t1,
+            "total_s": t2 - t0, "shown": shown}
 
 
-def splats_alone(n: int) -> list[dict]:
+BASELINE_RUN = """
+import json, sys, time
+import numpy as np
+sys.path.insert(0, sys.argv[1])
+from illumap.splats import splat_frames
+n, given, out = int(sys.argv[2]), sys.argv[3] == "given", sys.argv[4]
+rng = np.random.default_rng(0)
+pts = np.column_stack([rng.random((n, 2)) * 10.0, np.zeros(n)]).astype(np.float32)
+normals = np.tile(np.float32([0, 0, 1]), (n, 1)) if given else None
+c0, t0 = time.process_time(), time.perf_counter()
+frames = splat_frames(pts, normals)
+c1, t1 = time.process_time(), time.perf_counter()
+np.savez(out, **frames)
+print(json.dumps({"wall_s": t1 - t0, "cpu_s": c1 - c0}))
+"""
+
+
+def baseline_splats(baseline: str, n: int, given: bool, new: dict) -> dict:
+    """The splats of the same n points by the illumap package in ``baseline`` (a
+    subprocess): its wall and CPU seconds, and whether its frames equal ``new``."""
+    import subprocess  # noqa: PLC0415
+    import tempfile  # noqa: PLC0415
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "frames.npz")
+        done = subprocess.run([sys.executable, "-c", BASELINE_RUN, baseline, str(n),
+                               "given" if given else "estimated", out],
+                              capture_output=True, text=True, check=True)
+        seconds = json.loads(done.stdout.strip().splitlines()[-1])
+        old = np.load(out)
+        seconds["identical"] = all(np.array_equal(old[k], new[k]) for k in new)
+    return seconds
+
+
+def splats_alone(n: int, baseline: str | None = None) -> list[dict]:
     """Seconds for the splats of n random points on the bench's floor (float32, as a scan
     gives them), native and numpy, with the given normals and with estimated ones; the largest
     difference between their frames."""
@@ -105,6 +143,16 @@ def splats_alone(n: int) -> list[dict]:
                "max_difference": diff,
                "clipped_differ": int((new["clipped"] != old["clipped"]).sum()),
                "load_before": load, "load_after": os.getloadavg()[0]}
+        if baseline:
+            base = baseline_splats(baseline, n, normals is not None, new)
+            row.update(baseline_s=base["wall_s"], baseline_cpu_s=base["cpu_s"],
+                       baseline_ratio=base["wall_s"] / row["native_s"],
+                       baseline_cpu_ratio=base["cpu_s"] / row["native_cpu_s"],
+                       baseline_identical=base["identical"])
+            print(f"{n:>9,} splats, normals {row['normals']:<9}: baseline {base['wall_s']:.2f} s "
+                  f"(CPU {base['cpu_s']:.2f} s): {row['baseline_ratio']:.2f}x the wall, "
+                  f"{row['baseline_cpu_ratio']:.2f}x the CPU of this build; frames "
+                  f"{'identical' if base['identical'] else 'DIFFER'}", flush=True)
         rows.append(row)
         print(f"{n:>9,} splats, normals {row['normals']:<9}: native {row['native_s']:.2f} s, "
               f"numpy {row['numpy_s']:.2f} s ({row['ratio']:.1f}x; CPU {row['native_cpu_s']:.2f} "
@@ -120,11 +168,16 @@ def main() -> None:
         print(__doc__)
         return
     only = "--splats-only" in args
+    baseline = None
+    if "--baseline" in args:
+        at = args.index("--baseline")
+        baseline = os.path.abspath(args[at + 1])
+        del args[at:at + 2]
     sizes = [int(a) for a in args if a != "--splats-only"] or [1_000_000]
     rows = []
     splat_rows = []
     for n in sizes:
-        splat_rows += splats_alone(n)
+        splat_rows += splats_alone(n, baseline)
         if only:
             continue
         for kind in ("MESH", "POINTCLOUD"):
@@ -148,9 +201,11 @@ def main() -> None:
                              "point_preview": points, "after_run": after,
                              "disc_preview": discs})
                 print(f"{n:>9,} {kind:<10} radius {'given' if radius else 'spacing'}: point "
-                      f"preview {points['total_s']:.2f} s (build {points['build_s']:.2f}, "
+                      f"preview {points['total_s']:.2f} s (build {points['build_s']:.2f}, CPU "
+                      f"{points['build_cpu_s']:.2f}, "
                       f"evaluate {points['evaluate_s']:.2f}); after a run "
-                      f"{after['total_s']:.2f} s on the main thread (the worker's splats "
+                      f"{after['total_s']:.2f} s on the main thread (build CPU "
+                      f"{after['build_cpu_s']:.2f} s; the worker's splats "
                       f"{after['worker_s']:.2f} s); disc preview "
                       f"{discs['total_s']:.2f} s; shown {points['shown']:,} / "
                       f"{discs['shown']:,}", flush=True)

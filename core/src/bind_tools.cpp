@@ -10,6 +10,7 @@
 #include "lamp_samples.hpp"
 #include "normals.hpp"
 #include "splat_frames.hpp"
+#include "splat_shading.hpp"
 #include "splats.hpp"
 
 namespace illumap::bindings {
@@ -336,8 +337,8 @@ void bind_point_tools(nb::module_& m) {
              double inlier, double share, double spread, double cover, double edge_cos,
              double on_plane, double edge_slack, double rim_shift, double rim_gap,
              double rim_along, double rim_reach, double parallel_cos, double crease_width,
-             int propagate, int rim_neighbours, bool crease_strips, int threads,
-             nb::handle progress) {
+             int propagate, int rim_neighbours, bool crease_strips, double convex_slack,
+             bool with_neighbours, int threads, nb::handle progress) {
               std::size_t n, rows;
               nb::object keep[3];
               const double* P = view<double>(points, "points", 2, 3, n, keep[0]);
@@ -359,6 +360,19 @@ void bind_point_tools(nb::module_& m) {
                   throw nb::value_error("propagate must be >= 0 and rim_neighbours >= 2");
               double* out;
               auto O = new_array(n, 13, &out);
+              std::int64_t *ord = nullptr, *nbr = nullptr;
+              nb::object order = nb::none(), neighbours = nb::none();
+              auto int_array = [](std::size_t rows, std::size_t cols, std::int64_t** data) {
+                  *data = new std::int64_t[std::max<std::size_t>(1, rows * cols)]();
+                  nb::capsule own(*data, [](void* q) noexcept {
+                      delete[] static_cast<std::int64_t*>(q);
+                  });
+                  return nb::cast(nb::ndarray<nb::numpy, std::int64_t>(*data, {rows, cols}, own));
+              };
+              if (with_neighbours) {
+                  order = int_array(n, 1, &ord);
+                  neighbours = int_array(n, std::size_t(k), &nbr);
+              }
               const PlaneFitOptions fit{inlier, share, spread};
               SplatFrameOptions options;
               options.cover = cover;
@@ -374,21 +388,77 @@ void bind_point_tools(nb::module_& m) {
               options.propagate = propagate;
               options.rim_neighbours = rim_neighbours;
               options.crease_strips = crease_strips;
+              options.convex_slack = convex_slack;
               run_released(threads, progress, [&](Context& ctx) {
-                  splat_frames(ctx, P, n, N, R, std::size_t(k), fit, options, out);
+                  splat_frames(ctx, P, n, N, R, std::size_t(k), fit, options, out, ord, nbr);
               });
-              return O;
+              if (with_neighbours) return nb::object(nb::make_tuple(O, order, neighbours));
+              return nb::cast(O);
           },
           nb::arg("points"), nb::arg("normals").none(), nb::arg("radii").none(), nb::kw_only(),
           nb::arg("k"), nb::arg("inlier"), nb::arg("share"), nb::arg("spread"), nb::arg("cover"),
           nb::arg("edge_cos"), nb::arg("on_plane"), nb::arg("edge_slack"), nb::arg("rim_shift"),
           nb::arg("rim_gap"), nb::arg("rim_along"), nb::arg("rim_reach"),
           nb::arg("parallel_cos"), nb::arg("crease_width"), nb::arg("propagate"),
-          nb::arg("rim_neighbours"), nb::arg("crease_strips"), nb::arg("threads") = 0,
+          nb::arg("rim_neighbours"), nb::arg("crease_strips"), nb::arg("convex_slack") = -1.0,
+          nb::arg("with_neighbours") = false, nb::arg("threads") = 0,
           nb::arg("progress") = nb::none(),
           "The preview's splat of each point (N, 13): normal (3), axis (3), semi-axes (a, b, "
           "a), offset (3), clipped (1 or 0), from its k nearest points; normals (N, 3, unit) and "
-          "radii (N,) the scan's own, or None. See splat_frames.hpp and illumap/splats.py.");
+          "radii (N,) the scan's own, or None; with_neighbours: (frames, order (N, 1) int64, "
+          "neighbours (N, k) int64, positions in that order). See splat_frames.hpp and "
+          "illumap/splats.py.");
+
+    m.def("splat_shading",
+          [](nb::handle points, nb::handle normals, nb::handle axes, nb::handle scales,
+             nb::handle offsets, nb::handle values, nb::handle order, nb::handle neighbours,
+             std::int64_t k, double edge_cos, double ridge, int threads, nb::handle progress) {
+              std::size_t n, rows;
+              nb::object keep[6];
+              const double* P = view<double>(points, "points", 2, 3, n, keep[0]);
+              const double* arrays[5];
+              const char* names[5] = {"normals", "axes", "scales", "offsets", "values"};
+              nb::handle given[5] = {normals, axes, scales, offsets, values};
+              for (int a = 0; a < 5; ++a) {
+                  arrays[a] = view<double>(given[a], names[a], 2, 3, rows, keep[a + 1]);
+                  if (rows != n)
+                      throw nb::value_error((std::string(names[a]) +
+                                             " must have one row per point").c_str());
+              }
+              if (k < 1 || std::size_t(k) >= n)
+                  throw nb::value_error(("splat_shading needs 1 <= k < the number of points (" +
+                                         std::to_string(n) + "), got k = " +
+                                         std::to_string(k)).c_str());
+              const std::int64_t *OR = nullptr, *NB = nullptr;
+              nb::object keep_nb[2];
+              if (order.is_none() != neighbours.is_none())
+                  throw nb::value_error("give both order and neighbours, or neither");
+              if (!neighbours.is_none()) {
+                  OR = view<std::int64_t>(order, "order", 1, 0, rows, keep_nb[0]);
+                  if (rows != n) throw nb::value_error("order must have one entry per point");
+                  NB = view<std::int64_t>(neighbours, "neighbours", 2, k, rows, keep_nb[1]);
+                  if (rows != n) throw nb::value_error("neighbours must have one row per point");
+              }
+              double* out;
+              auto O = new_array(n, 9, &out);
+              SplatShadingOptions options;
+              options.edge_cos = edge_cos;
+              options.ridge = ridge;
+              run_released(threads, progress, [&](Context& ctx) {
+                  splat_shading(ctx, P, arrays[0], arrays[1], arrays[2], arrays[3], arrays[4], n,
+                                std::size_t(k), options, out, OR, NB);
+              });
+              return O;
+          },
+          nb::arg("points"), nb::arg("normals"), nb::arg("axes"), nb::arg("scales"),
+          nb::arg("offsets"), nb::arg("values"), nb::arg("order").none(),
+          nb::arg("neighbours").none(), nb::kw_only(),
+          nb::arg("k"),
+          nb::arg("edge_cos"), nb::arg("ridge"), nb::arg("threads") = 0,
+          nb::arg("progress") = nb::none(),
+          "Each splat's linear shading (N, 9): the value at its centre (3) and its change per "
+          "unit of the instanced disc's X (3) and Y (3). See splat_shading.hpp and "
+          "illumap/splat_shading.py.");
 
     m.def("splat_fans",
           [](nb::handle points, nb::handle u, nb::handle v, nb::handle radii, nb::handle facing,

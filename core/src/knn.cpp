@@ -10,22 +10,90 @@
 
 namespace illumap {
 
-KdTree::KdTree(const double* p, std::size_t n) : idx(n), pts(3 * n) {
-    std::iota(idx.begin(), idx.end(), 0);
-    nodes.reserve(2 * (n / kLeaf + 1));
-    build(p, 0, std::uint32_t(n));
-    for (std::size_t i = 0; i < n; ++i)
-        for (int d = 0; d < 3; ++d) pts[3 * i + d] = p[3 * idx[i] + d];
+namespace {
+
+// The items the build sorts: each point with its input index. nth_element moves them as it
+// would move bare indices compared through the points (the same comparisons, the same
+// swaps), so the tree is the same, but each comparison reads the item at hand instead of a
+// point somewhere in memory.
+std::vector<KdTree::Item> items_of(Context* ctx, const double* p, std::size_t n) {
+    std::vector<KdTree::Item> items(n);
+    auto fill = [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i)
+            items[i] = KdTree::Item{{p[3 * i], p[3 * i + 1], p[3 * i + 2]}, std::int64_t(i)};
+    };
+    if (ctx)
+        parallel_for(*ctx, n, 65536, fill);
+    else
+        fill(0, n);
+    return items;
 }
 
-std::int32_t KdTree::build(const double* p, std::uint32_t b, std::uint32_t e) {
-    std::int32_t id = std::int32_t(nodes.size());
-    nodes.push_back(Node{b, e});
+}  // namespace
+
+KdTree::KdTree(const double* p, std::size_t n) : idx(n), pts(3 * n) {
+    std::vector<Item> items = items_of(nullptr, p, n);
+    nodes.reserve(2 * (n / kLeaf + 1));
+    build(items, nodes, 0, std::uint32_t(n), 0, nullptr);
+    unpack(nullptr, items);
+}
+
+KdTree::KdTree(Context& ctx, const double* p, std::size_t n) : idx(n), pts(3 * n) {
+    std::vector<Item> items = items_of(&ctx, p, n);
+    nodes.reserve(2 * (n / kLeaf + 1));
+    // The top levels serially, down to about four subtrees per worker (median splits: of
+    // equal size, so the workers share them evenly); each subtree then on its own, into its
+    // own nodes, spliced in afterwards. Each subtree's range of items is its own, and every
+    // split is the same nth_element on the same range as in the serial build.
+    const int threads = ctx.nthreads();
+    int depth = 0;
+    while (threads > 1 && (1 << depth) < 4 * threads && (n >> depth) > 16384) ++depth;
+    std::vector<Subtree> tasks;
+    build(items, nodes, 0, std::uint32_t(n), depth, depth > 0 ? &tasks : nullptr);
+    std::vector<std::vector<Node>> sub(tasks.size());
+    parallel_for(ctx, tasks.size(), 1, [&](std::size_t b, std::size_t e) {
+        for (std::size_t t = b; t < e; ++t)
+            build(items, sub[t], tasks[t].begin, tasks[t].end, 0, nullptr);
+    });
+    for (std::size_t t = 0; t < tasks.size(); ++t) {
+        // The subtree's root takes its placeholder's place; its other nodes follow the tree's.
+        const std::int32_t shift = std::int32_t(nodes.size()) - 1;
+        auto moved = [&](Node nd) {
+            if (nd.left >= 0) nd.left += shift, nd.right += shift;
+            return nd;
+        };
+        nodes[tasks[t].node] = moved(sub[t][0]);
+        for (std::size_t j = 1; j < sub[t].size(); ++j) nodes.push_back(moved(sub[t][j]));
+    }
+    unpack(&ctx, items);
+}
+
+void KdTree::unpack(Context* ctx, const std::vector<Item>& items) {
+    auto copy = [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+            idx[i] = items[i].index;
+            for (int d = 0; d < 3; ++d) pts[3 * i + d] = items[i].x[d];
+        }
+    };
+    if (ctx)
+        parallel_for(*ctx, items.size(), 65536, copy);
+    else
+        copy(0, items.size());
+}
+
+std::int32_t KdTree::build(std::vector<Item>& items, std::vector<Node>& out, std::uint32_t b,
+                           std::uint32_t e, int depth, std::vector<Subtree>* tasks) {
+    std::int32_t id = std::int32_t(out.size());
+    out.push_back(Node{b, e});
     if (e - b <= kLeaf) return id;
+    if (tasks && depth == 0) {
+        tasks->push_back(Subtree{id, b, e});
+        return id;
+    }
     double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
     for (std::uint32_t i = b; i < e; ++i)
         for (int d = 0; d < 3; ++d) {
-            double v = p[3 * idx[i] + d];
+            double v = items[i].x[d];
             lo[d] = std::min(lo[d], v);
             hi[d] = std::max(hi[d], v);
         }
@@ -34,54 +102,58 @@ std::int32_t KdTree::build(const double* p, std::uint32_t b, std::uint32_t e) {
         if (hi[d] - lo[d] > hi[dim] - lo[dim]) dim = d;
     if (!(hi[dim] > lo[dim])) return id;  // all coincident: keep as a (large) leaf
     std::uint32_t mid = b + (e - b) / 2;
-    std::nth_element(idx.begin() + b, idx.begin() + mid, idx.begin() + e,
-                     [&](std::int64_t u, std::int64_t v) { return p[3 * u + dim] < p[3 * v + dim]; });
-    double split = p[3 * idx[mid] + dim];
-    std::int32_t l = build(p, b, mid);
-    std::int32_t r = build(p, mid, e);
-    nodes[id].left = l;
-    nodes[id].right = r;
-    nodes[id].dim = dim;
-    nodes[id].split = split;
+    std::nth_element(items.begin() + b, items.begin() + mid, items.begin() + e,
+                     [dim](const Item& u, const Item& v) { return u.x[dim] < v.x[dim]; });
+    double split = items[mid].x[dim];
+    std::int32_t l = build(items, out, b, mid, depth - 1, tasks);
+    std::int32_t r = build(items, out, mid, e, depth - 1, tasks);
+    out[id].left = l;
+    out[id].right = r;
+    out[id].dim = dim;
+    out[id].split = split;
     return id;
 }
 
-void KdTree::Best::offer(double d2, std::int64_t i) {
-    if (h.size() < k) {
-        h.emplace_back(d2, i);
-        std::push_heap(h.begin(), h.end());
-    } else if (d2 < h.front().first) {
-        std::pop_heap(h.begin(), h.end());
-        h.back() = {d2, i};
-        std::push_heap(h.begin(), h.end());
-    }
-}
-
-void KdTree::search(std::int32_t id, const double q[3], Best& best) const {
+void KdTree::search(std::int32_t id, const double q[3], Best& best, double rd,
+                    double off[3]) const {
     const Node& nd = nodes[id];
     if (nd.left < 0) {
+        double worst = best.worst();
         for (std::uint32_t i = nd.begin; i < nd.end; ++i) {
             const double* p = &pts[3 * i];
             double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
-            best.offer(dx * dx + dy * dy + dz * dz, idx[i]);
+            const double d2 = dx * dx + dy * dy + dz * dz;
+            if (d2 < worst) {  // what offer would take (a tie with the worst is refused)
+                best.offer(d2, idx[i]);
+                worst = best.worst();
+            }
         }
         return;
     }
     double diff = q[nd.dim] - nd.split;
     std::int32_t near = diff < 0 ? nd.left : nd.right, far = diff < 0 ? nd.right : nd.left;
-    search(near, q, best);
-    if (diff * diff <= best.worst()) search(far, q, best);
+    search(near, q, best, rd, off);
+    // The far side only if its cell may hold a point nearer than the worst kept: every point
+    // there is at least rd_far away, and offer refuses any point not nearer than the worst,
+    // so skipping it changes nothing (the margin covers rd_far's rounding).
+    const double old = off[nd.dim];
+    const double rd_far = rd - old * old + diff * diff;
+    if (rd_far <= best.worst() * (1.0 + 1e-9)) {
+        off[nd.dim] = diff;
+        search(far, q, best, rd_far, off);
+        off[nd.dim] = old;
+    }
 }
 
 void KdTree::nearest(const double q[3], Best& best) const {
     best.h.clear();
-    if (!nodes.empty()) search(0, q, best);
-    std::sort_heap(best.h.begin(), best.h.end());
+    double off[3] = {0.0, 0.0, 0.0};
+    if (!nodes.empty()) search(0, q, best, 0.0, off);
 }
 
 void knn(Context& ctx, const double* points, std::size_t n, const double* queries, std::size_t m,
          std::size_t k, std::int64_t* indices, double* distances) {
-    KdTree tree(points, n);
+    KdTree tree(ctx, points, n);
     // Visit queries in Morton order: neighbouring queries touch the same tree nodes, so the
     // tree stays in cache (random query order is several times slower at millions of points).
     std::vector<std::uint64_t> key(m);

@@ -12,23 +12,52 @@
 namespace illumap {
 
 // A kd-tree over points (median splits on the widest axis), for repeated nearest-neighbour
-// queries (knn below, and the final gather's lookups of surfel values).
+// queries (knn below, the preview's splats, and the final gather's lookups of surfel values).
 class KdTree {
 public:
-    KdTree(const double* points, std::size_t n);  // points: n x 3, copied
+    KdTree(const double* points, std::size_t n);  // points: n x 3, copied; built serially
+    // The same tree (node for node: the same splits, so the same neighbours and the same
+    // choice among equidistant ones), its subtrees built on ctx's workers. Call it from the
+    // calling thread only (it polls ctx's monitor).
+    KdTree(Context& ctx, const double* points, std::size_t n);
 
-    // The k best (squared distance, index) pairs found so far: a bounded max-heap.
+    // The k best (squared distance, index) pairs found so far, sorted. A pair enters when
+    // its distance is below the worst kept one and evicts the largest (distance, index)
+    // pair: the same set, in the same order, as the bounded max-heap it replaced.
     struct Best {
         std::vector<std::pair<double, std::int64_t>> h;
         std::size_t k;
         explicit Best(std::size_t k_) : k(k_) { h.reserve(k_); }
         double worst() const {
-            return h.size() < k ? std::numeric_limits<double>::infinity() : h.front().first;
+            return h.size() < k ? std::numeric_limits<double>::infinity() : h.back().first;
         }
-        void offer(double d2, std::int64_t i);
+        void offer(double d2, std::int64_t i) {
+            const std::pair<double, std::int64_t> item{d2, i};
+            if (h.size() < k) {
+                h.push_back(item);
+            } else if (d2 < h.back().first) {
+                h.back() = item;
+            } else {
+                return;
+            }
+            // Insertion into the sorted list (k is small: a few neighbours).
+            std::size_t j = h.size() - 1;
+            for (; j > 0 && item < h[j - 1]; --j) h[j] = h[j - 1];
+            h[j] = item;
+        }
     };
     // Fills best with the best.k nearest points of q, nearest first.
     void nearest(const double q[3], Best& best) const;
+
+    struct Item {  // a point and its input index, as the build moves them
+        double x[3];
+        std::int64_t index;
+    };
+
+    // Tree order: the points in it (n x 3) and the input index of each; neighbouring
+    // entries lie close in space (a cache-friendly order to visit the points in).
+    const std::vector<double>& sorted_points() const { return pts; }
+    const std::vector<std::int64_t>& order() const { return idx; }
 
 private:
     static constexpr std::size_t kLeaf = 12;
@@ -41,8 +70,18 @@ private:
     std::vector<Node> nodes;
     std::vector<std::int64_t> idx;  // tree order -> original index
     std::vector<double> pts;        // points in tree order (x, y, z)
-    std::int32_t build(const double* p, std::uint32_t b, std::uint32_t e);
-    void search(std::int32_t id, const double q[3], Best& best) const;
+    struct Subtree {
+        std::int32_t node;
+        std::uint32_t begin, end;
+    };
+    // Builds items [b, e) into out (preorder); `depth` levels down (when tasks is given) a
+    // node is a placeholder for a subtree built later, listed in tasks.
+    static std::int32_t build(std::vector<Item>& items, std::vector<Node>& out, std::uint32_t b,
+                              std::uint32_t e, int depth, std::vector<Subtree>* tasks);
+    void unpack(Context* ctx, const std::vector<Item>& items);  // idx and pts from items
+    // rd: a lower bound on the squared distance from q to the node's cell (the sum of the
+    // squared offsets `off` past the splits that bound it along each axis).
+    void search(std::int32_t id, const double q[3], Best& best, double rd, double off[3]) const;
 };
 
 // points: n x 3, queries: m x 3 (row-major). Writes indices (m x k, int64) and Euclidean

@@ -68,12 +68,59 @@ double widest_gap(const double* points, V3 p, V3 nv, const std::int64_t* idx, st
     return best;
 }
 
+// Whether widest_gap(...) > wide (radians, in (0, pi); cos_wide its cosine), without the
+// atan2s and the sort: a gap that wide starts at a direction a when no other direction b lies
+// within [0, wide] counter-clockwise of a (cross(a, b) >= 0 and a cosine of at least
+// cos(wide); of directions that coincide, the last one listed starts the gap). Branch-free
+// over the pairs, a few neighbours.
+bool gap_wider(const double* points, V3 p, V3 nv, const std::int64_t* idx, std::size_t count,
+               std::size_t n, double wide, double cos_wide) {
+    constexpr std::size_t kFew = 32;
+    if (count > kFew) {
+        std::vector<double> angle;
+        return widest_gap(points, p, nv, idx, count, n, angle, nullptr) > wide;
+    }
+    double x[kFew], y[kFew], len[kFew];
+    const V3 u = tangent(nv), v = cross(nv, u);
+    for (std::size_t j = 0; j < count; ++j) {
+        const V3 d = at(points, checked(idx[j], n)) - p;
+        x[j] = dot(d, u), y[j] = dot(d, v);
+        len[j] = std::sqrt(x[j] * x[j] + y[j] * y[j]);
+        // A neighbour on the point itself has no direction: the angles decide as before.
+        if (!(len[j] > 0)) {
+            std::vector<double> angle;
+            return widest_gap(points, p, nv, idx, count, n, angle, nullptr) > wide;
+        }
+    }
+    for (std::size_t a = 0; a < count; ++a) {
+        bool closed = false;
+        for (std::size_t b = 0; b < count; ++b) {
+            const double c = x[a] * y[b] - y[a] * x[b], d = x[a] * x[b] + y[a] * y[b];
+            const bool ahead = (c > 0) | ((c == 0) & (b > a));
+            closed |= ahead & (d >= cos_wide * len[a] * len[b]);
+        }
+        if (!closed) return true;
+    }
+    return false;
+}
+
 // What clips a point: the distance in its plane to the line (inf: none; negative at a rim),
-// the unit direction toward it, and the clipping plane (normal, offset).
+// the unit direction toward it, the clipping plane (normal, offset), and whether that plane
+// is a rim's (its normal points out of the scan, not out of a surface).
 struct Clip {
     std::vector<double> c, w, pn, pd;
-    explicit Clip(std::size_t n) : c(n, kInf), w(3 * n, 0.0), pn(3 * n, 0.0), pd(n, 0.0) {}
+    std::vector<unsigned char> rim;
+    explicit Clip(std::size_t n)
+        : c(n, kInf), w(3 * n, 0.0), pn(3 * n, 0.0), pd(n, 0.0), rim(n, 0) {}
 };
+
+// How far (x r) a splat may reach past the line where the plane of normal pm cuts it, w the
+// direction toward that line: less past a convex crease, where the normals are oriented (see
+// SplatFrameOptions::convex_slack).
+double slack(const SplatFrameOptions& o, bool rim_plane, V3 pm, V3 w) {
+    const bool convex = o.convex_slack >= 0 && !rim_plane && dot(pm, w) > 0;
+    return convex ? o.convex_slack : o.edge_slack;
+}
 
 struct Inputs {
     const double *p, *nrm, *r;
@@ -88,10 +135,11 @@ void crease_line(const Inputs& in, const SplatFrameOptions& o, std::size_t i, Cl
     const V3 p = at(in.p, i), nv = at(in.nrm, i);
     const std::int64_t* row = in.nb + i * in.stride;
     bool any = false;
-    V3 centroid;
+    V3 centroid, all;
     double same = 0.0;
     for (std::size_t j = 0; j < in.k; ++j) {
         const std::size_t q = checked(row[j], in.n);
+        all = all + (at(in.p, q) - p);
         if (std::fabs(dot(nv, at(in.nrm, q))) < o.edge_cos) {
             any = true;
         } else {
@@ -100,7 +148,9 @@ void crease_line(const Inputs& in, const SplatFrameOptions& o, std::size_t i, Cl
         }
     }
     if (!any) return;
-    centroid = (1.0 / std::max(same, 1.0)) * centroid;
+    // No neighbour on the point's own surface (a corner whose normal is its faces' mean):
+    // it keeps the side where its neighbours are.
+    centroid = same > 0 ? (1.0 / same) * centroid : (1.0 / double(in.k)) * all;
     double best = kInf, best_side = 0.0, best_cos = 0.0, best_t = 1.0;
     std::size_t jbest = 0;
     for (std::size_t j = 0; j < in.k; ++j) {
@@ -152,6 +202,7 @@ void neighbours_planes(const Inputs& in, const SplatFrameOptions& o, std::size_t
     put(to.w.data(), i, (-sign(best_h) / best_t) * (pm - best_cos * nv));
     put(to.pn.data(), i, pm);
     to.pd[i] = from.pd[q];
+    to.rim[i] = from.rim[q];
 }
 
 // The ellipse of one point: its axis, semi-axes and offset, shrunk where a second line cuts
@@ -160,7 +211,8 @@ void ellipse(const Inputs& in, const SplatFrameOptions& o, std::size_t i, const 
              bool on_crease, double* frame) {
     const V3 p = at(in.p, i), nv = at(in.nrm, i);
     const double r = in.r[i];
-    const double reach = clip.c[i] + o.edge_slack * r;
+    const double reach =
+        clip.c[i] + slack(o, clip.rim[i], at(clip.pn.data(), i), at(clip.w.data(), i)) * r;
     bool clipped = reach < r;
     double a = r, b = clipped ? 0.5 * (r + reach) : r;
     const V3 w = clipped ? at(clip.w.data(), i) : V3{};
@@ -169,16 +221,17 @@ void ellipse(const Inputs& in, const SplatFrameOptions& o, std::size_t i, const 
     axis = (1.0 / std::max(norm(axis), 1e-300)) * axis;
     if (clipped) {
         const std::int64_t* row = in.nb + i * in.stride;
-        V3 inward;
+        V3 inward, all;
         double own = 0.0;
         for (std::size_t j = 0; j < in.k; ++j) {
             const std::size_t q = std::size_t(row[j]);
+            all = all + (at(in.p, q) - p);
             if (std::fabs(dot(nv, at(in.nrm, q))) >= o.edge_cos) {
                 inward = inward + (at(in.p, q) - p);
                 own += 1.0;
             }
         }
-        inward = (1.0 / std::max(own, 1.0)) * inward;
+        inward = own > 0 ? (1.0 / own) * inward : (1.0 / double(in.k)) * all;
         const V3 bx = cross(nv, axis);
         const bool cut = w.x != 0 || w.y != 0 || w.z != 0;
         double shrink = kInf;
@@ -196,7 +249,7 @@ void ellipse(const Inputs& in, const SplatFrameOptions& o, std::size_t i, const 
             const double along = a * dot(axis, wl), across = b * dot(bx, wl);
             const double support = dot(offset, wl) + std::sqrt(along * along + across * across);
             usable = usable && (cut ? std::fabs(dot(w, wl)) < o.parallel_cos : off);
-            const double limit = dist + o.edge_slack * r;
+            const double limit = dist + slack(o, clip.rim[q], pm, wl) * r;
             shrink = std::min(shrink, usable && support > limit ? limit / std::max(support, 1e-300) : 1.0);
         }
         a *= shrink, b *= shrink;
@@ -212,43 +265,16 @@ void ellipse(const Inputs& in, const SplatFrameOptions& o, std::size_t i, const 
     std::copy(row, row + 10, frame);
 }
 
-// The points in Morton order: consecutive points share most neighbours, so the passes below
-// find them in cache (in a scan's random order every neighbour is a cache miss).
-std::vector<std::size_t> morton_order(const double* points, std::size_t n) {
-    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-    for (std::size_t i = 0; i < n; ++i)
-        for (int d = 0; d < 3; ++d) {
-            lo[d] = std::min(lo[d], points[3 * i + d]);
-            hi[d] = std::max(hi[d], points[3 * i + d]);
-        }
-    const double ext = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-300});
-    auto spread = [](std::uint64_t v) {
-        std::uint64_t r = 0;
-        for (int b = 0; b < 21; ++b) r |= ((v >> b) & 1u) << (3 * b);
-        return r;
-    };
-    std::vector<std::pair<std::uint64_t, std::size_t>> keyed(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        std::uint64_t c[3];
-        for (int d = 0; d < 3; ++d) {
-            const double v = (points[3 * i + d] - lo[d]) / ext * 2097151.0;
-            c[d] = std::uint64_t(std::min(2097151.0, std::max(0.0, v)));
-        }
-        keyed[i] = {spread(c[0]) << 2 | spread(c[1]) << 1 | spread(c[2]), i};
-    }
-    std::sort(keyed.begin(), keyed.end());
-    std::vector<std::size_t> order(n);
-    for (std::size_t i = 0; i < n; ++i) order[i] = keyed[i].second;
-    return order;
-}
-
 // values (rows of `width`) in `order`: row t is values' row order[t] (none without values).
-std::vector<double> reordered(const double* values, std::size_t width,
-                              const std::vector<std::size_t>& order) {
+std::vector<double> reordered(Context& ctx, const double* values, std::size_t width,
+                              const std::vector<std::int64_t>& order) {
     if (!values) return {};
     std::vector<double> out(width * order.size());
-    for (std::size_t t = 0; t < order.size(); ++t)
-        std::copy(values + width * order[t], values + width * (order[t] + 1), out.data() + width * t);
+    parallel_for(ctx, order.size(), 65536, [&](std::size_t b, std::size_t e) {
+        for (std::size_t t = b; t < e; ++t)
+            std::copy(values + width * order[t], values + width * (order[t] + 1),
+                      out.data() + width * t);
+    });
     return out;
 }
 
@@ -293,30 +319,26 @@ void rim_test(Context& ctx, const KdTree& tree, const std::int64_t* rank, const 
 
 void splat_frames(Context& ctx, const double* points_in, std::size_t n, const double* normals_in,
                   const double* radii_in, std::size_t k, const PlaneFitOptions& fit,
-                  const SplatFrameOptions& o, double* frames) {
+                  const SplatFrameOptions& o, double* frames, std::int64_t* order_out,
+                  std::int64_t* neighbours) {
     if (k < 2 || k + 1 > n) throw std::invalid_argument("splat_frames needs 2 <= k < n");
     const std::size_t k1 = k + 1;
     ctx.set_phase("splats", 0.0, 0.1);
     checkpoint(ctx, 0.0);
     // One tree for both searches (the k nearest of every point, the rim candidates' wider
-    // one), built while the Morton order is sorted. The passes work on copies in that order
-    // (point t is the input's order[t], neighbours renumbered): a scan in random order would
-    // make every neighbour a cache miss. The neighbours themselves, and so every result,
-    // are those of the input's order.
-    std::unique_ptr<KdTree> tree;
-    std::vector<std::size_t> order;
-    parallel_for(ctx, 2, 1, [&](std::size_t b, std::size_t) {
-        if (b == 0)
-            tree = std::make_unique<KdTree>(points_in, n);
-        else
-            order = morton_order(points_in, n);
-    });
+    // one). The passes work on copies in the tree's order (point t is the input's order[t],
+    // neighbours renumbered): neighbouring points are close in memory there, where a scan's
+    // own order would make every neighbour a cache miss. The neighbours themselves, and so
+    // every result, are those of the input's order.
+    const KdTree tree(ctx, points_in, n);
+    const std::vector<std::int64_t>& order = tree.order();
     std::vector<std::int64_t> rank(n);
-    for (std::size_t t = 0; t < n; ++t) rank[order[t]] = std::int64_t(t);
-    const std::vector<double> sorted = reordered(points_in, 3, order),
-                              sorted_normals = reordered(normals_in, 3, order),
-                              sorted_radii = reordered(radii_in, 1, order);
-    const double* points = sorted.data();
+    parallel_for(ctx, n, 65536, [&](std::size_t b, std::size_t e) {
+        for (std::size_t t = b; t < e; ++t) rank[std::size_t(order[t])] = std::int64_t(t);
+    });
+    const std::vector<double> sorted_normals = reordered(ctx, normals_in, 3, order),
+                              sorted_radii = reordered(ctx, radii_in, 1, order);
+    const double* points = tree.sorted_points().data();
     const double* given_radii = radii_in ? sorted_radii.data() : nullptr;
     auto each = [&](double base, double span, auto&& fn) {
         ctx.set_phase("splats", base, span);
@@ -330,7 +352,7 @@ void splat_frames(Context& ctx, const double* points_in, std::size_t n, const do
     parallel_for(ctx, n, 2048, [&](std::size_t b, std::size_t e) {
         KdTree::Best best(k1);
         for (std::size_t i = b; i < e; ++i) {
-            tree->nearest(points + 3 * i, best);
+            tree.nearest(points + 3 * i, best);
             for (std::size_t j = 0; j < k1; ++j) nearest_[i * k1 + j] = rank[best.h[j].second];
             far[i] = std::sqrt(best.h[k].first);
         }
@@ -347,6 +369,7 @@ void splat_frames(Context& ctx, const double* points_in, std::size_t n, const do
     // Pass 1: the radii; the rim candidates (a gap wider than rim_gap among the k nearest).
     std::vector<double> radii(n);
     std::vector<unsigned char> candidate(n, 0);
+    const double cos_rim_gap = std::cos(o.rim_gap);
     each(0.45, 0.1, [&](std::size_t i) {
         const std::int64_t* row = nearest + i * k1;
         double r;
@@ -358,19 +381,19 @@ void splat_frames(Context& ctx, const double* points_in, std::size_t n, const do
             r = o.cover * (sum / double(k1));
         }
         radii[i] = r > 0 ? r : std::max(far[i], 1e-6);
-        thread_local std::vector<double> angle;
-        candidate[i] = widest_gap(points, at(points, i), at(normals, i), row + 1, k, n, angle,
-                                  nullptr) > o.rim_gap;
+        candidate[i] = gap_wider(points, at(points, i), at(normals, i), row + 1, k, n, o.rim_gap,
+                                 cos_rim_gap);
     });
     const Inputs in{points, normals, radii.data(), n, nearest + 1, k, k1};
     // Pass 2: the candidates' wide test (rim, and the direction out of the scan); creases.
     Clip clip(n);
-    std::vector<unsigned char> rim0(n, 0), rim(n, 0);
+    std::vector<unsigned char> rim0(n, 0);
     std::vector<double> facing(3 * n, 0.0);
-    rim_test(ctx, *tree, rank.data(), points, normals, n, candidate, o, rim0, facing);
+    rim_test(ctx, tree, rank.data(), points, normals, n, candidate, o, rim0, facing);
     each(0.7, 0.07, [&](std::size_t i) { crease_line(in, o, i, clip); });
     std::vector<unsigned char> on_crease(n, 0);
-    // Pass 3: a rim point needs a rim neighbour facing the same way; its line clips it.
+    // Pass 3: a rim point needs a rim neighbour facing the same way; then its line clips it
+    // (its own rows of clip only: no other point reads them in this pass).
     each(0.77, 0.03, [&](std::size_t i) {
         on_crease[i] = o.crease_strips && clip.c[i] == 0.0;
         if (!rim0[i]) return;
@@ -380,28 +403,32 @@ void splat_frames(Context& ctx, const double* points_in, std::size_t n, const do
             const std::size_t q = std::size_t(in.nb[i * k1 + j]);
             along = rim0[q] && dot(f, at(facing.data(), q)) > o.rim_along;
         }
-        rim[i] = along && o.rim_reach * radii[i] < clip.c[i];
-    });
-    for (std::size_t i = 0; i < n; ++i) {
-        if (!rim[i]) continue;
-        const V3 out = at(facing.data(), i);
+        if (!(along && o.rim_reach * radii[i] < clip.c[i])) return;
         const double c = (o.rim_reach - o.edge_slack) * radii[i];
         clip.c[i] = c;
-        put(clip.w.data(), i, out);
-        put(clip.pn.data(), i, out);
-        clip.pd[i] = dot(out, at(points, i) + c * out);
-    }
+        put(clip.w.data(), i, f);
+        put(clip.pn.data(), i, f);
+        clip.pd[i] = dot(f, at(points, i) + c * f);
+        clip.rim[i] = 1;
+    });
     // Pass 4: the planes that clipped the neighbours clip the point too.
     for (int round = 0; round < o.propagate; ++round) {
-        Clip next = clip;
-        each(0.8, 0.08, [&](std::size_t i) { neighbours_planes(in, o, i, clip, next); });
+        Clip next(n);
+        each(0.8, 0.08, [&](std::size_t i) {
+            next.c[i] = clip.c[i], next.pd[i] = clip.pd[i], next.rim[i] = clip.rim[i];
+            put(next.w.data(), i, at(clip.w.data(), i));
+            put(next.pn.data(), i, at(clip.pn.data(), i));
+            neighbours_planes(in, o, i, clip, next);
+        });
         clip = std::move(next);
     }
     // Pass 5: the ellipses.
     each(0.88, 0.12, [&](std::size_t i) {
-        double* frame = frames + 13 * order[i];
+        double* frame = frames + 13 * std::size_t(order[i]);
         std::copy(normals + 3 * i, normals + 3 * i + 3, frame);
         ellipse(in, o, i, clip, on_crease[i], frame + 3);
+        if (order_out) order_out[i] = order[i];
+        if (neighbours) std::copy(in.nb + i * k1, in.nb + i * k1 + k, neighbours + k * i);
     });
 }
 

@@ -20,6 +20,8 @@ EDGE_COS = 0.9
 ON_PLANE = 0.05
 #: Splats reach past the line that clips them by this fraction of their radius.
 EDGE_SLACK = 0.15
+#: ... past a convex crease's line when the normals were given (oriented).
+CONVEX_SLACK = 0.05
 #: The neighbours' centroid this far off the point (in units of the neighbour distance) marks
 #: a rim ...
 RIM_SHIFT = 0.2
@@ -115,6 +117,9 @@ def _crease_lines(p, n, nb, sub, other):
     near = np.linalg.norm(offsets, axis=2)
     same = ~other
     centroid = (offsets * same[..., None]).sum(1) / np.maximum(same.sum(1), 1)[:, None]
+    # No neighbour on its own surface (a corner whose normal is its faces' mean): the side
+    # where its neighbours are.
+    centroid = np.where(same.any(1)[:, None], centroid, offsets.mean(1))
     on_plane = np.abs(h) <= ON_PLANE * near
     # A point on the neighbour's plane keeps the side its own surface's neighbours are on.
     side = np.where(on_plane, ON_PLANE * near * np.sign(np.einsum("ikc,ic->ik", m, centroid)), h)
@@ -143,7 +148,13 @@ def _neighbours_planes(p, n, nb, sub, has, plane_n, plane_d):
     rows = np.arange(len(sub))
     w = -np.sign(h[rows, j])[:, None] * (pm[rows, j] - cos[rows, j][:, None] * ns) \
         / t_len[rows, j][:, None]
-    return c[rows, j], w, pm[rows, j], plane_d[nbs][rows, j]
+    return c[rows, j], w, pm[rows, j], plane_d[nbs][rows, j], j
+
+
+def _slack(oriented, rim_plane, plane_n, w):
+    """EDGE_SLACK, or CONVEX_SLACK past a convex crease where normals are oriented."""
+    convex = oriented & ~rim_plane & (np.einsum("...c,...c->...", plane_n, w) > 0)
+    return np.where(convex, CONVEX_SLACK, EDGE_SLACK)
 
 
 def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> dict:
@@ -205,6 +216,7 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
     w[rim] = out
     plane_n[rim] = out
     plane_d[rim] = np.einsum("ic,ic->i", out, p[rim] + c_min[rim][:, None] * out)
+    rim_plane = rim.copy()    # which planes are rims' (no convex crease there)
     # The planes that clipped the neighbours clip the point too: one a few spacings from an
     # edge or a rim may have no point of the other surface (or no rim point) among its own
     # neighbours, yet its splat reaches over. Each neighbour's clipping plane is tried as a
@@ -214,12 +226,17 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
         sub = np.flatnonzero(has[nb].any(axis=1))
         if not len(sub):
             break
-        c2, w2, n2, d2 = _neighbours_planes(p, n, nb, sub, has, plane_n, plane_d)
+        c2, w2, n2, d2, j2 = _neighbours_planes(p, n, nb, sub, has, plane_n, plane_d)
         better = c2 < c_min[sub]
         moved = sub[better]
+        from_rim = rim_plane[nb[sub, j2]][better]
         c_min[moved], w[moved] = c2[better], w2[better]
         plane_n[moved], plane_d[moved] = n2[better], d2[better]
-    reach = c_min + EDGE_SLACK * r
+        rim_plane[moved] = from_rim
+    # Past a convex crease (the clipping surface's normal points beyond the line) splats
+    # reach CONVEX_SLACK × r only, where the normals were given (oriented).
+    oriented = normals is not None
+    reach = c_min + _slack(oriented, rim_plane, plane_n, w) * r
     clipped = reach < r
     reach = np.where(clipped, reach, r)
     a = r
@@ -235,7 +252,7 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
     sub = np.flatnonzero(clipped)
     if len(sub):
         shrink = _second_lines(p, n, nb, sub, has, plane_n, plane_d, axis, a, b, offset, r,
-                               np.where(clipped[:, None], w, 0.0))
+                               np.where(clipped[:, None], w, 0.0), oriented, rim_plane)
         a, b = a.copy(), b.copy()
         a[sub] *= shrink
         b[sub] *= shrink
@@ -246,7 +263,8 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
     return _pack(n, axis, np.stack([a, b, a], 1), offset, clipped | on_crease)
 
 
-def _second_lines(p, n, nb, sub, has, plane_n, plane_d, axis, a, b, offset, r, primary):
+def _second_lines(p, n, nb, sub, has, plane_n, plane_d, axis, a, b, offset, r, primary,
+                  oriented, rim_plane):
     """For the points ``sub``: the factor (≤ 1) by which each ellipse shrinks about its point
     so that it reaches no further than ``EDGE_SLACK`` × r past any clipping plane of its own or
     of its neighbours (the line where that plane cuts the point's plane); ``primary``: the
@@ -255,6 +273,7 @@ def _second_lines(p, n, nb, sub, has, plane_n, plane_d, axis, a, b, offset, r, p
     near_offsets = p[nb[sub]] - ps[:, None, :]
     own = (np.abs(np.einsum("ic,ikc->ik", ns, n[nb[sub]])) >= EDGE_COS)[..., None]
     inward = (near_offsets * own).sum(axis=1) / np.maximum(own.sum(axis=1), 1)
+    inward = np.where(own.any(axis=1), inward, near_offsets.mean(axis=1))
     cand = np.concatenate([sub[:, None], nb[sub]], axis=1)              # (S, k + 1)
     pm, pd = plane_n[cand], plane_d[cand]
     cos = np.einsum("ic,ikc->ik", ns, pm)
@@ -280,7 +299,7 @@ def _second_lines(p, n, nb, sub, has, plane_n, plane_d, axis, a, b, offset, r, p
     cut = np.any(primary[sub] != 0, axis=1)[:, None]
     across = np.abs(np.einsum("ic,ikc->ik", primary[sub], w)) < PARALLEL_COS
     usable &= np.where(cut, across, np.abs(h) > ON_PLANE * near)
-    limit = dist + EDGE_SLACK * r[sub, None]
+    limit = dist + _slack(oriented, rim_plane[cand], pm, w) * r[sub, None]
     scale = np.where(usable & (support > limit), limit / np.maximum(support, 1e-300), 1.0)
     return scale.min(axis=1)
 

@@ -83,6 +83,20 @@ def test_frames_do_not_depend_on_threads():
         assert np.array_equal(one[key], two[key]), key
 
 
+@pytest.mark.parametrize("given", [False, True], ids=["estimated normals", "given normals"])
+def test_frames_on_a_tied_grid_do_not_depend_on_threads(given):
+    """A regular grid (every point's neighbours tie in distance) large enough that its tree is
+    built on two workers: the same frames as on one, bit for bit, rims included."""
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(260), np.arange(260)))
+    p = np.column_stack([i, j, np.zeros(len(i))]) * 0.01
+    normals = np.tile([0.0, 0.0, 1.0], (len(p), 1)) if given else None
+    one = splats.splat_frames(p, normals, threads=1)
+    two = splats.splat_frames(p, normals, threads=2)
+    for key in one:
+        assert np.array_equal(one[key], two[key]), key
+    assert one["clipped"].any()  # the grid's rims are cut
+
+
 def test_rims_and_creases_are_cut():
     """On the box corner, splats along the open rims and at the creases are clipped, those in
     the middle of a face are whole discs."""
@@ -112,3 +126,73 @@ def test_bad_input_is_named():
         splats.splat_frames(np.zeros((10, 2)))
     with pytest.raises(illumap.InputError, match="normals"):
         splats.splat_frames(np.zeros((10, 3)), normals=np.zeros((9, 3)))
+
+
+def welded_box(rng, cell=0.02):
+    """The five faces (no bottom) of a 0.3 m box as jittered 2 cm grids (edge points moved
+    along their edge), each with its face's outward normal; the corners shared by three faces
+    (a welded mesh's vertices) with the mean of those faces' normals."""
+    lo, hi = np.zeros(3), np.full(3, 0.3)
+    points, normals = [], []
+    m = round(0.3 / cell)
+    s, t = (a.ravel() for a in np.meshgrid(np.arange(m + 1), np.arange(m + 1)))
+    inner = lambda a: (a > 0) & (a < m)  # noqa: E731
+    s = s + np.where(inner(s), rng.uniform(-0.35, 0.35, len(s)), 0.0)
+    t = t + np.where(inner(t), rng.uniform(-0.35, 0.35, len(t)), 0.0)
+    corner = ~inner(np.round(s)) & ~inner(np.round(t))
+    for axis in range(3):
+        for end in ((0, 1) if axis < 2 else (1,)):
+            q = np.empty((len(s), 3))
+            q[:, axis] = (lo if end == 0 else hi)[axis]
+            u, v = [a for a in range(3) if a != axis]
+            q[:, u], q[:, v] = s * cell, t * cell
+            n = np.zeros((len(s), 3))
+            n[:, axis] = 1.0 if end else -1.0
+            keep = ~corner
+            points.append(q[keep])
+            normals.append(n[keep])
+    c = np.array([[x, y, 0.3] for x in (0, 0.3) for y in (0, 0.3)]
+                 + [[x, y, 0.0] for x in (0, 0.3) for y in (0, 0.3)])
+    mean = np.where(c > 0.15, 1.0, -1.0) * np.array([1.0, 1.0, 1.0])
+    mean[4:, 2] = 0.0  # the bottom corners: two side faces only
+    points.append(c)
+    normals.append(mean / np.linalg.norm(mean, axis=1, keepdims=True))
+    return np.concatenate(points), np.concatenate(normals)
+
+
+def outside_reach(frames, p):
+    """How far each splat (its ellipse, in its plane) reaches outside the box [0, 0.3]^3, m."""
+    n = frames["normal"].astype(float)
+    ax = frames["axis"].astype(float)
+    bx = np.cross(n, ax)
+    centre = p + frames["offset"]
+    a, b = frames["scale"][:, 0:1], frames["scale"][:, 1:2]
+    reach = np.zeros(len(p))
+    for d in range(3):
+        extent = np.sqrt((a[:, 0] * ax[:, d]) ** 2 + (b[:, 0] * bx[:, d]) ** 2)
+        reach = np.maximum(reach, centre[:, d] + extent - 0.3)
+        if d < 2:
+            reach = np.maximum(reach, -(centre[:, d] - extent))
+    return reach
+
+
+def test_given_normals_splats_stay_on_a_boxs_convex_edges():
+    """A box scanned with outward normals (corner points with their faces' mean): along its
+    edges no splat stands out of the box by more than the convex slack (CONVEX_SLACK × r);
+    seen from a little above, anything standing up past the top's edge hides a strip of the
+    top, as the concave slack (EDGE_SLACK, 3 × as far) did. The corner points themselves,
+    with no neighbour on their own surface, are cut too (they were whole discs, tilted out of
+    the box by most of their radius); within a radius of a corner, where three faces' lines
+    meet, splats still reach out up to half a radius (measured 0.46 r)."""
+    p, normals = welded_box(np.random.default_rng(6))
+    frames = splats.splat_frames(p, normals)
+    radius = np.median(frames["scale"][~frames["clipped"], 0])
+    over = outside_reach(frames, p) / radius
+    box_corners = np.array([[x, y, z] for x in (0, .3) for y in (0, .3) for z in (0, .3)])
+    from_corner = np.linalg.norm(p[:, None] - box_corners[None], axis=2).min(1)
+    along_edges = from_corner > radius
+    assert np.all(over[along_edges] <= splats.CONVEX_SLACK * 1.02), over[along_edges].max()
+    assert splats.CONVEX_SLACK < splats.EDGE_SLACK
+    corners = np.flatnonzero(from_corner == 0)
+    assert len(corners) == 8 and frames["clipped"][corners].all()
+    assert over[corners].max() < 0.3

@@ -164,6 +164,12 @@ PREVIEW_EDGE_COS = 0.9
 ON_PLANE = 0.05
 #: Splats reach past the line that clips them by this fraction of their radius.
 EDGE_SLACK = 0.15
+#: ... past a convex crease's line (the clipping surface's normal points beyond it) where the
+#: normals were given: those are oriented (a scanner's face out of the surfaces), and what
+#: reaches past a convex edge stands out of the surface and, where the other face is seen at
+#: a grazing angle, hides a strip of it (the top of a box seen from a little above). Estimated
+#: normals are unoriented: convex and concave creases look alike, and EDGE_SLACK holds.
+CONVEX_SLACK = 0.05
 #: The neighbours' centroid this far off the point (in units of the farthest one's distance)
 #: marks a rim ...
 RIM_SHIFT = 0.2
@@ -196,7 +202,7 @@ def _pack(n, axis, scale, offset, clipped) -> dict:
 
 
 def splat_frames(positions, normals=None, radius=None, *, threads: int = 0,
-                 progress=None) -> dict:
+                 progress=None, with_neighbours: bool = False) -> dict:
     """Each scan point's preview splat (the rules above) as float32 arrays: ``normal`` (N, 3,
     unit), ``axis`` (N, 3: the in-plane direction of the ellipse's first axis), ``scale``
     (N, 3: the semi-axes along ``axis`` and across it, and the first again; in the positions'
@@ -218,8 +224,9 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0,
     if k < 2:
         n = np.tile([0.0, 0.0, 1.0], (count, 1)) if normals is None else np.asarray(normals)
         r = np.full(count, 0.01) if radius is None else np.asarray(radius, np.float64)
-        return _pack(n, _tangent(n), np.stack([r, r, r], 1), np.zeros((count, 3)),
-                     np.zeros(count, bool))
+        small = _pack(n, _tangent(n), np.stack([r, r, r], 1), np.zeros((count, 3)),
+                      np.zeros(count, bool))
+        return {**small, "order": None, "neighbours": None} if with_neighbours else small
 
     if not np.isfinite(p).all():
         bad = int(np.flatnonzero(~np.isfinite(p).all(axis=1))[0])
@@ -232,12 +239,18 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0,
                                           [0.0, 0.0, 1.0]))
     if radius is not None:
         radius = np.ascontiguousarray(radius, dtype=np.float64)
-    frames = np.asarray(_core.splat_frames(
+    result = _core.splat_frames(
         p, n, radius, k=k, inlier=PLANE_INLIER, share=PLANE_SHARE, spread=PLANE_SPREAD,
         cover=PREVIEW_COVER, edge_cos=PREVIEW_EDGE_COS, on_plane=ON_PLANE, edge_slack=EDGE_SLACK,
         rim_shift=RIM_SHIFT, rim_gap=RIM_GAP, rim_along=RIM_ALONG, rim_reach=RIM_REACH,
         parallel_cos=PARALLEL_COS, crease_width=CREASE_WIDTH, propagate=PROPAGATE,
-        rim_neighbours=RIM_NEIGHBOURS, crease_strips=normals is None, threads=threads,
-        progress=progress))
-    return _pack(frames[:, 0:3], frames[:, 3:6], frames[:, 6:9], frames[:, 9:12],
-                 frames[:, 12] > 0.5)
+        rim_neighbours=RIM_NEIGHBOURS, crease_strips=normals is None,
+        convex_slack=CONVEX_SLACK if normals is not None else -1.0,
+        with_neighbours=with_neighbours, threads=threads, progress=progress)
+    frames = np.asarray(result[0] if with_neighbours else result)
+    packed = _pack(frames[:, 0:3], frames[:, 3:6], frames[:, 6:9], frames[:, 9:12],
+                   frames[:, 12] > 0.5)
+    if with_neighbours:
+        packed["order"] = np.asarray(result[1])[:, 0]
+        packed["neighbours"] = np.asarray(result[2])
+    return packed
