@@ -892,7 +892,7 @@ def receive(job: Job, result: "Result", progress: Progress | None = None, *,
             gathered = cached_gather(
                 lambda rows, rays=None: full_gather(rows, rays),
                 points, normals, groups=shared, accuracy=s.gather_cache, max_reach=occ.extent,
-                min_reach=MIN_REACH_SHARE * field_.reach)
+                min_reach=MIN_REACH_SHARE * field_.reach, progress=report)
             if timed:
                 lap("gather")
         else:

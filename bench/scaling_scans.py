@@ -39,6 +39,35 @@ CHART = os.path.join(REPO, "docs", "images", "scaling_scans.png")
 REFERENCE = os.path.join(REPO, "bench", "results", "reference", "cornell.npz")
 
 
+class PhaseMemory:
+    """Peak resident memory per phase: a thread samples the process's RSS every ``every``
+    seconds and charges it to the phase the run's progress last named."""
+
+    def __init__(self, every: float = 0.1):
+        import threading
+        self.phase, self.peaks, self._every = "prepare", {}, every
+        self._page = os.sysconf("SC_PAGE_SIZE")
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._loop, daemon=True)
+        self._thread.start()
+
+    def _loop(self) -> None:
+        while not self._stop.wait(self._every):
+            with open("/proc/self/statm") as f:
+                rss = int(f.read().split()[1]) * self._page / 1e9
+            self.peaks[self.phase] = max(self.peaks.get(self.phase, 0.0), rss)
+
+    def progress(self, fraction: float, phase: str = "") -> bool:
+        """The run's progress callback: notes the phase, never cancels."""
+        self.phase = phase.split(":")[0] or self.phase
+        return True
+
+    def stop(self) -> dict:
+        self._stop.set()
+        self._thread.join()
+        return {k: round(v, 3) for k, v in self.peaks.items()}
+
+
 def one_size(cell: float, score: bool) -> dict:
     """Run the scan at ``cell`` in this process; the row of results (see the module doc)."""
     sys.path.insert(0, REPO)
@@ -53,13 +82,16 @@ def one_size(cell: float, score: bool) -> dict:
     points = sum(count for _, count in spans.values())
     depsgraph = bpy.context.evaluated_depsgraph_get()
     settings = run.make_settings(pipeline, {})
+    memory = PhaseMemory()
     c0, t0 = time.process_time(), time.perf_counter()
     job = pipeline.prepare(depsgraph, objects, settings)
     prepare = time.perf_counter() - t0
+    memory.phase = "job built"
     t1 = time.perf_counter()
-    result = pipeline.run(job)
+    result = pipeline.run(job, memory.progress)
     run_s = time.perf_counter() - t1
     cpu = time.process_time() - c0
+    phase_peaks = memory.stop()
     rec = result.stats.get("receivers", {})
     row = dict(cell=cell, points=int(points), surfels=int(result.count),
                triangles=int(0 if job.triangles is None else len(job.triangles)),
@@ -67,7 +99,8 @@ def one_size(cell: float, score: bool) -> dict:
                run_s=round(run_s, 2), total_s=round(prepare + run_s, 2), cpu_s=round(cpu, 2),
                phases={k: round(float(v), 3) for k, v in result.timings.items()},
                rays=int(rec.get("rays", 0)), records=rec.get("cache_records"),
-               peak_rss_gb=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6, 3))
+               peak_rss_gb=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6, 3),
+               peak_rss_by_phase_gb=phase_peaks)
     if score:
         values = next(iter(result.point_receiver_values.values()))
         row["cycles"] = score_against_cycles(values, spans)

@@ -25,7 +25,7 @@ void bind_mesh_scene(nb::module_& m) {
                          throw std::runtime_error(std::string("corners: ") + e.what());
                      }
                  });
-                 new (self) PyMeshScene{std::move(scene), threads};
+                 new (self) PyMeshScene{std::move(scene), threads, std::move(keep)};
              },
              nb::arg("corners"), nb::kw_only(), nb::arg("threads") = 0,
              nb::arg("progress") = nb::none())
@@ -87,7 +87,9 @@ void bind_mesh_scene(nb::module_& m) {
                          return nb::make_tuple(c[0], c[1], c[2]);
                      },
                      "Origin that float coordinates are stored against (m): the corners' per-axis median.")
-        .def_prop_ro("build_seconds", [](const PyMeshScene& self) { return self.scene->build_seconds(); });
+        .def_prop_ro("build_seconds", [](const PyMeshScene& self) { return self.scene->build_seconds(); })
+        .def_prop_ro("vertices", [](const PyMeshScene& self) { return self.scene->vertices(); },
+                     "Distinct float corners the ray-casting scene holds (neighbours share theirs).");
 }
 
 void bind_surfel_field(nb::module_& m) {

@@ -185,6 +185,7 @@ struct PyOccluders {
 struct PyMeshScene {
     std::unique_ptr<MeshScene> scene;
     int threads = 0;
+    nb::object corners;  // the array the scene reads its triangles' corners from
 };
 
 struct PySurfelField {

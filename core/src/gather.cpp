@@ -113,13 +113,17 @@ namespace {
 // instead of one per hit, and as fine as the surfels resolve.
 // Sub-triangles whose lattice points see each other ("clean") interpolate; the others (a
 // box's side stands on them) look the field up at the hit itself.
+//
+// The per-triangle arrays end at the last triangle that has a lattice (size()): a scan's splat
+// triangles, a dozen per point, carry their own surfel and follow the meshes' triangles.
 struct FieldTable {
-    std::vector<std::size_t> start;     // first lattice point of each triangle (T + 1 entries)
-    std::vector<std::size_t> sub_start;  // first sub-triangle of each triangle (T + 1 entries)
+    std::vector<std::size_t> start;     // first lattice point of each triangle (size() + 1)
+    std::vector<std::size_t> sub_start;  // first sub-triangle of each triangle (size() + 1)
     std::vector<std::uint32_t> n;       // subdivisions per edge of each triangle
     std::vector<double> values;         // 3 per lattice point
     std::vector<std::uint8_t> clean;    // per sub-triangle
 
+    std::size_t size() const { return n.size(); }  // triangles 0 .. size() - 1 may have one
     static std::size_t row(std::size_t i, std::size_t nn) { return i * (nn + 1) - i * (i - 1) / 2; }
     static std::size_t count(std::size_t nn) { return (nn + 1) * (nn + 2) / 2; }
     // Sub-triangles: "lower" (i, j), (i+1, j), (i, j+1) for i + j <= nn - 1, then "upper"
@@ -132,6 +136,7 @@ struct FieldTable {
     // Interpolated value at barycentric (u, v) (Embree's: weights of corners 1 and 2) of
     // triangle t; false (nothing written) where the sub-triangle is not clean.
     bool at(std::size_t t, double u, double v, double out[3]) const {
+        if (t >= n.size()) return false;   // past the last lattice
         const std::size_t nn = n[t];
         if (nn == 0) return false;   // not tabulated
         const double x = std::min(std::max(u, 0.0), 1.0) * double(nn);
@@ -194,7 +199,9 @@ LatticeMasks lattice_masks(std::size_t T, bool has_back, const std::uint8_t* two
 
 // The lattice alone: n_t = ceil(longest edge / reach) per used triangle, none on the others.
 FieldTable lattice_layout(const MeshScene& scene, double reach, const std::uint8_t* only) {
-    const std::size_t T = scene.size();
+    std::size_t T = scene.size();
+    if (only)
+        while (T > 0 && !only[T - 1]) --T;
     FieldTable tab;
     tab.start.assign(T + 1, 0);
     tab.sub_start.assign(T + 1, 0);
@@ -223,7 +230,7 @@ FieldTable lattice_layout(const MeshScene& scene, double reach, const std::uint8
 // and which sub-triangles are clean.
 void fill_table(Context& ctx, const MeshScene& scene, const SurfelField& field, double sign,
                 double lift, const double* exact, FieldTable& tab) {
-    const std::size_t T = scene.size();
+    const std::size_t T = tab.size();
     tab.values.assign(3 * tab.start[T], 0.0);
     tab.clean.assign(tab.sub_start[T], 0);
     parallel_for(ctx, T, 64, [&](std::size_t lo, std::size_t hi) {
@@ -232,7 +239,7 @@ void fill_table(Context& ctx, const MeshScene& scene, const SurfelField& field, 
             const std::size_t nn = tab.n[t];
             if (nn == 0) continue;
             const double* c = scene.triangle_corners(t);
-            const float* tn = scene.triangle_normal(t);
+            const std::array<float, 3> tn = scene.triangle_normal(t);
             const double nt[3] = {sign * tn[0], sign * tn[1], sign * tn[2]};
             double* out = &tab.values[3 * tab.start[t]];
             for (std::size_t i = 0; i <= nn; ++i)
@@ -274,7 +281,7 @@ void fill_table(Context& ctx, const MeshScene& scene, const SurfelField& field, 
 void lattice_points_of(const MeshScene& scene, const FieldTable& tab, double sign,
                        std::vector<double>& points, std::vector<double>& normals,
                        std::vector<std::int64_t>& triangle) {
-    const std::size_t T = scene.size();
+    const std::size_t T = tab.size();
     points.assign(3 * tab.start[T], 0.0);
     normals.assign(3 * tab.start[T], 0.0);
     triangle.assign(tab.start[T], 0);
@@ -285,7 +292,7 @@ void lattice_points_of(const MeshScene& scene, const FieldTable& tab, double sig
         const std::size_t nn = tab.n[t];
         if (nn == 0) continue;
         const double* c = scene.triangle_corners(t);
-        const float* tn = scene.triangle_normal(t);
+        const std::array<float, 3> tn = scene.triangle_normal(t);
         for (std::size_t i = 0; i <= nn; ++i)
             for (std::size_t j = 0; i + j <= nn; ++j) {
                 const std::size_t k = tab.start[t] + FieldTable::row(i, nn) + j;
@@ -346,7 +353,7 @@ void GatherPlan::hit_value(std::size_t t, bool front_face, double u, double v,
         const double* own = field->value(std::size_t(owner[t]));
         for (int c = 0; c < 3; ++c) out[c] = own[c];
     } else if (!tab.at(t, u, v, out)) {
-        const float* tn = scene_.triangle_normal(t);
+        const std::array<float, 3> tn = scene_.triangle_normal(t);
         const double sg = front_face ? 1.0 : -1.0;
         const double nt[3] = {sg * tn[0], sg * tn[1], sg * tn[2]};
         field->at(q, nt, best, out, &scene_, opt_.offset);

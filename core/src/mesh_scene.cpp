@@ -49,8 +49,7 @@ MeshScene::MeshScene(Context& ctx, const double* corners, std::size_t n_tri) : n
     const double pad = 1e-4 * extent_ + 1e-30;
     for (int d = 0; d < 3; ++d) { lo_[d] -= pad; hi_[d] += pad; }
 
-    normal_.resize(3 * n_tri);
-    corners_.assign(corners, corners + 9 * n_tri);
+    corners_ = corners;
     impl_ = new Impl;
     const std::string cfg = "threads=" + std::to_string(ctx.nthreads());
     impl_->device = rtcNewDevice(cfg.c_str());
@@ -64,30 +63,14 @@ MeshScene::MeshScene(Context& ctx, const double* corners, std::size_t n_tri) : n
         rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);
         // Watertight: a ray through an edge two triangles share hits one of them on every
         // CPU (without it, AMD EPYC let rays through a split square's inner edges).
+        // Not RTC_SCENE_FLAG_COMPACT: its leaves name their vertices instead of copying them,
+        // a third of the BVH's memory, but rays took 1.65x the CPU time (300k splats).
         rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
         rtcSetSceneProgressMonitorFunction(impl_->scene, embree_build_progress, &ctx.cancel);
         if (n_tri > 0) {
             RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-            float* v = static_cast<float*>(rtcSetNewGeometryBuffer(
-                g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 3 * n_tri));
-            unsigned* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-                g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), n_tri));
-            throw_embree(impl_->device, "buffers");
             ctx.set_phase("receivers: triangles", 0.0, 0.3);
-            parallel_for(ctx, n_tri, 1 << 15, [&](std::size_t b, std::size_t e) {
-                for (std::size_t t = b; t < e; ++t) {
-                    const double* c = corners + 9 * t;
-                    for (int k = 0; k < 9; ++k) v[9 * t + k] = float(c[k] - frame_.center[k % 3]);
-                    for (int k = 0; k < 3; ++k) ib[3 * t + k] = unsigned(3 * t + k);
-                    const double e1[3] = {c[3] - c[0], c[4] - c[1], c[5] - c[2]};
-                    const double e2[3] = {c[6] - c[0], c[7] - c[1], c[8] - c[2]};
-                    double nx = e1[1] * e2[2] - e1[2] * e2[1], ny = e1[2] * e2[0] - e1[0] * e2[2],
-                           nz = e1[0] * e2[1] - e1[1] * e2[0];
-                    const double l = std::sqrt(nx * nx + ny * ny + nz * nz);
-                    if (l > 0) { nx /= l; ny /= l; nz /= l; }
-                    normal_[3 * t] = float(nx); normal_[3 * t + 1] = float(ny); normal_[3 * t + 2] = float(nz);
-                }
-            });
+            vertices_ = set_shared_triangles(ctx, impl_->device, g, corners, n_tri, frame_.center);
             rtcCommitGeometry(g);
             rtcAttachGeometry(impl_->scene, g);
             rtcReleaseGeometry(g);
@@ -109,6 +92,17 @@ MeshScene::MeshScene(Context& ctx, const double* corners, std::size_t n_tri) : n
 }
 
 MeshScene::~MeshScene() { delete impl_; }
+
+std::array<float, 3> MeshScene::triangle_normal(std::size_t t) const {
+    const double* c = corners_ + 9 * t;
+    const double e1[3] = {c[3] - c[0], c[4] - c[1], c[5] - c[2]};
+    const double e2[3] = {c[6] - c[0], c[7] - c[1], c[8] - c[2]};
+    double nx = e1[1] * e2[2] - e1[2] * e2[1], ny = e1[2] * e2[0] - e1[0] * e2[2],
+           nz = e1[0] * e2[1] - e1[1] * e2[0];
+    const double l = std::sqrt(nx * nx + ny * ny + nz * nz);
+    if (l > 0) { nx /= l; ny /= l; nz /= l; }
+    return {float(nx), float(ny), float(nz)};
+}
 
 bool MeshScene::clip(const double* p, const double* u, double len, double& s0, double& s1) const {
     return clip_to_box(lo_, hi_, p, u, len, s0, s1);
@@ -220,7 +214,7 @@ void MeshScene::intersect_serial(const double* o, const double* d, std::size_t n
             const std::uint32_t pr = rh.hit.primID;
             prim[k] = pr;
             t[k] = start[q] + double(rh.ray.tfar);
-            const float* nt = &normal_[3 * std::size_t(pr)];
+            const std::array<float, 3> nt = triangle_normal(pr);
             const double c = d[3 * k] * nt[0] + d[3 * k + 1] * nt[1] + d[3 * k + 2] * nt[2];
             front[k] = c < 0.0 ? 1 : 0;
             if (uv) { uv[2 * k] = rh.hit.u; uv[2 * k + 1] = rh.hit.v; }

@@ -14,6 +14,7 @@
 #include "local_frame.hpp"
 #include "parallel.hpp"
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -22,8 +23,10 @@ namespace illumap {
 
 class MeshScene {
 public:
-    // corners: n_tri x 3 x 3 doubles (world coordinates). Throws Cancelled, std::invalid_argument
-    // (non-finite corners) or std::runtime_error (Embree).
+    // corners: n_tri x 3 x 3 doubles (world coordinates), kept by reference, not copied (a
+    // scan's splats are a dozen triangles per point): the caller keeps them alive and unchanged
+    // for the scene's lifetime. Throws Cancelled, std::invalid_argument (non-finite corners) or
+    // std::runtime_error (Embree).
     MeshScene(Context& ctx, const double* corners, std::size_t n_tri);
     ~MeshScene();
     MeshScene(const MeshScene&) = delete;
@@ -33,6 +36,7 @@ public:
     double extent() const { return extent_; }  // largest side of the triangles' box
     const LocalFrame& frame() const { return frame_; }
     double build_seconds() const { return build_seconds_; }
+    std::size_t vertices() const { return vertices_; }  // distinct float corners Embree holds
 
     // out[k] = 1 when no triangle meets segment a[k] -> b[k] with its last `end_trim` (world
     // units) left out, else 0. Segments are clipped to the scene's box in double precision, so
@@ -50,21 +54,23 @@ public:
     void intersect_serial(const double* o, const double* d, std::size_t n, double tmax,
                           std::int64_t* prim, double* t, std::uint8_t* front,
                           float* uv = nullptr) const;
-    const float* triangle_normal(std::size_t t) const { return &normal_[3 * t]; }
+    // The unit normal of triangle t by its corners' winding (computed from the corners when
+    // asked: a scan's 12 splat triangles per point would hold 144 bytes of normals).
+    std::array<float, 3> triangle_normal(std::size_t t) const;
     // Whether a triangle meets the open segment a -> b (one ray, calling thread).
     bool occluded(const double* a, const double* b) const;
-    const double* triangle_corners(std::size_t t) const { return &corners_[9 * t]; }
+    const double* triangle_corners(std::size_t t) const { return corners_ + 9 * t; }
 
 private:
     struct Impl;
     Impl* impl_ = nullptr;
     std::size_t n_tri_ = 0;
-    std::vector<float> normal_;  // unit normal per triangle
-    std::vector<double> corners_;  // world corners per triangle (9 doubles)
+    const double* corners_ = nullptr;  // world corners per triangle (9 doubles), the caller's
     LocalFrame frame_;
     double lo_[3] = {0, 0, 0}, hi_[3] = {0, 0, 0};
     double extent_ = 0;
     double build_seconds_ = 0;
+    std::size_t vertices_ = 0;
 
     // [s0, s1] of p + t u inside the (padded) box, intersected with [0, len]; false if empty.
     bool clip(const double* p, const double* u, double len, double& s0, double& s1) const;

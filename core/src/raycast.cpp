@@ -148,19 +148,8 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
         if (n_tri_ > 0) {
             // The scene's own triangles; the surfels' radii (coverage 1) only size the trims.
             g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-            float* v = static_cast<float*>(rtcSetNewGeometryBuffer(
-                g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 3 * n_tri_));
-            unsigned* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-                g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), n_tri_));
-            throw_embree(impl_->device, "buffers");
             ctx.set_phase("visibility: triangles", 0.0, 0.2);
-            parallel_for(ctx, n_tri_, 1 << 15, [&](std::size_t b, std::size_t e) {
-                for (std::size_t t = b; t < e; ++t) {
-                    for (int k = 0; k < 9; ++k)
-                        v[9 * t + k] = float(triangles[9 * t + k] - center_[k % 3]);
-                    for (int k = 0; k < 3; ++k) ib[3 * t + k] = unsigned(3 * t + k);
-                }
-            });
+            vertices_ = set_shared_triangles(ctx, impl_->device, g, triangles, n_tri_, center_);
             // Triangles neither overlap nor overhang: the trims only have to clear the
             // surfel's own triangle, a hair of the bulk's size, or the float noise where the
             // surfel lies far from the bulk (local_frame.hpp).
@@ -294,7 +283,7 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
         // calling thread polls the monitor; a cancel makes build_progress stop Embree. Small
         // builds (well under the 50 ms between polls) start from the calling thread.
         ctx.set_phase("visibility: BVH", 0.2, 0.8);
-        if (n < kWatchedBuild)
+        if (n + n_tri_ < kWatchedBuild)  // triangles count too: a scan's splats are millions
             rtcCommitScene(impl_->scene);
         else
             run_watched(ctx, [&] { rtcCommitScene(impl_->scene); });
@@ -363,9 +352,9 @@ void* OccluderScene::rtc_scene() const { return impl_->scene; }
 
 std::size_t OccluderScene::bytes() const {
     // Buffers (discs 16 + 12 bytes, quads as two triangles 72 + 24, octagons as eight 204 +
-    // 96), our radii (and the faces' normals), and Embree's BVH (estimated as 64 bytes per
-    // primitive).
-    if (n_tri_ > 0) return n_tri_ * (36 + 12 + 64) + size() * (16 + 12);
+    // 96, given triangles 12 per shared vertex + 12), our radii (and the faces' normals), and
+    // Embree's BVH (estimated as 64 bytes per primitive).
+    if (n_tri_ > 0) return vertices_ * 12 + n_tri_ * (12 + 64) + size() * (16 + 12);
     switch (shape_) {
         case VisibilityOptions::Shape::Quad: return size() * (72 + 24 + 4 + 2 * 64);
         case VisibilityOptions::Shape::Octagon: return size() * (204 + 96 + 4 + 8 * 64);

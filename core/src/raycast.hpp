@@ -115,6 +115,7 @@ private:
     void find_faces(Context& ctx, const SurfelSoA& s);
     VisibilityOptions::Shape shape_;
     std::size_t n_tri_ = 0;  // > 0: the occluders are given triangles
+    std::size_t vertices_ = 0;  // their distinct float corners (neighbours share them)
     double center_[3] = {0, 0, 0};
     double lo_[3] = {0, 0, 0}, hi_[3] = {0, 0, 0};  // occluders' box (padded), world units
     double back_ = 0;  // rays start this far behind their first endpoint (see raycast.cpp)

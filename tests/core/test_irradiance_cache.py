@@ -232,3 +232,26 @@ def test_receivers_weighed_in_chunks_take_the_same_values(monkeypatch):
     for name in ("radiance", "stderr", "records", "open", "halves"):
         np.testing.assert_array_equal(getattr(whole, name), getattr(pieces, name))
     assert whole.rays == pieces.rays
+
+
+def test_progress_is_reported_between_chunks_and_a_cancel_stops_the_cache(monkeypatch):
+    """Between its gathers and between chunks of the receivers it weighs, the cache reports
+    non-decreasing fractions in [0, 1]; a callback that returns False there stops it with
+    illumap.Cancelled before another gather is asked for."""
+    import illumap.irradiance_cache as ic
+    p, n = floor(0.02)
+    monkeypatch.setattr(ic, "_CHUNK", 300)
+    wave = lambda q: np.c_[1.0 + 0.3 * np.sin(6 * q[:, 0]), np.ones(len(q)), 0.5 + q[:, 1]]
+    seen = []
+    cached_gather(Field(p, wave, lambda q: np.full(len(q), 2.0)), p, n, max_reach=2.0,
+                  progress=lambda f, phase: seen.append((f, phase)))
+    fractions = [f for f, _ in seen]
+    assert len(seen) > len(p) // 300 and {ph for _, ph in seen} == {ic.PHASE}
+    assert fractions == sorted(fractions) and 0.0 <= fractions[0] and fractions[-1] <= 1.0
+
+    calls = []
+    field = Field(p, wave, lambda q: np.full(len(q), 2.0))
+    with pytest.raises(illumap.Cancelled):
+        cached_gather(field, p, n, max_reach=2.0,
+                      progress=lambda f, phase: calls.append(f) or len(calls) < 3)
+    assert len(calls) == 3 and field.full.sum() <= len(p) // 10

@@ -78,6 +78,28 @@ def test_intersect_reports_triangle_distance_and_face():
     assert not front[0] and front[1]          # from below: the back face
 
 
+def test_neighbouring_triangles_share_vertices_and_leave_no_gap_between_them():
+    """The scene stores each distinct corner once (a splat's fan of 12 triangles: 13), and a
+    ray through any shared corner or edge of a tiled square still meets it."""
+    from illumap.splats import DEFAULT_SIDES, splat_triangles
+    rng = np.random.default_rng(3)
+    n = 400
+    pts = np.column_stack([rng.random(n), rng.random(n), np.zeros(n)])
+    fans = splat_triangles(pts, np.tile([0.0, 0.0, 1.0], (n, 1)), np.full(n, 1.0 / n))
+    assert rc.MeshOccluders(fans)._scene.vertices == n * (DEFAULT_SIDES + 1)
+
+    tiles = grid_square(1.0, 8)
+    occ = rc.MeshOccluders(tiles)
+    assert occ._scene.vertices < 3 * len(tiles)
+    s = np.linspace(-0.5, 0.5, 17)[1:-1]          # the grid's inner corners and edge midpoints
+    x, y = np.meshgrid(s, s)
+    o = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    tri, dist, front = occ.intersect(o, np.tile([0.0, 0.0, 1.0], (len(o), 1)))
+    assert (tri >= 0).all()
+    np.testing.assert_allclose(dist, 1.0, rtol=1e-6)
+    assert front.all()                            # grid_square faces down, towards the rays
+
+
 def test_precision_does_not_depend_on_placement():
     """The same rays 1e7 m from the origin give the same answers (box-centred floats)."""
     base = quad((0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1))

@@ -41,6 +41,7 @@ from typing import Callable
 import numpy as np
 
 from . import _core
+from ._progress import ProgressGuard
 from .receivers import GatherResult
 from .surfels import InputError
 
@@ -77,6 +78,8 @@ MIN_REACH_SHARE = 4.0
 #: lit records beside it reach metres and do not, nor do the dark ones under it serve the
 #: lit ceiling.
 NEAR_RECORD_FLOORS = 2.0
+#: The phase name the cache's progress reports.
+PHASE = "gather"
 #: Rays each receiver measures its own reach with: one in 16 that meets a surface nearby
 #: brings its reach down to that distance × 16.
 PROBE_RAYS = 16
@@ -97,7 +100,7 @@ class CachedGather:
 
 def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
                   max_reach: float, groups=None, accuracy: float = DEFAULT_ACCURACY,
-                  min_reach: float = 0.0) -> CachedGather:
+                  min_reach: float = 0.0, progress=None) -> CachedGather:
     """The final gather at receivers ``points`` with unit ``normals`` (M, 3; m), gathering in
     full only at records: ``gather_rows(rows, rays=None)`` gathers at the receivers ``rows``
     (int64) with the gather's own ray count or ``rays``, and returns their ``GatherResult``
@@ -109,7 +112,11 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
     (``_isolated``). ``accuracy``: Ward's a (0 < a ≤ 1; smaller is more records).
     ``min_reach`` (m, ≥ 0): no reach, a record's or a receiver's own, counts as nearer than
     this (``MIN_REACH_SHARE``): the records then cover any surface with a number of them
-    that its area and shape set, whatever the receivers' density."""
+    that its area and shape set, whatever the receivers' density.
+    ``progress(fraction, phase)`` is called between the gathers and between chunks of the
+    receivers weighed (phase ``PHASE``, the fraction of the records' levels done); returning
+    False or raising cancels with ``illumap.Cancelled``."""
+    guard = ProgressGuard(progress)
     p = np.ascontiguousarray(points, dtype=np.float64)
     n = np.ascontiguousarray(normals, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 3 or n.shape != p.shape:
@@ -146,6 +153,7 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
     origin = p[shared].min(axis=0) if len(shared) else np.zeros(3)
     reach = np.full(m, max_reach)
     raw = np.full(m, max_reach)           # reaches before the floor
+    guard.check(0.0, PHASE)
     if len(shared):
         probe = gather_rows(shared, rays=PROBE_RAYS)
         raw[shared] = _bounded(probe.reach, max_reach)
@@ -153,10 +161,14 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
     reach = np.maximum(raw, min_reach)
     own = reach.copy()
     cell = accuracy * max_reach
+    # Levels halve the cell down to the receivers' spacing: their count, for the fraction.
+    levels = max(1.0, np.log2(max(cell / (2.0 * spacing), 1.0)) + 2.0) if np.isfinite(spacing) else 1.0
+    level = 0
     pending = np.flatnonzero(record)      # receivers that gather themselves: with level 0
     while True:
         open_ = np.flatnonzero(~record & ~covered)
         finest = cell <= 2.0 * spacing
+        guard.check(min(level / levels, 1.0), PHASE)
         rows = np.concatenate([pending, open_ if finest else
                                _one_per_cell(p, open_, group, cell, origin)])
         pending = pending[:0]
@@ -171,13 +183,16 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
         if finest or not (~record & ~covered).any():
             break
         for rest in _chunks(np.flatnonzero(~record & ~covered)):
+            guard.check(min(level / levels, 1.0), PHASE)
             covered[rest] = _weights(p, n, group, reach, own, record, rest, accuracy,
                                      raw, min_reach)[2].sum(axis=1) >= MIN_RECORDS
         cell *= 0.5
+        level += 1
     # The rest take their records' values, a chunk at a time (bounded memory); the records
     # are final here, but for the lost ones, which no valid weight names.
     lost = []
     for rest in _chunks(np.flatnonzero(~record)):
+        guard.check(min(level / levels, 1.0), PHASE)
         idx, w, _ = _weights(p, n, group, reach, own, record, rest, accuracy, raw, min_reach)
         total = w.sum(axis=1)
         # A valid record pushed out of the nearest ones by later records: gather there too.
