@@ -1,0 +1,164 @@
+"""Enclosed surfels: the ones that the light of the sky and the lamps reaches only through a
+slit, or not at all, and the first-hit transport that lights them without leaks.
+
+Light reaches a surfel only along a path of first hits: from the sky, a lamp or an emitter, to
+a surface that sees it, to a surface that sees that one, and so on. The hemisphere rays that
+bound each transport row (``conservation.hemisphere_hits``) already find those first hits;
+every ``LINK_RAYS``-th hit on a lit face is given to the surfel that carries it there
+(``resolve_hits``), and the pairs (ray's surfel, hit's surfel) make a sparse first-hit
+transport W (``Links``: row i holds surfel i's hit share, spread over the surfels its rays met).
+
+A part of the scene that no path joins to a source is sealed (the inside of a closed part):
+its light is exactly 0. A part joined only through a slit (the pocket behind Suzanne's eyes,
+whose rims leave a hair's breadth to the head) is nearly so: Cycles reads it 0.002-0.016 in a
+white furnace at albedo 0.999, because the slit lets in about 1e-5 of what the pocket absorbs.
+The kernel's rows couple neighbours across an intersection line with a leak of about 1%, and
+a pocket that leaks 1% reads 0.9. So the light a white scene carries in ``BOUNCES`` bounces
+of W from the sources is followed (``reach``); where it stays under ``THRESHOLD`` of the
+sky's the surfel is enclosed, and its row of the operator is its row of W, which leaks only
+where its rays do (``TransportOperator(hemisphere_enclosed=, hemisphere_links=)``). A deep
+slot with an open mouth is reached within a few dozen bounces and keeps its kernel row.
+
+A hit is given to the nearest surfel that faces the side it was hit on and that sees the hit
+point along a path bent off the surface (``LINK_CLEARANCE``), so that a hit on a triangle that
+runs under a rim into a pocket does not take a surfel on the far side of the rim. A scan's
+bumpy splats hide many hit points from the surfels beside them: a surfel whose row of W is
+mostly unknown (``KNOWN_SHARE``) is never enclosed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Rays per surfel, of its hemisphere's rays, whose hits are given to surfels (the first ones
+#: of its lattice, which spread over the whole hemisphere).
+LINK_RAYS = 16
+#: Surfels considered for a hit: its nearest this many.
+LINK_NEIGHBOURS = 8
+#: Facing candidates tested for visibility, nearest first, before a hit is left unlinked.
+LINK_TRIES = 3
+#: A surfel faces a hit's side when its normal's cosine with the side's normal exceeds this.
+LINK_SIDE_COS = 0.3
+#: The path from a hit to its surfel bends this share of their distance off the surfaces, so
+#: that a surface lying closer over them than that (the rim of an eyeball in its socket)
+#: separates them: a straight path lifted only a ray offset off the surface slips under such
+#: a rim into the pocket beyond.
+LINK_CLEARANCE = 0.25
+#: A surfel's first-hit row is known when at least this share of its linking rays that met a
+#: lit face found the surfel there.
+KNOWN_SHARE = 0.5
+#: Bounces of the first-hit transport that carry a white scene's light from its sources.
+BOUNCES = 64
+#: A surfel whose reached light stays under this share of the sky's is enclosed.
+THRESHOLD = 0.05
+
+
+@dataclass
+class Links:
+    """The first-hit transport of one set of hemisphere rays: ``(W r)_i = Σ_k weights_k
+    r_{cols_k}`` over the entries k with ``rows_k = i``; each surfel's weights sum to its hit
+    share (the share of its rays that met a lit face), dimensionless."""
+
+    rows: np.ndarray      # (M,) int64
+    cols: np.ndarray      # (M,) int64
+    weights: np.ndarray   # (M,) float64
+    #: (N,) bool: surfels most of whose linking rays that met a lit face found its surfel
+    #: (a scan's bumpy splats can hide a hit point from the surfel beside it).
+    known: np.ndarray
+
+    def apply(self, r: np.ndarray) -> np.ndarray:
+        """W r for r (N,)."""
+        return np.bincount(self.rows, self.weights * r[self.cols], minlength=len(r))
+
+
+def resolve_hits(occluders, positions: np.ndarray, normals: np.ndarray, hits: np.ndarray,
+                 sides: np.ndarray, *, k: int = LINK_NEIGHBOURS,
+                 tries: int = LINK_TRIES) -> np.ndarray:
+    """The surfel (M,) int64 that carries each hit point ``hits`` (M, 3, m) on a face whose
+    lit side has unit normal ``sides`` (M, 3): the nearest of its ``k`` nearest surfels
+    (``positions``, ``normals`` (N, 3)) that faces that side and sees the hit point past
+    ``occluders`` (``receivers.MeshOccluders``); -1 where none of the first ``tries`` facing
+    ones does."""
+    from . import _core
+    m = len(hits)
+    out = np.full(m, -1, dtype=np.int64)
+    if m == 0 or len(positions) == 0:
+        return out
+    k = min(int(k), len(positions))
+    near, _ = _core.knn(positions, np.ascontiguousarray(hits), k)
+    near = near.reshape(m, k).astype(np.int64)
+    facing = np.einsum("mkc,mc->mk", normals[near], sides) > LINK_SIDE_COS
+    lifted = hits + occluders.offset * sides
+    rank = np.cumsum(facing, axis=1) - 1          # 0: the nearest facing candidate
+    todo = np.arange(m)
+    for r in range(int(tries)):
+        pick = facing[todo] & (rank[todo] == r)
+        has = pick.any(axis=1)
+        todo = todo[has]
+        if len(todo) == 0:
+            break
+        cand = near[todo, np.argmax(pick[has], axis=1)]
+        target = positions[cand] + occluders.offset * normals[cand]
+        seen = (occluders.visible(lifted[todo], target) > 0.5 if LINK_CLEARANCE <= 0.0
+                else _sees(occluders, lifted[todo], target, sides[todo], normals[cand]))
+        out[todo[seen]] = cand[seen]
+        todo = todo[~seen]
+    return out
+
+
+def _sees(occluders, a: np.ndarray, b: np.ndarray, na: np.ndarray, nb: np.ndarray) -> np.ndarray:
+    """(M,) bool: no triangle meets the path a -> m -> b, m their midpoint moved
+    ``LINK_CLEARANCE`` × |b − a| along the mean of their unit normals ``na``, ``nb``."""
+    up = na + nb
+    length = np.linalg.norm(up, axis=1)
+    up = np.where(length[:, None] > 1e-6, up / np.maximum(length, 1e-300)[:, None], na)
+    mid = 0.5 * (a + b) + LINK_CLEARANCE * np.linalg.norm(b - a, axis=1)[:, None] * up
+    seen = occluders.visible(a, mid) > 0.5
+    rows = np.flatnonzero(seen)
+    seen[rows] = occluders.visible(mid[rows], b[rows]) > 0.5
+    return seen
+
+
+def links(src: np.ndarray, dst: np.ndarray, hits: np.ndarray) -> Links:
+    """The first-hit transport from resolved rays: ray k of surfel ``src[k]`` met surfel
+    ``dst[k]`` (-1: a lit face that no surfel carries there). Each surfel's ``hits`` share
+    (N,) is spread evenly over its resolved rays; one without any keeps none."""
+    src = np.asarray(src, dtype=np.int64)
+    dst = np.asarray(dst, dtype=np.int64)
+    n = len(hits)
+    got = dst >= 0
+    met = np.bincount(src, minlength=n)
+    known = np.bincount(src[got], minlength=n) >= KNOWN_SHARE * met
+    src, dst = src[got], dst[got]
+    key = src * n + dst
+    key, count = np.unique(key, return_counts=True)
+    rows, cols = key // n, key % n
+    per_row = np.bincount(rows, count, minlength=n)
+    weights = np.asarray(hits, dtype=np.float64)[rows] * count / per_row[rows]
+    return Links(rows, cols, weights, known)
+
+
+def reach(w: Links, sky: np.ndarray, sources: np.ndarray, *,
+          bounces: int = BOUNCES) -> np.ndarray:
+    """The light (N,) a white scene carries along the first-hit transport ``w`` in
+    ``bounces`` bounces, as a share of the sky's: each surfel receives its ``sky`` share
+    (N,) directly, and ``sources`` (N,) bool (lamp-lit, emitting) hold 1. In [0, 1]."""
+    sky = np.asarray(sky, dtype=np.float64)
+    src = np.asarray(sources, dtype=bool)
+    r = np.where(src, 1.0, sky)
+    for _ in range(int(bounces)):
+        nxt = np.minimum(sky + w.apply(r), 1.0)
+        nxt[src] = 1.0
+        if np.array_equal(nxt, r):
+            break
+        r = nxt
+    return r
+
+
+def enclosed(w: Links, sky: np.ndarray, sources: np.ndarray, *, bounces: int = BOUNCES,
+             threshold: float = THRESHOLD) -> np.ndarray:
+    """(N,) bool: surfels whose ``reach`` stays under ``threshold`` and whose row of ``w`` is
+    known (``Links.known``): their light is their first hits' (0 where sealed)."""
+    return (reach(w, sky, sources, bounces=bounces) < threshold) & w.known
