@@ -307,10 +307,11 @@ class TransportOperator:
     hemisphere_enclosed : (N,) bool array or None
         Surfels that the light of the sky and the lamps reaches along first hits only through
         a slit, or not at all (``conservation.Hemisphere.enclosed``). With
-        ``hemisphere_links`` their rows are the first-hit transport's (``sealing.Links``),
-        which leaks only where their rays do, in place of the kernel's, whose 1% leaks across
-        intersection lines light a pocket that should stay dark; without, their rows and
-        columns of every part of the operator are 0 (sealed: their light is 0).
+        ``hemisphere_hits``, ``hemisphere_links`` and ``hemisphere_balance="rows"`` their
+        rows are the first-hit transport's (``sealing.Links``), which leaks only where their
+        rays do, in place of the kernel's, whose 1% leaks across intersection lines light a
+        pocket that should stay dark. Without links (or with the symmetric balance) their
+        rows and columns of every part of the operator are 0: sealed, their light is 0.
     hemisphere_links : sealing.Links or None
         The first-hit transport of the hemisphere rays (``Hemisphere.links``).
     hemisphere_fill : bool
