@@ -96,8 +96,9 @@ def test_a_pocket_between_intersecting_parts_is_dark():
 
 def test_an_open_slot_keeps_its_light():
     """The same part with a 5 cm slit along its top, and a slot 5 cm wide and 1 m deep (20
-    times its width): light reaches their insides in a few dozen bounces, and no surfel of
-    them is enclosed, so their rows are the kernel's."""
+    times its width): light reaches their insides within ``sealing.BOUNCES`` (the slot's
+    bottom to 0.52, five times ``sealing.THRESHOLD``), and no surfel of them is enclosed, so
+    their rows are the kernel's."""
     tris = _box(*PART_P, top=(0.475, 0.525))
     p, n, a, front = _two_sided(tris, 3000)
     b, h, enclosed = _white_sky(tris, p, n, a)

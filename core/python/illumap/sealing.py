@@ -49,10 +49,14 @@ LINK_CLEARANCE = 0.25
 #: A surfel's first-hit row is known when at least this share of its linking rays that met a
 #: lit face found the surfel there.
 KNOWN_SHARE = 0.5
-#: Bounces of the first-hit transport that carry a white scene's light from its sources.
-BOUNCES = 64
-#: A surfel whose reached light stays under this share of the sky's is enclosed.
-THRESHOLD = 0.05
+#: Bounces of the first-hit transport that carry a white scene's light from its sources. In
+#: 128, the bottom of a slot 20 times deeper than wide is reached to 0.52, one 10 times to
+#: 0.91, the inside of a box through a slit of a twentieth of its lid to 0.65; Suzanne's
+#: pockets stay under 0.1 (4,700 surfels below 0.05 in 64 bounces, 50 between 0.05 and 0.8).
+BOUNCES = 128
+#: A surfel whose reached light stays under this share of the sky's is enclosed (the
+#: Suzanne furnace reads 6.4% at 0.05 or 0.2 in 64 bounces, 6.5% at 0.1 in 128; 21% at 0.01).
+THRESHOLD = 0.1
 
 
 @dataclass
