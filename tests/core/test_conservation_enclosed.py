@@ -11,9 +11,10 @@ the check is that none of its surfels is enclosed and its light is unchanged.
 """
 
 import numpy as np
+import pytest
 
 import illumap
-from illumap import conservation, sampling, sealing
+from illumap import conservation, sampling, scenes, sealing
 from illumap.receivers import MeshOccluders
 from illumap_core_testing import requires_native
 
@@ -149,3 +150,32 @@ def test_links_spread_each_share_over_the_resolved_rays():
     assert np.allclose(r, [0.14 / 0.94, 0.0, 0.7 + 0.3 * 0.14 / 0.94], rtol=1e-12, atol=0)
     assert sealing.enclosed(w, np.array([0.0, 0.0, 0.7]), np.zeros(3, bool)).tolist() == \
         [False, False, False]                    # 1 is under the threshold but not known
+
+
+def test_enclosed_without_links_are_sealed():
+    """Enclosed surfels given without first-hit links are sealed: their rows and columns of
+    the operator are 0, so nothing reaches them and they send nothing; the other rows keep
+    their shares (the scaled kernel over the open surfels)."""
+    s = scenes.closed_box(6)
+    hits = np.ones(s.n)
+    enclosed = np.zeros(s.n, dtype=bool)
+    enclosed[::3] = True
+    op = illumap.TransportOperator(s, hemisphere_hits=hits, hemisphere_enclosed=enclosed)
+    y = op.apply(np.ones((s.n, 3)))[:, 0]
+    assert np.all(y[enclosed] == 0.0)
+    assert np.allclose(y[~enclosed], 1.0, rtol=1e-9, atol=0)
+    x = np.zeros((s.n, 3))
+    x[enclosed] = 1.0
+    assert np.all(op.apply(x) == 0.0)
+    assert op.stats["hemisphere_enclosed"] == int(enclosed.sum())
+
+
+def test_enclosed_input_is_checked():
+    s = scenes.closed_box(4)
+    with pytest.raises(illumap.InputError, match="hemisphere_enclosed"):
+        illumap.TransportOperator(s, hemisphere_hits=np.ones(s.n),
+                                  hemisphere_enclosed=np.zeros(s.n - 1, dtype=bool))
+    with pytest.raises(illumap.InputError, match="hemisphere_links"):
+        illumap.TransportOperator(s, hemisphere_hits=np.ones(s.n),
+                                  hemisphere_enclosed=np.zeros(s.n, dtype=bool),
+                                  hemisphere_links=object())

@@ -392,7 +392,6 @@ class TransportOperator:
                      else conservation.check_hits(hemisphere_bound, surfels.n, "hemisphere_bound"))
             if self.links is not None:
                 hits = hits * ~self.enclosed      # their rows: the first hits'
-
             if self._coupled is not None:
                 # A sealed surfel's row is 0, and an open one's share is carried by open ones.
                 hits = hits * self._coupled[:, 0]
