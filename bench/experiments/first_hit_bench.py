@@ -63,10 +63,12 @@ def main() -> int:
                                         seconds, surfels=int(result.count))
         row["hemisphere_seconds"] = float(result.timings.get("hemisphere", 0.0))
         row["enclosed"] = int(result.stats.get("hemisphere_enclosed", 0))
+        row["links_seconds"] = float(result.stats.get("time_hemisphere_links", 0.0))
         row["warnings"] = [w for w in result.warnings if "positive definite" in w]
         rows.append(row)
         print(f"{name:12s} {row['surfels']:7d} surfels {seconds:7.2f} s  rel. RMS "
-              f"{row['relative_rms']:.4f}  hemisphere {row['hemisphere_seconds']:.2f} s  "
+              f"{row['relative_rms']:.4f}  hemisphere {row['hemisphere_seconds']:.2f} s  links "
+              f"{row['links_seconds']:.2f} s  "
               f"enclosed {row['enclosed']}  {row['warnings']}", flush=True)
     if args.out:
         with open(args.out, "w") as f:

@@ -116,8 +116,8 @@ def test_an_open_slot_keeps_its_light():
     occ = MeshOccluders(slot)
     h = conservation.hemisphere_hits(occ, p, n, links=True)
     inner = np.einsum("ij,ij->i", n, [0.025, 0.5, 0.5] - p) > 0   # facing into the slot
-    r = sealing.reach(h.links, h.open, np.zeros(len(p), bool))
     assert not h.enclosed()[inner].any()
+    r = sealing.reach(h.links, h.open, np.zeros(len(p), bool))
     assert r[inner & (p[:, 2] < 0.1)].min() > sealing.THRESHOLD
 
 
@@ -144,12 +144,18 @@ def test_links_spread_each_share_over_the_resolved_rays():
     assert np.allclose(rows, [0.6, 0.0, 0.3], rtol=0, atol=1e-15)
     assert np.allclose(w.apply(np.array([0.0, 1.0, 0.0])), [0.4, 0.0, 0.0])
     assert w.known.tolist() == [True, False, True]
-    # Reach: 2 sees the sky (0.7) and 0 (0.3); 0 sees 2 (0.2) and 1 (0.4), which sees nothing:
-    # r0 = 0.2 r2, r2 = 0.7 + 0.3 r0.
-    r = sealing.reach(w, np.array([0.0, 0.0, 0.7]), np.zeros(3, bool))
-    assert np.allclose(r, [0.14 / 0.94, 0.0, 0.7 + 0.3 * 0.14 / 0.94], rtol=1e-12, atol=0)
-    assert sealing.enclosed(w, np.array([0.0, 0.0, 0.7]), np.zeros(3, bool)).tolist() == \
-        [False, False, False]                    # 1 is under the threshold but not known
+    # Reach: 2 sees the sky (0.05, under the threshold) and 0 (0.3); 0 sees 2 (0.2) and 1
+    # (0.4), which sees nothing: r0 = 0.2 r2, r2 = 0.05 + 0.3 r0.
+    sky = np.array([0.0, 0.0, 0.05])
+    r = sealing.reach(w, sky, np.zeros(3, bool))
+    assert np.allclose(r, [0.01 / 0.94, 0.0, 0.05 + 0.3 * 0.01 / 0.94], rtol=1e-12, atol=0)
+    # 1 is under the threshold but not known; 0 and 2 are enclosed.
+    assert sealing.enclosed(w, sky, np.zeros(3, bool)).tolist() == [True, False, True]
+    # A surfel that sees enough sky, or a source, holds 1.
+    assert np.allclose(sealing.reach(w, np.array([0.0, 0.0, 0.7]), np.zeros(3, bool)),
+                       [0.2, 0.0, 1.0], rtol=1e-12, atol=0)
+    assert np.allclose(sealing.reach(w, np.zeros(3), np.array([False, True, False])),
+                       [0.4 / 0.94, 1.0, 0.3 * 0.4 / 0.94], rtol=1e-12, atol=0)
 
 
 def test_enclosed_without_links_are_sealed():

@@ -196,22 +196,27 @@ class Hemisphere:
     hits: np.ndarray
     open: np.ndarray
     rays: int
-    #: ``sealing.Links`` or None: the first-hit transport of the rays (``links=True``).
+    #: ``sealing.Links`` or None: the first-hit transport of the surfels that need it, set by
+    #: ``enclosed``.
     links: object | None = None
+    #: rows -> ``sealing.Links``: casts those surfels' linking rays (``links=True``), or None.
+    linker: object | None = None
 
     def enclosed(self, *light) -> np.ndarray:
         """(N,) bool: surfels that the light of the sky and of the surfels that have light of
         their own (any entry > 0 in one of ``light``: (N,) or (N, 3) arrays of lamp light,
         emission; None counts for nothing) reaches only through a slit along first hits, or
-        not at all (``sealing.enclosed``). None of them without ``links``."""
+        not at all (``sealing.enclosed``). Only the others cast their linking rays (sets
+        ``links``). None of them without a ``linker`` (``hemisphere_hits(links=True)``)."""
         from . import sealing
         n = len(self.hits)
-        if self.links is None:
+        if self.linker is None:
             return np.zeros(n, dtype=bool)
-        sources = np.zeros(n, dtype=bool)
+        sources = self.open >= sealing.THRESHOLD        # reached whatever their rows
         for values in light:
             if values is not None:
                 sources |= (np.asarray(values).reshape(n, -1) > 0.0).any(axis=1)
+        self.links = self.linker(np.flatnonzero(~sources))
         return sealing.enclosed(self.links, self.open, sources)
 
 
@@ -231,8 +236,8 @@ def hemisphere_hits(occluders, positions, normals, *, lit_backs=None,
     off their surface's edges (``inset_origins``; a scan's points, which lie on the edges
     themselves; a mesh's surfels lie inside their triangles). ``ids`` (N,) int name each
     surfel's random stream (default: its row): a surfel keeps its rays when others are added
-    or removed. ``links``: also give each lit hit to the surfel there and join the two
-    (``sealing``), for ``Hemisphere.enclosed``. Dimensionless, in [0, 1]."""
+    or removed. ``links``: keep what ``Hemisphere.enclosed`` needs to cast the surfels'
+    linking rays (``sealing.link_rays``). Dimensionless, in [0, 1]."""
     from . import receivers as rc
     p = np.ascontiguousarray(positions, dtype=np.float64)
     n = np.ascontiguousarray(normals, dtype=np.float64)
@@ -253,13 +258,6 @@ def hemisphere_hits(occluders, positions, normals, *, lit_backs=None,
     hits = np.empty(len(p))
     open_ = np.empty(len(p))
     lift = origins + occluders.offset * n
-    src, dst = [], []
-    if links:
-        from . import sealing
-        corners = occluders.corners
-        tn = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-        tn /= np.maximum(np.linalg.norm(tn, axis=1), 1e-300)[:, None]
-        stride = max(1, count // sealing.LINK_RAYS)   # spread over the lattice
     for start in range(0, len(p), HEMISPHERE_CHUNK):
         stop = min(start + HEMISPHERE_CHUNK, len(p))
         if progress is not None and progress(start / len(p), "hemisphere") is False:
@@ -267,21 +265,18 @@ def hemisphere_hits(occluders, positions, normals, *, lit_backs=None,
             raise Cancelled("cancelled")
         dirs = rc.cosine_directions(n[start:stop], count, ids[start:stop], seed)
         o = np.repeat(lift[start:stop], count, axis=0)
-        tri, dist, front = occluders.intersect(o, dirs.reshape(-1, 3))
+        tri, _, front = occluders.intersect(o, dirs.reshape(-1, 3))
         met = tri >= 0
         lit = met if backs is None else met & (front | backs[np.maximum(tri, 0)])
         hits[start:stop] = lit.reshape(-1, count).mean(axis=1)
         open_[start:stop] = (~met).reshape(-1, count).mean(axis=1)
-        if links:
-            ray = np.flatnonzero(lit & (np.arange(len(lit)) % count % stride == 0))
-            side = tn[tri[ray]] * np.where(front[ray], 1.0, -1.0)[:, None]
-            at = o[ray] + dist[ray, None] * dirs.reshape(-1, 3)[ray]
-            src.append(start + ray // count)
-            dst.append(sealing.resolve_hits(occluders, p, n, at, side))
-    w = None
+    linker = None
     if links:
-        w = sealing.links(np.concatenate(src), np.concatenate(dst), hits)
-    return Hemisphere(hits, open_, len(p) * count, w)
+        import functools
+        from . import sealing
+        linker = functools.partial(sealing.link_rays, occluders, p, n, lift, ids, seed, count,
+                                   backs, hits)
+    return Hemisphere(hits, open_, len(p) * count, None, linker)
 
 
 def inset_origins(positions: np.ndarray, normals: np.ndarray, *, share: float = INSET_SHARE,

@@ -523,6 +523,8 @@ class TransportOperator:
             stats.update(self.balance.stats(), hemisphere_balance=self.hemisphere_balance)
             if self.enclosed is not None:
                 stats.update(hemisphere_enclosed=int(self.enclosed.sum()))
+            if self.links is not None:
+                stats.update(time_hemisphere_links=float(self.links.seconds))
             if self.fill is not None:
                 stats.update(hemisphere_fill_rows=self.fill.filled,
                              hemisphere_fill_entries=int(len(self.fill.rows)),

@@ -4,9 +4,13 @@ slit, or not at all, and the first-hit transport that lights them without leaks.
 Light reaches a surfel only along a path of first hits: from the sky, a lamp or an emitter, to
 a surface that sees it, to a surface that sees that one, and so on. The hemisphere rays that
 bound each transport row (``conservation.hemisphere_hits``) already find those first hits;
-every ``LINK_RAYS``-th hit on a lit face is given to the surfel that carries it there
+``LINK_RAYS`` of each surfel's hits on lit faces are given to the surfels that carry them
 (``resolve_hits``), and the pairs (ray's surfel, hit's surfel) make a sparse first-hit
 transport W (``Links``: row i holds surfel i's hit share, spread over the surfels its rays met).
+A surfel whose own sky share reaches ``THRESHOLD``, or that a lamp lights or that emits, is a
+source: its row is left empty (``Hemisphere.enclosed`` casts the linking rays of the others
+only, once the direct light is known), so that in a scene under the sky or under lamps few
+rays need a surfel found for them.
 
 A part of the scene that no path joins to a source is sealed (the inside of a closed part):
 its light is exactly 0. A part joined only through a slit (the pocket behind Suzanne's eyes,
@@ -35,6 +39,8 @@ import numpy as np
 #: Rays per surfel, of its hemisphere's rays, whose hits are given to surfels (the first ones
 #: of its lattice, which spread over the whole hemisphere).
 LINK_RAYS = 16
+#: Surfels whose linking rays are cast in one batch.
+CHUNK = 65536
 #: Surfels considered for a hit: its nearest this many.
 LINK_NEIGHBOURS = 8
 #: Facing candidates tested for visibility, nearest first, before a hit is left unlinked.
@@ -71,6 +77,8 @@ class Links:
     #: (N,) bool: surfels most of whose linking rays that met a lit face found its surfel
     #: (a scan's bumpy splats can hide a hit point from the surfel beside it).
     known: np.ndarray
+    #: s spent casting and resolving the linking rays (``link_rays``) and the reach.
+    seconds: float = 0.0
 
     def apply(self, r: np.ndarray) -> np.ndarray:
         """W r for r (N,)."""
@@ -112,6 +120,41 @@ def resolve_hits(occluders, positions: np.ndarray, normals: np.ndarray, hits: np
     return out
 
 
+def link_rays(occluders, positions, normals, origins, ids, seed: int, count: int, lit_backs,
+              hits, rows) -> Links:
+    """The first-hit transport (``Links`` over all N surfels) of the surfels ``rows``: every
+    (count / ``LINK_RAYS``)-th ray of each one's hemisphere lattice (``receivers.
+    cosine_directions`` with ``ids`` and ``seed``, as ``conservation.hemisphere_hits`` casts
+    them from ``origins``, lifted) whose first hit is a lit face (front, or a back where
+    ``lit_backs`` (T,) says so; None: all) is given to the surfel there (``resolve_hits``).
+    ``hits`` (N,): each surfel's hit share, which its row spreads."""
+    import time
+    from . import receivers as rc
+    begin = time.perf_counter()
+    rows = np.asarray(rows, dtype=np.int64).reshape(-1)
+    corners = occluders.corners
+    tn = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    tn /= np.maximum(np.linalg.norm(tn, axis=1), 1e-300)[:, None]
+    picked = np.arange(0, count, max(1, count // LINK_RAYS))      # spread over the lattice
+    src, dst = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+    for start in range(0, len(rows), CHUNK):
+        chunk = rows[start:start + CHUNK]
+        dirs = rc.cosine_directions(normals[chunk], count, ids[chunk], seed)[:, picked]
+        dirs = np.ascontiguousarray(dirs.reshape(-1, 3))
+        o = np.repeat(origins[chunk], len(picked), axis=0)
+        tri, dist, front = occluders.intersect(o, dirs)
+        met = tri >= 0
+        lit = met if lit_backs is None else met & (front | lit_backs[np.maximum(tri, 0)])
+        ray = np.flatnonzero(lit)
+        side = tn[tri[ray]] * np.where(front[ray], 1.0, -1.0)[:, None]
+        at = o[ray] + dist[ray, None] * dirs[ray]
+        src.append(chunk[ray // len(picked)])
+        dst.append(resolve_hits(occluders, positions, normals, at, side))
+    w = links(np.concatenate(src), np.concatenate(dst), hits)
+    w.seconds = time.perf_counter() - begin
+    return w
+
+
 def _sees(occluders, a: np.ndarray, b: np.ndarray, na: np.ndarray, nb: np.ndarray) -> np.ndarray:
     """(M,) bool: no triangle meets the path a -> m -> b, m their midpoint moved
     ``LINK_CLEARANCE`` × |b − a| along the mean of their unit normals ``na``, ``nb``."""
@@ -148,9 +191,10 @@ def reach(w: Links, sky: np.ndarray, sources: np.ndarray, *,
           bounces: int = BOUNCES) -> np.ndarray:
     """The light (N,) a white scene carries along the first-hit transport ``w`` in
     ``bounces`` bounces, as a share of the sky's: each surfel receives its ``sky`` share
-    (N,) directly, and ``sources`` (N,) bool (lamp-lit, emitting) hold 1. In [0, 1]."""
+    (N,) directly, and ``sources`` (N,) bool (lamp-lit, emitting) and the surfels whose sky
+    share reaches ``THRESHOLD`` hold 1. In [0, 1]."""
     sky = np.asarray(sky, dtype=np.float64)
-    src = np.asarray(sources, dtype=bool)
+    src = np.asarray(sources, dtype=bool) | (sky >= THRESHOLD)
     r = np.where(src, 1.0, sky)
     for _ in range(int(bounces)):
         nxt = np.minimum(sky + w.apply(r), 1.0)
@@ -165,4 +209,8 @@ def enclosed(w: Links, sky: np.ndarray, sources: np.ndarray, *, bounces: int = B
              threshold: float = THRESHOLD) -> np.ndarray:
     """(N,) bool: surfels whose ``reach`` stays under ``threshold`` and whose row of ``w`` is
     known (``Links.known``): their light is their first hits' (0 where sealed)."""
-    return (reach(w, sky, sources, bounces=bounces) < threshold) & w.known
+    import time
+    begin = time.perf_counter()
+    out = (reach(w, sky, sources, bounces=bounces) < threshold) & w.known
+    w.seconds += time.perf_counter() - begin
+    return out
