@@ -36,8 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: Rays per surfel, of its hemisphere's rays, whose hits are given to surfels (the first ones
-#: of its lattice, which spread over the whole hemisphere).
+#: Rays per surfel, of its hemisphere's rays, whose hits are given to surfels (every
+#: (64 / this)-th of its lattice, which spread over the whole hemisphere).
 LINK_RAYS = 16
 #: Surfels whose linking rays are cast in one batch.
 CHUNK = 65536
