@@ -82,13 +82,16 @@ PART_Q = ((0.6, 0.2, 0.2), (1.6, 0.8, 0.8))
 
 def test_a_pocket_between_intersecting_parts_is_dark():
     """Two intersecting closed parts, both faces lit: everything inside either (the inside
-    faces, and the outside faces buried in the other part) is sealed and reads 0; the
-    outside reads what the same solve gives it without the first-hit rows."""
+    faces, and the outside faces buried in the other part) is sealed, enclosed and reads 0;
+    the outside reads what the same solve gives it without the first-hit rows."""
     tris = np.r_[_box(*PART_P), _box(*PART_Q)]
     p, n, a, front = _two_sided(tris, 3000)
     outside = front & ~_inside(p, *PART_P) & ~_inside(p, *PART_Q)
     b, h, enclosed = _white_sky(tris, p, n, a)
-    assert np.array_equal(enclosed, ~outside)
+    assert not enclosed[outside].any()
+    # A surfel none of whose linking rays found a surfel keeps its kernel row (never
+    # enclosed); with its whole pocket dark around it, it stays dark too.
+    assert enclosed[~outside].mean() > 0.99
     assert b[~outside].max() < 1e-3
     plain, _, _ = _white_sky(tris, p, n, a, enclose=False)
     assert plain[~outside].max() > 1e-2          # the kernel's leak, which this removes
@@ -98,7 +101,7 @@ def test_a_pocket_between_intersecting_parts_is_dark():
 def test_an_open_slot_keeps_its_light():
     """The same part with a 5 cm slit along its top, and a slot 5 cm wide and 1 m deep (20
     times its width): light reaches their insides within ``sealing.BOUNCES`` (the slot's
-    bottom to 0.52, five times ``sealing.THRESHOLD``), and no surfel of them is enclosed, so
+    bottom to 0.57, over five times ``sealing.THRESHOLD``), and no surfel of them is enclosed, so
     their rows are the kernel's."""
     tris = _box(*PART_P, top=(0.475, 0.525))
     p, n, a, front = _two_sided(tris, 3000)
@@ -131,7 +134,7 @@ def test_a_lamp_inside_a_closed_part_lights_it():
     assert not enclosed[~front].any()
     assert b[~front & (p[:, 2] < 1e-6)].min() > 0.1 * RHO
     _, _, dark = _white_sky(tris, p, n, a)
-    assert np.array_equal(dark, ~front)          # without the lamp the inside is sealed
+    assert not dark[front].any() and dark[~front].mean() > 0.99   # without the lamp: sealed
 
 
 def test_links_spread_each_share_over_the_resolved_rays():
