@@ -284,6 +284,10 @@ def run(job: Job, progress: Progress | None = None) -> Result:
                 kwargs.update(coverage=SURFEL_COVERAGE, visibility_shape=shape)
     if job.hemisphere is not None:
         kwargs["hemisphere_hits"] = job.hemisphere.hits
+        # Surfels that light reaches only through a slit take their rows from first hits.
+        kwargs["hemisphere_enclosed"] = job.hemisphere.enclosed(
+            job.direct_lamps, job.emission, job.solve_emission)
+        kwargs["hemisphere_links"] = job.hemisphere.links
     if "occluder_triangles" in kwargs and job.refine is None:
         # The solve builds its own ray scene of these triangles: the receivers' is released
         # meanwhile and built again for them (a scan's splats: about 1 GB per million points).

@@ -435,7 +435,7 @@ def hemisphere_hits(job: Job, progress: Progress | None = None):
         if src.name in clouds:
             points[src.start:src.stop] = True
     return hits(occ, job.positions, job.normals, lit_backs=lit_backs, inset=points, ids=ids,
-                seed=job.settings.seed, progress=report)
+                seed=job.settings.seed, links=True, progress=report)
 
 
 #: Shadow rays per lattice point and sized lamp: a hit interpolates three lattice points and

@@ -196,11 +196,33 @@ class Hemisphere:
     hits: np.ndarray
     open: np.ndarray
     rays: int
+    #: ``sealing.Links`` or None: the first-hit transport of the surfels that need it, set by
+    #: ``enclosed``.
+    links: object | None = None
+    #: rows -> ``sealing.Links``: casts those surfels' linking rays (``links=True``), or None.
+    linker: object | None = None
+
+    def enclosed(self, *light) -> np.ndarray:
+        """(N,) bool: surfels that the light of the sky and of the surfels that have light of
+        their own (any entry > 0 in one of ``light``: (N,) or (N, 3) arrays of lamp light,
+        emission; None counts for nothing) reaches only through a slit along first hits, or
+        not at all (``sealing.enclosed``). Only the others cast their linking rays (sets
+        ``links``). None of them without a ``linker`` (``hemisphere_hits(links=True)``)."""
+        from . import sealing
+        n = len(self.hits)
+        if self.linker is None:
+            return np.zeros(n, dtype=bool)
+        sources = self.open >= sealing.THRESHOLD        # reached whatever their rows
+        for values in light:
+            if values is not None:
+                sources |= (np.asarray(values).reshape(n, -1) > 0.0).any(axis=1)
+        self.links = self.linker(np.flatnonzero(~sources))
+        return sealing.enclosed(self.links, self.open, sources)
 
 
 def hemisphere_hits(occluders, positions, normals, *, lit_backs=None,
                     rays: int = HEMISPHERE_RAYS, inset=None, ids=None, seed: int = 0,
-                    progress=None) -> Hemisphere:
+                    links: bool = False, progress=None) -> Hemisphere:
     """Each surfel's cosine-weighted share (N,) of its hemisphere whose first hit is a lit
     face, and the share that meets nothing: rays from ``positions`` (N, 3, m) about unit
     ``normals`` against ``occluders`` (``receivers.MeshOccluders``: the scene's triangles
@@ -212,9 +234,10 @@ def hemisphere_hits(occluders, positions, normals, *, lit_backs=None,
     ``rays`` per surfel (``receivers.cosine_directions``, the gather's lattice), lifted
     ``occluders.offset`` off the surface. ``inset`` (N,) bool: the surfels whose rays start
     off their surface's edges (``inset_origins``; a scan's points, which lie on the edges
-    themselves; a mesh's surfels lie inside their triangles). ``ids`` (N,) int name each surfel's random stream
-    (default: its row): a surfel keeps its rays when others are added or removed.
-    Dimensionless, in [0, 1]."""
+    themselves; a mesh's surfels lie inside their triangles). ``ids`` (N,) int name each
+    surfel's random stream (default: its row): a surfel keeps its rays when others are added
+    or removed. ``links``: keep what ``Hemisphere.enclosed`` needs to cast the surfels'
+    linking rays (``sealing.link_rays``). Dimensionless, in [0, 1]."""
     from . import receivers as rc
     p = np.ascontiguousarray(positions, dtype=np.float64)
     n = np.ascontiguousarray(normals, dtype=np.float64)
@@ -247,7 +270,13 @@ def hemisphere_hits(occluders, positions, normals, *, lit_backs=None,
         lit = met if backs is None else met & (front | backs[np.maximum(tri, 0)])
         hits[start:stop] = lit.reshape(-1, count).mean(axis=1)
         open_[start:stop] = (~met).reshape(-1, count).mean(axis=1)
-    return Hemisphere(hits, open_, len(p) * count)
+    linker = None
+    if links:
+        import functools
+        from . import sealing
+        linker = functools.partial(sealing.link_rays, occluders, p, n, lift, ids, seed, count,
+                                   backs, hits)
+    return Hemisphere(hits, open_, len(p) * count, None, linker)
 
 
 def inset_origins(positions: np.ndarray, normals: np.ndarray, *, share: float = INSET_SHARE,

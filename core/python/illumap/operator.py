@@ -92,7 +92,8 @@ VISIBILITY_DEFAULTS = {
 #: The keywords ``solve`` forwards to TransportOperator.
 OPERATOR_KEYWORDS = ("method", "order", "theta", "leaf_size", "near_field", "visibility",
                      "threads", "occluder_triangles", "hemisphere_hits",
-                     "hemisphere_bound", "hemisphere_balance", "hemisphere_fill") \
+                     "hemisphere_bound", "hemisphere_balance", "hemisphere_fill",
+                     "hemisphere_enclosed", "hemisphere_links") \
     + tuple(VISIBILITY_DEFAULTS)
 
 
@@ -147,7 +148,8 @@ def validate_keywords(*, method=DEFAULT_METHOD, order=DEFAULT_ORDER, theta=DEFAU
                       leaf_size=DEFAULT_LEAF_SIZE, near_field=DEFAULT_NEAR_FIELD,
                       visibility=DEFAULT_VISIBILITY, threads=0, occluder_triangles=None,
                       hemisphere_hits=None, hemisphere_bound=None, hemisphere_balance="rows",
-                      hemisphere_fill=True, **visibility_keywords) -> dict:
+                      hemisphere_fill=True, hemisphere_enclosed=None, hemisphere_links=None,
+                      **visibility_keywords) -> dict:
     """Check the operator keywords (raises InputError) and return them normalized."""
     out = {}
     _check_triangles(occluder_triangles)
@@ -198,6 +200,22 @@ def core_origin(positions: np.ndarray) -> np.ndarray:
     step = 2.0 ** np.ceil(np.log2(spread))
     snapped = np.round(median / step) * step
     return snapped if np.all(np.isfinite(snapped)) else median
+
+
+def _check_enclosed(enclosed, links, n: int) -> np.ndarray | None:
+    """``hemisphere_enclosed`` as a (N,) bool array, or None; an InputError if it is not one
+    or ``links`` (``sealing.Links``) do not fit it."""
+    if enclosed is None:
+        return None
+    array = np.asarray(enclosed)
+    if array.dtype != np.bool_ or array.shape != (n,):
+        raise InputError(f"hemisphere_enclosed: expected a bool array of shape ({n},), "
+                         f"got {array.dtype} {array.shape}")
+    if links is not None:
+        known = getattr(links, "known", None)
+        if known is None or len(known) != n:
+            raise InputError(f"hemisphere_links: expected illumap.sealing.Links for {n} surfels")
+    return array.copy()
 
 
 def _check_triangles(triangles) -> np.ndarray | None:
@@ -286,6 +304,16 @@ class TransportOperator:
     hemisphere_balance : "rows" | "symmetric"
         With ``hemisphere_hits``: scale each row on its own (default; one application, and
         GMRES solves) or rows and columns alike (Sinkhorn; reciprocal, CG solves).
+    hemisphere_enclosed : (N,) bool array or None
+        Surfels that the light of the sky and the lamps reaches along first hits only through
+        a slit, or not at all (``conservation.Hemisphere.enclosed``). With
+        ``hemisphere_hits``, ``hemisphere_links`` and ``hemisphere_balance="rows"`` their
+        rows are the first-hit transport's (``sealing.Links``), which leaks only where their
+        rays do, in place of the kernel's, whose 1% leaks across intersection lines light a
+        pocket that should stay dark. Without links (or with the symmetric balance) their
+        rows and columns of every part of the operator are 0: sealed, their light is 0.
+    hemisphere_links : sealing.Links or None
+        The first-hit transport of the hemisphere rays (``Hemisphere.links``).
     hemisphere_fill : bool
         With ``hemisphere_hits``, ``hemisphere_balance="rows"`` and ``occluder_triangles``
         (default True): a row that stays short of its share even scaled by
@@ -304,7 +332,7 @@ class TransportOperator:
                  visibility: str = DEFAULT_VISIBILITY, threads: int = 0, progress=None,
                  occluder_triangles=None, hemisphere_hits=None, hemisphere_bound=None,
                  hemisphere_balance: str = "rows", hemisphere_fill: bool = True,
-                 **visibility_keywords):
+                 hemisphere_enclosed=None, hemisphere_links=None, **visibility_keywords):
         if not isinstance(surfels, Surfels):
             raise InputError(
                 f"surfels: expected an illumap.Surfels, got {type(surfels).__name__} "
@@ -349,24 +377,60 @@ class TransportOperator:
         self._fill_seconds = 0.0
         self._scale = None        # left scale (N, 1): rows
         self._right = None        # right scale (N, 1): columns ("symmetric" only)
+        self._coupled = None      # (N, 1) 1.0 / 0.0: surfels not sealed (enclosed, no links)
+        self.enclosed = _check_enclosed(hemisphere_enclosed, hemisphere_links, surfels.n)
+        self.links = hemisphere_links if self.enclosed is not None else None
+        raw_apply = self._op.apply
+        if self.enclosed is not None and self.enclosed.any() and self.links is None:
+            self._coupled = (~self.enclosed).astype(np.float64)[:, None]
+            raw_apply = self._coupled_apply
         self.hemisphere_balance = _check_choice("hemisphere_balance", hemisphere_balance,
                                                 HEMISPHERE_BALANCES)
         if hemisphere_hits is not None:
             hits = conservation.check_hits(hemisphere_hits, surfels.n)
             bound = (None if hemisphere_bound is None
                      else conservation.check_hits(hemisphere_bound, surfels.n, "hemisphere_bound"))
+            if self.links is not None:
+                hits = hits * ~self.enclosed      # their rows: the first hits'
+            if self._coupled is not None:
+                # A sealed surfel's row is 0, and an open one's share is carried by open ones.
+                hits = hits * self._coupled[:, 0]
+                bound = None if bound is None else bound * self._coupled[:, 0]
             if self.hemisphere_balance == "rows":
-                self.balance = conservation.scale_rows(self._op.apply, hits, bound=bound)
+                self.balance = conservation.scale_rows(raw_apply, hits, bound=bound)
                 self._scale = self.balance.scale[:, None]
                 if hemisphere_fill and self.occluder_triangles is not None:
                     start = time.perf_counter()
                     self.fill = self._first_hit_fill(hits)
                     self._fill_seconds = time.perf_counter() - start
+                if self.links is not None:
+                    self._first_hit_rows()
             else:
                 # Surfels that reflect nothing keep their scale (conservation.balance).
-                self.balance = conservation.balance(self._op.apply, hits, bound=bound,
+                self.balance = conservation.balance(raw_apply, hits, bound=bound,
                                                     frozen=~(surfels.albedo.max(axis=1) > 0.0))
                 self._scale = self._right = self.balance.scale[:, None]
+
+    def _first_hit_rows(self) -> None:
+        """The enclosed surfels' rows from the first-hit transport ``self.links``, added to
+        the fill."""
+        w = self.links
+        take = self.enclosed[w.rows]
+        rows, cols, weights = w.rows[take], w.cols[take], w.weights[take]
+        if self.fill is not None:
+            rows = np.r_[self.fill.rows, rows]
+            cols = np.r_[self.fill.cols, cols]
+            weights = np.r_[self.fill.weights, weights]
+        filled = 0 if self.fill is None else self.fill.filled
+        missing = 0.0 if self.fill is None else self.fill.missing
+        self.fill = conservation.Fill(rows, cols, weights, filled, missing)
+        self.balance.rows_after = self.balance.rows_after + np.bincount(
+            w.rows[take], w.weights[take], minlength=self.n)
+
+    def _coupled_apply(self, x: np.ndarray, progress=None) -> np.ndarray:
+        """The native application with sealed rows and columns 0."""
+        return self._op.apply(np.ascontiguousarray(x * self._coupled),
+                              progress=progress) * self._coupled
 
     def _first_hit_fill(self, hits: np.ndarray):
         """``conservation.first_hit_fill`` for the rows short of their share, or None."""
@@ -405,8 +469,11 @@ class TransportOperator:
         """``apply`` without its checks, for callers that checked ``values`` (N×3 float64
         C-contiguous, finite) themselves: the native application with the hemisphere's
         scales. ``progress``: a native callback."""
+        if self._coupled is not None:
+            values = np.ascontiguousarray(values * self._coupled)
         if self._scale is None:
-            return self._op.apply(values, progress=progress)
+            y = self._op.apply(values, progress=progress)
+            return y if self._coupled is None else y * self._coupled
         x = values if self._right is None else np.ascontiguousarray(values * self._right)
         y = self._op.apply(x, progress=progress) * self._scale
         return y if self.fill is None else y + self.fill.apply(values)
@@ -418,8 +485,11 @@ class TransportOperator:
         if rows.size and (rows.min() < 0 or rows.max() >= self.n):
             k = int(np.flatnonzero((rows < 0) | (rows >= self.n))[0])
             raise InputError(f"rows[{k}] = {rows[k]} is out of range [0, {self.n})")
+        if self._coupled is not None:
+            values = np.ascontiguousarray(values * self._coupled)
         if self._scale is None:
-            return self._op.apply_rows(values, rows)
+            y = self._op.apply_rows(values, rows)
+            return y if self._coupled is None else y * self._coupled[rows]
         x = values if self._right is None else np.ascontiguousarray(values * self._right)
         y = self._op.apply_rows(x, rows) * self._scale[rows]
         return y if self.fill is None else y + self.fill.apply_rows(values, rows)
@@ -451,6 +521,10 @@ class TransportOperator:
             stats.update(self.visibility_options)
         if self.balance is not None:
             stats.update(self.balance.stats(), hemisphere_balance=self.hemisphere_balance)
+            if self.enclosed is not None:
+                stats.update(hemisphere_enclosed=int(self.enclosed.sum()))
+            if self.links is not None:
+                stats.update(time_hemisphere_links=float(self.links.seconds))
             if self.fill is not None:
                 stats.update(hemisphere_fill_rows=self.fill.filled,
                              hemisphere_fill_entries=int(len(self.fill.rows)),
