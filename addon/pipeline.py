@@ -74,8 +74,6 @@ def prepare(depsgraph, objects, settings: Settings, *, build: bool = True) -> "J
     return unbuilt.build() if build else unbuilt
 
 
-
-
 def to_scene(job: Job) -> Scene:
     """The job as ``illumap.Scene``, the plain value ``illumap.run`` takes (no copies)."""
     return Scene(settings=job.settings, positions=job.positions, normals=job.normals,
@@ -168,7 +166,8 @@ def run_passes(job: Job, progress: Progress | None = None, *, on_main=None,
     jobs = [job]
 
     def following(solved):
-        call = lambda: next_pass(solved.lit.scene, solved)  # noqa: E731
+        def call():
+            return next_pass(solved.lit.scene, solved)
         new = call() if on_main is None else on_main(call)
         if new is not None:
             jobs.append(new)
