@@ -82,8 +82,8 @@ class Scene:
 
     Emission that a lamp carries (an emissive mesh sampled as ``emitters``) is in
     ``emission`` but not in ``solve_emission``: the lamp's direct light brings it, and the
-    surfels still show it. ``light_mask`` order is explicit here: the emitters' share is
-    ``emission - solve_emission``, fixed when the scene is built."""
+    surfels still show it. Which emission a lamp carries is data here (``emission -
+    solve_emission``), fixed when the scene is built, not a flag a later step reads."""
 
     settings: Settings
     positions: np.ndarray          # (N, 3) m
