@@ -37,14 +37,17 @@ def triangle_emission(tm: TriangleMesh) -> tuple[np.ndarray, np.ndarray]:
     return front, back
 
 
-def mesh_lights(tri_meshes: list[TriangleMesh], notes: list[str]) -> list[lights.Lamp]:
-    """Lamps for the emissive triangles of ``tri_meshes``; sets each mesh's ``light_mask``
-    (T,) to the triangles whose emission the lamps now carry. Objects over the triangle
-    budget keep emitting surfels, with a note."""
-    found, used = [], 0
+def mesh_lights(tri_meshes: list[TriangleMesh],
+                notes: list[str]) -> tuple[list[lights.Lamp], list[np.ndarray]]:
+    """Lamps for the emissive triangles of ``tri_meshes``, and per mesh the triangles (T,)
+    bool whose emission the lamps now carry (their surfels' emission leaves the solve:
+    ``read_scene._surfel_parts`` takes these masks). Objects over the triangle budget keep
+    emitting surfels, with a note."""
+    found, used, masks = [], 0, []
     for tm in tri_meshes:
         front, back = triangle_emission(tm)
-        tm.light_mask = np.zeros(len(tm.area), dtype=bool)
+        mask = np.zeros(len(tm.area), dtype=bool)
+        masks.append(mask)
         emits = (front > 0).any(axis=1) | (back > 0).any(axis=1)
         count = int(emits.sum())
         if count == 0:
@@ -57,7 +60,7 @@ def mesh_lights(tri_meshes: list[TriangleMesh], notes: list[str]) -> list[lights
         rows = np.flatnonzero(emits)
         f, b = front[rows], back[rows]
         same = np.allclose(f, b)
-        tm.light_mask[rows] = True
+        mask[rows] = True
         if same:
             found.append(lights.mesh_light(tm.name, tm.corners[rows], f, two_sided=True))
             continue
@@ -66,4 +69,4 @@ def mesh_lights(tri_meshes: list[TriangleMesh], notes: list[str]) -> list[lights
         if (b > 0).any():
             flipped = tm.corners[rows][:, ::-1]   # reversed winding: the back faces forward
             found.append(lights.mesh_light(tm.name + " (back)", flipped, b, two_sided=False))
-    return found
+    return found, masks

@@ -1,7 +1,7 @@
-"""What a run carries between its stages, numpy only (no bpy, no native core): the job that
-``pipeline.prepare`` reads from the scene and ``pipeline.run`` lights and solves, the sources
-of its surfels, and the solved result. The stages in ``pipeline``, ``receive`` and ``output``
-all read these, so they live below every one of them.
+"""What the add-on holds of a run, numpy only (no bpy, no native core): the job that
+``pipeline.prepare`` reads from the scene (the fields of ``illumap.Scene``, which
+``pipeline.run`` hands to ``illumap.run``, and the direct light once lit), and the result it
+writes. ``pipeline`` and ``output`` read these, so they live below both.
 """
 
 from __future__ import annotations
@@ -14,17 +14,6 @@ from illumap.settings import Settings
 
 #: ``progress(fraction, phase)``: called during long phases; returns False to cancel.
 Progress = Callable[[float, str], "bool | None"]
-
-
-@dataclass
-class Source:
-    """Which surfels came from which object, for transfer and reporting."""
-
-    name: str
-    kind: str      # 'MESH' | 'POINTS'
-    start: int
-    stop: int
-    area: float    # m²
 
 
 @dataclass
@@ -42,7 +31,7 @@ class Job:
     triangle: np.ndarray          # (N,) int64 triangle of the evaluated mesh (-1: point input)
     bary: np.ndarray              # (N, 3) barycentric coordinates in it (NaN: point input)
     material_index: np.ndarray    # (N,) int64 material slot (-1: point input)
-    sources: list[Source]
+    sources: list                 # illumap.Source per part, in row order
     warnings: list[str] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
     stats: dict = field(default_factory=dict)   # density choice, shadow rays, adaptive passes
@@ -62,11 +51,11 @@ class Job:
     hemisphere: object | None = None
     triangles: np.ndarray | None = None            # (T, 3, 3) every sampled mesh triangle, m
     two_sided: np.ndarray | None = None            # (T,) bool: its mesh is an open surface
-    clouds: list = field(default_factory=list)     # PointCloud per point source, as read
+    clouds: list = field(default_factory=list)     # illumap.PointCloud per point source
     mesh_triangle_start: np.ndarray | None = None  # first row in ``triangles`` of each mesh
     splat_point: np.ndarray | None = None          # (T,) point (over all clouds) whose splat
                                                    # each triangle is, -1: a mesh's own
-    receivers: list = field(default_factory=list)  # sampling.Receivers, evaluated by ``receive``
+    receivers: list = field(default_factory=list)  # illumap.Receivers: the meshes' corners
     occluders: object = None                       # illumap.receivers.MeshOccluders, built once
 
     @property
@@ -91,6 +80,7 @@ class Result:
     object_name: str = ""
     receiver_values: dict = field(default_factory=dict)  # object name → (corners, 3) radiance
     point_receiver_values: dict = field(default_factory=dict)  # point cloud → (points, 3)
+    job: "Job | None" = None      # the job of the run's last pass (what ``write`` writes)
 
     @property
     def residual(self) -> float:

@@ -6,23 +6,26 @@ Compute has two paths (docs/architecture.md, add-on contract):
 * ``execute`` — synchronous: ``pipeline.compute`` on the main thread. Used in background mode,
   from scripts (``bpy.ops.illumap.compute_illumination_map()``), and for redo.
 * ``invoke`` in an interactive session — ``pipeline.prepare`` on the main thread (reads the
-  scene, samples surfels), then ``pipeline.run`` on a worker thread (no bpy there: lamp shadow
-  rays, then the solve), polled by a modal timer that drives the progress bar and status line
-  with the current phase; Esc cancels either phase. On success ``pipeline.write`` runs on the main
+  scene, samples surfels), then ``pipeline.run_passes`` on a worker thread (no bpy there: the
+  one loop over the passes, ``illumap.run``: lamp shadow rays, the solve, the light at the
+  receivers; an adaptive run's second pass is read on the main thread, handed over through
+  ``ComputeTask.call_on_main``), polled by a modal timer that drives the progress bar and
+  status line with the current phase and serves those calls; Esc cancels either phase. On success ``pipeline.write`` runs on the main
   thread. The UNDO flag makes Blender push one undo step when the modal operator finishes, so
   the write is undoable and no extra ``ed.undo_push`` is needed (it would add an empty step).
 
-``ComputeTask`` is the worker's state machine, kept free of operator state so that tests can
-drive it without timers or a window.
+``ComputeTask`` (``compute_task.py``) is the worker's state machine, kept free of operator
+state so that tests can drive it without timers or a window.
 """
 
 import numbers
-import threading
 import time
 
 import bpy
 
 from . import mesh_preview, output, preferences, properties, solid_preview, threads
+# The worker and the runs' ids (tests drive them through this module too).
+from .compute_task import ComputeTask, _class_names, _is_cancelled_error, begin_run, is_latest  # noqa: F401
 from .kinds import HELPER_TYPES, is_instancer
 from .kinds import SUPPORTED_TYPES as _SUPPORTED_TYPES
 
@@ -30,15 +33,6 @@ from .kinds import SUPPORTED_TYPES as _SUPPORTED_TYPES
 def _pipeline():
     from . import pipeline  # imported late: it needs the native module
     return pipeline
-
-
-def _class_names(error):
-    return {cls.__name__ for cls in type(error).__mro__}
-
-
-def _is_cancelled_error(error):
-    """The core's ``Cancelled`` or the pipeline's ``IllumapCancelled`` (or a subclass)."""
-    return any(name in ("Cancelled", "IllumapCancelled") for name in _class_names(error))
 
 
 _USER_ERRORS = {"IllumapError", "InputError", "ValueError", "RuntimeError", "MemoryError"}
@@ -242,10 +236,9 @@ def _written_object(result, write_return=None):
     return objs[0] if objs else None
 
 
-# The interactive run in progress, if any (one at a time; the panel shows its progress), and
-# the id of the latest run started (``begin_run``): only that run may write its result.
+# The interactive run in progress, if any (one at a time; the panel shows its progress); the
+# id of the latest run started is ``compute_task.begin_run``'s: only that run may write.
 _current = {"task": None}
-_runs = {"latest": 0}
 
 
 def current_task():
@@ -263,120 +256,6 @@ def run_in_flight():
 
 ALREADY_RUNNING = ("An Illumap computation is already running: wait for it to finish, or "
                    "press Esc to cancel it, before starting another")
-
-
-def begin_run():
-    """A new run's id: from now on only this run may write its result."""
-    _runs["latest"] += 1
-    return _runs["latest"]
-
-
-def is_latest(run_id):
-    return run_id == _runs["latest"]
-
-
-# --- the worker's state machine -------------------------------------------------------------
-
-class ComputeTask:
-    """Runs ``run(job, progress)`` on a worker thread and reports its state.
-
-    ``progress(fraction, phase)`` is called by the core from the worker thread; it only stores
-    numbers and strings (never touches bpy) and returns False once ``cancel()`` was called,
-    which makes the core stop and raise ``Cancelled``.
-
-    States: ``"PENDING"`` (not started), ``"RUNNING"``, ``"DONE"`` (a result), ``"CANCELLED"``
-    (cancel was requested; any result is discarded), ``"FAILED"`` (``error`` holds why).
-    """
-
-    def __init__(self, job, run, run_id=None):
-        self.job = job
-        self._run = run
-        # Which run this is (``begin_run``); the passes of one run share it.
-        self.run_id = begin_run() if run_id is None else run_id
-        self._cancel = threading.Event()
-        self._thread = None
-        self.fraction = 0.0
-        self.phase = "starting"
-        self.result = None
-        self.error = None
-        self.started = None
-        self.finished = None
-
-    def progress(self, fraction, phase=""):
-        try:
-            self.fraction = min(1.0, max(0.0, float(fraction)))
-        except (TypeError, ValueError):
-            pass
-        if phase:
-            self.phase = str(phase)
-        return not self._cancel.is_set()
-
-    def _target(self):
-        try:
-            build = getattr(self.job, "build", None)   # a scene as read (``UnbuiltJob``)
-            if callable(build):
-                self.job = build(self.progress)
-            self.result = self._run(self.job, self.progress)
-        except BaseException as error:  # reported on the main thread
-            self.error = error
-        finally:
-            self.finished = time.perf_counter()
-
-    def start(self):
-        self.started = time.perf_counter()
-        self._thread = threading.Thread(target=self._target, name="illumap-compute", daemon=True)
-        self._thread.start()
-        return self
-
-    def cancel(self):
-        self._cancel.set()
-
-    @property
-    def cancel_requested(self):
-        return self._cancel.is_set()
-
-    def wait(self, timeout=None):
-        if self._thread is not None:
-            self._thread.join(timeout)
-        return self.state
-
-    @property
-    def seconds(self):
-        if self.started is None:
-            return 0.0
-        return (self.finished or time.perf_counter()) - self.started
-
-    @property
-    def state(self):
-        if self._thread is None:
-            return "PENDING"
-        if self._thread.is_alive():
-            return "RUNNING"
-        if self._cancel.is_set() or (self.error is not None and _is_cancelled_error(self.error)):
-            return "CANCELLED"
-        if self.error is not None:
-            return "FAILED"
-        return "DONE"
-
-    def status_text(self):
-        if self._cancel.is_set():
-            return "Illumap: cancelling…"
-        return f"Illumap: {self.phase} {100.0 * self.fraction:.0f} %  (Esc to cancel)"
-
-
-def next_task(task):
-    """Main thread, after a pass finished: the started task of the next pass (adaptive
-    density: pass 2 resamples from pass 1's result), or None when this was the last pass."""
-    if task.state != "DONE":
-        return None
-    next_pass = getattr(_pipeline(), "next_pass", None)
-    job = next_pass(task.job, task.result) if next_pass is not None else None
-    if job is None:
-        return None
-    started = task.started
-    follow = ComputeTask(job, task._run, run_id=task.run_id).start()
-    follow.started = started  # the statistics time the whole run
-    return follow
 
 
 def finish_task(context, task, report):
@@ -435,22 +314,12 @@ def _modal_step(self, context, event):
     if event.type != "TIMER":
         return {"PASS_THROUGH"}
     if task.state == "RUNNING":
+        task.serve_main()   # an adaptive run's second pass reads the scene here
         context.window_manager.progress_update(task.fraction)
         self._status(context, task.status_text())
         for area in context.screen.areas if context.screen else ():
             if area.type == "VIEW_3D":
                 area.tag_redraw()  # the panel shows the progress too
-        return {"RUNNING_MODAL"}
-    try:
-        follow = next_task(task)
-    except Exception as error:
-        self._cleanup(context)
-        self.report({"ERROR"}, f"Illumap failed: {error_message(error)}")
-        return {"CANCELLED"}
-    if follow is not None:  # adaptive density: pass 2 runs on the worker in turn
-        self._task = follow
-        _current["task"] = follow
-        self._status(context, follow.status_text())
         return {"RUNNING_MODAL"}
     self._cleanup(context)
     return finish_task(context, task, self.report)
@@ -536,7 +405,7 @@ class ILLUMAP_OT_compute_illumination_map(bpy.types.Operator):
             self.report({"ERROR"}, f"Illumap could not prepare the scene: {error_message(error)}")
             return {"CANCELLED"}
         threads.apply(context.scene)   # Blender's thread setting reaches the core
-        self._task = ComputeTask(job, _pipeline().run).start()
+        self._task = ComputeTask.all_passes(job, _pipeline().run_passes).start()
         _current["task"] = self._task
         self._timer = wm.event_timer_add(0.1, window=context.window)
         wm.modal_handler_add(self)

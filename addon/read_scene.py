@@ -17,12 +17,13 @@ import numpy as np
 from illumap import lights
 from illumap.identities import object_rng
 from illumap.settings import DEFAULT_BUDGET, Settings
+from illumap.stages.scene import PointCloud, Source
 
 from . import emitters, lamps, materials, point_splats, pointcloud, sampling
 from .budget import (_mesh_share, adaptive_error_ratio_applies, capped_target_warning,
                      check_memory, target_density)
 from .errors import ExitCode, IllumapCancelled, IllumapError, core_cancelled
-from .job import Job, Progress, Source
+from .job import Job, Progress
 from .kinds import HELPER_TYPES, MESH_TYPES, RESULT_TYPES, is_instancer
 
 
@@ -37,6 +38,7 @@ class _Scene:
     point_sources: list           # (name, area, two-sided) per point cloud
     lamps: list
     world: "lights.Lamp | None"
+    light_masks: list = None      # per mesh: the triangles whose emission a lamp carries
 
 
 def _split_objects(depsgraph, objects) -> tuple[list, list, list[str]]:
@@ -162,10 +164,13 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
             raise IllumapError(f"Adaptive first pass must be a fraction in (0, 1], got {fraction}", ExitCode.USAGE)
         refine = _Scene(tri_meshes, counts, [], point_sources, lamp_list, world)   # points: build
         first = np.maximum(np.rint(counts * fraction).astype(np.int64), 1)
-    mesh_emitters = emitters.mesh_lights(tri_meshes, warnings)
+    # The emissive triangles a lamp carries: their surfels' emission leaves the solve.
+    mesh_emitters, light_masks = emitters.mesh_lights(tri_meshes, warnings)
+    if refine is not None:
+        refine.light_masks = light_masks
     samples = [sampling.sample_mesh(tm, int(n), object_rng(settings.seed, tm.name))
                for tm, n in zip(tri_meshes, first)]
-    mesh_parts = _surfel_parts(samples, warnings)
+    mesh_parts = _surfel_parts(samples, light_masks, warnings)
     receivers = []
     if settings.transfer:
         scratch: list[str] = []   # material warnings were given for the surfels already
@@ -303,20 +308,6 @@ BACK_DISC_LIFT = 0.05
 BACK_FACE_PROBE_RAYS = 16
 
 
-@dataclass
-class PointCloud:
-    """A point cloud as read, every point a receiver (numpy only): positions and the normals
-    it is lit about (P, 3; ``PointSamples.receiver_normals``), albedo and emission (P, 3), and
-    the surfel (row in its own source) that stands for each point in the solve."""
-
-    name: str
-    positions: np.ndarray
-    normals: np.ndarray
-    albedo: np.ndarray
-    emission: np.ndarray
-    surfel: np.ndarray
-
-
 def _point_counts(settings: Settings, density: float | None, point_counts: list[int],
                   sources: list, mesh_area: float) -> list[int]:
     """Surfels per point cloud (``point_counts``: its points): its area (m²) × the density
@@ -402,12 +393,14 @@ def _back_faces_in_view(occluders, positions: np.ndarray, normals: np.ndarray) -
     return (tri.reshape(-1, k) >= 0).any(axis=1)
 
 
-def _assemble(settings: Settings, samples: list, point_parts: list, point_sources: list,
-              lamp_list: list, world, warnings: list[str], stats: dict, t0: float,
-              occluders=None) -> Job:
-    """Materials and the Job from sampled meshes and point clouds (direct light: ``light``);
+def _assemble(settings: Settings, samples: list, light_masks: list, point_parts: list,
+              point_sources: list, lamp_list: list, world, warnings: list[str], stats: dict,
+              t0: float, occluders=None) -> Job:
+    """Materials and the Job from sampled meshes (``light_masks``: per mesh, the triangles
+    whose emission a lamp carries) and point clouds (direct light: ``light``);
     ``occluders`` (the scene's triangles) find the open surfaces' back faces in view."""
-    parts = _with_points(_surfel_parts(samples, warnings), point_parts, point_sources)
+    parts = _with_points(_surfel_parts(samples, light_masks, warnings), point_parts,
+                         point_sources)
     return _assembled(parts, settings, lamp_list, world, warnings, stats, t0, occluders)
 
 
@@ -424,8 +417,10 @@ class _SurfelParts:
     point_backs: list             # (name, area, part) per point cloud of unknown orientation
 
 
-def _surfel_parts(samples: list, warnings: list[str]) -> _SurfelParts:
-    """The meshes' surfels with their materials (main thread: the materials are bpy's)."""
+def _surfel_parts(samples: list, light_masks: list, warnings: list[str]) -> _SurfelParts:
+    """The meshes' surfels with their materials (main thread: the materials are bpy's);
+    ``light_masks`` (``emitters.mesh_lights``): per mesh, the triangles whose emission a
+    lamp carries."""
     fronts, sources, start = [], [], 0
     for s in samples:
         albedo, emission = materials.surfel_materials(s, warnings)
@@ -433,8 +428,7 @@ def _surfel_parts(samples: list, warnings: list[str]) -> _SurfelParts:
                        s.triangle, s.bary, s.material_index))
         sources.append(Source(s.mesh.name, "MESH", start, start + len(s.areas), s.mesh.total_area))
         start += len(s.areas)
-    in_lamp = [s.mesh.light_mask[s.triangle] if s.mesh.light_mask is not None
-               else np.zeros(len(s.areas), dtype=bool) for s in samples]
+    in_lamp = [mask[s.triangle] for s, mask in zip(samples, light_masks)]
     scratch: list[str] = []   # the front faces' evaluation already warned about the materials
     backs = []
     for index, s in enumerate(samples):

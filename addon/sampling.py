@@ -27,6 +27,8 @@ import numpy as np
 from illumap import sampling as core_sampling
 from illumap.identities import canonical_triangles, corner_ids
 from illumap import surfels as core_surfels
+# The corners are the core's receivers (``illumap.Receivers``), a hair inside their faces.
+from illumap.stages.scene import RECEIVER_INSET, Receivers  # noqa: F401
 
 from .errors import IllumapError
 from .kinds import MESH_TYPES
@@ -54,7 +56,6 @@ class TriangleMesh:
     instancer: str = ""            # name of the instancing object, for instances
     loops: np.ndarray | None = None     # (T, 3) int64 corner (loop) index of each triangle corner
     vertices: np.ndarray | None = None  # (T, 3) int64 vertex index of each triangle corner
-    light_mask: np.ndarray | None = None  # (T,) bool: emission carried by a lamp (emitters)
     two_sided: bool = False        # an open surface (boundary edges): both faces reflect
 
     @property
@@ -325,40 +326,6 @@ def _read_mesh_data(name: str, obj_eval, mesh, matrix_world, material_slots) -> 
         skipped_triangles=skipped, loops=tri_l[keep].astype(np.int64),
         vertices=tri_v[keep].astype(np.int64),
     )
-
-
-#: How far into its triangle a corner is evaluated, as a share of the way to the centroid.
-RECEIVER_INSET = 1e-3
-
-
-@dataclass
-class Receivers:
-    """The corners of one object's own mesh, where its ``illumination`` is evaluated: each
-    corner is lit at its point (a hair inside its face) with its normal, and has its own
-    albedo and emission."""
-
-    name: str
-    corner_vertex: np.ndarray      # (L,) int64 vertex of each corner
-    points: np.ndarray             # (L, 3) m, world space
-    normals: np.ndarray            # (L, 3) unit, world space
-    albedo: np.ndarray             # (L, 3) front-face albedo per corner
-    emission: np.ndarray           # (L, 3) front-face emission per corner (radiance)
-    vertex_count: int
-    inward: np.ndarray | None = None   # (L, 3) m, from each corner to its triangle's centroid
-    corner_id: np.ndarray | None = None  # (L,) int64 stable identity (``corner_ids``); None: row
-
-    @property
-    def ids(self) -> np.ndarray:
-        """Each receiver's identity (L,) int64, which its rays follow from."""
-        return (np.arange(len(self.points), dtype=np.int64) if self.corner_id is None
-                else self.corner_id)
-
-    def per_vertex(self, corner_values: np.ndarray) -> np.ndarray:
-        """Mean of the corner values (L, C) of each vertex (V, C); 0 for unused vertices."""
-        count = np.bincount(self.corner_vertex, minlength=self.vertex_count).astype(np.float64)
-        out = np.zeros((self.vertex_count, corner_values.shape[1]))
-        np.add.at(out, self.corner_vertex, corner_values)
-        return out / np.maximum(count, 1.0)[:, None]
 
 
 #: Modifiers that move, smooth or subdivide a mesh but keep its vertices as the first of the

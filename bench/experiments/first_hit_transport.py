@@ -47,15 +47,18 @@ def first_hit_rows(job, knn: int):
     """(rows, cols) of every ray that met a surfel (weight 1/RAYS each) and the open share
     (N,) of each surfel, from the job's hemisphere rays."""
     from scipy.spatial import cKDTree
-    from addon import receive
+    from addon import pipeline
     from illumap import receivers as rc
-    occ = receive.mesh_occluders(job)
+    from illumap.gather.ids import gather_sides, surfel_ids
+    from illumap.stages.scene import with_occluders
+    scene = with_occluders(pipeline.to_scene(job))
+    occ = scene.occluders
     p, n = job.positions, job.normals
-    ids = receive.surfel_ids(job)
+    ids = surfel_ids(scene)
     tri_all = job.triangles
     tn = np.cross(tri_all[:, 1] - tri_all[:, 0], tri_all[:, 2] - tri_all[:, 0])
     tn /= np.linalg.norm(tn, axis=1)[:, None]
-    sides = receive._gather_sides(job)
+    sides = gather_sides(scene)
     tree = cKDTree(p)
     rows, cols, open_ = [], [], np.zeros(len(p))
     for s0 in range(0, len(p), 8192):

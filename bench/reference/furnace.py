@@ -571,18 +571,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-cache", action="store_true", help="bake afresh and write no cache")
     ap.add_argument("--out", default=DEFAULT_OUT)
     ap.add_argument("--conserve", choices=("on", "off"), default=None,
-                    help="set pipeline.CONSERVE_LIGHT for this run (default: as shipped)")
+                    help="set illumap.stages.light.CONSERVE_LIGHT for this run (default: as shipped)")
     args = ap.parse_args(sys.argv[1:] if argv is None else argv)
-    pipeline = reference_run.register_addon()
+    reference_run.register_addon()
+    from illumap.stages import light as light_stage
     if args.conserve is not None:
-        pipeline.CONSERVE_LIGHT = args.conserve == "on"
+        light_stage.CONSERVE_LIGHT = args.conserve == "on"
     start = time.perf_counter()
     rows = [run_case(name, args.samples, not args.no_cache, args.albedo) for name in args.cases]
     import illumap
     results = dict(commit=reference_run._commit(), blender=bpy.app.version_string,
                    illumap_core=getattr(illumap, "__file__", ""), samples=args.samples,
                    seeds=list(SEEDS), bounces=BOUNCES,
-                   conserve_light=getattr(pipeline, "CONSERVE_LIGHT", None),
+                   conserve_light=light_stage.CONSERVE_LIGHT,
                    machine=dict(platform=platform.platform(), cpus=os.cpu_count()),
                    date=datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
                    rows=rows, wall_seconds=time.perf_counter() - start)
@@ -590,7 +591,7 @@ def main(argv: list[str] | None = None) -> int:
     with open(args.out, "w") as f:
         json.dump(results, f, indent=1)
     print_table(rows)
-    print(f"pipeline.CONSERVE_LIGHT = {results['conserve_light']}")
+    print(f"illumap.stages.light.CONSERVE_LIGHT = {results['conserve_light']}")
     print(f"wrote {args.out} ({results['wall_seconds']:.0f} s)")
     return 0
 

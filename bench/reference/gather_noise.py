@@ -2,7 +2,7 @@
 """The final gather's noise estimate against its measured noise, on the reference scenes.
 
 For each scene and ray count: sample and solve the surfels once, then evaluate the light at
-the meshes' corners (``addon.receive.receive``) twice with two gather seeds, everything else
+the meshes' corners (``illumap.stages.passes.gather``) twice with two gather seeds, everything else
 (surfels, shadow rays) the same. Each seed shifts the gather's ray lattice independently, so
 the two results' difference is the gather's own error times √2: the measured noise is
 relative RMS of luminance over the corners, as ``stats['receivers']['gather_noise']`` (the
@@ -39,13 +39,14 @@ LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 def measure(name: str, rays: int, pipeline) -> dict:
     """Estimated and measured gather noise on scene ``name`` at ``rays`` per receiver."""
-    from addon import receive
     from illumap import receivers as rc
+    from illumap.stages import passes
+    from illumap.stages.light import light
     scene = scenes.build(name)
     objects, _ = run.scan_objects(scene)
     settings = run.make_settings(pipeline, dict(gather_rays=rays))
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), objects, settings)
-    result = pipeline.run(job)
+    solved = passes.solve_lit(light(pipeline.to_scene(job)))
     gather, shift = rc.Gatherer.gather, {"seed": 0}
 
     def shifted(self, *args, seed=0, **kwargs):     # the gather's seed only
@@ -56,10 +57,9 @@ def measure(name: str, rays: int, pipeline) -> dict:
     try:
         for seed in (0, 1):
             shift["seed"] = seed
-            result.receiver_values = {}
-            receive.receive(job, result)
-            values.append({k: v @ LUMINANCE for k, v in result.receiver_values.items()})
-            stats.append(dict(result.stats["receivers"]))
+            gathered = passes.gather(solved)
+            values.append({k: v @ LUMINANCE for k, v in gathered.corners.items()})
+            stats.append(dict(gathered.stats["receivers"]))
     finally:
         rc.Gatherer.gather = gather
     diff2 = sum(float(((values[0][k] - values[1][k]) ** 2).sum()) for k in values[0]) / 2.0

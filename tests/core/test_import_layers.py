@@ -25,7 +25,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 PACKAGES = {"illumap": os.path.join(ROOT, "core", "python", "illumap"),
             "addon": os.path.join(ROOT, "addon")}
 #: Add-on modules that are pure: numpy and the core in, numpy out, no Blender.
-PURE_ADDON = ("addon.kinds", "addon.core_status", "addon.errors",
+PURE_ADDON = ("addon.kinds", "addon.core_status", "addon.errors", "addon.compute_task",
               "addon.job")
 #: The core modules that import without the native module (pure Python, no numpy): the reduced
 #: UI declares its settings from them.

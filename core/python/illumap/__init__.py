@@ -11,6 +11,10 @@ Public API (docs/architecture.md)::
                                                               #  → illumap.accuracy)
     Occluders(surfels, coverage=1.3, shape="disc")           # .visible(origins, targets, skip=)
     InputError(ValueError), Cancelled(Exception)
+    run(scene, progress=None, *, next_pass=None) -> Gathered  # illumap.stages: Scene → Lit
+                                                              # → Solved → Gathered, one loop
+                                                              # over the passes
+    Scene, Source, PointCloud, Receivers                      # the scene as plain data
 """
 
 import importlib
@@ -26,6 +30,10 @@ _LAZY = {
     "Solution": (".solver", "Solution"), "DEFAULT_TOL": (".solver", "DEFAULT_TOL"),
     "Surfels": (".surfels", "Surfels"), "InputError": (".surfels", "InputError"),
     "TransportOperator": (".operator", "TransportOperator"),
+    "run": (".stages.passes", "run"), "Gathered": (".stages.passes", "Gathered"),
+    "Scene": (".stages.scene", "Scene"), "Source": (".stages.scene", "Source"),
+    "PointCloud": (".stages.scene", "PointCloud"), "Receivers": (".stages.scene", "Receivers"),
+    "RunError": (".stages.errors", "RunError"), "NoLight": (".stages.errors", "NoLight"),
     **{name: (".operator", name) for name in (
         "DEFAULT_LEAF_SIZE", "DEFAULT_METHOD", "DEFAULT_NEAR_FIELD", "DEFAULT_ORDER",
         "DEFAULT_THETA", "DEFAULT_VISIBILITY")},
@@ -50,7 +58,8 @@ __all__ = [
     "Surfels", "TransportOperator", "Occluders", "solve", "Solution", "InputError", "Cancelled",
     "DEFAULT_METHOD", "DEFAULT_ORDER", "DEFAULT_THETA", "DEFAULT_LEAF_SIZE",
     "DEFAULT_NEAR_FIELD", "DEFAULT_VISIBILITY", "DEFAULT_TOL", "native_available", "load_native",
-    "accuracy",
+    "accuracy", "run", "Gathered", "Scene", "Source", "PointCloud", "Receivers", "RunError",
+    "NoLight",
 ]
 
 

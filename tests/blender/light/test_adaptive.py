@@ -26,8 +26,10 @@ import pytest
 from illumap import lights
 from illumap_bpy_testing import diffuse_material, link, make_plane, requires_core
 
-from addon import pipeline, receive
+from addon import pipeline
+from illumap.gather import rays as gather_rays
 from illumap.neighbours import knn
+from illumap.stages import light as light_stage
 
 pytestmark = requires_core
 SPOT = (0.0, -0.2, 1.5)
@@ -163,7 +165,7 @@ def test_adaptive_pass_is_denser_at_a_shadow_edge(monkeypatch):
     import illumap
     from illumap_bpy_testing import disc_segment_query
     if not hasattr(illumap, "Occluders"):
-        monkeypatch.setattr(pipeline, "make_segment_query",
+        monkeypatch.setattr(light_stage, "make_segment_query",
                             lambda p, n, a, progress=None, shape="disc":
                             disc_segment_query(p, n, a, pipeline.SURFEL_COVERAGE))
     mat = diffuse_material("D", (0.5,) * 3)
@@ -271,32 +273,31 @@ def test_the_target_sets_the_rays_per_receiver():
     """With a target error the gather's rays follow from it (its noise model held to half the
     target), the shadow samples ∝ 1/target²: fewer for a looser target, never below the
     least counts, powers of two, and what the statistics report is what was cast."""
-    from addon import receive
     targets = (0.3, 0.1, 0.05, 0.03, 0.02, 0.01, 0.005, 0.003)
-    rays = [receive.receiver_rays(pipeline.Settings(target_error=t)) for t in targets]
+    rays = [gather_rays.receiver_rays(pipeline.Settings(target_error=t)) for t in targets]
     gathers, shadows = [g for g, _ in rays], [s for _, s in rays]
-    for counts, low, high in ((gathers, receive.MIN_TARGET_RAYS, receive.MAX_TARGET_RAYS),
-                              (shadows, receive.MIN_TARGET_SHADOW_SAMPLES,
-                               receive.MAX_TARGET_SHADOW_SAMPLES)):
+    for counts, low, high in ((gathers, gather_rays.MIN_TARGET_RAYS, gather_rays.MAX_TARGET_RAYS),
+                              (shadows, gather_rays.MIN_TARGET_SHADOW_SAMPLES,
+                               gather_rays.MAX_TARGET_SHADOW_SAMPLES)):
         assert counts == sorted(counts) and min(counts) == low and max(counts) == high
         assert all(c & (c - 1) == 0 for c in counts)
     for t, g in zip(targets, gathers):
         def noise(rays):
-            return receive.NOISE_AT_512_RAYS * (512 / rays) ** receive.NOISE_EXPONENT
-        share = receive.GATHER_NOISE_SHARE * t
-        assert g == receive.MAX_TARGET_RAYS or noise(g) <= share * (1 + 1e-9)
-        assert g == receive.MIN_TARGET_RAYS or noise(g // 2) > share    # the fewest
-    assert receive.receiver_rays(pipeline.Settings()) == (512, 128)   # no target: the settings'
+            return gather_rays.NOISE_AT_512_RAYS * (512 / rays) ** gather_rays.NOISE_EXPONENT
+        share = gather_rays.GATHER_NOISE_SHARE * t
+        assert g == gather_rays.MAX_TARGET_RAYS or noise(g) <= share * (1 + 1e-9)
+        assert g == gather_rays.MIN_TARGET_RAYS or noise(g // 2) > share    # the fewest
+    assert gather_rays.receiver_rays(pipeline.Settings()) == (512, 128)   # no target: the settings'
     objects = spot_scene()
     for target in (0.1, 0.02):
         settings = pipeline.Settings(target_error=target)
         result = pipeline.compute(bpy.context, objects, settings)
         got = result.stats["receivers"]
-        planned = receive.receiver_rays(settings)
+        planned = gather_rays.receiver_rays(settings)
         first = got.get("first_gather")      # this scene's gather is noisy: cast again
         assert first is not None and first["rays"] == planned[0]
         assert (got["gather_rays"], got["shadow_samples"]) == (
-            receive.more_rays(settings, first["gather_noise"], planned[0]), planned[1])
+            gather_rays.more_rays(settings, first["gather_noise"], planned[0]), planned[1])
 
 
 def test_the_target_sets_the_shadow_rays_per_surfel(monkeypatch):
@@ -304,21 +305,20 @@ def test_the_target_sets_the_shadow_rays_per_surfel(monkeypatch):
     casts for the surfels' own target (five times the target when the light is evaluated at
     the meshes), at most the sky's cap; the settings' count when it is larger, or without a
     target; and the direct light at the surfels is cast with them."""
-    from addon import receive
     count = pipeline.surfel_shadow_samples
     assert count(pipeline.Settings()) == pipeline.Settings().shadow_samples == 16
     assert count(pipeline.Settings(shadow_samples=40)) == 40
     assert [count(pipeline.Settings(target_error=t)) for t in (0.1, 0.03, 0.02)] == [16] * 3
     one = pipeline.Settings(target_error=0.01)
-    assert count(one) == receive.target_shadow_samples(pipeline.surfel_target(one)) == 32
+    assert count(one) == gather_rays.target_shadow_samples(pipeline.surfel_target(one)) == 32
     assert count(pipeline.Settings(target_error=0.01, shadow_samples=128)) == 128
     # the surfels are the result without Transfer: the target's own count, capped
     assert count(pipeline.Settings(target_error=0.01, transfer=False)) == lights.WORLD_SAMPLES
     cast = []
-    shadows = pipeline._shadows
-    monkeypatch.setattr(pipeline, "_shadows",
-                        lambda job, nrm, samples, progress: cast.append(samples)
-                        or shadows(job, nrm, samples, progress))
+    shadows = light_stage._shadows
+    monkeypatch.setattr(light_stage, "_shadows",
+                        lambda scene, nrm, samples, progress, warnings: cast.append(samples)
+                        or shadows(scene, nrm, samples, progress, warnings))
     objects = spot_scene()
     for target in (0.03, 0.01):
         job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), objects,
@@ -405,7 +405,7 @@ def test_a_target_the_count_cannot_reach_says_so():
     result = pipeline.compute(bpy.context, objects, pipeline.Settings(
         target_error=0.0005, budget=300))
     got = result.stats["receivers"]
-    assert got["gather_rays"] == receive.MAX_TARGET_RAYS and got["gather_noise"] > 0.0005
+    assert got["gather_rays"] == gather_rays.MAX_TARGET_RAYS and got["gather_noise"] > 0.0005
     noisy = [w for w in result.warnings if "not met at the objects" in w]
     assert len(noisy) == 1 and f"{got['gather_noise']:.2%}" in noisy[0], result.warnings
     assert "the most a target casts" in noisy[0]
@@ -421,9 +421,9 @@ def test_a_gather_noisier_than_its_share_of_the_target_is_cast_again_with_more_r
     result = pipeline.compute(bpy.context, objects, settings)
     got = result.stats["receivers"]
     first = got["first_gather"]
-    assert first["rays"] == receive.receiver_rays(settings)[0] == receive.MIN_TARGET_RAYS
-    assert first["gather_noise"] > receive.GATHER_NOISE_SHARE * 0.1
-    assert got["gather_rays"] == receive.more_rays(settings, first["gather_noise"], first["rays"])
+    assert first["rays"] == gather_rays.receiver_rays(settings)[0] == gather_rays.MIN_TARGET_RAYS
+    assert first["gather_noise"] > gather_rays.GATHER_NOISE_SHARE * 0.1
+    assert got["gather_rays"] == gather_rays.more_rays(settings, first["gather_noise"], first["rays"])
     assert got["gather_noise"] < first["gather_noise"]
     corners = got["corners"]
     assert got["rays"] >= corners * (first["rays"] + got["gather_rays"])
@@ -440,26 +440,26 @@ def test_a_gather_noisier_than_its_share_of_the_target_is_cast_again_with_more_r
 
 def test_more_rays_follow_the_noise_found():
     s = pipeline.Settings(target_error=0.02)
-    share = receive.GATHER_NOISE_SHARE * 0.02
-    assert receive.more_rays(s, 0.99 * share, 256) is None
-    assert receive.more_rays(s, float("nan"), 256) is None
-    assert receive.more_rays(s, 10.0, receive.MAX_TARGET_RAYS) is None
-    assert receive.more_rays(pipeline.Settings(), 10.0, 64) is None
-    counts = [receive.more_rays(s, noise, 128) for noise in (1.01 * share, 2 * share, 4 * share, 100.0)]
-    assert counts == sorted(counts) and counts[0] == 256 and counts[-1] == receive.MAX_TARGET_RAYS
+    share = gather_rays.GATHER_NOISE_SHARE * 0.02
+    assert gather_rays.more_rays(s, 0.99 * share, 256) is None
+    assert gather_rays.more_rays(s, float("nan"), 256) is None
+    assert gather_rays.more_rays(s, 10.0, gather_rays.MAX_TARGET_RAYS) is None
+    assert gather_rays.more_rays(pipeline.Settings(), 10.0, 64) is None
+    counts = [gather_rays.more_rays(s, noise, 128) for noise in (1.01 * share, 2 * share, 4 * share, 100.0)]
+    assert counts == sorted(counts) and counts[0] == 256 and counts[-1] == gather_rays.MAX_TARGET_RAYS
     assert all(c & (c - 1) == 0 for c in counts)
     # enough by the model's slope: the noise found, scaled to the count, within the share
     for noise, c in zip((1.01 * share, 2 * share, 4 * share), counts):
-        assert c == receive.MAX_TARGET_RAYS or \
-            noise * (128 / c) ** receive.NOISE_EXPONENT <= share * (1 + 1e-9)
+        assert c == gather_rays.MAX_TARGET_RAYS or \
+            noise * (128 / c) ** gather_rays.NOISE_EXPONENT <= share * (1 + 1e-9)
 
 
 def test_the_gather_noise_warning_names_what_was_cast():
     """The noise verdict fires only above the target, says whether the rays were the most a
     target casts, and never fires without a target."""
     s = pipeline.Settings(target_error=0.03)
-    assert receive.gather_noise_warning(s, 0.029, 256) is None
-    assert receive.gather_noise_warning(s, float("nan"), 256) is None
-    few = receive.gather_noise_warning(s, 0.04, 256)
+    assert gather_rays.gather_noise_warning(s, 0.029, 256) is None
+    assert gather_rays.gather_noise_warning(s, float("nan"), 256) is None
+    few = gather_rays.gather_noise_warning(s, 0.04, 256)
     assert "4.00%" in few and "256 rays" in few and "the most" not in few
-    assert receive.gather_noise_warning(pipeline.Settings(), 0.5, 512) is None
+    assert gather_rays.gather_noise_warning(pipeline.Settings(), 0.5, 512) is None

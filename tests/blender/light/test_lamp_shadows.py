@@ -28,6 +28,7 @@ from illumap_bpy_testing import add_lamp as add_lamp_at
 from illumap_bpy_testing import diffuse_material, disc_segment_query, make_plane
 
 from addon import lamps, pipeline
+from illumap.stages import light as light_stage
 
 ALBEDO = 0.5
 SHADOW_FRACTION = 0.01
@@ -40,7 +41,7 @@ REAL_QUERY = hasattr(illumap, "Occluders")
 def segment_query(monkeypatch):
     """The segment query used for shadows: the core's, or the numpy stand-in."""
     if not REAL_QUERY:
-        monkeypatch.setattr(pipeline, "make_segment_query",
+        monkeypatch.setattr(light_stage, "make_segment_query",
                             lambda p, n, a, progress=None, shape="disc":
                             disc_segment_query(p, n, a, pipeline.SURFEL_COVERAGE))
     return "core" if REAL_QUERY else "stand-in"
@@ -177,7 +178,7 @@ def test_segment_query_failure_is_reported(monkeypatch):
         def visible(*_a):
             raise RuntimeError("device lost")
         return visible
-    monkeypatch.setattr(pipeline, "shadow_query", broken)
+    monkeypatch.setattr(light_stage, "shadow_query", broken)
     add_lamp("POINT", energy=10.0)
     floor = make_plane("Floor", material=diffuse_material("D", (ALBEDO,) * 3))
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), [floor],

@@ -1,4 +1,4 @@
-"""The light evaluated at the meshes' own corners (addon/receive.py): emission semantics as in
+"""The light evaluated at the meshes' own corners (illumap.gather): emission semantics as in
 Cycles, open surfaces lit on both faces, results that do not depend on the run.
 
 Analytic values: a Lambertian emitter of radiance L that fills a receiver's hemisphere gives
@@ -140,12 +140,13 @@ def test_an_open_mesh_whose_back_sees_nothing_is_one_sided_to_the_gather(monkeyp
     surfels metres away), while the plate above, whose underside sees the floor, stays
     two-sided. Nothing can see the floor's underside, so the light at the meshes is what the
     whole open mesh's two sides give, to the bit."""
-    from addon import receive
+    from illumap.gather import evaluation
+    from illumap.gather.ids import gather_sides
     floor, plate = plate_over_floor(cuts=9)
     settings = pipeline.Settings(budget=3000, transfer_domain="POINT", gather_rays=64)
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), [floor, plate], settings)
     assert {src.name for src in job.sources if src.kind == "BACK"} == {"Plate"}
-    sides = receive._gather_sides(job)
+    sides = gather_sides(pipeline.to_scene(job))
     start = {src.name: int(a) for src, a in zip(
         [src for src in job.sources if src.kind == "MESH"], job.mesh_triangle_start)}
     floor_rows = slice(start["Floor"], start["Floor"] + 2 * 10 * 10)
@@ -153,7 +154,7 @@ def test_an_open_mesh_whose_back_sees_nothing_is_one_sided_to_the_gather(monkeyp
     assert job.two_sided[floor_rows].all() and not sides[floor_rows].any()
     assert sides[plate_rows].all() and len(sides) == len(job.two_sided)
     result = pipeline.run(job)
-    monkeypatch.setattr(receive, "_gather_sides", lambda job: job.two_sided)
+    monkeypatch.setattr(evaluation, "gather_sides", lambda scene: scene.two_sided)
     both = pipeline.run(job)
     for name, values in result.receiver_values.items():
         np.testing.assert_array_equal(values, both.receiver_values[name], err_msg=name)
@@ -186,7 +187,7 @@ def test_beside_contacts_finds_lattice_points_a_facing_surface_nearly_touches():
     within CONTACT_REACH of that surfel's radii: a face just above it looking down, or a wall
     beside it looking back; not a surface facing the same way, one facing away, or one out
     of reach."""
-    from addon import receive
+    from illumap.gather import lattice
     up, down = (0.0, 0.0, 1.0), (0.0, 0.0, -1.0)
     points = np.array([[0.0, 0, 0], [0.3, 0, 0], [1.0, 0, 0], [2.0, 0, 0], [3.0, 0, 0]])
     normals = np.tile(up, (len(points), 1))
@@ -196,9 +197,9 @@ def test_beside_contacts_finds_lattice_points_a_facing_surface_nearly_touches():
                     [3.0, 0.05, 0.05]])   # a wall beside the fifth, facing away
     nrm = np.array([down, up, (0.0, -1.0, 0.0), (0.0, 1.0, 0.0)])
     areas = np.full(len(pos), np.pi * 0.05 ** 2)           # radius 5 cm: reach 10 cm
-    got = receive._beside_contacts(points, normals, pos, nrm, areas)
+    got = lattice.beside_contacts(points, normals, pos, nrm, areas)
     assert got.tolist() == [0, 3]
-    assert receive._beside_contacts(points[:0], normals[:0], pos, nrm, areas).size == 0
+    assert lattice.beside_contacts(points[:0], normals[:0], pos, nrm, areas).size == 0
 
 
 def test_under_a_sky_contacts_gather_afresh_and_the_exact_part_takes_the_sky():
@@ -220,7 +221,7 @@ def test_gap_candidates_face_a_surface_within_reach_in_front():
     """A receiver may face a gap where a surfel of a surface facing it lies within reach in
     front of it: a floor point under a face looking down on it; not one under a surface
     facing the same way, beside a wall, behind it, or out of reach."""
-    from addon import receive
+    from illumap.gather import gaps
     up, down = (0.0, 0.0, 1.0), (0.0, 0.0, -1.0)
     points = np.array([[0.0, 0, 0], [1.0, 0, 0], [2.0, 0, 0], [3.0, 0, 0], [4.0, 0, 0]])
     normals = np.tile(up, (len(points), 1))
@@ -230,9 +231,9 @@ def test_gap_candidates_face_a_surface_within_reach_in_front():
                     [3.0, 0, -0.05],       # below the fourth point, looking up at it
                     [4.0, 0, 0.3]])        # looks down from 30 cm: out of reach
     nrm = np.array([down, up, (0.0, -1.0, 0.0), up, down])
-    got = receive._gap_candidates(points, normals, pos, nrm, reach=0.1)
+    got = gaps.gap_candidates(points, normals, pos, nrm, reach=0.1)
     assert got.tolist() == [0]
-    assert receive._gap_candidates(points[:0], normals[:0], pos, nrm, 0.1).size == 0
+    assert gaps.gap_candidates(points[:0], normals[:0], pos, nrm, 0.1).size == 0
 
 
 def sphere_on_floor(world: bool):
@@ -259,18 +260,18 @@ def test_a_lamp_lit_gap_takes_the_lamp_light_across_it():
     the edge of the sphere's shadow, the bounced light gathered), not the lattice's: they
     alone change. Under a sky the
     contact gather does that instead, and no receiver is corrected."""
-    from addon import receive
+    from illumap.gather import evaluation
     settings = pipeline.Settings(budget=3000, transfer_domain="POINT", gather_rays=128)
     floor, sphere = sphere_on_floor(world=False)
     stats = pipeline.compute(bpy.context, [floor, sphere], settings).stats["receivers"]
     assert stats["gap_receivers"] > 0
     corrected = illumination(sphere, "POINT")
-    real = receive._across_gaps
+    real = evaluation.across_gaps
     try:
-        receive._across_gaps = lambda *a, **k: (0, 0)
+        evaluation.across_gaps = lambda *a, **k: (0, 0)
         pipeline.compute(bpy.context, [floor, sphere], settings)
     finally:
-        receive._across_gaps = real
+        evaluation.across_gaps = real
     lattice = illumination(sphere, "POINT")
     z = np.empty(len(sphere.data.vertices) * 3)
     sphere.data.vertices.foreach_get("co", z)

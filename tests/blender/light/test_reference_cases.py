@@ -43,7 +43,7 @@ part took the sky (three seeds against a 1024-sample bake: RMS 0.95-1.10%, under
 The same sphere on a floor of 0.25 m cells under a sun (black world): RMS 0.0061, underside
 0.037 while its lowest receivers took the floor's light from the gather's lattice; 0.0036 and
 0.018 once the sun's light is cast at the hits across the gap and the light bounced there is
-gathered afresh (``receive._across_gaps``; 0.0039 and 0.021 with the sun's light alone).
+gathered afresh (``illumap.gather.gaps``; 0.0039 and 0.021 with the sun's light alone).
 
 A closed room lit through a window by the sky: mean ratio 0.975 while the lattice points'
 sky light was probed (``lights.PROBE_SAMPLES``), 1.000 since the world is never probed. A box

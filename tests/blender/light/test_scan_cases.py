@@ -190,15 +190,15 @@ def test_the_side_probe_changes_no_value_and_saves_rays(monkeypatch):
     """A box standing on a floor, scanned without normals: the probe of both sides settles
     the patches whose outside is plain, and only the others are lit on both sides in full.
     Every value is the one both sides in full give, for fewer rays."""
-    from addon import receive
+    from illumap.gather import scans
     white = diffuse("W")
     floor = plane("Floor", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], 0.2, white)
     box = closed_box("Box", (-0.5, -0.5, 0.0), (0.5, 0.5, 1.0), 0.2, white)
     add_lamp("POINT", location=(1.0, -1.5, 2.0), energy=300.0, shadow_soft_size=0.2)
     scan = scan_in_place_of([floor, box])
-    got, rays, probe = {}, {}, receive.SIDE_PROBE_SHARE
+    got, rays, probe = {}, {}, scans.SIDE_PROBE_SHARE
     for share in (probe, 1.0):   # 1.0: no probe, both sides in full
-        monkeypatch.setattr(receive, "SIDE_PROBE_SHARE", share)
+        monkeypatch.setattr(scans, "SIDE_PROBE_SHARE", share)
         # Every point gathers itself: the cache's records follow which sides are lit.
         result = pipeline.compute(bpy.context, [scan], pipeline.Settings(gather_cache=0.0))
         got[share], rays[share] = scan_values(scan), result.stats["receivers"]["rays"]

@@ -186,12 +186,12 @@ def test_the_operator_passes_blenders_thread_count_to_the_core(monkeypatch, regi
     for o in bpy.data.objects:
         o.select_set(o.type == "MESH")
     seen = []
-    real_run = pipeline.run
+    real_run = pipeline.run_passes
 
-    def run(job, progress=None):
+    def run(job, progress=None, **kwargs):
         seen.append(os.environ.get("ILLUMAP_THREADS"))
-        return real_run(job, progress)
-    monkeypatch.setattr(pipeline, "run", run)
+        return real_run(job, progress, **kwargs)
+    monkeypatch.setattr(pipeline, "run_passes", run)
     scene = bpy.context.scene
     scene.illumap.preset = "DRAFT"
     scene.render.threads_mode, scene.render.threads = "FIXED", 1

@@ -89,6 +89,9 @@ def _make_fake_pipeline():
                       converged=True, timings={"sampling": 0.1, "solve": 0.2}, count=n,
                       warnings=["material 'X' fell back to grey"])
 
+    def run_passes(job, progress=None, on_main=None):
+        return run(job, progress)     # one pass: the fake has no second
+
     def write(context, job, result):
         n = len(job.positions)
         mesh = bpy.data.meshes.new(SURFELS)
@@ -122,6 +125,7 @@ def _make_fake_pipeline():
 
     fake.Settings, fake.Job, fake.Result = Settings, Job, Result
     fake.prepare, fake.run, fake.write, fake.compute = prepare, run, write, compute
+    fake.run_passes = run_passes
     return fake
 
 
@@ -643,8 +647,10 @@ def test_real_pipeline_modal_logic_writes(registered_addon, two_planes):
 
 @requires_core
 def test_real_pipeline_modal_runs_the_adaptive_second_pass(registered_addon, two_planes):
-    """With a target error the timer handler starts pass 2 on the worker when pass 1 is done,
-    and writes only after pass 2: the file is untouched in between."""
+    """With a target error the worker runs both passes in one loop (``illumap.run``): when
+    pass 1 is done it waits for the timer handler, which reads pass 2 on the main thread
+    (``ComputeTask.serve_main``); the result is written only after pass 2, and the file is
+    untouched in between."""
     from addon import operators, pipeline, properties
     props = bpy.context.scene.illumap
     props.use_target_error, props.target_error, props.adaptive = True, 0.1, True
@@ -654,15 +660,18 @@ def test_real_pipeline_modal_runs_the_adaptive_second_pass(registered_addon, two
     before = snapshot()
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), list(two_planes), settings)
     assert job.count == 200 and job.refine is not None
-    task = operators.ComputeTask(job, pipeline.run).start()
+    task = operators.ComputeTask.all_passes(job, pipeline.run_passes).start()
     op = _fake_operator(task)
-    assert task.wait(60) == "DONE", task.error
-    assert op.modal(bpy.context, _event("TIMER")) == {"RUNNING_MODAL"}
-    second = op._task
-    assert second is not task and operators._current["task"] is second
-    assert second.job.count == 400 and second.job.refine is None
+    deadline = time.monotonic() + 60
+    while task.state == "RUNNING" and not task.waiting_on_main and time.monotonic() < deadline:
+        time.sleep(0.005)
+    assert task.state == "RUNNING" and task.waiting_on_main, (task.state, task.error)
     assert snapshot() == before
-    assert second.wait(60) == "DONE", second.error
+    assert op.modal(bpy.context, _event("TIMER")) == {"RUNNING_MODAL"}   # reads pass 2
+    assert not task.waiting_on_main and op._task is task
+    assert task.wait(60) == "DONE", task.error
+    assert task.job.count == 400 and task.job.refine is None   # the last pass's job
+    assert snapshot() == before
     assert op.modal(bpy.context, _event("TIMER")) == {"FINISHED"}
     stats = props.stats
     assert stats.surfels == 400 and stats.first_pass_surfels == 200
@@ -690,14 +699,48 @@ def test_real_pipeline_modal_cancel_during_second_pass(registered_addon, two_pla
     settings.budget = 400
     before = snapshot()
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), list(two_planes), settings)
-    task = operators.ComputeTask(job, pipeline.run).start()
+    task = operators.ComputeTask.all_passes(job, pipeline.run_passes).start()
     op = _fake_operator(task)
-    task.wait(60)
-    assert op.modal(bpy.context, _event("TIMER")) == {"RUNNING_MODAL"}
-    op._task.cancel()       # Esc while pass 2 runs
-    op._task.wait(60)
+    deadline = time.monotonic() + 60
+    while task.state == "RUNNING" and not task.waiting_on_main and time.monotonic() < deadline:
+        time.sleep(0.005)
+    assert task.waiting_on_main, (task.state, task.error)
+    assert op.modal(bpy.context, _event("TIMER")) == {"RUNNING_MODAL"}   # reads pass 2
+    task.cancel()           # Esc while pass 2 runs
+    assert task.wait(60) == "CANCELLED"
     assert op.modal(bpy.context, _event("TIMER")) == {"CANCELLED"}
     assert snapshot() == before and operators._current["task"] is None
+
+
+def _waiting(task, seconds=10.0):
+    deadline = time.monotonic() + seconds
+    while task.state == "RUNNING" and not task.waiting_on_main and time.monotonic() < deadline:
+        time.sleep(0.002)
+    return task.waiting_on_main
+
+
+def test_a_worker_waiting_for_the_main_thread_is_cancelled_and_hears_its_errors():
+    """``call_on_main``: the worker waits until the timer serves its call, gets the call's
+    value, or what it raised; Esc while it waits stops it at once."""
+    from addon import operators
+    task = operators.ComputeTask.all_passes(
+        None, lambda job, progress, on_main: on_main(lambda: "read on the main thread")).start()
+    assert _waiting(task) and task.serve_main() and not task.serve_main()
+    assert task.wait(10) == "DONE" and task.result == "read on the main thread"
+
+    def broken():
+        raise ValueError("the scene changed")
+    task = operators.ComputeTask.all_passes(
+        None, lambda job, progress, on_main: on_main(broken)).start()
+    assert _waiting(task) and task.serve_main()
+    assert task.wait(10) == "FAILED" and isinstance(task.error, ValueError)
+
+    task = operators.ComputeTask.all_passes(
+        None, lambda job, progress, on_main: on_main(lambda: "never served")).start()
+    assert _waiting(task)
+    task.cancel()
+    assert task.wait(10) == "CANCELLED" and task.result is None
+    assert not task.serve_main()     # nothing left to serve
 
 
 def _lamp_scene(size=4.0):
@@ -735,7 +778,8 @@ def test_real_pipeline_modal_cancel_during_lamp_shadows(registered_addon, monkey
     _lamp_scene()
     # (16 + 1) m² × 6400 = 108,800 lit surfels × 64 rays: seven batches of 2^20 rays.
     settings = _lamp_settings(density=6400.0, shadow_samples=64)
-    real = pipeline.shadow_query
+    from illumap.stages import light as light_stage
+    real = light_stage.shadow_query
     calls = {"started": 0, "finished": 0}
 
     def counting(job, normals, progress=None):
@@ -748,7 +792,7 @@ def test_real_pipeline_modal_cancel_during_lamp_shadows(registered_addon, monkey
             return out
         return visible
 
-    monkeypatch.setattr(pipeline, "shadow_query", counting)
+    monkeypatch.setattr(light_stage, "shadow_query", counting)
     before = snapshot()
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), bpy.context.selected_objects,
                            settings)

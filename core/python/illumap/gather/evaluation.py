@@ -1,0 +1,165 @@
+"""One evaluation of the light at a batch of receivers (no bpy): the lamps' direct light with
+shadow rays from each receiver, plus the final gather of the surfels' solved light
+(``illumap.receivers``), shared through an irradiance cache where the receivers are a point
+cloud's points, corrected across gaps, zero where another surface covers the receiver.
+``Evaluation`` holds what every batch of one gather shares (the prepared ``Gatherer``, its
+exact part, the seconds of each phase); ``prepare`` builds it."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import lights
+from ..stages.scene import Progress, Scene
+from .covered import covered_receivers
+from .gaps import across_gaps
+from .ids import gather_sides, splat_owners
+from .lattice import CONTACT_RAYS, exact_direct, gathered_at_contacts
+from .straddling import regather_straddling
+
+
+@dataclass
+class Evaluation:
+    """What the batches of one gather share, and what they found so far."""
+
+    scene: Scene
+    occ: object                    # receivers.MeshOccluders of the scene
+    back: np.ndarray               # (N,) bool: back-face surfels (a field of their own)
+    field_: object                 # receivers.SurfelField of the front surfels' light
+    exact: object                  # receivers.ExactPart, or None
+    gatherer: object               # receivers.Gatherer, tabulated once
+    gather_rays: int
+    shadow_samples: int
+    report: object                 # the gather's progress, or None
+    radiosity: np.ndarray          # the surfels' outgoing radiance, straddling ones evaluated
+    straddling: int
+    lattice_lit: int
+    contact_points: int
+    gap_receivers: int = 0
+    phases: dict = field(default_factory=dict)    # seconds of each part
+    mark: float = field(default_factory=time.perf_counter)
+
+    def lap(self, name: str) -> None:
+        """Add the seconds since the last lap to phase ``name``."""
+        now = time.perf_counter()
+        self.phases[name] = self.phases.get(name, 0.0) + now - self.mark
+        self.mark = now
+
+    @property
+    def all_lamps(self) -> list:
+        return list(self.scene.lamps) + list(self.scene.emitters)
+
+    def gather_at(self, points, normals, ids, rays):
+        """The prepared gather at receivers (``Gatherer.gather``)."""
+        return self.gatherer.gather(points, normals, rays=rays, seed=self.scene.settings.seed,
+                                    ids=ids, progress=self.report)
+
+    def incident_at(self, points, normals, ids, meshes=None, rays=None, shared=None,
+                    samples=None, gaps=False, timed=False):
+        """Incident radiance (M, 3) at receivers, the gather's result, the rays cast and the
+        receivers found covered (inside or under another surface: no light). ``shared`` (M,)
+        int: receivers of one group (≥ 0) share the gather through an irradiance cache
+        (``illumap.irradiance_cache``); -1 or None: each gathers itself. ``gaps``: correct
+        the receivers that face a gap (``across_gaps``; the main batch's). ``timed``: its
+        parts go into ``phases``. ``rays``, ``samples``: the gather's and the shadows' (None:
+        the evaluation's)."""
+        s = self.scene.settings
+        rays = self.gather_rays if rays is None else rays
+        samples = self.shadow_samples if samples is None else samples
+        occ, all_lamps = self.occ, self.all_lamps
+        if timed:
+            self.lap("corners and side probe")
+        shadows = None
+        if all_lamps and s.lamp_shadows:
+            shadows = lights.Shadows(occ.segment_query(normals), samples=samples,
+                                     seed=s.seed, extent=occ.extent, ids=ids)
+        direct = lights.incident_radiance(all_lamps, points, normals, shadows=shadows)
+        if timed:
+            self.lap("direct")
+        gap_cast = 0
+        if shared is not None and s.gather_cache > 0 and (shared >= 0).any():
+            from ..irradiance_cache import MIN_REACH_SHARE, cached_gather
+
+            def full_gather(rows, rays_=None):
+                """The cache's gathers; those in full (not its probes) corrected across gaps
+                here, so that the receivers between records take the corrected light."""
+                nonlocal gap_cast
+                g = self.gather_at(points[rows], normals[rows], ids[rows],
+                                   rays if rays_ is None else rays_)
+                if gaps and rays_ is None:
+                    fixed, cast_ = across_gaps(self.scene, occ, self.exact, self.gatherer,
+                                               ~self.back, points[rows], normals[rows],
+                                               ids[rows], rays, g.radiance)
+                    self.gap_receivers += fixed
+                    gap_cast += cast_
+                return g
+
+            gathered = cached_gather(
+                lambda rows, rays=None: full_gather(rows, rays),
+                points, normals, groups=shared, accuracy=s.gather_cache, max_reach=occ.extent,
+                min_reach=MIN_REACH_SHARE * self.field_.reach, progress=self.report)
+            if timed:
+                self.lap("gather")
+        else:
+            gathered = self.gather_at(points, normals, ids, rays)
+            if timed:
+                self.lap("gather")
+            if gaps:
+                self.gap_receivers, gap_cast = across_gaps(
+                    self.scene, occ, self.exact, self.gatherer, ~self.back, points, normals,
+                    ids, rays, gathered.radiance)
+        if timed:
+            self.lap("gaps")
+        incident = direct + gathered.radiance
+        hidden = covered_receivers(self.scene, points, normals, 2.0 * occ.offset, meshes)
+        incident[hidden] = 0.0
+        if timed:
+            self.lap("covered")
+        cast = gathered.rays + gap_cast + (shadows.rays if shadows is not None else 0)
+        return incident, gathered, cast, int(hidden.sum())
+
+
+def prepare(scene: Scene, occ, direct: np.ndarray | None, direct_lamps: np.ndarray | None,
+            radiosity: np.ndarray, gather_rays: int, shadow_samples: int,
+            progress: Progress | None = None) -> Evaluation:
+    """The gather's shared parts for surfels whose solved outgoing radiance is ``radiosity``
+    (N, 3) and whose reflected direct light is ``direct`` (the lamps' part
+    ``direct_lamps``): the straddling surfels evaluated afresh, the surfels' fields (front and
+    back faces), the exact part of the lattice (lamp and sky light cast there, contacts
+    gathered afresh) and the ``Gatherer`` that tabulates them once."""
+    from .. import receivers as rc
+    mark = time.perf_counter()
+    # What the surfels send on: their solved radiance (with the emission left to them); the
+    # open surfaces' and two-sided points' back faces are a field of their own.
+    sent = radiosity - scene.emission + scene.solve_emission
+    back = scene.back_rows()
+    owners, back_owners = splat_owners(scene, back)
+    background = None if scene.world is None else scene.world.color
+    sides = gather_sides(scene)
+    straddling, radiosity = regather_straddling(scene, direct_lamps, radiosity, occ, sent, back,
+                                                owners, back_owners, gather_rays, background,
+                                                sides)
+    field_ = rc.SurfelField(scene.positions[~back], scene.normals[~back], sent[~back])
+    back_field = (rc.SurfelField(scene.positions[back], scene.normals[back], sent[back])
+                  if back.any() else None)
+    phases = {"straddling": time.perf_counter() - mark}
+    mark = time.perf_counter()
+    exact, lattice_lit = exact_direct(scene, direct, direct_lamps, occ, sent, ~back, field_,
+                                      owners, sides, shadow_samples)
+    exact, contact_points = gathered_at_contacts(scene, occ, exact, ~back, field_, back_field,
+                                                 owners, back_owners, sides,
+                                                 min(gather_rays, CONTACT_RAYS))
+    report = None if progress is None else (lambda f, _p="": progress(f, "gather"))
+    ev = Evaluation(scene=scene, occ=occ, back=back, field_=field_, exact=exact, gatherer=None,
+                    gather_rays=gather_rays, shadow_samples=shadow_samples, report=report,
+                    radiosity=radiosity, straddling=straddling, lattice_lit=lattice_lit,
+                    contact_points=contact_points, phases=phases, mark=mark)
+    # One prepared gather for every batch: the field is tabulated once.
+    ev.gatherer = rc.Gatherer(occ, field_, background=background, back_field=back_field,
+                              two_sided=sides, owners=owners, back_owners=back_owners,
+                              exact=exact, progress=report)
+    ev.lap("tables")
+    return ev

@@ -1,0 +1,98 @@
+"""Identities the gather's rays follow from (no bpy): each surfel's, triangle's and lattice
+point's, from its object's name and its place there, not from its row in the scene; and
+which triangles the gather takes as two-sided, and which surfel each splat stands for."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..identities import combined_ids, object_ids
+from ..stages.scene import Scene
+
+
+def splat_owners(scene: Scene, back: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Per triangle of ``scene.triangles``: the row in the front field (surfels not in
+    ``back``) and in the back field of the surfel that stands for the point whose splat it
+    is, or -1 (mesh triangles)."""
+    if scene.splat_point is None or (scene.splat_point < 0).all():
+        return None, None
+    front_row = np.cumsum(~back) - 1
+    back_row = np.cumsum(back) - 1
+    sources = {(src.name, src.kind): src for src in scene.sources}
+    owner_front = np.full(len(scene.splat_point), -1, dtype=np.int64)
+    owner_back = np.full(len(scene.splat_point), -1, dtype=np.int64)
+    offset = 0
+    for cloud in scene.clouds:
+        n = len(cloud.positions)
+        mine = (scene.splat_point >= offset) & (scene.splat_point < offset + n)
+        surfel = cloud.surfel[scene.splat_point[mine] - offset]
+        owner_front[mine] = front_row[sources[(cloud.name, "POINTS")].start + surfel]
+        twin = sources.get((cloud.name, "BACK"))
+        if twin is not None:
+            owner_back[mine] = back_row[twin.start + surfel]
+        offset += n
+    return owner_front, owner_back
+
+
+def triangle_ids(scene: Scene) -> np.ndarray:
+    """Each triangle's identity (T,) int64 in ``scene.triangles``: its mesh's name and its row
+    among that mesh's triangles, or its point and its place in that point's splat; not its
+    row in the scene, which the objects before it set."""
+    tri = scene.triangles
+    ids = np.zeros(len(tri), dtype=np.int64)
+    owner = (np.full(len(tri), -1, dtype=np.int64) if scene.splat_point is None
+             else np.asarray(scene.splat_point, dtype=np.int64))
+    mesh_end = int((owner < 0).sum())
+    meshes = [src.name for src in scene.sources if src.kind == "MESH"]
+    starts = [int(a) for a in (scene.mesh_triangle_start if scene.mesh_triangle_start is not None
+                               else [0])]
+    for name, lo, hi in zip(meshes, starts, starts[1:] + [mesh_end]):
+        ids[lo:hi] = object_ids(name, np.arange(hi - lo))
+    if mesh_end < len(tri):
+        points = owner[mesh_end:]
+        first = np.flatnonzero(np.r_[True, np.diff(points) != 0])
+        rank = np.arange(len(points)) - np.repeat(first, np.diff(np.r_[first, len(points)]))
+        ids[mesh_end:] = combined_ids(points, rank)
+    return ids
+
+
+def lattice_ids(scene: Scene, triangle: np.ndarray) -> np.ndarray:
+    """The identities (L,) int64 of lattice points given by the triangle each lies in, in the
+    order ``gather_lattices`` gives them (each triangle's together): its triangle's identity
+    and its place there. A far object, a move or a scaling leaves them as they are."""
+    triangle = np.asarray(triangle, dtype=np.int64)
+    if not len(triangle):
+        return np.zeros(0, dtype=np.int64)
+    first = np.flatnonzero(np.r_[True, np.diff(triangle) != 0])
+    place = np.arange(len(triangle)) - np.repeat(first, np.diff(np.r_[first, len(triangle)]))
+    return combined_ids(triangle_ids(scene)[triangle], place)
+
+
+def surfel_ids(scene: Scene) -> np.ndarray:
+    """Each surfel's identity (N,) int64, which its rays follow from: its object's name and its
+    row within the object (both sides of a point alike), whatever else the scene holds."""
+    ids = np.zeros(scene.count, dtype=np.int64)
+    for src in scene.sources:
+        ids[src.start:src.stop] = object_ids(src.name, np.arange(src.stop - src.start))
+    return ids
+
+
+def gather_sides(scene: Scene) -> np.ndarray | None:
+    """``scene.two_sided`` as the gather takes it: an open mesh none of whose back faces kept a
+    surfel (they face only the black world, ``the reader's back-face probe``: nothing sees
+    them) is one-sided there. Its back then sends nothing, as the solve had it, and the gather
+    tabulates no back lattice over it, which would look the back field up from surfels metres
+    away (a ground plane's underside took most of the receivers' tables on the open bench
+    scene at Target 1%)."""
+    sided = scene.two_sided
+    if sided is None or scene.mesh_triangle_start is None:
+        return sided
+    live = {src.name for src in scene.sources if src.kind == "BACK"}
+    meshes = [src.name for src in scene.sources if src.kind == "MESH"]
+    starts = [int(a) for a in scene.mesh_triangle_start]
+    mesh_end = len(sided) if scene.splat_point is None else int((scene.splat_point < 0).sum())
+    out = sided.copy()
+    for name, lo, hi in zip(meshes, starts, starts[1:] + [mesh_end]):
+        if name not in live:
+            out[lo:hi] = False
+    return out

@@ -1,0 +1,61 @@
+"""The surfels whose disc reaches through another surface, evaluated as receivers are (no
+bpy): their solved values scatter where the light is smooth, and a receiver at the line where
+the surfaces meet sees them at close range."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..stages.scene import Scene
+from .ids import surfel_ids
+
+
+def regather_straddling(scene: Scene, direct: np.ndarray | None, radiosity: np.ndarray, occ,
+                        sent: np.ndarray, back: np.ndarray, owners, back_owners, rays: int,
+                        background, sides) -> tuple[int, np.ndarray]:
+    """Evaluate the surfels whose disc reaches through another surface
+    (``illumap.receivers.straddling_surfels``: a floor's along a wall, a crease's in a scan)
+    as receivers are: their direct light plus a gather of the other surfels' light. Their
+    solved values scatter by tens of percent where the light is smooth, and a receiver at the
+    line where the surfaces meet sees them at close range. Their direct light is the lamps'
+    and emitters' (``direct``: ``Lit.direct_lamps``); the world's comes through the gather's rays that
+    leave the scene (``background``); ``sides``: ``gather_sides``.
+    Updates ``sent`` in place; returns how many were evaluated and the surfels' outgoing
+    radiance with theirs (``radiosity``, the solved one, itself when none was)."""
+    from .. import receivers as rc
+    if direct is None:
+        return 0, radiosity
+    bad = rc.straddling_surfels(scene.positions, scene.normals, scene.areas)
+    rows = np.flatnonzero(bad)
+    if not rows.size or bad.all():
+        return 0, radiosity
+
+    def good_field(side, owner_rows):
+        """The field of this side's surfels that are not re-evaluated, and splat owners
+        (rows of the whole side's field) as rows of it."""
+        good = side & ~bad
+        if not good.any():
+            return None, None if owner_rows is None else np.full_like(owner_rows, -1)
+        remap = np.full(int(side.sum()), -1, dtype=np.int64)
+        remap[good[side]] = np.arange(int(good.sum()))
+        own = (None if owner_rows is None
+               else np.where(owner_rows >= 0, remap[np.maximum(owner_rows, 0)], -1))
+        return rc.SurfelField(scene.positions[good], scene.normals[good], sent[good]), own
+
+    front_field, own_front = good_field(~back, owners)
+    back_field_, own_back = good_field(back, back_owners) if back.any() else (None, None)
+    if front_field is None:
+        return 0, radiosity
+    # The triangles no good surfel stands for (the re-evaluated surfels' splats, the meshes'
+    # own) are tabulated only where that takes fewer lookups than the rays (a dense scan's
+    # straddling surfels stand for hundreds of thousands of splat triangles).
+    untabled = sum(int((o < 0).sum()) for o in (own_front, own_back) if o is not None) \
+        if own_front is not None else 2 * len(scene.triangles)
+    g = rc.gather(occ, front_field, scene.positions[rows], scene.normals[rows], rays=rays,
+                  seed=scene.settings.seed, ids=surfel_ids(scene)[rows],
+                  background=background, back_field=back_field_, two_sided=sides, owners=own_front,
+                  back_owners=own_back, tabulate=3 * untabled <= rows.size * rays)
+    sent[rows] = scene.solve_emission[rows] + direct[rows] + scene.albedo[rows] * g.radiance
+    radiosity = radiosity.copy()
+    radiosity[rows] = sent[rows] + scene.emission[rows] - scene.solve_emission[rows]
+    return int(rows.size), radiosity
