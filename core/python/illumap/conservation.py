@@ -207,16 +207,20 @@ class Hemisphere:
         their own (any entry > 0 in one of ``light``: (N,) or (N, 3) arrays of lamp light,
         emission; None counts for nothing) reaches only through a slit along first hits, or
         not at all (``sealing.enclosed``). Only the others cast their linking rays (sets
-        ``links``). None of them without a ``linker`` (``hemisphere_hits(links=True)``)."""
+        ``links``) once: the linker, which holds the scene's ray scene, is then let go, and a
+        later call (the same scene solved again, with the same light) reuses the links.
+        None of them without a ``linker`` (``hemisphere_hits(links=True)``)."""
         from . import sealing
         n = len(self.hits)
-        if self.linker is None:
+        if self.linker is None and self.links is None:
             return np.zeros(n, dtype=bool)
         sources = self.open >= sealing.THRESHOLD        # reached whatever their rows
         for values in light:
             if values is not None:
                 sources |= (np.asarray(values).reshape(n, -1) > 0.0).any(axis=1)
-        self.links = self.linker(np.flatnonzero(~sources))
+        if self.links is None:
+            self.links = self.linker(np.flatnonzero(~sources))
+            self.linker = None
         return sealing.enclosed(self.links, self.open, sources)
 
 

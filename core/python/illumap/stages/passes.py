@@ -8,7 +8,7 @@ The operator, the batch command and Python callers all run this loop (``run``)."
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
@@ -19,7 +19,8 @@ from .choices import occluder_shape
 from .errors import RunError
 from .light import Lit, check_light, light
 from .scene import Progress, Scene
-from .solve import Solved, solve
+from .scene import with_occluders
+from .solve import Solved, builds_own_ray_scene, solve
 
 #: ``next_pass(solved) -> Scene | None``: the scene of the pass after ``solved`` (whose scene
 #: has ``refine`` set), or None to end the run with this pass.
@@ -41,7 +42,7 @@ class Gathered:
 
     @property
     def scene(self) -> Scene:
-        """The scene of the last pass (with its occluders built)."""
+        """The scene of the last pass."""
         return self.solved.lit.scene
 
 
@@ -61,6 +62,10 @@ def run(scene: "Scene | Lit", progress: Progress | None = None, *,
     occluder_shape(settings)   # an unknown shape is refused before any work
     lit = scene if isinstance(scene, Lit) else light(scene, progress)
     while True:
+        if builds_own_ray_scene(lit.scene) and lit.scene.occluders is not None:
+            # The gather's ray scene is released while the solve holds its own of the same
+            # triangles, and built again for the gather (a scan's splats: ~1 GB per 1M points).
+            lit = replace(lit, scene=replace(lit.scene, occluders=None))
         solved = solve_lit(lit, progress)
         if lit.scene.refine is None:   # the last pass: the light where the user sees it
             return gather(solved, progress)
@@ -82,7 +87,7 @@ def gather(solved: Solved, progress: Progress | None = None) -> Gathered:
     and points' values, checked finite and clipped at 0, with a warning for closed meshes
     lit only from inside."""
     lit = solved.lit
-    scene = lit.scene
+    scene = with_occluders(lit.scene, progress)
     estimate = (solved.stats.get("accuracy") or {}).get("estimate", {}).get("total")
     try:
         light_ = receive(scene, lit.direct, lit.direct_lamps, solved.radiosity, progress,

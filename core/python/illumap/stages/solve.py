@@ -30,6 +30,15 @@ class Solved:
     warnings: tuple = ()
 
 
+def builds_own_ray_scene(scene) -> bool:
+    """Whether the solve of ``scene`` casts its visibility rays against the scene's triangles
+    in a ray scene of its own (exact visibility or a target error, on the last pass), so that
+    the gather's ray scene of the same triangles need not be held meanwhile."""
+    s = scene.settings
+    return (scene.refine is None and scene.triangles_occlude
+            and (s.target_error is not None or s.visibility == "exact"))
+
+
 def _solver_call(lit: Lit, progress: Progress | None) -> tuple:
     """(the solve function, its keywords) for this lit scene's settings."""
     import illumap
