@@ -26,8 +26,8 @@ from zig_toolchain import ROOT, TARGETS, toolchain_file  # noqa: E402
 SRC = ROOT / "core" / "src"
 TESTS = ROOT / "core" / "tests_native"
 OUT = ROOT / "build" / "windows-native"
-SOURCES = ("visibility.cpp", "visibility_factory.cpp", "raycast.cpp", "seed_visibility.cpp",
-           "octree.cpp")
+SOURCES = ("visibility/visibility.cpp", "visibility/visibility_factory.cpp", "visibility/raycast.cpp",
+           "visibility/seed_visibility.cpp", "geometry/octree.cpp")
 # Embree's static libraries, the kernels first (they use the others).
 EMBREE_LIBRARIES = ("embree3", "embree_avx2", "embree_sse42", "embree_avx", "lexers", "tasking",
                     "sys", "math", "simd")

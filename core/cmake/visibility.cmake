@@ -12,12 +12,12 @@
 include_guard(GLOBAL)
 
 set(ILLUMAP_VISIBILITY_SOURCES
-  ${CMAKE_CURRENT_LIST_DIR}/../src/visibility.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/../src/visibility_factory.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/../src/raycast.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/../src/mesh_scene.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/../src/gather.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/../src/seed_visibility.cpp)
+  ${CMAKE_CURRENT_LIST_DIR}/../src/visibility/visibility.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/../src/visibility/visibility_factory.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/../src/visibility/raycast.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/../src/visibility/mesh_scene.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/../src/gather/gather.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/../src/visibility/seed_visibility.cpp)
 
 if(DEFINED ILLUMAP_EMBREE_DIR)
   set(embree_DIR "${ILLUMAP_EMBREE_DIR}")

@@ -12,14 +12,14 @@ mkdir -p "$out"
 CXX="${CXX:-g++}"
 flags=(-std=c++17 -O2 -Wall -I "$src")
 libs=(-lembree3 -pthread)
-common=("$src/visibility.cpp" "$src/visibility_factory.cpp" "$src/raycast.cpp" "$src/seed_visibility.cpp"
-        "$src/octree.cpp")
+common=("$src/visibility/visibility.cpp" "$src/visibility/visibility_factory.cpp"
+        "$src/visibility/raycast.cpp" "$src/visibility/seed_visibility.cpp" "$src/geometry/octree.cpp")
 
 echo "building test_visibility -> $out"
 "$CXX" "${flags[@]}" "$here/test_visibility.cpp" "${common[@]}" -o "$out/test_visibility" "${libs[@]}"
 # Both visibility.hpp and the FMM's traversal.hpp must be includable in one unit.
-if [ -f "$src/traversal.hpp" ]; then
-  printf '#include "traversal.hpp"\n#include "visibility.hpp"\n#include "visibility_factory.hpp"\n#include "raycast.hpp"\n#include "seed_visibility.hpp"\nint main(){return 0;}\n' > "$out/headers.cpp"
+if [ -f "$src/transport/traversal.hpp" ]; then
+  printf '#include "transport/traversal.hpp"\n#include "visibility/visibility.hpp"\n#include "visibility/visibility_factory.hpp"\n#include "visibility/raycast.hpp"\n#include "visibility/seed_visibility.hpp"\nint main(){return 0;}\n' > "$out/headers.cpp"
   "$CXX" "${flags[@]}" -fsyntax-only "$out/headers.cpp"
 fi
 "$out/test_visibility"

@@ -4,13 +4,13 @@
 // accepted pairs are exact kernel sums (no expansion error), so the figures isolate visibility.
 #pragma once
 
-#include "kernel.hpp"
-#include "octree.hpp"
+#include "transport/kernel.hpp"
+#include "geometry/octree.hpp"
 #include "parallel.hpp"
-#include "raycast.hpp"
-#include "seed_visibility.hpp"
-#include "visibility.hpp"
-#include "visibility_factory.hpp"
+#include "visibility/raycast.hpp"
+#include "visibility/seed_visibility.hpp"
+#include "visibility/visibility.hpp"
+#include "visibility/visibility_factory.hpp"
 
 #include <algorithm>
 #include <chrono>

@@ -9,7 +9,7 @@ form factor to a regular octagon of the surfel's area instead, symmetrized and b
 ``near_field="point"`` keeps the bare kernel everywhere, to show where it fails. ``apply(x)`` returns the gathered ``Σ_j F_ij V_ij x_j`` per colour channel, before
 albedo. V is the visibility: ``"none"`` (V = 1), ``"exact"`` (rays against the surfels as
 oriented discs, Embree 3) or ``"seed"`` (the talk's point-based visibility); see
-:class:`TransportOperator` and core/src/visibility.hpp.
+:class:`TransportOperator` and core/src/visibility/visibility.hpp.
 
 The default expansion parameters live here, in one place: :data:`DEFAULT_ORDER`,
 :data:`DEFAULT_THETA`, :data:`DEFAULT_LEAF_SIZE`.

@@ -43,7 +43,7 @@ from .surfels import InputError
 #: Ray origins move off the surface by this fraction of the scene's feature length (see above).
 RAY_OFFSET = 1e-5
 #: The share of a point's distance from the scene's centre that its rays skip (2^-18, as
-#: ``LocalFrame::noise`` in core/src/local_frame.hpp).
+#: ``LocalFrame::noise`` in core/src/geometry/local_frame.hpp).
 ROUNDING_SKIP = 2.0 ** -18
 #: Surfels looked up around a gather hit; those facing away from the hit surface are ignored.
 LOOKUP_NEIGHBOURS = 8

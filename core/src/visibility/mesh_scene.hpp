@@ -1,0 +1,79 @@
+// mesh_scene.hpp — the user's triangles as an Embree scene, for evaluation at receivers.
+//
+// Receivers (mesh vertices and corners, display points) take their direct light and final
+// gather from the true geometry rather than from surfel discs: triangles neither overhang
+// outlines nor pass above a curved surface, so a lamp-lit sphere gets all of its light and a
+// surface 1 mm behind an emitter is hidden by it. Coordinates are stored in float relative to
+// the triangles' local frame (local_frame.hpp), so precision follows the size of the bulk of
+// the scene, not its placement nor a far outlier.
+//
+// Rays are given in world coordinates (double); callers move their origins off the surface
+// (the receiver's normal times an offset) before asking.
+#pragma once
+
+#include "geometry/local_frame.hpp"
+#include "parallel.hpp"
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace illumap {
+
+class MeshScene {
+public:
+    // corners: n_tri x 3 x 3 doubles (world coordinates), kept by reference, not copied (a
+    // scan's splats are a dozen triangles per point): the caller keeps them alive and unchanged
+    // for the scene's lifetime. Throws Cancelled, std::invalid_argument (non-finite corners) or
+    // std::runtime_error (Embree).
+    MeshScene(Context& ctx, const double* corners, std::size_t n_tri);
+    ~MeshScene();
+    MeshScene(const MeshScene&) = delete;
+    MeshScene& operator=(const MeshScene&) = delete;
+
+    std::size_t size() const { return n_tri_; }
+    double extent() const { return extent_; }  // largest side of the triangles' box
+    const LocalFrame& frame() const { return frame_; }
+    double build_seconds() const { return build_seconds_; }
+    std::size_t vertices() const { return vertices_; }  // distinct float corners Embree holds
+
+    // out[k] = 1 when no triangle meets segment a[k] -> b[k] with its last `end_trim` (world
+    // units) left out, else 0. Segments are clipped to the scene's box in double precision, so
+    // b may lie arbitrarily far (a sun).
+    void segments(Context& ctx, const double* a, const double* b, std::size_t n, double end_trim,
+                  float* out) const;
+
+    // Closest hits of rays o[k] + t d[k] (d unit), t in (0, tmax]: prim[k] is the triangle
+    // (-1: none), t[k] its distance, front[k] 1 when the ray meets the triangle's front
+    // (d . normal < 0, normal by the corners' winding).
+    void intersect(Context& ctx, const double* o, const double* d, std::size_t n, double tmax,
+                   std::int64_t* prim, double* t, std::uint8_t* front) const;
+    // The same on the calling thread alone (for callers that parallelise over receivers);
+    // uv (2 per ray, may be null) receives the hit's barycentric coordinates of corners 1, 2.
+    void intersect_serial(const double* o, const double* d, std::size_t n, double tmax,
+                          std::int64_t* prim, double* t, std::uint8_t* front,
+                          float* uv = nullptr) const;
+    // The unit normal of triangle t by its corners' winding (computed from the corners when
+    // asked: a scan's 12 splat triangles per point would hold 144 bytes of normals).
+    std::array<float, 3> triangle_normal(std::size_t t) const;
+    // Whether a triangle meets the open segment a -> b (one ray, calling thread).
+    bool occluded(const double* a, const double* b) const;
+    const double* triangle_corners(std::size_t t) const { return corners_ + 9 * t; }
+
+private:
+    struct Impl;
+    Impl* impl_ = nullptr;
+    std::size_t n_tri_ = 0;
+    const double* corners_ = nullptr;  // world corners per triangle (9 doubles), the caller's
+    LocalFrame frame_;
+    double lo_[3] = {0, 0, 0}, hi_[3] = {0, 0, 0};
+    double extent_ = 0;
+    double build_seconds_ = 0;
+    std::size_t vertices_ = 0;
+
+    // [s0, s1] of p + t u inside the (padded) box, intersected with [0, len]; false if empty.
+    bool clip(const double* p, const double* u, double len, double& s0, double& s1) const;
+};
+
+}  // namespace illumap
