@@ -240,7 +240,7 @@ def sphere_on_floor(world: bool):
     """The bench's UV sphere (r 0.5 m) resting on a 4 m floor of 0.25 m cells, under a sky
     (``world``) or, in a black world, a sun from 50° off the zenith."""
     from illumap_bpy_testing import black_world, sky_world
-    from bench.reference.scenes import uv_sphere
+    from bench.scenes.blender import uv_sphere
     (sky_world if world else black_world)()
     floor = subdivided(make_plane("Floor", size=4.0, material=diffuse_material("F", (ALBEDO,) * 3)),
                        cuts=15)

@@ -61,7 +61,7 @@ from illumap_bpy_testing import add_lamp, link, requires_core, sky_world
 from reference_helpers import (
     black_world, both, closed_box, diffuse, grid_parts, mesh, one_sided_emission, plane,
     relative_rms, report)
-from bench.reference.scenes import uv_sphere
+from bench.scenes.blender import uv_sphere
 
 pytestmark = [requires_core, pytest.mark.slow]   # Cycles bakes as the reference
 

@@ -123,7 +123,7 @@ def solve_triangles(corners, albedo, emission, target_error, *, kind: str = "mes
     albedo, emission : (T, 3) per triangle (reflectance in [0, 1), radiance W/(m²·sr)).
     target_error : relative RMS per surfel, or a preset name (:data:`TARGET_PRESETS`).
     kind : the calibrated scene kind whose error model sets the count ("mesh": stratified
-        samples of triangles, uniform density, as in bench/scenes.py ``cornell_mesh``; the
+        samples of triangles, uniform density, as in bench/scenes/surfels.py ``cornell_mesh``; the
         second pass only lowers the error).
     adaptive : two passes where :func:`choose_mesh_settings` predicts them faster than one
         uniform pass (the uniform-density models' discretization part scaled by
