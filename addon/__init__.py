@@ -10,7 +10,8 @@ are available (CAD Sketcher does the same for its solver); ``core_status`` holds
 import bpy
 from bpy.app.handlers import persistent
 
-from . import operators, panel, preferences, preview, properties, tool_operators
+from .ui import operators, panel, preferences, properties, tool_operators
+from .preview import surfel_preview as preview
 from .core_status import check_native, core_error
 
 _registered = []

@@ -70,10 +70,13 @@ import traceback
 
 import bpy
 
-from . import exports, output, pipeline, solid_preview
-from .batch_options import (MAX_FRAMES, MAX_RESOLUTION, NUMBER_OPTIONS, OUTPUT_OPTIONS,
-                            UsageError, build_parser, frame_path, make_settings, parse_frames,
-                            preview_kind)
+from .write import exports, output
+from . import pipeline
+from .preview import solid_preview
+from .batch_options import (
+    MAX_FRAMES, MAX_RESOLUTION, NUMBER_OPTIONS, OUTPUT_OPTIONS, UsageError, build_parser,
+    frame_path, make_settings, parse_frames, preview_kind
+)
 from .errors import ExitCode, IllumapCancelled, IllumapError, NoLightError, OutputError
 
 __all__ = ["main", "run_frames", "build_parser", "make_settings", "parse_frames", "UsageError",
@@ -117,7 +120,7 @@ def add_preview(context, surfel_object, lit=(), kind: str = "objects") -> list[s
     through the Object Preview and the surfel object hidden, or with ``kind="surfels"`` the
     surfels' discs. Returns the names of the objects shown; a preview that cannot be built
     is said and skipped."""
-    from . import mesh_preview
+    from .preview import mesh_preview
     try:
         return mesh_preview.show_result(context, [o for o in lit if o is not None],
                                         surfel_object, objects=kind == "objects",
@@ -181,7 +184,7 @@ def render_preview(context, surfel_object, sources, path: str, resolution: int |
     names one. The image goes to a hidden temporary file renamed onto ``path``; a failed
     render leaves no file behind. Returns a message; raises OutputError when nothing could be
     rendered or written. The scene's settings are put back afterwards."""
-    from . import mesh_preview
+    from .preview import mesh_preview
     scene = context.scene
     if what == "objects":
         if not any(mesh_preview.has_mesh_preview(o) for o in sources if o is not None):
@@ -240,7 +243,7 @@ def render_preview(context, surfel_object, sources, path: str, resolution: int |
 
 
 def preview_module():
-    from . import preview
+    from .preview import surfel_preview as preview
     return preview
 
 

@@ -40,14 +40,19 @@ from illumap.stages.light import light as light_stage
 from illumap.stages.scene import Scene, Source  # noqa: F401
 from illumap.stages.solve import Solved  # noqa: F401
 
-from . import checks, sampling
+from . import checks
+from .read import sampling
 # The budget's and the scene reading's public names are the pipeline's too (tests, the batch).
-from .budget import (BYTES_PER_SURFEL, SURFEL_COVERAGE, memory_limit, occluder_shape,  # noqa: F401
-                     surfel_shadow_samples, surfel_target)
+from .read.budget import (  # noqa: F401
+    BYTES_PER_SURFEL, SURFEL_COVERAGE, memory_limit, occluder_shape, surfel_shadow_samples,
+    surfel_target
+)
 from .errors import ExitCode, IllumapCancelled, IllumapError, NoLightError, core_cancelled
 from .job import Job, Progress, Result
-from .read_scene import BACK_DISC_LIFT, BUILD_PHASE, UnbuiltJob, _assemble, _prepare  # noqa: F401
-from .read_scene import _Scene  # noqa: F401
+from .read.read_scene import (  # noqa: F401
+    BACK_DISC_LIFT, BUILD_PHASE, UnbuiltJob, _assemble, _prepare
+)
+from .read.read_scene import _Scene  # noqa: F401
 
 
 def settings_from_preset(name: str, **overrides) -> Settings:
@@ -66,7 +71,7 @@ def prepare(depsgraph, objects, settings: Settings, *, build: bool = True) -> "J
     the scene as read (``UnbuiltJob``), to be built on a worker thread (``ComputeTask``)."""
     import bpy
 
-    from . import mesh_preview
+    from .preview import mesh_preview
     checks.check_settings(settings)   # refused before anything is read
     objects = list(objects)
     with mesh_preview.suspended(objects, bpy.context.view_layer):
@@ -242,7 +247,7 @@ def write(context, job: Job, result: Result):
     temporary files and the datablocks are staged beside the old ones; then everything is
     swapped in. Any failure raises IllumapError (OutputError for an export) and leaves the
     file's data and the export paths as they were."""
-    from . import exports, output
+    from .write import exports, output
 
     t0 = time.perf_counter()
     s = job.settings
@@ -383,7 +388,7 @@ def compute(context, objects, settings: Settings, progress: Progress | None = No
 
     Transfer targets and export paths are checked before anything is read or solved
     (``output.check_targets``); Illumap's own objects are never inputs."""
-    from . import output
+    from .write import output
     objects = [o for o in objects if o is None or not output.is_illumap_object(o)]
     output.check_targets(objects, settings)
     job = prepare(context.evaluated_depsgraph_get(), objects, settings)

@@ -36,7 +36,7 @@ sys.path.insert(0, REPO)
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
-from addon import mesh_preview, point_splats, preview  # noqa: E402
+from addon.preview import mesh_preview, point_splats, surfel_preview as preview  # noqa: E402
 
 OUT = os.path.join(REPO, "bench", "results", "preview_build.json")
 sys.path.insert(0, os.path.join(REPO, "tests", "core"))

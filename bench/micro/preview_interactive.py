@@ -47,7 +47,7 @@ sys.path[:0] = [REPO, HERE]
 
 import bpy  # noqa: E402
 
-from addon import mesh_preview, preview  # noqa: E402
+from addon.preview import mesh_preview, surfel_preview as preview  # noqa: E402
 from preview_build import scan  # noqa: E402
 
 OUT = os.path.join(REPO, "bench", "results", "preview_interactive.json")

@@ -43,7 +43,7 @@ Cases (``CASES``; ``CLASSES`` are the seven, the rest diagnostics run when named
   the scan's triangles, with the five holes in its base filled (faces only, no new vertices)
   so that its inside is sealed and each point's brighter side is its outside.
 * ``scan_normals``: the same, with a ``normal`` point attribute (the name
-  ``addon/pointcloud.py`` reads) holding the scan's vertex normals, from its own triangles
+  ``addon/read/pointcloud.py`` reads) holding the scan's vertex normals, from its own triangles
   before the fill (a loose vertex, which no triangle uses, takes its nearest used vertex's).
   ``scan_fill_normals`` (diagnostic) takes them after the fill instead.
 * ``room_scan``: a 3 × 3 × 2.5 m room open at the top (four walls one mesh, the floor another,
@@ -350,7 +350,7 @@ def run_illumap(case: FurnaceCase, settings=None) -> tuple[dict[str, np.ndarray]
 
 def illumap_albedo() -> float:
     """The albedo Illumap gives a white (1) material: its clamp, ``materials.MAX_ALBEDO``."""
-    from addon.materials import MAX_ALBEDO
+    from addon.read.materials import MAX_ALBEDO
     return float(MAX_ALBEDO)
 
 

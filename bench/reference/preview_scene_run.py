@@ -80,7 +80,7 @@ def _picture(path: str, preview: np.ndarray, reference: np.ndarray) -> None:
 def run_scene(args) -> int:
     """Run ``args.scene`` (see ``preview_vs_cycles.main``); prints and writes the figures."""
     import addon  # noqa: PLC0415
-    from addon import mesh_preview  # noqa: PLC0415
+    from addon.preview import mesh_preview  # noqa: PLC0415
     if not hasattr(bpy.types.Scene, "illumap"):
         addon.register()
     if args.splat_cone is not None:

@@ -255,7 +255,8 @@ def main(argv: list[str] | None = None) -> int:
         t_refs.append(seconds)
     import addon
     addon.register()
-    from addon import mesh_preview, pipeline
+    from addon.preview import mesh_preview
+    from addon import pipeline
     meshes = [o for o in bpy.context.scene.objects if o.type == "MESH"]
     surfaces = ~emitter_mask([bpy.data.objects[n] for n in EMITTERS], args.size)
     t0 = time.perf_counter()

@@ -105,7 +105,7 @@ def points_on_meshes(scan, meshes) -> None:
     vertices, in order, the scan was made of) gets the scan's ``illumination`` as a point
     attribute and the mesh preview; the scan is hidden and the meshes shown. Only for a scan
     of all their vertices (``stride`` 1)."""
-    from addon import mesh_preview  # noqa: PLC0415
+    from addon.preview import mesh_preview  # noqa: PLC0415
     values = scan_values(scan)
     start = 0
     for obj in meshes:
@@ -159,7 +159,8 @@ def build(name: str, cell: float = 0.05, stride: int = 1) -> dict:
 def compute_and_show(scene: dict, settings=None):
     """Run Illumap on the scene's ``lit`` objects and show what the UI shows after Compute
     (``operators.after_write`` with the scene's default settings). Returns the result."""
-    from addon import operators, pipeline  # noqa: PLC0415
+    from addon.ui import operators  # noqa: PLC0415
+    from addon import pipeline  # noqa: PLC0415
     context = bpy.context
     result = pipeline.compute(context, scene["lit"], settings or pipeline.Settings())
     surfel_object = bpy.data.objects.get(result.object_name)

@@ -33,8 +33,8 @@ PURE_CORE = ("illumap", "illumap.settings", "illumap.limits")
 #: Native extension modules (built, not in the tree).
 NATIVE = ("illumap._core",)
 #: What the add-on registers when the native core does not import.
-REDUCED_UI = ("addon", "addon.properties", "addon.preferences", "addon.panel", "addon.preview",
-              "addon.operators", "addon.tool_operators")
+REDUCED_UI = ("addon", "addon.ui.properties", "addon.ui.preferences", "addon.ui.panel",
+              "addon.preview.surfel_preview", "addon.ui.operators", "addon.ui.tool_operators")
 
 
 def _modules():
@@ -122,7 +122,7 @@ def _cycles(graph):
 
 def test_the_tree_was_read():
     assert {"illumap", "illumap.solver", "illumap.api", "illumap.accuracy.choice",
-            "addon", "addon.pipeline", "addon.properties"} <= set(MODULES)
+            "addon", "addon.pipeline", "addon.ui.properties"} <= set(MODULES)
     assert "illumap.solver" in GRAPH["illumap.accuracy.automatic"]
 
 

@@ -3,7 +3,7 @@
 Each field of :class:`Settings` carries everything every front end needs: its default, the
 label and description an artist reads, its choices, its group and its command-line spelling.
 Its range is the limit of the same name in :mod:`illumap.limits`. From this one declaration
-come the add-on's scene properties (``addon/properties.py``), the batch command's options
+come the add-on's scene properties (``addon/ui/properties.py``), the batch command's options
 (``addon/batch.py``), the validation (:func:`check`) and the settings table of
 ``docs/limits.md`` (:func:`markdown`).
 

@@ -89,7 +89,7 @@ def test_target_error_chooses_the_density():
     # The stats carry it to the result and the UI.
     result = pipeline.run(capped)
     assert result.stats["density"]["surfels"] == 900
-    from addon import operators
+    from addon.ui import operators
     stats = bpy.context.scene.illumap.stats
     operators.record_stats(stats, result, 1.0)
     assert stats.density == pytest.approx(900 / 8.0, rel=1e-5)
@@ -152,7 +152,7 @@ def test_compute_runs_both_passes_and_reports_them():
     assert result.count == 800 and result.stats["adaptive"]["pass1"]["surfels"] == 400
     obj = bpy.data.objects["Illumap Surfels"]
     assert len(obj.data.attributes["illumination"].data) == 800
-    from addon import operators
+    from addon.ui import operators
     stats = bpy.context.scene.illumap.stats
     operators.record_stats(stats, result, 1.0)
     assert stats.first_pass_surfels == 400 and "adaptive" in stats.summary
@@ -215,7 +215,7 @@ def test_adaptive_pass_one_solves_with_the_final_counts_settings():
     assert info["settings"]["kind"] == "mesh"
     assert info["settings"]["discretization_scale"] == chosen["discretization_scale"]
     assert info["estimate"]["total"] > 0
-    from addon import operators
+    from addon.ui import operators
     stats = bpy.context.scene.illumap.stats
     operators.record_stats(stats, final, 1.0)
     assert stats.chosen_settings.startswith(info["settings"]["label"])
@@ -231,7 +231,7 @@ def test_the_estimate_at_the_objects_is_what_the_panel_shows_first():
     panel beside the surfels'."""
     objects = spot_scene()
     result = pipeline.compute(bpy.context, objects, pipeline.Settings(target_error=0.1))
-    from addon import operators
+    from addon.ui import operators
     stats = bpy.context.scene.illumap.stats
     operators.record_stats(stats, result, 1.0)
     surfels = result.stats["accuracy"]["estimate"]["total"]

@@ -27,7 +27,8 @@ from illumap import lights
 from illumap_bpy_testing import add_lamp as add_lamp_at
 from illumap_bpy_testing import diffuse_material, disc_segment_query, make_plane
 
-from addon import lamps, pipeline
+from addon.read import lamps
+from addon import pipeline
 from illumap.stages import light as light_stage
 
 ALBEDO = 0.5

@@ -12,7 +12,8 @@ import pytest
 from illumap import lights
 from illumap_bpy_testing import add_lamp, diffuse_material, make_plane
 
-from addon import lamps, pipeline
+from addon.read import lamps
+from addon import pipeline
 
 ALBEDO = 0.5
 

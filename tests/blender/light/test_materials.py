@@ -6,7 +6,8 @@ import numpy as np
 
 from illumap_bpy_testing import diffuse_material, emission_material, make_plane
 
-from addon import materials, pipeline
+from addon.read import materials
+from addon import pipeline
 
 
 def prepare(*objs, **kw):

@@ -9,7 +9,8 @@ import pytest
 
 from illumap_bpy_testing import grid_positions, link, make_surfels
 
-from addon import pipeline, pointcloud
+from addon import pipeline
+from addon.read import pointcloud
 from addon.errors import IllumapError
 
 

@@ -7,7 +7,8 @@ import pytest
 
 from illumap_bpy_testing import link, make_plane
 
-from addon import pipeline, sampling
+from addon import pipeline
+from addon.read import sampling
 from addon.errors import IllumapError
 
 

@@ -242,7 +242,8 @@ def test_a_scan_without_normals_is_estimated_and_thinned_on_the_worker(monkeypat
     written as usual."""
     import threading
 
-    from addon import operators, pointcloud
+    from addon.ui import operators
+    from addon.read import pointcloud
     white = diffuse("W")
     floor = plane("Floor", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], 0.05, white)
     box = closed_box("Box", (-0.3, -0.3, 0.0), (0.3, 0.3, 0.6), 0.05, white)

@@ -16,7 +16,8 @@ import pytest
 
 from illumap_bpy_testing import diffuse_material, emission_material, link, make_plane, requires_core
 
-from addon import pipeline, pointcloud
+from addon import pipeline
+from addon.read import pointcloud
 
 pytestmark = requires_core
 

@@ -8,7 +8,8 @@ import pytest
 
 from illumap_bpy_testing import diffuse_material, make_plane, requires_core, sky_world
 
-from addon import lamps, pipeline
+from addon.read import lamps
+from addon import pipeline
 
 ALBEDO = 0.5
 

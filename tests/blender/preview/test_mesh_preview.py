@@ -8,7 +8,8 @@ import pytest
 from illumap_bpy_testing import (black_world, diffuse_material, emission_material, make_plane,
                                  render_pixels, requires_core, top_camera)
 
-from addon import mesh_preview, pipeline
+from addon.preview import mesh_preview
+from addon import pipeline
 
 
 def test_preview_renders_the_attribute_and_leaves_the_materials():

@@ -10,7 +10,8 @@ import pytest
 from illumap_bpy_testing import (EEVEE_ENV, black_world, link, make_surfels, render_pixels, requires_core,
                                  select_only, top_camera)
 
-from addon import mesh_preview, pipeline
+from addon.preview import mesh_preview
+from addon import pipeline
 
 
 def scan_mesh(n, size=1.0, seed=0, name="Scan"):
@@ -166,7 +167,7 @@ def test_a_run_computes_its_scans_splats_on_its_worker():
     """With the preview after Compute on, the run computes each scan's splats while it builds
     (off the main thread, ``point_splats.prepare_frames``) and the preview only writes them:
     the same splats as the preview computes by itself."""
-    from addon import point_splats
+    from addon.preview import point_splats
     from illumap_bpy_testing import add_lamp
     obj, pts, _ = scan_mesh(2000, name="Worker Scan")
     obj.data.color_attributes.remove(obj.data.color_attributes["illumination"])

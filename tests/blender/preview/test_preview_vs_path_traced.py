@@ -42,7 +42,8 @@ import numpy as np
 from illumap_bpy_testing import black_world, link, requires_core
 from reference_helpers import closed_box, diffuse, one_sided_emission, plane
 
-from addon import mesh_preview, pipeline
+from addon.preview import mesh_preview
+from addon import pipeline
 from bench.reference.preview_vs_cycles import emitter_mask, off_shares, relative_rms, render
 
 pytestmark = requires_core

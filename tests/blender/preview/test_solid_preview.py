@@ -13,7 +13,7 @@ import pytest
 from illumap_bpy_testing import (diffuse_material, emission_material, make_plane, requires_core,
                                  select_only)
 
-from addon import solid_preview
+from addon.preview import solid_preview
 
 MATERIAL = "MATERIAL"
 
@@ -215,7 +215,7 @@ def test_the_next_run_reads_the_render_colour_not_the_light():
 def test_the_material_reader_takes_the_render_colour_attribute():
     """Unit check of the fix: an empty-name Color Attribute node reads the default (render)
     colour attribute even when another one is active."""
-    from addon import sampling
+    from addon.read import sampling
     floor = _painted(paint=(0.1, 0.2, 0.5))
     floor.data.color_attributes.active_color_name = "illumination"
     mesh = sampling.read_mesh(floor, bpy.context.evaluated_depsgraph_get())

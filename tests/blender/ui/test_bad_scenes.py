@@ -299,7 +299,7 @@ def test_second_run_refused_while_one_is_in_flight():
     """A run started while an interactive one is in flight is refused with a clear message,
     and the older run's result cannot be written over a newer one."""
     import threading
-    from addon import operators
+    from addon.ui import operators
     obj = lit_floor()
     select_only(obj)
     release = threading.Event()

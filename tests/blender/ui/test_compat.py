@@ -18,7 +18,8 @@ def _disc_scales(obj):
 def test_modifier_inputs_round_trip_and_re_evaluate(registered_addon):
     """Set and read a float and a material input of a Geometry Nodes modifier; the evaluated
     scene follows each write without any other update (on 5.2 the RNA write does not tag)."""
-    from addon import compat, preview
+    from addon import compat
+    from addon.preview import surfel_preview as preview
     obj = make_surfels([(0.0, 0.0, 0.0)], (0.0, 0.0, 1.0), 0.1, (1, 1, 1))
     ng = preview.preview_node_group()
     mod = obj.modifiers.new("GN", "NODES")

@@ -14,7 +14,8 @@ import pytest
 from illumap_bpy_testing import (diffuse_material, emission_material, make_plane,
                                  requires_core, top_camera)
 
-from addon import batch, exports, pipeline, threads
+from addon import batch, pipeline, threads
+from addon.write import exports
 from addon.errors import ExitCode
 from illumap import lightmaps
 

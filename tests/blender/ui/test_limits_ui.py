@@ -12,7 +12,8 @@ import pytest
 from illumap import limits
 from illumap.limits import limit
 
-from addon import batch, checks, pipeline, properties
+from addon import batch, checks, pipeline
+from addon.ui import properties
 from addon.errors import IllumapError
 
 
@@ -53,7 +54,7 @@ def test_every_numeric_setting_takes_its_range_from_the_table(registered_addon):
 
 
 def test_the_preferences_disc_scale_takes_its_range_from_the_table(registered_addon):
-    from addon import preferences
+    from addon.ui import preferences
     rna = preferences.IllumapPreferences.bl_rna.properties["default_disc_scale"]
     _check_field(rna, limit("disc_scale"))
 

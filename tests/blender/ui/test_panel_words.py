@@ -34,7 +34,7 @@ def controls(layout):
 
 
 def test_the_main_panel_holds_at_most_eight_controls(registered_addon):
-    from addon import panel
+    from addon.ui import panel
     props = bpy.context.scene.illumap
     lit_floor()
     props.preset = "DRAFT"
@@ -55,7 +55,8 @@ def test_the_main_panel_holds_at_most_eight_controls(registered_addon):
 
 
 def test_comparison_modes_leave_the_ui_and_stay_in_the_api(registered_addon):
-    from addon import checks, pipeline, properties
+    from addon import checks, pipeline
+    from addon.ui import properties
     rna = bpy.context.scene.illumap.bl_rna.properties
     assert "JACOBI" not in rna["solver"].enum_items.keys()
     assert "NONE" not in rna["visibility"].enum_items.keys()
@@ -70,7 +71,7 @@ def test_comparison_modes_leave_the_ui_and_stay_in_the_api(registered_addon):
 def test_advanced_labels_are_plain_words_with_tooltips(registered_addon):
     """Every setting under Advanced: a label without a bare algorithm name (one may follow in
     parentheses), and a tooltip; none says rays are cast against the surfels."""
-    from addon import panel
+    from addon.ui import panel
     layout = LayoutRecorder()
     panel.draw_advanced(layout, bpy.context)
     panel.draw_preview(layout, bpy.context)
@@ -94,7 +95,7 @@ def test_advanced_labels_are_plain_words_with_tooltips(registered_addon):
 
 
 def test_the_info_line_says_time_error_warnings_and_where(registered_addon):
-    from addon import panel
+    from addon.ui import panel
     floor = lit_floor()
     props = bpy.context.scene.illumap
     props.preset = "DRAFT"
@@ -116,7 +117,7 @@ def test_the_info_line_says_time_error_warnings_and_where(registered_addon):
 
 
 def test_warnings_are_counted_in_the_info_line():
-    from addon import operators
+    from addon.ui import operators
     from types import SimpleNamespace
     stats = SimpleNamespace(total_seconds=1.25, estimated_error_at_objects=0.031,
                             estimated_error=0.0, converged=False, first_pass_surfels=0)

@@ -23,7 +23,8 @@ import pytest
 
 from illumap_bpy_testing import add_lamp, diffuse_material, make_plane, requires_core, select_only
 
-from addon import exports, output, pipeline
+from addon.write import exports, output
+from addon import pipeline
 from addon.errors import IllumapError, OutputError
 
 pytestmark = requires_core
@@ -369,7 +370,7 @@ def test_surfel_object_is_marked_and_rerun_reuses_it():
 
 def test_interactive_finish_writes_nothing_when_a_target_went_away():
     """The modal path: the worker finished, then the user deleted a target before the write."""
-    from addon import operators
+    from addon.ui import operators
     floor = lit_scene()
     other = make_plane("Other", size=1.0, location=(3, 0, 0),
                        material=diffuse_material("G2", (0.5,) * 3))
@@ -390,7 +391,7 @@ def test_interactive_finish_writes_nothing_when_a_target_went_away():
 
 
 def test_mesh_preview_leaves_a_users_material_of_that_name_alone():
-    from addon import mesh_preview
+    from addon.preview import mesh_preview
     floor = lit_scene()
     mine = diffuse_material(mesh_preview.MATERIAL_NAME, (0.1, 0.2, 0.3))
     nodes = sorted(n.bl_idname for n in mine.node_tree.nodes)

@@ -199,7 +199,7 @@ def test_compute_operator_registered_with_pipeline(fake_pipeline):
 
 
 def test_preferences_package_name():
-    from addon import preferences
+    from addon.ui import preferences
     assert preferences._addon_package("bl_ext.user_default.illumap.addon") == \
         "bl_ext.user_default.illumap"
     assert preferences._addon_package("illumap.addon") == "illumap"
@@ -210,7 +210,7 @@ def test_preferences_package_name():
 
 
 def test_scene_settings_start_from_defaults_and_presets_fill_fields(registered_addon):
-    from addon import properties
+    from addon.ui import properties
     props = bpy.context.scene.illumap
     assert props.initialized  # load_post ran after the factory reset
     assert props.preset == "MEDIUM"
@@ -234,7 +234,8 @@ def test_scene_settings_start_from_defaults_and_presets_fill_fields(registered_a
 
 
 def test_settings_reach_the_pipeline_settings(registered_addon):
-    from addon import pipeline, properties
+    from addon import pipeline
+    from addon.ui import properties
     props = bpy.context.scene.illumap
     props.preset = "DRAFT"
     props.solver = "GMRES"
@@ -260,7 +261,8 @@ def test_a_target_error_chooses_the_count_in_the_ui(registered_addon):
     """With Target Error on, neither the Budget nor the Density field reaches the pipeline
     (a preset's budget would silently cap the count the target asks for), and the panel
     greys them out."""
-    from addon import panel, pipeline, properties
+    from addon.ui import panel, properties
+    from addon import pipeline
     props = bpy.context.scene.illumap
     props.preset = "MEDIUM"
     for sampling in ("BUDGET", "DENSITY"):
@@ -283,7 +285,8 @@ def test_a_target_error_chooses_the_count_in_the_ui(registered_addon):
 def test_occluder_shape_reaches_the_pipeline_settings(registered_addon):
     """Occluder Shape: discs by default, the core's spelling in the pipeline's settings; like
     the solver it is no preset's value, so changing it keeps the preset."""
-    from addon import pipeline, properties
+    from addon import pipeline
+    from addon.ui import properties
     props = bpy.context.scene.illumap
     props.preset = "HIGH"
     assert properties.make_settings(props, pipeline.Settings).occluder_shape == "disc"
@@ -389,14 +392,14 @@ def test_undo_restores_the_file(fake_pipeline, two_planes):
 # --- the worker's state machine (the modal path without timers) ------------------------------
 
 def _task_for(fake, objects):
-    from addon import operators
+    from addon.ui import operators
     settings = fake.Settings()
     job = fake.prepare(bpy.context.evaluated_depsgraph_get(), objects, settings)
     return operators.ComputeTask(job, fake.run)
 
 
 def test_task_runs_on_a_worker_thread_and_writes_on_finish(fake_pipeline, two_planes):
-    from addon import operators
+    from addon.ui import operators
     seen = []
     original_run = fake_pipeline.run
 
@@ -421,7 +424,7 @@ def test_task_runs_on_a_worker_thread_and_writes_on_finish(fake_pipeline, two_pl
 
 
 def test_cancelled_task_leaves_the_file_untouched(fake_pipeline, two_planes):
-    from addon import operators
+    from addon.ui import operators
     fake_pipeline.steps = 200
     fake_pipeline.step_delay = 0.005
     before = snapshot()
@@ -442,7 +445,7 @@ def test_cancelled_task_leaves_the_file_untouched(fake_pipeline, two_planes):
 
 
 def test_cancel_after_the_result_arrived_still_writes_nothing(fake_pipeline, two_planes):
-    from addon import operators
+    from addon.ui import operators
     before = snapshot()
     task = _task_for(fake_pipeline, two_planes).start()
     task.wait(10)
@@ -453,7 +456,7 @@ def test_cancel_after_the_result_arrived_still_writes_nothing(fake_pipeline, two
 
 
 def test_failed_task_is_reported(fake_pipeline, two_planes):
-    from addon import operators
+    from addon.ui import operators
     from addon.errors import IllumapError
     fake_pipeline.fail_with = IllumapError("Solver failed: diverged")
     before = snapshot()
@@ -493,7 +496,7 @@ def test_modal_steps_cancel_on_esc(fake_pipeline, two_planes):
     assert op.modal(bpy.context, _event("MOUSEMOVE")) == {"PASS_THROUGH"}
     assert op.modal(bpy.context, _event("TIMER")) == {"RUNNING_MODAL"}
     # While it runs, the panel shows progress instead of the Compute button.
-    from addon import operators, panel
+    from addon.ui import operators, panel
     operators._current["task"] = task
     layout = LayoutRecorder()
     panel.draw_main(layout, bpy.context)
@@ -567,7 +570,8 @@ def test_compute_with_the_real_pipeline(registered_addon, two_planes):
 @requires_core
 def test_real_pipeline_cancel_leaves_the_file_untouched(registered_addon, two_planes):
     """pipeline.run with a progress that cancels at once: IllumapCancelled, nothing written."""
-    from addon import operators, pipeline, properties
+    from addon.ui import operators, properties
+    from addon import pipeline
     settings = properties.make_settings(bpy.context.scene.illumap, pipeline.Settings)
     before = snapshot()
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), list(two_planes), settings)
@@ -588,7 +592,8 @@ def test_the_worker_builds_the_scene_the_main_thread_read(registered_addon, two_
     """An interactive run reads the scene on the main thread (``prepare(build=False)``) and
     builds the job on its worker (splats, ray-casting structure, the open surfaces' back
     faces): the job is the one ``prepare`` builds at once, and the run writes as usual."""
-    from addon import operators, pipeline, properties
+    from addon.ui import operators, properties
+    from addon import pipeline
     settings = properties.make_settings(bpy.context.scene.illumap, pipeline.Settings)
     depsgraph = bpy.context.evaluated_depsgraph_get()
     built = pipeline.prepare(depsgraph, list(two_planes), settings)
@@ -610,7 +615,8 @@ def test_the_worker_builds_the_scene_the_main_thread_read(registered_addon, two_
 def test_building_a_read_scene_needs_no_blender_data(registered_addon, two_planes):
     """What the worker builds from holds no Blender data: it builds the same job after the
     objects, their meshes and materials are gone, and a cancel while it builds stops it."""
-    from addon import pipeline, properties
+    from addon import pipeline
+    from addon.ui import properties
     from addon.errors import IllumapCancelled
     settings = properties.make_settings(bpy.context.scene.illumap, pipeline.Settings)
     depsgraph = bpy.context.evaluated_depsgraph_get()
@@ -634,7 +640,8 @@ def test_building_a_read_scene_needs_no_blender_data(registered_addon, two_plane
 
 @requires_core
 def test_real_pipeline_modal_logic_writes(registered_addon, two_planes):
-    from addon import operators, pipeline, properties
+    from addon.ui import operators, properties
+    from addon import pipeline
     props = bpy.context.scene.illumap
     props.preset = "DRAFT"
     settings = properties.make_settings(props, pipeline.Settings)
@@ -651,7 +658,8 @@ def test_real_pipeline_modal_runs_the_adaptive_second_pass(registered_addon, two
     pass 1 is done it waits for the timer handler, which reads pass 2 on the main thread
     (``ComputeTask.serve_main``); the result is written only after pass 2, and the file is
     untouched in between."""
-    from addon import operators, pipeline, properties
+    from addon.ui import operators, properties
+    from addon import pipeline
     props = bpy.context.scene.illumap
     props.use_target_error, props.target_error, props.adaptive = True, 0.1, True
     settings = properties.make_settings(props, pipeline.Settings)
@@ -677,7 +685,7 @@ def test_real_pipeline_modal_runs_the_adaptive_second_pass(registered_addon, two
     assert stats.surfels == 400 and stats.first_pass_surfels == 200
     assert any(p.name.startswith("pass 1: ") for p in stats.phases)
     assert operators._current["task"] is None
-    from addon import panel
+    from addon.ui import panel
     layout = LayoutRecorder()
     panel.draw_stats(layout, bpy.context)
     labels = layout.texts("label")
@@ -692,7 +700,8 @@ def test_real_pipeline_modal_runs_the_adaptive_second_pass(registered_addon, two
 
 @requires_core
 def test_real_pipeline_modal_cancel_during_second_pass(registered_addon, two_planes):
-    from addon import operators, pipeline, properties
+    from addon.ui import operators, properties
+    from addon import pipeline
     props = bpy.context.scene.illumap
     props.use_target_error, props.target_error = True, 0.1
     settings = properties.make_settings(props, pipeline.Settings)
@@ -722,7 +731,7 @@ def _waiting(task, seconds=10.0):
 def test_a_worker_waiting_for_the_main_thread_is_cancelled_and_hears_its_errors():
     """``call_on_main``: the worker waits until the timer serves its call, gets the call's
     value, or what it raised; Esc while it waits stops it at once."""
-    from addon import operators
+    from addon.ui import operators
     task = operators.ComputeTask.all_passes(
         None, lambda job, progress, on_main: on_main(lambda: "read on the main thread")).start()
     assert _waiting(task) and task.serve_main() and not task.serve_main()
@@ -758,7 +767,8 @@ def _lamp_scene(size=4.0):
 
 
 def _lamp_settings(**values):
-    from addon import pipeline, properties
+    from addon import pipeline
+    from addon.ui import properties
     props = bpy.context.scene.illumap
     props.preset = "DRAFT"
     props.lamps = props.lamp_shadows = True
@@ -774,7 +784,8 @@ def test_real_pipeline_modal_cancel_during_lamp_shadows(registered_addon, monkey
     """Shadow rays run on the worker (prepare casts none), the status line names the phase,
     and Esc stops them mid-phase: the worker returns before the remaining ray batches, the
     report is clear and the file is untouched."""
-    from addon import operators, pipeline
+    from addon.ui import operators
+    from addon import pipeline
     _lamp_scene()
     # (16 + 1) m² × 6400 = 108,800 lit surfels × 64 rays: seven batches of 2^20 rays.
     settings = _lamp_settings(density=6400.0, shadow_samples=64)
@@ -821,7 +832,8 @@ def test_real_pipeline_modal_cancel_during_lamp_shadows(registered_addon, monkey
 def test_real_pipeline_lamp_shadow_phase_reports_progress_and_timings(registered_addon):
     """The worker reports the shadow phase from 0 to 1 before the solve, and its time reaches
     the result and the statistics; the synchronous operator path records the same phases."""
-    from addon import operators, pipeline
+    from addon.ui import operators
+    from addon import pipeline
     _lamp_scene(size=2.0)
     settings = _lamp_settings(density=400.0, shadow_samples=16)
     job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), bpy.context.selected_objects,
@@ -899,7 +911,7 @@ class LayoutRecorder:
 
 
 def test_panel_draws_settings_and_stats(fake_pipeline, two_planes):
-    from addon import panel
+    from addon.ui import panel
     layout = LayoutRecorder()
     panel.draw_main(layout, bpy.context)
     assert "illumap.compute_illumination_map" in layout.texts("operator")
@@ -928,7 +940,7 @@ def test_panel_draws_settings_and_stats(fake_pipeline, two_planes):
 
 def test_reduced_ui_when_the_core_is_missing(registered_addon):
     addon = registered_addon
-    from addon import panel
+    from addon.ui import panel
 
     def missing():
         raise ModuleNotFoundError("No module named 'illumap'", name="illumap")
@@ -951,7 +963,7 @@ def test_reduced_ui_when_the_core_is_missing(registered_addon):
         assert "The native module 'illumap' is not installed." in labels
         assert not layout.texts("operator")
         # The preferences say it too.
-        from addon import preferences
+        from addon.ui import preferences
         fake_prefs = types.SimpleNamespace(layout=LayoutRecorder(), default_preset="MEDIUM",
                                            default_lamps=True, default_lamp_shadows=True,
                                            default_world_ambient=False,
@@ -994,15 +1006,17 @@ def test_preferences_as_an_installed_extension(tmp_path):
     with zipfile.ZipFile(zip_path, "w") as z:
         z.writestr("blender_manifest.toml", "".join(manifest))
         z.write(os.path.join(root, "__init__.py"), "__init__.py")
-        for name in sorted(os.listdir(os.path.join(root, "addon"))):
-            if name.endswith(".py"):
-                z.write(os.path.join(root, "addon", name), f"addon/{name}")
+        for folder, _dirs, names in sorted(os.walk(os.path.join(root, "addon"))):
+            for name in sorted(names):
+                if name.endswith(".py"):
+                    path = os.path.join(folder, name)
+                    z.write(path, os.path.relpath(path, root).replace(os.sep, "/"))
     code = f"""
         import sys, bpy
         bpy.ops.extensions.package_install_files(repo="user_default", filepath={str(zip_path)!r},
                                                  enable_on_install=True)
         name = "bl_ext.user_default.illumap"
-        prefs_module = sys.modules[name + ".addon.preferences"]
+        prefs_module = sys.modules[name + ".addon.ui.preferences"]
         assert prefs_module.ADDON_PACKAGE == name, prefs_module.ADDON_PACKAGE
         prefs = bpy.context.preferences.addons[name].preferences
         assert type(prefs).__name__ == "IllumapPreferences"
@@ -1022,7 +1036,8 @@ def test_preferences_as_an_installed_extension(tmp_path):
 
 def test_scene_defaults_match_the_pipeline_defaults(registered_addon):
     """Knobs the presets do not set start where the batch script's Settings start."""
-    from addon import pipeline, properties
+    from addon import pipeline
+    from addon.ui import properties
     settings = properties.make_settings(bpy.context.scene.illumap, pipeline.Settings)
     defaults = pipeline.Settings()
     for name in ("leaf_size", "solver", "near_field", "max_iterations", "lamps",

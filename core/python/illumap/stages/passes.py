@@ -42,7 +42,7 @@ class Gathered:
 
     @property
     def scene(self) -> Scene:
-        """The scene of the last pass."""
+        """The scene of the last pass (with its occluders built)."""
         return self.solved.lit.scene
 
 
@@ -87,7 +87,10 @@ def gather(solved: Solved, progress: Progress | None = None) -> Gathered:
     and points' values, checked finite and clipped at 0, with a warning for closed meshes
     lit only from inside."""
     lit = solved.lit
-    scene = with_occluders(lit.scene, progress)
+    if lit.scene.occluders is None:   # released during the solve (``run``): built again
+        lit = replace(lit, scene=with_occluders(lit.scene, progress, "gather"))
+        solved = replace(solved, lit=lit)
+    scene = lit.scene
     estimate = (solved.stats.get("accuracy") or {}).get("estimate", {}).get("total")
     try:
         light_ = receive(scene, lit.direct, lit.direct_lamps, solved.radiosity, progress,

@@ -139,13 +139,14 @@ class Scene:
         return back
 
 
-def with_occluders(scene: Scene, progress: Progress | None = None) -> Scene:
+def with_occluders(scene: Scene, progress: Progress | None = None, phase: str | None = None) -> Scene:
     """``scene`` with its triangles built into a ray-casting scene
     (``illumap.receivers.MeshOccluders``) once; the same scene when it has them or has no
-    triangles. ``progress`` hears the build under the lamp shadows' phase."""
+    triangles. ``progress`` hears the build under ``phase`` (default: the lamp shadows')."""
     if scene.occluders is not None or scene.triangles is None or not len(scene.triangles):
         return scene
     from ..lights import PHASE
     from ..receivers import MeshOccluders
-    build = None if progress is None else (lambda f, _phase="": progress(0.0, PHASE))
+    phase = phase or PHASE
+    build = None if progress is None else (lambda f, _phase="": progress(0.0, phase))
     return replace(scene, occluders=MeshOccluders(scene.triangles, progress=build))

@@ -9,7 +9,7 @@ import os
 import bpy
 import numpy as np
 
-from .kinds import ATTRIBUTE
+from ..kinds import ATTRIBUTE
 
 
 def lightmap_pattern(pattern: str) -> str:

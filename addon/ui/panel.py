@@ -9,8 +9,8 @@ The draw code is written against a ``layout`` argument so that tests can draw in
 
 import bpy
 
-from . import solid_preview
-from .core_status import core_error
+from ..preview import solid_preview
+from ..core_status import core_error
 
 
 def draw_native_missing(layout, error):
@@ -31,7 +31,7 @@ MAIN_PANEL_CONTROLS = 8
 
 def preview_is_on(context) -> bool:
     """Whether any object in the scene shows its light through the Object Preview."""
-    from . import mesh_preview
+    from ..preview import mesh_preview
     return any(mesh_preview.has_mesh_preview(o) for o in context.scene.objects)
 
 

@@ -33,7 +33,7 @@ from typing import Protocol
 import numpy as np
 from illumap.limits import limit
 
-from .errors import ExitCode, IllumapError
+from ..errors import ExitCode, IllumapError
 
 
 class MeshSamples(Protocol):

@@ -14,7 +14,7 @@ from illumap.settings import Settings
 from illumap.stages.choices import (SURFEL_COVERAGE, occluder_shape,  # noqa: F401
                                     surfel_shadow_samples, surfel_target)
 
-from .errors import ExitCode, IllumapError
+from ..errors import ExitCode, IllumapError
 
 
 # Rough peak memory per surfel for sampling, solver vectors and the FMM tree (bytes). Used to

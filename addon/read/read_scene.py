@@ -19,12 +19,14 @@ from illumap.identities import object_rng
 from illumap.settings import DEFAULT_BUDGET, Settings
 from illumap.stages.scene import PointCloud, Source
 
-from . import emitters, lamps, materials, point_splats, pointcloud, sampling
-from .budget import (_mesh_share, adaptive_error_ratio_applies, capped_target_warning,
-                     check_memory, target_density)
-from .errors import ExitCode, IllumapCancelled, IllumapError, core_cancelled
-from .job import Job, Progress
-from .kinds import HELPER_TYPES, MESH_TYPES, RESULT_TYPES, is_instancer
+from . import emitters, lamps, materials, pointcloud, sampling
+from ..preview import point_splats
+from .budget import (
+    _mesh_share, adaptive_error_ratio_applies, capped_target_warning, check_memory, target_density
+)
+from ..errors import ExitCode, IllumapCancelled, IllumapError, core_cancelled
+from ..job import Job, Progress
+from ..kinds import HELPER_TYPES, MESH_TYPES, RESULT_TYPES, is_instancer
 
 
 @dataclass
@@ -43,7 +45,7 @@ class _Scene:
 
 def _split_objects(depsgraph, objects) -> tuple[list, list, list[str]]:
     meshes, points, warnings = [], [], []
-    from .output import SURFEL_OBJECT
+    from ..write.output import SURFEL_OBJECT
     # By name, not in selection order: the surfels' rows, and the budget's share where areas
     # tie, are then the same however the objects were selected.
     for obj in sorted((o for o in objects if o is not None), key=lambda o: o.name):
@@ -180,7 +182,7 @@ def _prepare(depsgraph, objects, settings: Settings) -> UnbuiltJob:
     # splats, ``point_splats.prepare_frames``).
     splat_inputs = []
     if settings.preview_splats and settings.transfer:
-        from .mesh_preview import splat_inputs as read_splat_inputs
+        from ..preview.mesh_preview import splat_inputs as read_splat_inputs
         splat_inputs = [read_splat_inputs(obj) for obj in points if obj.type in RESULT_TYPES]
     read_scene = _ReadScene(
         settings=settings, t0=t0, warnings=warnings, stats=stats, read=read, wanted=wanted,

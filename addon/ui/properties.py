@@ -14,7 +14,7 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
                        IntProperty, PointerProperty, StringProperty)
 
-from .preview import DEFAULT_DISC_SCALE
+from ..preview.surfel_preview import DEFAULT_DISC_SCALE
 
 # The settings are declared once, in illumap.settings (pure Python: it imports without the
 # native module); their ranges come from illumap.limits. Without the package at all (a wheel

@@ -5,8 +5,10 @@ reduced UI keeps them when the native module cannot load."""
 import bpy
 from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
 
-from . import exports, mesh_preview, output, preferences, preview, properties, solid_preview
-from .kinds import RESULT_TYPES as _RESULT_TYPES
+from ..write import exports, output
+from ..preview import mesh_preview, surfel_preview as preview, solid_preview
+from . import preferences, properties
+from ..kinds import RESULT_TYPES as _RESULT_TYPES
 from .operators import counted, error_message, surfel_objects
 
 

@@ -30,8 +30,8 @@ from illumap import surfels as core_surfels
 # The corners are the core's receivers (``illumap.Receivers``), a hair inside their faces.
 from illumap.stages.scene import RECEIVER_INSET, Receivers  # noqa: F401
 
-from .errors import IllumapError
-from .kinds import MESH_TYPES
+from ..errors import IllumapError
+from ..kinds import MESH_TYPES
 
 
 @dataclass
@@ -374,7 +374,7 @@ def _evaluated_corners(obj, mesh, evaluated) -> np.ndarray | str:
     ev_vertex = _get(evaluated.loops, "vertex_index", ne, 1, np.int32).astype(np.int64)
     if ne == nl and len(evaluated.polygons) == len(mesh.polygons) and np.array_equal(vertex, ev_vertex):
         return np.arange(nl, dtype=np.int64)
-    from .output import OWN_MODIFIERS, repeat_problem
+    from ..write.output import OWN_MODIFIERS, repeat_problem
     repeated = repeat_problem(obj)
     if repeated is not None:
         return repeated

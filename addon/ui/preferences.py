@@ -11,14 +11,16 @@ callers fall back to the built-in defaults.
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty
 
-from . import preview, properties
-from .core_status import core_error
+from ..preview import surfel_preview as preview
+from . import properties
+from ..core_status import core_error
 
 
 def _addon_package(package=None):
     """The add-on's registered name: ``bl_ext.<repo>.illumap`` for ``bl_ext.<repo>.illumap.addon``,
     ``addon`` for a checkout imported as ``addon``."""
-    package = package or __package__ or __name__.rpartition(".")[0]
+    # This module lives in the add-on's ui/ folder: the add-on is the package above it.
+    package = package or (__package__ or __name__.rpartition(".")[0]).rpartition(".")[0]
     head, _, tail = package.rpartition(".")
     return head if head and tail == "addon" else package
 

@@ -25,7 +25,7 @@ import numpy as np
 from illumap.neighbours import knn
 
 from . import materials
-from .errors import IllumapError
+from ..errors import IllumapError
 
 K_NEIGHBOURS = 8
 #: A point whose estimated spacing exceeds the cloud's median by this factor is stray

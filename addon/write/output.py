@@ -24,7 +24,7 @@ import os
 import numpy as np
 
 from .exports import exr_problem, lightmap_pattern
-from .kinds import ATTRIBUTE, RESULT_TYPES
+from ..kinds import ATTRIBUTE, RESULT_TYPES
 
 SURFEL_OBJECT = "Illumap Surfels"
 #: Nearest surfels a lightmap texel averages (``export_lightmap``).
@@ -230,7 +230,7 @@ def check_targets(objects, settings) -> None:
     """Refuse a run, before anything is read or solved, whose transfer could not be right or
     kept (``transfer_problem``), or whose export paths cannot be written
     (``check_export_paths``). Raises IllumapError naming every object and the cause."""
-    from .errors import IllumapError
+    from ..errors import IllumapError
     if getattr(settings, "transfer", False):
         users = object_users(bpy_data())
         problems = [p for p in (transfer_problem(o, users) for o in transfer_targets(objects))
@@ -273,7 +273,7 @@ def folder_problem(path: str) -> tuple[str, str | None]:
 def check_export_paths(settings) -> None:
     """Refuse export paths (npz, EXR, lightmaps) that cannot be written: a folder, a path
     under a file, a folder that is not writable. Raises OutputError."""
-    from .errors import OutputError
+    from ..errors import OutputError
     paths = [("Export NPZ", npz_path(settings.export_npz) if settings.export_npz else ""),
              ("Export EXR", settings.export_exr),
              ("Export Lightmaps", lightmap_pattern(settings.export_lightmaps).replace(
@@ -358,7 +358,7 @@ class Transaction:
         """Write a file with ``write(temporary_path)`` into a temporary file beside ``final``
         (same extension); it is renamed onto ``final`` by ``commit``."""
         import tempfile
-        from .errors import OutputError
+        from ..errors import OutputError
         folder = os.path.dirname(os.path.abspath(final))
         root, ext = os.path.splitext(os.path.basename(final))
         try:
@@ -412,7 +412,7 @@ class Transaction:
                 try:
                     os.replace(tmp, final)
                 except OSError as exc:
-                    from .errors import OutputError
+                    from ..errors import OutputError
                     raise OutputError(f"'{final}' could not be put in place: "
                                       f"{exc.strerror or exc}. The file's data was left as "
                                       "it was.") from None

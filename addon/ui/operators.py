@@ -23,15 +23,20 @@ import time
 
 import bpy
 
-from . import mesh_preview, output, preferences, properties, solid_preview, threads
+from ..preview import mesh_preview, solid_preview
+from ..write import output
+from . import preferences, properties
+from .. import threads
 # The worker and the runs' ids (tests drive them through this module too).
-from .compute_task import ComputeTask, _class_names, _is_cancelled_error, begin_run, is_latest  # noqa: F401
-from .kinds import HELPER_TYPES, is_instancer
-from .kinds import SUPPORTED_TYPES as _SUPPORTED_TYPES
+from ..compute_task import (  # noqa: F401
+    ComputeTask, _class_names, _is_cancelled_error, begin_run, is_latest
+)
+from ..kinds import HELPER_TYPES, is_instancer
+from ..kinds import SUPPORTED_TYPES as _SUPPORTED_TYPES
 
 
 def _pipeline():
-    from . import pipeline  # imported late: it needs the native module
+    from .. import pipeline  # imported late: it needs the native module
     return pipeline
 
 

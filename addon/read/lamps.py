@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from illumap.lights import Lamp
 
-from .errors import ExitCode, IllumapError
+from ..errors import ExitCode, IllumapError
 from .materials import describe_not_finite, not_finite
 
 #: Disk and ellipse lamps are polygons of this many sides, scaled to the same area.
@@ -111,7 +111,7 @@ def world_light(scene, warnings: list[str]) -> Lamp | None:
 
 
 def _world_radiance(world, warnings: list[str]) -> np.ndarray | None:
-    from .compat import uses_nodes
+    from ..compat import uses_nodes
     if not uses_nodes(world):
         return np.array(world.color[:3], dtype=np.float64)
     tree = world.node_tree

@@ -31,7 +31,7 @@ Point clouds are left out: Solid mode does not colour them by attribute (their
 
 from __future__ import annotations
 
-from .output import ATTRIBUTE, is_illumap_object
+from ..write.output import ATTRIBUTE, is_illumap_object
 
 #: Custom property on a mesh (its data): the active colour attribute before Solid Preview.
 RECORD = "illumap_solid_active"

@@ -33,10 +33,13 @@ import math
 import bpy
 import numpy as np
 
-from . import compat, point_splats
-from .splat_shading import SHADING_ATTRIBUTES, SHADING_NAMES, vector_attribute, write_shading
-from .kinds import RESULT_TYPES
-from .output import ATTRIBUTE, MARKER
+from .. import compat
+from . import point_splats
+from .splat_shading import (
+    SHADING_ATTRIBUTES, SHADING_NAMES, vector_attribute, write_shading
+)
+from ..kinds import RESULT_TYPES
+from ..write.output import ATTRIBUTE, MARKER
 
 MODIFIER_NAME = "Illumap Mesh Preview"
 NODE_GROUP_NAME = "Illumap Mesh Preview"
@@ -526,7 +529,7 @@ def show_result(context, lit, surfel_object, *, objects=True, surfels=False,
       renders, a diagnostic the user asks for.
 
     Returns the names of the objects shown."""
-    from . import preview  # noqa: PLC0415
+    from . import surfel_preview as preview  # noqa: PLC0415
     shown = build_mesh_preview(lit) if objects else []
     if surfel_object is None:
         return shown

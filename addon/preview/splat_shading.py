@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import point_splats
-from .kinds import ATTRIBUTE
+from ..kinds import ATTRIBUTE
 
 #: The hidden point attributes: each splat's value at its ellipse's centre and its change per
 #: unit of the instanced disc's X and Y (RGB).

@@ -33,8 +33,8 @@ import math
 
 import bpy
 
-from . import compat
-from .kinds import RESULT_TYPES
+from .. import compat
+from ..kinds import RESULT_TYPES
 
 NODE_GROUP_NAME = "Illumap Disc Preview"
 MODIFIER_NAME = "Illumap Preview"
