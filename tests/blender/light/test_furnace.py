@@ -99,7 +99,7 @@ from illumap_bpy_testing import requires_core
 
 from bench.reference import furnace
 
-pytestmark = requires_core
+pytestmark = [requires_core, pytest.mark.slow]   # against Cycles bakes or renders
 
 #: Relative RMS Illumap may differ from the reference by, over and above the reference's noise.
 RMS = 0.01

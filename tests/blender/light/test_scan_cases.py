@@ -22,7 +22,7 @@ from addon import pipeline
 from reference_helpers import (closed_box, cycles_outgoing, diffuse, one_sided_emission,
                                   plane, positions, relative_rms, report)
 
-pytestmark = requires_core
+pytestmark = [requires_core, pytest.mark.slow]   # against Cycles bakes or renders
 
 BOUNDS = {
     "sheet": dict(lit_rms=0.05),

@@ -38,6 +38,7 @@ blocks off. About 7 s on 2 cores.
 
 import bpy
 import numpy as np
+import pytest
 
 from illumap_bpy_testing import black_world, link, requires_core
 from reference_helpers import closed_box, diffuse, one_sided_emission, plane
@@ -46,7 +47,7 @@ from addon.preview import mesh_preview
 from addon import pipeline
 from bench.reference.preview_vs_cycles import emitter_mask, off_shares, relative_rms, render
 
-pytestmark = requires_core
+pytestmark = [requires_core, pytest.mark.slow]   # against Cycles bakes or renders
 
 #: Noise-corrected relative RMS over the room's pixels, and the share of lit 2×2 blocks off by
 #: more than 25%.
