@@ -129,13 +129,24 @@ def manifest_for(platforms: list[str], wheel_suffixes: tuple[str, ...]) -> str:
     return re.sub(r"^wheels = \[\n(.*?)^\]", narrow, text, count=1, flags=re.M | re.S)
 
 
+def without_build_table(manifest_text: str) -> str:
+    """The manifest's text without its final ``[build]`` table (``paths``)."""
+    head, found, _ = manifest_text.partition("\n[build]\n")
+    if not found:
+        raise SystemExit("blender_manifest.toml: no [build] table")
+    return head.rstrip("\n") + "\n"
+
+
 def stage(manifest_text: str, files: list[str]) -> Path:
-    """A source folder for Blender's build tool: the manifest (narrowed to the platforms being
-    built), the add-on's files and an empty ``wheels/``, under build/extension."""
+    """A source folder for Blender's build tool under build/extension: the add-on's files, an
+    empty ``wheels/`` and the manifest (narrowed to the platforms being built) without its
+    ``[build] paths``. The folder holds exactly what the zip must, so Blender's tool takes it
+    all; with ``paths`` it would append the wheels after them, where its platform split (Blender
+    5.2) looks for them first and fails."""
     folder = ROOT / "build" / "extension"
     shutil.rmtree(folder, ignore_errors=True)
     (folder / "wheels").mkdir(parents=True)
-    (folder / "blender_manifest.toml").write_text(manifest_text)
+    (folder / "blender_manifest.toml").write_text(without_build_table(manifest_text))
     for relative in files:
         (folder / relative).parent.mkdir(parents=True, exist_ok=True)
         shutil.copy2(ROOT / relative, folder / relative)
