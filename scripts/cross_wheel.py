@@ -159,7 +159,9 @@ def build_module(python: Path, target: Target) -> tuple[Path, tuple[int, int]]:
         f"-DPython_EXECUTABLE={python}", f"-DILLUMAP_CROSS_PYTHON_INCLUDE={include}",
         f"-DILLUMAP_CROSS_PYTHON_LIBRARY={library}",
         f"-DILLUMAP_CPU_MODEL_OBJECT={build_wheels.cpu_model_object(target)}",
-        f"-DSKBUILD_SOABI={tag}-{target.wheel_platform}")
+        # The module's file name: Windows' CPython looks for _core.cp3XY-win_amd64.pyd (nanobind
+        # would take the host interpreter's suffix, a Linux one).
+        f"-DNB_SUFFIX=.{tag}-{target.wheel_platform}.pyd", "-DNB_SUFFIX_S=.pyd")
     run("cmake", "--build", work, "--target", "_core")
     (module,) = work.glob("_core.*.pyd")
     return module, version
