@@ -139,10 +139,14 @@ def fetch_source() -> Path:
     log(f"downloading Debian's source package {DEBIAN_SOURCE}")
     # Only the upstream tarball is used; the Debian packaging tarball may be gone from the
     # archive's pool, which makes apt-get fail after it has the two files we need.
-    run("apt-get", "source", "-qq", "--download-only", f"{DEBIAN_SOURCE}/bookworm", cwd=folder,
-        check=False)
+    # Its messages are shown only when the two files did not come (the packaging tarball's 404
+    # would otherwise read as a failure in every fresh set-up's log).
+    fetched = subprocess.run(["apt-get", "source", "-qq", "--download-only",
+                              f"{DEBIAN_SOURCE}/bookworm"], cwd=folder, text=True,
+                             capture_output=True)
     dscs = sorted(folder.glob(f"embree_{VERSION}*.dsc"))
     if not tarball.is_file() or not dscs:
+        sys.stderr.write(fetched.stdout + fetched.stderr)
         raise SystemExit(f"apt-get source {DEBIAN_SOURCE} did not bring {ORIG_TARBALL}")
     digest = hashlib.sha256(tarball.read_bytes()).hexdigest()
     if digest != expected_sha256(dscs[-1]):
