@@ -6,8 +6,8 @@ with the Zig toolchain (scripts/zig_toolchain.py), for the portable wheels.
 Why this Embree: a static library with Embree's own tasking system needs no TBB at all, so the
 wheel cannot clash with the TBB that bpy loads (in either import order), and it bundles no shared
 library. Only what Illumap uses is built (triangles and oriented-disc points, single rays, ray
-streams and packets of 8) for two ISAs, SSE2 (every x86-64) and AVX2 (most machines since 2013),
-which keeps the one-off build to a few minutes on two cores.
+streams and packets of 8) with SSE2 kernels (every x86-64 CPU), which keeps the one-off build to
+a few CPU-minutes.
 
 The source comes from Debian's archive (``apt-get source embree``: a deb-src line for Debian's own
 archive is added when missing). Idempotent: a stamp records the configuration; a second run with
@@ -62,15 +62,18 @@ OPTIONS = {
     "CMAKE_POLICY_VERSION_MINIMUM": "3.5",
     "CMAKE_BUILD_TYPE": "Release",
 }
-# The kernels: SSE2 (every x86-64 CPU) and AVX2 (most since 2013, picked at run time). Embree's
-# AVX2 flags lack -mpopcnt, which newer clang needs for its popcnt intrinsic under AVX2.
+# The kernels: SSE2 only (every x86-64 CPU; Embree's 4-wide BVH). AVX2 kernels would trace
+# faster on most machines but cost twice this build, and they need the AVX set as well: Embree
+# compiles its 8-wide BVH builders only for AVX and selects them only through AVX's slot, so an
+# SSE2+AVX2 build fails every BVH8 build with RTC_ERROR_UNSUPPORTED_CPU ("BVH build failed
+# (error 5)"). To turn them on: EMBREE_ISA_AVX and EMBREE_ISA_AVX2 "ON", with FLAGS_AVX2 given
+# -mpopcnt, which newer clang needs for its popcnt intrinsic under AVX2 ("-mf16c -mavx2 -mfma
+# -mlzcnt -mbmi -mbmi2 -mpopcnt").
 ISA_OPTIONS = {
     "linux-x64": {"EMBREE_MAX_ISA": "NONE", "EMBREE_ISA_SSE2": "ON", "EMBREE_ISA_SSE42": "OFF",
-                  "EMBREE_ISA_AVX": "OFF", "EMBREE_ISA_AVX2": "ON", "EMBREE_ISA_AVX512": "OFF",
-                  "FLAGS_AVX2": "-mf16c -mavx2 -mfma -mlzcnt -mbmi -mbmi2 -mpopcnt"},
-    # Windows: SSE2 kernels only for now (the AVX2 set doubles a build that takes most of an
-    # hour on this shared machine; turning it on is this one option, as on Linux). MinGW's
-    # math.h hides M_PI unless _USE_MATH_DEFINES comes before its first include.
+                  "EMBREE_ISA_AVX": "OFF", "EMBREE_ISA_AVX2": "OFF", "EMBREE_ISA_AVX512": "OFF"},
+    # Windows: SSE2 kernels, as on Linux. MinGW's math.h hides M_PI unless _USE_MATH_DEFINES
+    # comes before its first include.
     "windows-x64": {"EMBREE_MAX_ISA": "NONE", "EMBREE_ISA_SSE2": "ON", "EMBREE_ISA_SSE42": "OFF",
                     "EMBREE_ISA_AVX": "OFF", "EMBREE_ISA_AVX2": "OFF", "EMBREE_ISA_AVX512": "OFF",
                     "EMBREE_IGNORE_CMAKE_CXX_FLAGS": "OFF", "CMAKE_CXX_FLAGS": "-D_USE_MATH_DEFINES"},
@@ -80,21 +83,19 @@ ISA_OPTIONS = {
 # Debug printers that newer clang rejects (members that do not exist in a template); they are
 # never called. (file, text, replacement)
 SOURCE_FIXES = (
-    # SSE2 + AVX2 without AVX: Embree compiles its 8-wide BVH and primitives only for the lowest
-    # AVX-class ISA, which it fixes to AVX unless AVX is the first one enabled.
-    ("CMakeLists.txt",
-     "IF (EMBREE_ISA_AVX2)\n  ADD_DEFINITIONS(-DEMBREE_TARGET_AVX2)\n",
-     "IF (EMBREE_ISA_AVX2)\n  ADD_DEFINITIONS(-DEMBREE_TARGET_AVX2)\n"
-     "  IF (NOT EMBREE_ISA_AVX)\n    SET(ISA_LOWEST_AVX ${AVX2})\n  ENDIF()\n"),
-    ("kernels/CMakeLists.txt",
-     "  IF (${ISA} EQUAL ${AVX})\n    LIST(APPEND ${TARGET}\n      bvh/bvh.cpp\n",
-     "  IF (${ISA} EQUAL ${ISA_LOWEST_AVX})\n    LIST(APPEND ${TARGET}\n      bvh/bvh.cpp\n"),
     ("kernels/subdiv/bezier_curve.h",
      'return cout << "QuadraticBezierCurve ( (" << a.u.lower << ", " << a.u.upper << "), " << a.v0',
      'return cout << "QuadraticBezierCurve ( " << a.v0'),
     ("kernels/geometry/pointi.h",
      '<< "i {" << line.v0 << ", " << line.geomID()',
      '<< "i {" << line.geomID()'),
+)
+# The version resource of Embree's DLL: a static library has no use for it, and the file is
+# UTF-16, which Zig's resource compiler rejects. Applied for every target (other platforms ignore
+# .rc files), but only the Windows build's stamp depends on it.
+WINDOWS_FIXES = (
+    ("kernels/CMakeLists.txt", "SET(EMBREE_LIBRARY_FILES\n \n  embree.rc\n",
+     "SET(EMBREE_LIBRARY_FILES\n"),
 )
 
 
@@ -138,10 +139,14 @@ def fetch_source() -> Path:
     log(f"downloading Debian's source package {DEBIAN_SOURCE}")
     # Only the upstream tarball is used; the Debian packaging tarball may be gone from the
     # archive's pool, which makes apt-get fail after it has the two files we need.
-    run("apt-get", "source", "-qq", "--download-only", f"{DEBIAN_SOURCE}/bookworm", cwd=folder,
-        check=False)
+    # Its messages are shown only when the two files did not come (the packaging tarball's 404
+    # would otherwise read as a failure in every fresh set-up's log).
+    fetched = subprocess.run(["apt-get", "source", "-qq", "--download-only",
+                              f"{DEBIAN_SOURCE}/bookworm"], cwd=folder, text=True,
+                             capture_output=True)
     dscs = sorted(folder.glob(f"embree_{VERSION}*.dsc"))
     if not tarball.is_file() or not dscs:
+        sys.stderr.write(fetched.stdout + fetched.stderr)
         raise SystemExit(f"apt-get source {DEBIAN_SOURCE} did not bring {ORIG_TARBALL}")
     digest = hashlib.sha256(tarball.read_bytes()).hexdigest()
     if digest != expected_sha256(dscs[-1]):
@@ -153,20 +158,28 @@ def fetch_source() -> Path:
 def unpack(tarball: Path) -> Path:
     """The patched source tree under build/embree/src (unpacked once)."""
     source = EMBREE_DIR / "src" / f"embree-{VERSION}"
-    if (source / ".illumap-unpacked").is_file():
+    stamp = source / ".illumap-unpacked"
+    fixes = hashlib.sha256(repr(SOURCE_FIXES + WINDOWS_FIXES).encode()).hexdigest()
+    if stamp.is_file() and stamp.read_text() == fixes:
         return source
     shutil.rmtree(source.parent, ignore_errors=True)
     source.parent.mkdir(parents=True)
     with tarfile.open(tarball) as archive:
         archive.extractall(source.parent, filter="data")
-    for relative, old, new in SOURCE_FIXES:
+    for relative, old, new in SOURCE_FIXES + WINDOWS_FIXES:
         path = source / relative
         text = path.read_text()
         if text.count(old) != 1:
             raise SystemExit(f"{relative}: the text to fix is not there once")
         path.write_text(text.replace(old, new))
-    (source / ".illumap-unpacked").write_text("ok\n")
+    stamp.write_text(fixes)
     return source
+
+
+def _children_cpu() -> float:
+    """CPU seconds used so far by the finished child processes (the compilers included)."""
+    times = os.times()
+    return times.children_user + times.children_system
 
 
 def cmake_dir(target: Target) -> Path:
@@ -178,8 +191,9 @@ def configuration(target: Target) -> tuple[dict[str, str], str]:
     """Embree's CMake options for ``target`` and a key that changes when they or the toolchain
     change (the stamp of a finished build)."""
     options = {**OPTIONS, **ISA_OPTIONS[target.name]}
+    fixes = SOURCE_FIXES + (WINDOWS_FIXES if target.cmake_system == "Windows" else ())
     key = hashlib.sha256(repr((sorted(options.items()), toolchain_file(target).read_text(),
-                               SOURCE_FIXES)).encode()).hexdigest()
+                               fixes)).encode()).hexdigest()
     return options, key
 
 
@@ -196,7 +210,7 @@ def build(target: Target) -> Path:
     work = EMBREE_DIR / target.name / "build"
     install = EMBREE_DIR / target.name / "install"
     shutil.rmtree(install, ignore_errors=True)
-    started = time.monotonic()
+    started, cpu_before = time.monotonic(), _children_cpu()
     log(f"{target.name}: configuring and building (once; several minutes on two cores)")
     run("cmake", "-G", "Ninja", "-S", source, "-B", work, f"-DCMAKE_TOOLCHAIN_FILE={toolchain}",
         f"-DCMAKE_INSTALL_PREFIX={install}", *(f"-D{k}={v}" for k, v in options.items()))
@@ -207,7 +221,8 @@ def build(target: Target) -> Path:
     if not config.is_dir():
         raise SystemExit(f"Embree installed no CMake config at {config}")
     stamp.write_text(key)
-    log(f"{target.name}: built in {time.monotonic() - started:.0f} s")
+    log(f"{target.name}: built in {time.monotonic() - started:.0f} s "
+        f"({_children_cpu() - cpu_before:.0f} CPU-seconds)")
     return config
 
 

@@ -17,10 +17,12 @@ platform and Python (core/build/<platform>-<tag>), so a rebuild after a C++ edit
 from __future__ import annotations
 
 import argparse
+import io
 import os
 import shutil
 import subprocess
 import sys
+import tarfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -62,15 +64,46 @@ def check(wheel: Path) -> Path:
     return wheel
 
 
+# Debian's MinGW-w64 GCC: only its libgcc.a is used (for cpuinfo.o), taken from the package
+# file without installing it.
+MINGW_GCC_PACKAGE = "gcc-mingw-w64-x86-64-win32"
+
+
+def _mingw_libgcc(folder: Path) -> Path:
+    """MinGW-w64's libgcc.a, extracted once from Debian's package into ``folder``."""
+    libgcc = folder / "mingw-libgcc.a"
+    if libgcc.is_file():
+        return libgcc
+    debs = sorted(folder.glob(f"{MINGW_GCC_PACKAGE}_*.deb"))
+    if not debs:
+        download = ["apt-get", "download", "-qq", MINGW_GCC_PACKAGE]
+        if subprocess.run(download, cwd=folder).returncode != 0:
+            subprocess.run([*build_embree.sudo(), "apt-get", "update", "-qq"], check=True)
+            subprocess.run(download, cwd=folder, check=True)
+        debs = sorted(folder.glob(f"{MINGW_GCC_PACKAGE}_*.deb"))
+    payload = subprocess.run(["dpkg-deb", "--fsys-tarfile", str(debs[-1])], check=True,
+                             capture_output=True).stdout
+    with tarfile.open(fileobj=io.BytesIO(payload)) as archive:
+        (member,) = [m for m in archive.getmembers()
+                     if m.name.endswith("/libgcc.a") and "/x86_64-w64-mingw32/" in m.name]
+        libgcc.write_bytes(archive.extractfile(member).read())
+    debs[-1].unlink()  # 30 MB; only libgcc.a is kept
+    return libgcc
+
+
 def cpu_model_object(target: Target) -> Path:
     """libgcc's cpuinfo.o (the CPU model that target_clones' resolvers read, which Zig's runtime
-    lacks), taken from the system GCC's libgcc.a into build/toolchain/<platform>/."""
-    gcc = shutil.which("gcc")
-    if gcc is None:
-        raise SystemExit("gcc is missing (scripts/setup_env.sh installs g++)")
-    libgcc = Path(subprocess.run([gcc, "-print-libgcc-file-name"], text=True,
-                                 capture_output=True, check=True).stdout.strip())
+    lacks) for ``target``, in build/toolchain/<platform>/: from the system GCC on Linux, from
+    Debian's MinGW-w64 GCC for Windows. It needs nothing from the C library."""
     folder = toolchain_file(target).parent
+    if target.cmake_system == "Windows":
+        libgcc = _mingw_libgcc(folder)
+    else:
+        gcc = shutil.which("gcc")
+        if gcc is None:
+            raise SystemExit("gcc is missing (scripts/setup_env.sh installs g++)")
+        libgcc = Path(subprocess.run([gcc, "-print-libgcc-file-name"], text=True,
+                                     capture_output=True, check=True).stdout.strip())
     subprocess.run(["ar", "x", str(libgcc), "cpuinfo.o"], cwd=folder, check=True)
     return folder / "cpuinfo.o"
 

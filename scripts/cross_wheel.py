@@ -27,6 +27,7 @@ import zipfile
 from pathlib import Path
 
 import build_embree
+import build_wheels
 from zig_toolchain import ROOT, Target, toolchain_file, zig_executable
 
 SDK_DIR = ROOT / "build" / "python-sdk"
@@ -157,7 +158,10 @@ def build_module(python: Path, target: Target) -> tuple[Path, tuple[int, int]]:
         f"-DCMAKE_TOOLCHAIN_FILE={toolchain_file(target)}", f"-DILLUMAP_EMBREE_DIR={embree}",
         f"-DPython_EXECUTABLE={python}", f"-DILLUMAP_CROSS_PYTHON_INCLUDE={include}",
         f"-DILLUMAP_CROSS_PYTHON_LIBRARY={library}",
-        f"-DSKBUILD_SOABI={tag}-{target.wheel_platform}")
+        f"-DILLUMAP_CPU_MODEL_OBJECT={build_wheels.cpu_model_object(target)}",
+        # The module's file name: Windows' CPython looks for _core.cp3XY-win_amd64.pyd (nanobind
+        # would take the host interpreter's suffix, a Linux one).
+        f"-DNB_SUFFIX=.{tag}-{target.wheel_platform}.pyd", "-DNB_SUFFIX_S=.pyd")
     run("cmake", "--build", work, "--target", "_core")
     (module,) = work.glob("_core.*.pyd")
     return module, version

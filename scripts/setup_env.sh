@@ -79,11 +79,12 @@ setup_venv() {
         rm -f "$STAMPS/$key".*
     fi
 
-    local req_hash; req_hash="$(sha256sum "$req" | cut -d' ' -f1)"
+    local build_req="$ROOT/scripts/requirements-build.txt"
+    local req_hash; req_hash="$(cat "$req" "$build_req" | sha256sum | cut -d' ' -f1)"
     if ! stamp_ok "$key.requirements" "$req_hash"; then
         log "installing $3 into $name (bpy is large: this takes a few minutes once)"
         pip_quiet "$py" install --upgrade pip
-        pip_quiet "$py" install -r "$req"
+        pip_quiet "$py" install -r "$req" -r "$build_req"
         stamp_set "$key.requirements" "$req_hash"
     fi
 
@@ -97,11 +98,16 @@ setup_venv() {
     "$py" -c "import numpy, OpenImageIO; v = numpy.__version__; assert v == '$numpy_pin', \
 f'numpy {v} replaced the $numpy_pin that bpy needs in $name'"
 
-    # The native core: rebuilt only when its sources change (scikit-build-core keeps one CMake
-    # build dir per wheel tag under core/build, so each Python's rebuild is incremental).
-    if ! stamp_ok "$key.core" "$CORE_HASH" || ! "$py" -c "import illumap._core" >/dev/null 2>&1; then
-        log "building the native core for $name"
-        (cd "$ROOT" && pip_quiet "$py" install --no-build-isolation ./core)
+    # The native core, as the portable manylinux_2_28 wheel the extension ships (Zig's clang,
+    # static Embree without TBB: scripts/build_wheels.py), installed so that every test runs
+    # against the wheel. Rebuilt only when its sources or build scripts change (one CMake build
+    # dir per platform and wheel tag under core/build, so a rebuild is incremental; Embree is
+    # built once, into build/embree).
+    # (A plain `pip install ./core` since then replaced it: install the wheel again.)
+    if ! stamp_ok "$key.core" "$CORE_HASH" || ! "$py" -c "import illumap._core, importlib.metadata as m
+assert 'manylinux_2_28' in m.distribution('illumap').read_text('WHEEL')" >/dev/null 2>&1; then
+        log "building the native core wheel for $name"
+        (cd "$ROOT" && "$py" scripts/build_wheels.py --install >/dev/null)
         stamp_set "$key.core" "$CORE_HASH"
     fi
     "$py" -c "import illumap._core" || { log "the native core does not import in $name"; exit 1; }
@@ -115,14 +121,18 @@ case "${1:-}" in
     *) log "unknown option $1 (expected --all or --blender50)"; exit 2 ;;
 esac
 
-# 1. System packages: a compiler and Embree (exact visibility) for the core; bpy's X/GL client
+# 1. System packages: g++ and Debian's Embree for the native component tests
+#    (core/tests_native/run.sh) and a plain `pip install ./core`; the wheels themselves are built
+#    with Zig (a PyPI package) and Embree from Debian's source package. bpy's X/GL client
 #    libraries are installed when bpy first fails to import.
 command -v g++ >/dev/null 2>&1 || apt_install g++
 apt_install libembree-dev
 
-CORE_HASH="$(cd "$ROOT" && find core -type f \( -name '*.cpp' -o -name '*.hpp' -o -name '*.py' \
-    -o -name 'CMakeLists.txt' -o -name '*.cmake' -o -name 'pyproject.toml' -o -name '*.json' \) -not -path 'core/build/*' -print0 \
-    | sort -z | xargs -0 sha256sum | sha256sum | cut -d' ' -f1)"
+# What the core wheel is made of: its sources and the scripts that build it.
+CORE_HASH="$(cd "$ROOT" && { find core -type f \( -name '*.cpp' -o -name '*.hpp' -o -name '*.py' \
+    -o -name 'CMakeLists.txt' -o -name '*.cmake' -o -name 'pyproject.toml' -o -name '*.json' \) \
+    -not -path 'core/build/*' -print0 | sort -z | xargs -0 sha256sum; sha256sum scripts/build_wheels.py \
+    scripts/build_embree.py scripts/zig_toolchain.py scripts/wheel_abi.py; } | sha256sum | cut -d' ' -f1)"
 
 # 2. The environments.
 [ "$PRIMARY" -eq 1 ] && setup_venv .venv 3.13 scripts/requirements.txt

@@ -6,8 +6,9 @@ toolchain and static Embree of the Windows wheel, and runs them under Wine.
     .venv/bin/python scripts/windows_native_tests.py --build-only
 
 This checks, on this Linux machine, that the Windows build of the visibility code and of Embree
-(internal tasking, SSE2/AVX2 kernels, MinGW-w64 runtime, static libc++) computes what the Linux
-build computes. Wine comes from Debian's ``wine64`` package (scripts/setup_env.sh installs it).
+(internal tasking, SSE2 kernels, MinGW-w64 runtime, static libc++) computes what the Linux
+build computes. Wine comes from Debian's ``wine64`` package (``apt-get install wine64``; the test
+set-up does not install it: the Windows build is not part of a test run).
 """
 
 from __future__ import annotations

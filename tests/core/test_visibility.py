@@ -187,8 +187,11 @@ def test_a_segment_behind_an_endpoints_own_face_is_blocked(method):
     bare = illumap.TransportOperator(s, method=method)
     x = np.eye(3)[:, :, None].repeat(3, axis=2)          # x[k]: 1 on surfel k
     under = [op.apply(x[k])[1 - k, 0] for k in (0, 1)]   # 0 <-> 1, through the floor's face
-    assert bare.apply(x[1])[0, 0] > 0.0                   # the kernel couples them
-    assert under == [0.0, 0.0]
+    coupling = [bare.apply(x[k])[1 - k, 0] for k in (0, 1)]
+    assert min(coupling) > 0.0                            # the kernel couples them
+    # Blocked: the direct sum minus the visibility correction, one kernel entry computed in two
+    # loops, which the compiler may round an ulp apart (Zig's clang does: -2.7e-20 of 1.5e-4).
+    assert (np.abs(under) <= 1e-12 * np.array(coupling)).all(), (under, coupling)
     above = [op.apply(x[k])[2 - k, 0] for k in (0, 2)]   # 0 <-> 2, in front of both
     assert above == pytest.approx([bare.apply(x[0])[2, 0], bare.apply(x[2])[0, 0]], rel=1e-12)
     assert min(above) > 0.0

@@ -3,6 +3,7 @@ and the test runner and batch launcher behave like Blender's command line."""
 
 from __future__ import annotations
 
+import importlib.util
 import io
 import os
 import subprocess
@@ -24,14 +25,32 @@ def run_python(code: str, env: dict | None = None, timeout: float = 300,
                           capture_output=True, env={**os.environ, **(env or {})}, timeout=timeout)
 
 
+# The zips a test run builds: this machine's platform only. The Windows zip (a cross build of
+# Embree and the module, about ten CPU-minutes more) is built by a plain
+# scripts/build_extension.py; its wheels are checked by scripts/windows_native_tests.py.
+TESTED_PLATFORMS = ["linux-x64"]
+
+
 @pytest.fixture(scope="module")
-def extension_zip() -> Path:
-    result = subprocess.run([sys.executable, "scripts/build_extension.py"], cwd=ROOT, text=True,
-                            capture_output=True, timeout=900)
+def extension_zips() -> dict[str, Path]:
+    """The zips scripts/build_extension.py writes, by platform."""
+    command = [sys.executable, "scripts/build_extension.py"]
+    for platform in TESTED_PLATFORMS:
+        command += ["--platform", platform]
+    result = subprocess.run(command, cwd=ROOT, text=True, capture_output=True, timeout=1800)
     assert result.returncode == 0, result.stdout + result.stderr
-    path = Path(result.stdout.strip().splitlines()[-1])
-    assert path.is_file()
-    return path
+    paths = [Path(line) for line in result.stdout.strip().splitlines() if line.endswith(".zip")]
+    # Named as Blender's build tool names split packages: <id>-<version>-<platform>.zip.
+    expected = {p: f"illumap-0.1.0-{p.replace('-', '_')}.zip" for p in TESTED_PLATFORMS}
+    assert sorted(path.name for path in paths) == sorted(expected.values()), paths
+    assert all(path.is_file() for path in paths)
+    return {p: next(path for path in paths if path.name == name) for p, name in expected.items()}
+
+
+@pytest.fixture(scope="module")
+def extension_zip(extension_zips: dict[str, Path]) -> Path:
+    """The zip for this machine (Linux x64), which the installation tests install."""
+    return extension_zips["linux-x64"]
 
 
 # Blocks every ``illumap`` but the one the extension installed under BLENDER_USER_RESOURCES: the
@@ -75,25 +94,52 @@ def test_manifest_paths_list_every_addon_file() -> None:
     assert "addon/compat.py" in listed and "addon/__init__.py" in listed, listed
 
 
-def test_zip_holds_exactly_the_addon_and_a_wheel_per_python_abi(extension_zip: Path) -> None:
-    archive = zipfile.ZipFile(extension_zip)
+WHEEL_PLATFORMS = {"linux-x64": "manylinux_2_28_x86_64", "windows-x64": "win_amd64"}
+MODULE_SUFFIXES = {"linux-x64": "-x86_64-linux-gnu.so", "windows-x64": "-win_amd64.pyd"}
+
+
+MANIFEST_PLATFORMS = tomllib.loads((ROOT / "blender_manifest.toml").read_text())["platforms"]
+
+
+def test_manifest_platforms_are_known() -> None:
+    assert MANIFEST_PLATFORMS and set(MANIFEST_PLATFORMS) <= set(WHEEL_PLATFORMS), \
+        MANIFEST_PLATFORMS
+
+
+def test_tested_platforms_are_in_the_manifest() -> None:
+    assert set(TESTED_PLATFORMS) <= set(MANIFEST_PLATFORMS), (TESTED_PLATFORMS, MANIFEST_PLATFORMS)
+
+
+@pytest.mark.parametrize("platform", TESTED_PLATFORMS)
+def test_zip_holds_exactly_the_addon_and_a_wheel_per_python_abi(extension_zips: dict[str, Path],
+                                                                 platform: str) -> None:
+    archive = zipfile.ZipFile(extension_zips[platform])
     names = archive.namelist()
     wheels = sorted(n for n in names if n.startswith("wheels/") and n.endswith(".whl"))
-    # Blender 4.2-5.0 run Python 3.11, Blender 5.1+ Python 3.13: one wheel each.
+    # Blender 4.2-5.0 run Python 3.11, Blender 5.1+ Python 3.13: one wheel each, this
+    # platform's only.
     assert [w.split("-")[2] for w in wheels] == ["cp311", "cp313"], wheels
+    assert all(w.endswith(f"-{WHEEL_PLATFORMS[platform]}.whl") for w in wheels), wheels
     # The manifest, the add-on's files and the wheels, and nothing else: no tests, bench, docs,
     # scripts, caches or new top-level folders.
     assert sorted(names) == sorted(["blender_manifest.toml", *addon_files(), *wheels]), names
     manifest = tomllib.loads(archive.read("blender_manifest.toml").decode())
-    assert sorted(Path(w).name for w in manifest["wheels"]) == [Path(w).name for w in wheels]
+    # Blender's split build records the zip's own platform and wheels.
+    assert manifest["build"]["generated"]["platforms"] == [platform], manifest["build"]
+    assert sorted(Path(w).name for w in manifest["build"]["generated"]["wheels"]) == \
+        [Path(w).name for w in wheels]
     # The range the tests cover: bpy 5.0.1 (cp311) and 5.2.3 (cp313); 5.3 is not tested.
     assert manifest["blender_version_min"] == "4.2.0"
     assert manifest["blender_version_max"] == "5.3.0"
     for wheel in wheels:
-        assert "manylinux_" in wheel, wheel  # repaired by auditwheel, not a bare linux_x86_64
         inner = zipfile.ZipFile(io.BytesIO(archive.read(wheel))).namelist()
-        bundled = " ".join(inner)
-        assert "libembree3" in bundled and "libtbb" in bundled, (wheel, inner)
+        # One native module and nothing bundled beside it: Embree is linked statically,
+        # without TBB, so nothing can clash with the libraries Blender loads.
+        native = [n for n in inner if n.endswith((".so", ".pyd", ".dll")) or ".so." in n]
+        abi = wheel.split("-")[2]
+        assert native == [f"illumap/_core.{'cpython-' + abi[2:] if platform == 'linux-x64' else abi}"
+                          f"{MODULE_SUFFIXES[platform]}"], (wheel, native)
+        assert "illumap/__init__.py" in inner, inner
 
 
 def test_extension_installs_and_registers(extension_zip: Path, tmp_path: Path) -> None:
@@ -111,10 +157,10 @@ def test_extension_installs_and_registers(extension_zip: Path, tmp_path: Path) -
     import illumap, illumap._core
     site = pathlib.Path({str(tmp_path)!r}) / "extensions" / ".local" / "lib"
     assert pathlib.Path(illumap._core.__file__).is_relative_to(site), illumap._core.__file__
-    # The wheel of this Python's ABI, with Embree and TBB bundled beside it.
+    # The wheel of this Python's ABI: one module, Embree linked in, nothing bundled beside it.
     abi = f"cpython-{{sys.version_info.major}}{{sys.version_info.minor}}"
     assert abi in pathlib.Path(illumap._core.__file__).name, (abi, illumap._core.__file__)
-    assert list(site.rglob("illumap.libs/libembree3*")), "Embree is not bundled"
+    assert not list(site.rglob("illumap.libs")), list(site.rglob("illumap.libs/*"))
     print("OK", illumap.__file__)
     """
     result = run_python(code, env={"BLENDER_USER_RESOURCES": str(tmp_path)}, cwd=tmp_path)
@@ -249,3 +295,25 @@ def test_batch_script_runs_the_installed_extension(extension_zip: Path, tmp_path
     assert "EXIT 0 MODULES ['bl_ext.user_default.illumap.addon.batch']" in result.stdout, log
     assert "Illumap frame 1:" in result.stdout and out.is_file(), log
     assert "shadow rays" in result.stdout and "unshadowed" not in result.stdout, log
+
+
+def test_one_platform_build_narrows_the_manifest_to_its_wheels() -> None:
+    """``build_extension.py --platform P`` hands Blender's tool a manifest naming P alone and only
+    P's wheels, so the tool neither asks for another platform's wheels nor lists them."""
+    spec = importlib.util.spec_from_file_location("build_extension_narrow",
+                                                  ROOT / "scripts" / "build_extension.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    full = tomllib.loads((ROOT / "blender_manifest.toml").read_text())
+    for platform in MANIFEST_PLATFORMS:
+        suffix = f"-{WHEEL_PLATFORMS[platform]}.whl"
+        narrowed = tomllib.loads(module.manifest_for([platform], (suffix,)))
+        assert narrowed["platforms"] == [platform]
+        assert narrowed["wheels"] == [w for w in full["wheels"] if w.endswith(suffix)]
+        assert len(narrowed["wheels"]) == 2, narrowed["wheels"]  # cp311 and cp313
+        assert {k: v for k, v in narrowed.items() if k not in ("platforms", "wheels")} == \
+            {k: v for k, v in full.items() if k not in ("platforms", "wheels")}
+    # All platforms: the manifest as written.
+    suffixes = tuple(f"-{WHEEL_PLATFORMS[p]}.whl" for p in MANIFEST_PLATFORMS)
+    assert module.manifest_for(MANIFEST_PLATFORMS, suffixes) == \
+        (ROOT / "blender_manifest.toml").read_text()
