@@ -9,7 +9,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 BLENDER_TESTS = os.path.join(ROOT, "tests", "blender")
 #: What a Cycles reference looks like in a test module: the shared bake helpers and the bench's
 #: bake and path-traced comparison.
-REFERENCE = re.compile(r"\b(cycles_outgoing|bake_reference|bake_vertices|preview_vs_cycles)\b")
+REFERENCE = re.compile(r"\b(cycles_outgoing|bake_reference|preview_vs_cycles)\b")
 MODULE_MARK = re.compile(r"^pytestmark\s*=.*\bpytest\.mark\.slow\b", re.M)
 TEST = re.compile(r"((?:^@.*\n)*)^def (test_\w+)\(", re.M)
 
