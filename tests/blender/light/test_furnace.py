@@ -132,8 +132,6 @@ def built_with_reference(name):
 KNOWN_FAILURES = {
     "monkey": "6.4%: the pockets behind the eyes read 0.064 (Cycles 0.016), and the vertices "
               "Cycles reads 0.3-0.7 read 0.73 against 0.61",
-    "intersecting": "sealed bottoms of the boxes' overlap read 0.999 instead of 0",
-    "resting": "the sphere's pole and the floor under it read 0 (Cycles 0.86)",
     "scan": "1.5% with 0.37% of the points above 1.005 (the gather's exact part)",
     "scan_normals": "5.3%: the scan's given normals still do worse than estimated ones",
 }

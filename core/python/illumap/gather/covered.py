@@ -11,6 +11,12 @@ from ..stages.scene import Scene
 #: A surface pressed against a receiver hides it when one of its triangles faces the receiver
 #: (normals more opposite than this cosine) and contains the receiver's point.
 COVER_COS = -0.9
+#: Where the receiver lies near one of the triangle's corners, every corner of it must lie
+#: within the tolerance and this slope (1.1°) of the receiver's plane.
+FLAT_SLOPE = 0.02
+#: A receiver this share of a triangle's longest edge from one of its corners touches it
+#: there: a point contact unless the triangle lies flat (FLAT_SLOPE).
+POINT_CONTACT = 0.1
 _COVER_NEIGHBOURS = 16
 _COVER_OTHERS = 32            # other meshes' triangles near a receiver that could cover it
 _EDGE_SLACK = 1e-9            # barycentric, of a triangle's own size
@@ -62,16 +68,19 @@ def covered_receivers(scene: Scene, points: np.ndarray, normals: np.ndarray, tol
         if len(mine) == 0 or len(others) == 0:
             continue
         tree = np.ascontiguousarray(centroids[others])
-        nearest, _ = knn(tree, points[mine], 1)
-        first = scene.triangles[others[nearest[:, 0]]]
-        face = np.cross(first[:, 1] - first[:, 0], first[:, 2] - first[:, 0])
-        face /= np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-300)
-        flat = (np.abs(np.einsum("mc,mc->m", points[mine] - first[:, 0], face)) < tolerance) & \
-            (np.einsum("mc,mc->m", face, normals[mine]) < COVER_COS)
-        mine = mine[flat]
+        # Any of them, not only the nearest: where two meshes' bottoms overlap on a floor
+        # (intersecting boxes), the other box's bottom is as near as the floor and faces
+        # the same way.
+        got, _ = knn(tree, points[mine], min(_COVER_OTHERS, len(others)))
+        first = scene.triangles[others[got]]
+        face = np.cross(first[:, :, 1] - first[:, :, 0], first[:, :, 2] - first[:, :, 0])
+        face /= np.maximum(np.linalg.norm(face, axis=2, keepdims=True), 1e-300)
+        flat = ((np.abs(np.einsum("mkc,mkc->mk", points[mine, None] - first[:, :, 0], face))
+                 < tolerance)
+                & (np.einsum("mkc,mc->mk", face, normals[mine]) < COVER_COS)).any(axis=1)
+        mine, got = mine[flat], got[flat]
         if len(mine) == 0:
             continue
-        got, _ = knn(tree, points[mine], min(_COVER_OTHERS, len(others)))
         covered[mine] = _covered(scene.triangles, others[got], points[mine],
                                  normals[mine], tolerance)
     return covered
@@ -113,4 +122,18 @@ def _covered_by(tri: np.ndarray, points: np.ndarray, normals: np.ndarray,
     w = (d00 * d21 - d01 * d20) / den
     # A point on a shared edge is inside one of the two triangles, whatever the rounding.
     inside = (v >= -_EDGE_SLACK) & (w >= -_EDGE_SLACK) & (v + w <= 1 + _EDGE_SLACK)
-    return (facing & close & inside).any(axis=1)
+    # A point contact is no cover: a sphere's pole touches a floor at one vertex, its fan's
+    # triangles (tilted 5.6°) hold the floor's vertex there and the floor's hold the pole's
+    # corners, yet both open into the wedge between them, which Cycles bakes at 0.86 in the
+    # white furnace, not 0. A triangle covers a receiver near one of its corners only when
+    # it lies flat against it: every corner within ``tolerance`` and a tilt of FLAT_SLOPE of
+    # the receiver's plane. (Elsewhere the shading normal of a smooth mesh, tilted from its
+    # face, says too little to ask that.)
+    to = tri - points[:, None, None, :]
+    far = np.linalg.norm(to, axis=3)
+    e3 = e2 - e1
+    edge = np.sqrt(np.maximum(np.maximum(d00, d11), np.einsum("mkc,mkc->mk", e3, e3)))
+    at_corner = far.min(axis=2) < POINT_CONTACT * edge
+    height = np.abs(np.einsum("mkvc,mc->mkv", to, normals))
+    flat = (height <= tolerance + FLAT_SLOPE * far).all(axis=2)
+    return (facing & close & inside & (flat | ~at_corner)).any(axis=1)
