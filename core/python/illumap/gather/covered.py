@@ -19,6 +19,7 @@ FLAT_SLOPE = 0.02
 POINT_CONTACT = 0.1
 _COVER_NEIGHBOURS = 16
 _COVER_OTHERS = 32            # other meshes' triangles near a receiver that could cover it
+_COVER_FIRST = 8              # ... of which these nearest decide whether one may
 _EDGE_SLACK = 1e-9            # barycentric, of a triangle's own size
 _COVER_CHUNK = 8192           # receivers per batch of triangle tests (≤ 40 MB)
 
@@ -57,7 +58,7 @@ def covered_receivers(scene: Scene, points: np.ndarray, normals: np.ndarray, tol
                              tolerance)
     if owners is None:
         return covered
-    # Where the nearest triangle of another mesh lies flat against the point: that mesh's
+    # Where one of the nearest triangles of other meshes lies flat against the point, their
     # nearest triangles by centroid, with or without surfels.
     ends = np.append(scene.mesh_triangle_start, _mesh_triangle_end(scene))
     mesh_of = np.repeat(np.arange(len(sources)), np.diff(ends))
@@ -68,19 +69,19 @@ def covered_receivers(scene: Scene, points: np.ndarray, normals: np.ndarray, tol
         if len(mine) == 0 or len(others) == 0:
             continue
         tree = np.ascontiguousarray(centroids[others])
-        # Any of them, not only the nearest: where two meshes' bottoms overlap on a floor
-        # (intersecting boxes), the other box's bottom is as near as the floor and faces
-        # the same way.
-        got, _ = knn(tree, points[mine], min(_COVER_OTHERS, len(others)))
-        first = scene.triangles[others[got]]
+        # Any of the nearest few, not only the nearest: where two boxes' bottoms overlap on a
+        # floor, the other box's bottom is as near as the floor and faces the same way.
+        nearest, _ = knn(tree, points[mine], min(_COVER_FIRST, len(others)))
+        first = scene.triangles[others[nearest]]
         face = np.cross(first[:, :, 1] - first[:, :, 0], first[:, :, 2] - first[:, :, 0])
         face /= np.maximum(np.linalg.norm(face, axis=2, keepdims=True), 1e-300)
         flat = ((np.abs(np.einsum("mkc,mkc->mk", points[mine, None] - first[:, :, 0], face))
                  < tolerance)
                 & (np.einsum("mkc,mc->mk", face, normals[mine]) < COVER_COS)).any(axis=1)
-        mine, got = mine[flat], got[flat]
+        mine = mine[flat]
         if len(mine) == 0:
             continue
+        got, _ = knn(tree, points[mine], min(_COVER_OTHERS, len(others)))
         covered[mine] = _covered(scene.triangles, others[got], points[mine],
                                  normals[mine], tolerance)
     return covered
@@ -129,11 +130,14 @@ def _covered_by(tri: np.ndarray, points: np.ndarray, normals: np.ndarray,
     # it lies flat against it: every corner within ``tolerance`` and a tilt of FLAT_SLOPE of
     # the receiver's plane. (Elsewhere the shading normal of a smooth mesh, tilted from its
     # face, says too little to ask that.)
-    to = tri - points[:, None, None, :]
-    far = np.linalg.norm(to, axis=3)
-    e3 = e2 - e1
-    edge = np.sqrt(np.maximum(np.maximum(d00, d11), np.einsum("mkc,mkc->mk", e3, e3)))
-    at_corner = far.min(axis=2) < POINT_CONTACT * edge
-    height = np.abs(np.einsum("mkvc,mc->mkv", to, normals))
-    flat = (height <= tolerance + FLAT_SLOPE * far).all(axis=2)
-    return (facing & close & inside & (flat | ~at_corner)).any(axis=1)
+    m, j = np.nonzero(facing & close & inside)
+    to = tri[m, j] - points[m, None, :]
+    far = np.linalg.norm(to, axis=2)
+    e3 = e2[m, j] - e1[m, j]
+    edge = np.sqrt(np.maximum(np.maximum(d00[m, j], d11[m, j]), np.einsum("kc,kc->k", e3, e3)))
+    at_corner = far.min(axis=1) < POINT_CONTACT * edge
+    height = np.abs(np.einsum("kvc,kc->kv", to, normals[m]))
+    flat = (height <= tolerance + FLAT_SLOPE * far).all(axis=1)
+    covered = np.zeros(len(points), dtype=bool)
+    covered[m[flat | ~at_corner]] = True
+    return covered
