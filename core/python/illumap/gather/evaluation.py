@@ -16,7 +16,8 @@ from .. import lights
 from ..stages.scene import Progress, Scene
 from .covered import covered_receivers
 from .gaps import across_gaps
-from .ids import back_field_normals, back_field_rows, gather_sides, splat_owners
+from .ids import (back_field_normals, back_field_rows, gather_sides, splat_owners,
+                  with_splat_backs)
 from .lattice import CONTACT_RAYS, exact_direct, gathered_at_contacts
 from .straddling import regather_straddling
 
@@ -139,7 +140,7 @@ def prepare(scene: Scene, occ, direct: np.ndarray | None, direct_lamps: np.ndarr
     back_rows = back_field_rows(scene, back)
     owners, back_owners = splat_owners(scene, back, back_rows)
     background = None if scene.world is None else scene.world.color
-    sides = gather_sides(scene, splat_backs=True)
+    sides = with_splat_backs(scene, gather_sides(scene))
     straddling, radiosity = regather_straddling(scene, direct_lamps, radiosity, occ, sent, back,
                                                 owners, back_owners, gather_rays, background,
                                                 sides, back_rows)

@@ -100,17 +100,14 @@ def surfel_ids(scene: Scene) -> np.ndarray:
     return ids
 
 
-def gather_sides(scene: Scene, splat_backs: bool = False) -> np.ndarray | None:
+def gather_sides(scene: Scene) -> np.ndarray | None:
     """``scene.two_sided`` as the gather takes it: an open mesh none of whose back faces kept a
     surfel (they face only the black world, ``the reader's back-face probe``: nothing sees
     them) is one-sided there. Its back then sends nothing, as the solve had it, and the gather
     tabulates no back lattice over it, which would look the back field up from surfels metres
     away (a ground plane's underside took most of the receivers' tables on the open bench
-    scene at Target 1%). ``splat_backs``: every splat is two-sided, a one-sided cloud's
-    back showing its point's light (``back_field_rows``)."""
+    scene at Target 1%)."""
     sided = scene.two_sided
-    if sided is not None and splat_backs and scene.splat_point is not None:
-        sided = sided | (scene.splat_point >= 0)
     if sided is None or scene.mesh_triangle_start is None:
         return sided
     live = {src.name for src in scene.sources if src.kind == "BACK"}
@@ -123,3 +120,10 @@ def gather_sides(scene: Scene, splat_backs: bool = False) -> np.ndarray | None:
             out[lo:hi] = False
     return out
 
+
+def with_splat_backs(scene: Scene, sides: np.ndarray | None) -> np.ndarray | None:
+    """``sides`` (``gather_sides``) with every splat two-sided: a one-sided cloud's back
+    shows its point's light (``back_field_rows``)."""
+    if sides is None or scene.splat_point is None:
+        return sides
+    return np.asarray(sides, dtype=bool) | (scene.splat_point >= 0)
