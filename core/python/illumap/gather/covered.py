@@ -54,8 +54,11 @@ def covered_receivers(scene: Scene, points: np.ndarray, normals: np.ndarray, tol
                               for a, b in ((0, 1), (1, 2), (2, 0))], axis=0))
     near = np.flatnonzero((dist <= longest[idx] * (1 + 1e-6) + tolerance).any(axis=1))
     covered = np.zeros(len(points), dtype=bool)
+    # A point contact exempts only another mesh's triangle: where a mesh meets itself (an
+    # ear folded into a head) the receiver lies on the line where it passes through.
+    other = None if owners is None else source[idx[near]] != np.asarray(owners)[near, None]
     covered[near] = _covered(scene.triangles, triangle[idx[near]], points[near], normals[near],
-                             tolerance)
+                             tolerance, other)
     if owners is None:
         return covered
     # Where one of the nearest triangles of other meshes lies flat against the point, their
@@ -96,18 +99,22 @@ def _mesh_triangle_end(scene: Scene) -> int:
 
 
 def _covered(triangles: np.ndarray, candidates: np.ndarray, points: np.ndarray,
-             normals: np.ndarray, tolerance: float) -> np.ndarray:
+             normals: np.ndarray, tolerance: float, contacts=None) -> np.ndarray:
     """``_covered_by`` over ``candidates`` (M, k) rows of ``triangles``, in chunks."""
     return np.concatenate([_covered_by(triangles[candidates[lo:lo + _COVER_CHUNK]],
                                        points[lo:lo + _COVER_CHUNK],
-                                       normals[lo:lo + _COVER_CHUNK], tolerance)
+                                       normals[lo:lo + _COVER_CHUNK], tolerance,
+                                       None if contacts is None
+                                       else contacts[lo:lo + _COVER_CHUNK])
                            for lo in range(0, len(points), _COVER_CHUNK)]) \
         if len(points) else np.zeros(0, dtype=bool)
 
 
 def _covered_by(tri: np.ndarray, points: np.ndarray, normals: np.ndarray,
-                tolerance: float) -> np.ndarray:
-    """Whether any of each receiver's candidate triangles (M, k, 3, 3) covers it."""
+                tolerance: float, contacts=None) -> np.ndarray:
+    """Whether any of each receiver's candidate triangles (M, k, 3, 3) covers it.
+    ``contacts`` (M, k) bool: the candidates that may touch it at a point without covering
+    it (None: all)."""
     e1, e2 = tri[:, :, 1] - tri[:, :, 0], tri[:, :, 2] - tri[:, :, 0]
     normal = np.cross(e1, e2)
     normal /= np.maximum(np.linalg.norm(normal, axis=2, keepdims=True), 1e-300)
@@ -136,6 +143,8 @@ def _covered_by(tri: np.ndarray, points: np.ndarray, normals: np.ndarray,
     e3 = e2[m, j] - e1[m, j]
     edge = np.sqrt(np.maximum(np.maximum(d00[m, j], d11[m, j]), np.einsum("kc,kc->k", e3, e3)))
     at_corner = far.min(axis=1) < POINT_CONTACT * edge
+    if contacts is not None:
+        at_corner &= np.asarray(contacts, dtype=bool)[m, j]
     height = np.abs(np.einsum("kvc,kc->kv", to, normals[m]))
     flat = (height <= tolerance + FLAT_SLOPE * far).all(axis=1)
     covered = np.zeros(len(points), dtype=bool)
