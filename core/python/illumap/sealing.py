@@ -103,22 +103,25 @@ def resolve_hits(occluders, positions: np.ndarray, normals: np.ndarray, hits: np
         return out
     k = min(int(k), len(positions))
     near, _ = _core.knn(positions, np.ascontiguousarray(hits), k)
-    near = near.reshape(m, k).astype(np.int64)
+    near = near.reshape(m, k)
     facing = np.einsum("mkc,mc->mk", normals[near], sides) > LINK_SIDE_COS
     lifted = hits + occluders.offset * sides
-    rank = np.cumsum(facing, axis=1) - 1          # 0: the nearest facing candidate
-    todo = np.arange(m)
-    for r in range(int(tries)):
-        pick = facing[todo] & (rank[todo] == r)
-        has = pick.any(axis=1)
-        todo = todo[has]
+    # Each try takes the nearest facing candidate left in each row and strikes it off where
+    # it does not see the hit: only the rows still open are indexed (a window scene's 290k
+    # linking hits, most of them settled by their first candidate).
+    todo = np.flatnonzero(facing.any(axis=1))
+    for _ in range(int(tries)):
         if len(todo) == 0:
             break
-        cand = near[todo, np.argmax(pick[has], axis=1)]
+        first = np.argmax(facing[todo], axis=1)
+        has = facing[todo, first]
+        todo, first = todo[has], first[has]
+        cand = near[todo, first].astype(np.int64)
         target = positions[cand] + occluders.offset * normals[cand]
         seen = (occluders.visible(lifted[todo], target) > 0.5 if LINK_CLEARANCE <= 0.0
                 else _sees(occluders, lifted[todo], target, sides[todo], normals[cand]))
         out[todo[seen]] = cand[seen]
+        facing[todo[~seen], first[~seen]] = False
         todo = todo[~seen]
     return out
 

@@ -276,10 +276,11 @@ def test_a_lamp_lit_gap_takes_the_lamp_light_across_it():
     z = np.empty(len(sphere.data.vertices) * 3)
     sphere.data.vertices.foreach_get("co", z)
     z = z.reshape(-1, 3)[:, 2]                      # world heights: the object sits at the origin
-    low = (z > 0.005) & (z < 0.1)
+    low = z < 0.1
     assert low.any()
-    # only the receivers just above the floor change, and by more than rounding (whether
-    # darker or brighter: test_reference_cases compares them with Cycles)
+    # only the receivers just above the floor change (the pole's with them: it touches the
+    # floor at a point, which covers nothing, and faces it across the gap), and by more than
+    # rounding (whether darker or brighter: test_reference_cases compares them with Cycles)
     assert np.abs(corrected[low] - lattice[low]).max() > 0.01 * lattice[low].max()
     assert np.array_equal(corrected[~low], lattice[~low])
     bpy.ops.wm.read_factory_settings(use_empty=True)

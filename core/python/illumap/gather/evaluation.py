@@ -16,7 +16,8 @@ from .. import lights
 from ..stages.scene import Progress, Scene
 from .covered import covered_receivers
 from .gaps import across_gaps
-from .ids import gather_sides, splat_owners
+from .ids import (back_field_normals, back_field_rows, gather_sides, splat_owners,
+                  with_splat_backs)
 from .lattice import CONTACT_RAYS, exact_direct, gathered_at_contacts
 from .straddling import regather_straddling
 
@@ -136,15 +137,17 @@ def prepare(scene: Scene, occ, direct: np.ndarray | None, direct_lamps: np.ndarr
     # open surfaces' and two-sided points' back faces are a field of their own.
     sent = radiosity - scene.emission + scene.solve_emission
     back = scene.back_rows()
-    owners, back_owners = splat_owners(scene, back)
+    back_rows = back_field_rows(scene, back)
+    owners, back_owners = splat_owners(scene, back, back_rows)
     background = None if scene.world is None else scene.world.color
-    sides = gather_sides(scene)
+    sides = with_splat_backs(scene, gather_sides(scene))
     straddling, radiosity = regather_straddling(scene, direct_lamps, radiosity, occ, sent, back,
                                                 owners, back_owners, gather_rays, background,
-                                                sides)
+                                                sides, back_rows)
     field_ = rc.SurfelField(scene.positions[~back], scene.normals[~back], sent[~back])
-    back_field = (rc.SurfelField(scene.positions[back], scene.normals[back], sent[back])
-                  if back.any() else None)
+    back_field = (rc.SurfelField(scene.positions[back_rows],
+                                 back_field_normals(scene, back, back_rows), sent[back_rows])
+                  if len(back_rows) else None)
     phases = {"straddling": time.perf_counter() - mark}
     mark = time.perf_counter()
     exact, lattice_lit = exact_direct(scene, direct, direct_lamps, occ, sent, ~back, field_,

@@ -7,19 +7,20 @@ from __future__ import annotations
 import numpy as np
 
 from ..stages.scene import Scene
-from .ids import surfel_ids
+from .ids import back_field_normals, surfel_ids
 
 
 def regather_straddling(scene: Scene, direct: np.ndarray | None, radiosity: np.ndarray, occ,
                         sent: np.ndarray, back: np.ndarray, owners, back_owners, rays: int,
-                        background, sides) -> tuple[int, np.ndarray]:
+                        background, sides, back_rows=None) -> tuple[int, np.ndarray]:
     """Evaluate the surfels whose disc reaches through another surface
     (``illumap.receivers.straddling_surfels``: a floor's along a wall, a crease's in a scan)
     as receivers are: their direct light plus a gather of the other surfels' light. Their
     solved values scatter by tens of percent where the light is smooth, and a receiver at the
     line where the surfaces meet sees them at close range. Their direct light is the lamps'
     and emitters' (``direct``: ``Lit.direct_lamps``); the world's comes through the gather's rays that
-    leave the scene (``background``); ``sides``: ``gather_sides``.
+    leave the scene (``background``); ``sides``: ``gather_sides``; ``back_rows``: the back
+    field's surfels (``back_field_rows``; default those in ``back``).
     Updates ``sent`` in place; returns how many were evaluated and the surfels' outgoing
     radiance with theirs (``radiosity``, the solved one, itself when none was)."""
     from .. import receivers as rc
@@ -30,20 +31,26 @@ def regather_straddling(scene: Scene, direct: np.ndarray | None, radiosity: np.n
     if not rows.size or bad.all():
         return 0, radiosity
 
-    def good_field(side, owner_rows):
-        """The field of this side's surfels that are not re-evaluated, and splat owners
-        (rows of the whole side's field) as rows of it."""
-        good = side & ~bad
+    def good_field(side, normals, owner_rows):
+        """The field of this side's surfels (rows ``side``, their ``normals``) that are not
+        re-evaluated, and splat owners (rows of the whole side's field) as rows of it."""
+        good = ~bad[side]
         if not good.any():
             return None, None if owner_rows is None else np.full_like(owner_rows, -1)
-        remap = np.full(int(side.sum()), -1, dtype=np.int64)
-        remap[good[side]] = np.arange(int(good.sum()))
+        remap = np.full(len(side), -1, dtype=np.int64)
+        remap[good] = np.arange(int(good.sum()))
         own = (None if owner_rows is None
                else np.where(owner_rows >= 0, remap[np.maximum(owner_rows, 0)], -1))
-        return rc.SurfelField(scene.positions[good], scene.normals[good], sent[good]), own
+        rows_ = side[good]
+        return rc.SurfelField(scene.positions[rows_], normals[good], sent[rows_]), own
 
-    front_field, own_front = good_field(~back, owners)
-    back_field_, own_back = good_field(back, back_owners) if back.any() else (None, None)
+    front = np.flatnonzero(~back)
+    front_field, own_front = good_field(front, scene.normals[front], owners)
+    if back_rows is None:
+        back_rows = np.flatnonzero(back)
+    back_field_, own_back = (good_field(back_rows, back_field_normals(scene, back, back_rows),
+                                        back_owners)
+                             if len(back_rows) else (None, None))
     if front_field is None:
         return 0, radiosity
     # The triangles no good surfel stands for (the re-evaluated surfels' splats, the meshes'
