@@ -36,8 +36,8 @@ RIM_REACH = 0.0
 #: A second clipping line shrinks a cut ellipse only where it turns from the first by more
 #: than acos(this) (30°).
 PARALLEL_COS = np.cos(np.radians(30.0))
-#: Half the width of the strip along a crease that a point on it covers, in units of its
-#: radius.
+#: The strip along a crease that a point on it covers reaches this far into its own
+#: surface (and EDGE_SLACK past the line), in units of its radius.
 CREASE_WIDTH = 0.3
 #: Rounds in which the neighbours' clipping planes clip a point (reach: that many rings).
 PROPAGATE = 1
@@ -200,8 +200,9 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
     # A point on the crease itself belongs to both surfaces (a scan of two walls has one on
     # each, at the same place, with the same plane and each its own colour): its splat would
     # lay one surface's colour over the other's, so it keeps only a strip along the crease
-    # (CREASE_WIDTH × r either side), and its neighbours on either side, which reach the
-    # crease, cover the surface up to it. With the scan's own normals each point there lies in
+    # on its own side (CREASE_WIDTH × r into it, EDGE_SLACK × r past the line: across the
+    # line it would stand out of the other surface), and its neighbours on either side, which
+    # reach the crease, cover the surface up to it. With the scan's own normals each point there lies in
     # its own surface's plane: its splat is that surface's and stays whole.
     on_crease = (c_min == 0) & (normals is None)
     # Rims (``_rims``): the scan ends there; the splat reaches RIM_REACH × r beyond the
@@ -258,8 +259,8 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
         b[sub] *= shrink
         offset[sub] *= shrink[:, None]
         clipped[sub] |= shrink < 1
-    b = np.where(on_crease, CREASE_WIDTH * r, b)
-    offset[on_crease] = 0.0
+    b = np.where(on_crease, 0.5 * (CREASE_WIDTH + EDGE_SLACK) * r, b)
+    offset[on_crease] = -0.5 * (CREASE_WIDTH - EDGE_SLACK) * r[on_crease, None] * w[on_crease]
     return _pack(n, axis, np.stack([a, b, a], 1), offset, clipped | on_crease)
 
 

@@ -257,8 +257,11 @@ void ellipse(const Inputs& in, const SplatFrameOptions& o, std::size_t i, const 
         clipped = clipped || shrink < 1;
     }
     if (on_crease) {
-        b = o.crease_width * r;
-        offset = V3{};
+        // Its own surface's side of the crease only (w points away from it), edge_slack x r
+        // past the line: the other face's points cover theirs, and a strip across the line
+        // would stand out of the other face with this face's light.
+        b = 0.5 * (o.crease_width + o.edge_slack) * r;
+        offset = (-0.5 * (o.crease_width - o.edge_slack) * r) * at(clip.w.data(), i);
     }
     const double row[10] = {axis.x, axis.y, axis.z, a, b, a, offset.x, offset.y, offset.z,
                             double(clipped || on_crease)};

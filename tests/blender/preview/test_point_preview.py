@@ -81,7 +81,8 @@ def test_splats_end_at_a_convex_edge():
     """Two faces of a box meeting at a convex edge (top z = 0 for x < 0, side x = 0 below):
     the top's splats end at the side's plane and the side's at the top's, within a fraction
     of a spacing for nearly all of them (a sphere or an unclipped disc reaches a whole
-    radius, over one spacing, past the edge), and the faces stay covered up to the edge."""
+    radius, over one spacing, past the edge), and the faces stay covered up to the edge.
+    (Measured: 0.4% of the top's strip beside the edge open; 1.0% with the band in.)"""
     rng = np.random.default_rng(3)
     n = 6000
     top = rng.random(n) < 0.5
@@ -106,7 +107,13 @@ def test_splats_end_at_a_convex_edge():
           f"{over_side.max():.2f}")
     assert np.percentile(over_top, 99) < 0.5 and np.percentile(over_side, 99) < 0.5
     assert np.mean(over_top > 0.25) < 0.02 and np.mean(over_side > 0.25) < 0.02
-    near = np.column_stack([-rng.random(4000) * 0.05, 0.05 + 0.9 * rng.random(4000), np.zeros(4000)])
+    # Covered up to the edge, but for the band where a top point may take the side's plane
+    # (within PLANE_INLIER of a neighbour distance of it: plane_normals' inlier band), whose
+    # splat is then the side's: a crease point's strip keeps its own surface's side only.
+    from illumap.pointcloud import PLANE_INLIER
+    band = PLANE_INLIER * spacing
+    near = np.column_stack([-band - rng.random(4000) * (0.05 - band),
+                            0.05 + 0.9 * rng.random(4000), np.zeros(4000)])
     assert np.mean(~covered(near, centres[top], ax[top], bx[top])) < 0.01
 
 
