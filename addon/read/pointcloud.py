@@ -50,7 +50,8 @@ class PointSamples:
     emission: np.ndarray
     colors: dict[str, np.ndarray] = field(default_factory=dict)
     two_sided: bool = False   # normals estimated: their orientation is unknown, both sides lit
-    # The directions each point is lit from as a receiver; None: ``normals``.
+    # Estimated normals: the directions each point is lit from as a receiver
+    # (``illumap.pointcloud.receiver_normals``); None: ``normals``.
     receiver_normals: np.ndarray | None = None
 
 
@@ -260,14 +261,15 @@ def _finish(obj, obj_eval, name, pos, extra, active, mats, warnings) -> PointSam
 
 def with_normals(samples: PointSamples) -> PointSamples:
     """``samples`` with normals: as read, or where the cloud had none, estimated from the
-    plane most of each point's neighbours lie on, and lit about that plane too. (A PCA over
-    all neighbours tilts a point beside a crease towards the other surface, and lit about
-    that tilt it took the other surface's light: a lit box's top-front edge drew a bright
-    band down its dark front face. The points on a crease itself take the mean of its
-    faces in the gather, ``illumap.scan_values.crease_surfaces``.) numpy and the core
-    only."""
+    plane most of each point's neighbours lie on, and lit about
+    ``illumap.pointcloud.receiver_normals`` (the spread of all of them, but for the points
+    beside a crease). numpy and the core only."""
     if samples.normals is not None:
         return samples
     pos = samples.positions
     k = min(K_NEIGHBOURS, len(pos) - 1)
-    return replace(samples, normals=estimate_normals(pos, k))
+    from illumap import pointcloud as core_pointcloud  # noqa: PLC0415 - native, loaded on use
+    around = core_pointcloud.nearest(pos, k)     # one search for both fits
+    normal = estimate_normals(pos, k, neighbours=around)
+    receiver = core_pointcloud.receiver_normals(pos, normal, around)
+    return replace(samples, normals=normal, receiver_normals=receiver)
