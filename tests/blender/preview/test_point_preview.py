@@ -195,6 +195,54 @@ def test_a_run_computes_its_scans_splats_on_its_worker():
     assert len(splats(obj)[0]) == len(pts)
 
 
+def test_a_run_shades_its_scans_splats_on_its_worker(monkeypatch):
+    """An interactive run's worker (``ComputeTask``, after its last pass) also shades each
+    scan's splats from the values it computed, and the preview after the write only writes
+    that shading: the shading the preview computes by itself, and no shading on the main
+    thread. Once the light changes, the preview shades the splats itself again."""
+    from addon.compute_task import ComputeTask
+    from addon.preview import point_splats, splat_shading
+    from illumap_bpy_testing import add_lamp
+    obj, pts, _ = scan_mesh(2000, name="Shaded Scan")
+    obj.data.color_attributes.remove(obj.data.color_attributes["illumination"])
+    add_lamp("SUN", energy=2.0)
+    settings = pipeline.settings_from_preset("draft", budget=400, transfer=True,
+                                             preview_splats=True)
+    job = pipeline.prepare(bpy.context.evaluated_depsgraph_get(), [obj], settings, build=False)
+    task = ComputeTask.all_passes(job, pipeline.run_passes).start()
+    task.wait()
+    assert task.error is None
+    key = point_splats.fingerprint(*mesh_preview.splat_inputs(obj))
+    assert key in point_splats._SHADED
+    pipeline.write(bpy.context, task.job, task.result)
+    real, calls = point_splats.splat_shading, []
+    monkeypatch.setattr(point_splats, "splat_shading",
+                        lambda *a, **k: calls.append(1) or real(*a, **k))
+    mesh_preview.build_mesh_preview([obj])
+    assert calls == [] and key not in point_splats._SHADED
+
+    def written():
+        out = {}
+        for name_key, name in splat_shading.SHADING_ATTRIBUTES.items():
+            v = np.empty(len(pts) * 3, np.float32)
+            obj.data.attributes[name].data.foreach_get("vector", v)
+            out[name_key] = v.reshape(-1, 3)
+        return out
+    pos = mesh_preview.splat_inputs(obj)[0]
+    values = splat_shading.point_colours(obj, "illumination")
+    expected = real(pos, mesh_preview.frames_of(obj), values)
+    for name_key, got in written().items():
+        np.testing.assert_allclose(got, expected[name_key], rtol=0, atol=1e-6, err_msg=name_key)
+    assert expected["base"].max() > 0                      # the sun's light arrived
+    # The light changes (a later run, a user's edit): the preview shades them itself.
+    values[:, 0] *= 2.0
+    obj.data.attributes["illumination"].data.foreach_set("color", values.ravel())
+    mesh_preview.build_mesh_preview([obj])
+    assert calls == [1]
+    np.testing.assert_allclose(written()["base"][:, 0], 2.0 * expected["base"][:, 0],
+                               rtol=1e-5, atol=1e-6)
+
+
 @requires_core
 @pytest.mark.parametrize("engine", [
     "CYCLES",
