@@ -148,7 +148,8 @@ def splat_triangles(positions, normals, areas, **options) -> np.ndarray:
 # * Neighbours' lines. Each point also tries the lines that clipped its neighbours
 #   (``PROPAGATE`` rounds); where a second line crosses the one that shaped the ellipse (a
 #   room's corner, a crease meeting the rim), the ellipse shrinks about its point until it
-#   ends there as well.
+#   ends there as well. The neighbours' own tangent planes count as such lines too: near a
+#   corner of three faces the third face's plane may have clipped no neighbour.
 #
 # Native (``_core.splat_widest_gaps``, ``_core.splat_frames``, splat_frames.cpp), both threads;
 # positions in the object's own coordinates, lengths in its units.
