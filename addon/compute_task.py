@@ -115,10 +115,25 @@ class ComputeTask:
             self.result = self._run(self.job, self.progress)
             if getattr(self.result, "job", None) is not None:
                 self.job = self.result.job    # the last pass's: what is written
+            self._shade_splats()
         except BaseException as error:  # reported on the main thread
             self.error = error
         finally:
             self.finished = time.perf_counter()
+
+    def _shade_splats(self):
+        """Worker: shade the scans' preview splats from the run's values (numpy and the core),
+        which the preview after the write would otherwise do on the main thread (0.7-1.0
+        CPU-s at 1M points). Best effort: whatever fails here is left to the preview."""
+        try:
+            from .preview import point_splats
+            if not point_splats.pending_shading():
+                return
+            from .pipeline import point_values
+            point_splats.prepare_shading(point_values(self.job, self.result),
+                                         progress=self.progress)
+        except Exception:  # noqa: BLE001 - the preview shades them itself then
+            pass
 
     def start(self):
         self.started = time.perf_counter()

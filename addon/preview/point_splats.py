@@ -27,6 +27,13 @@ _READY_MAX = 8
 #: scans only.
 _NEIGHBOURS: dict[str, tuple] = {}
 _NEIGHBOURS_MAX = 4
+#: The points of each scan whose splats ``prepare_frames`` computed, by ``fingerprint``, until
+#: the run's worker shades them (``prepare_shading``).
+_PENDING: dict[str, np.ndarray] = {}
+#: Each scan's splat shading the run's worker computed (``prepare_shading``), by
+#: ``fingerprint``: the values it was computed from (float32 (n, 3)) and the shading, until
+#: the preview takes it (``taken_shading``) for a scan whose ``illumination`` is those values.
+_SHADED: dict[str, tuple] = {}
 
 
 def fingerprint(positions, normals=None, radius=None) -> str:
@@ -51,6 +58,9 @@ def prepare_frames(positions, normals=None, radius=None, *, progress=None) -> No
     while len(_READY) >= _READY_MAX:
         _READY.pop(next(iter(_READY)))
     _READY[key] = frames
+    while len(_PENDING) >= _READY_MAX:
+        _PENDING.pop(next(iter(_PENDING)))
+    _PENDING[key] = np.asarray(positions, dtype=np.float32)
 
 
 def ready_frames(key: str) -> dict | None:
@@ -84,3 +94,49 @@ def splat_shading(positions, frames: dict, values, key: str | None = None) -> di
     if neighbours is not None and len(neighbours) != len(positions):
         order = neighbours = None
     return shading(positions, frames, values, order=order, neighbours=neighbours)
+
+
+def pending_shading() -> bool:
+    """Whether a scan's splats wait for their shading (``prepare_shading``)."""
+    return bool(_PENDING)
+
+
+def prepare_shading(values_by_cloud: dict, *, progress=None) -> int:
+    """Shade the splats ``prepare_frames`` computed, on the run's worker (numpy and the core
+    only), from the run's values per point cloud (name → (n, 3) radiance, each in its cloud's
+    own order, as written to its ``illumination``): the preview that follows the run then
+    writes the shading without computing it on the main thread. A scan is matched to the one
+    cloud of its point count (none or several: it is left to the preview); the preview uses the
+    result only where the scan's ``illumination`` is the values it was computed from
+    (``taken_shading``). Returns the number of scans shaded. ``progress`` may cancel (the
+    core's ``Cancelled``)."""
+    done = 0
+    for key in list(_PENDING):
+        positions = _PENDING.pop(key)
+        frames = _READY.get(key)
+        match = [v for v in values_by_cloud.values() if len(v) == len(positions)]
+        if frames is None or len(match) != 1:
+            continue
+        values = np.asarray(match[0], dtype=np.float64)[:, :3].astype(np.float32)
+        from illumap.splat_shading import splat_shading as shading  # noqa: PLC0415
+        order, neighbours = _NEIGHBOURS.get(key, (None, None))
+        if neighbours is not None and len(neighbours) != len(positions):
+            order = neighbours = None
+        while len(_SHADED) >= _READY_MAX:
+            _SHADED.pop(next(iter(_SHADED)))
+        _SHADED[key] = (values, shading(positions, frames, values, order=order,
+                                        neighbours=neighbours, progress=progress))
+        done += 1
+    return done
+
+
+def taken_shading(key: str, values: np.ndarray) -> dict | None:
+    """The shading ``prepare_shading`` computed for the scan ``key`` (taken out), when its
+    light ``values`` (n, 3 or 4; float32, as read from its ``illumination``) are the ones it
+    was computed from; else None."""
+    entry = _SHADED.pop(key, None)
+    if entry is None:
+        return None
+    shaded, shading = entry
+    light = np.asarray(values)[:, :3]
+    return shading if light.shape == shaded.shape and np.array_equal(light, shaded) else None

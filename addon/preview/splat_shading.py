@@ -51,7 +51,11 @@ def write_shading(obj, positions: np.ndarray, frames: dict, key: str | None = No
     if values is None:
         values = np.zeros((len(positions), 4), np.float32)
     if SPLAT_SHADING:
-        shading = point_splats.splat_shading(positions, frames, values, key)
+        # The run's worker shaded these splats from the values just written (a preview right
+        # after Compute); otherwise here.
+        shading = point_splats.taken_shading(key, values) if key is not None else None
+        if shading is None:
+            shading = point_splats.splat_shading(positions, frames, values, key)
     else:
         zero = np.zeros((len(positions), 3), np.float32)
         shading = {"base": np.ascontiguousarray(values[:, :3]), "dx": zero, "dy": zero}

@@ -50,8 +50,8 @@ class PointSamples:
     emission: np.ndarray
     colors: dict[str, np.ndarray] = field(default_factory=dict)
     two_sided: bool = False   # normals estimated: their orientation is unknown, both sides lit
-    # Estimated normals: the directions each point is lit from as a receiver (a crease's
-    # points between its surfaces, as a vertex on it shows their mean); None: ``normals``.
+    # Estimated normals: the directions each point is lit from as a receiver
+    # (``illumap.pointcloud.receiver_normals``); None: ``normals``.
     receiver_normals: np.ndarray | None = None
 
 
@@ -261,8 +261,9 @@ def _finish(obj, obj_eval, name, pos, extra, active, mats, warnings) -> PointSam
 
 def with_normals(samples: PointSamples) -> PointSamples:
     """``samples`` with normals: as read, or where the cloud had none, estimated from the
-    plane most of each point's neighbours lie on (``receiver_normals``: the spread of all
-    of them, oriented alike). numpy and the core only."""
+    plane most of each point's neighbours lie on, and lit about
+    ``illumap.pointcloud.receiver_normals`` (the spread of all of them, but for the points
+    beside a crease). numpy and the core only."""
     if samples.normals is not None:
         return samples
     pos = samples.positions
@@ -270,6 +271,5 @@ def with_normals(samples: PointSamples) -> PointSamples:
     from illumap import pointcloud as core_pointcloud  # noqa: PLC0415 - native, loaded on use
     around = core_pointcloud.nearest(pos, k)     # one search for both fits
     normal = estimate_normals(pos, k, neighbours=around)
-    spread = core_pointcloud.pca_normals(pos, k, neighbours=around)
-    receiver = spread * np.where(np.einsum("ij,ij->i", spread, normal) < 0, -1.0, 1.0)[:, None]
+    receiver = core_pointcloud.receiver_normals(pos, normal, around)
     return replace(samples, normals=normal, receiver_normals=receiver)

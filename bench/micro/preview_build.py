@@ -6,7 +6,9 @@ depsgraph evaluation; beside it the disc preview of the same N points as surfels
 (``addon.preview.build_preview``: one instanced disc per point), timed the same way. Both in
 this process, one after the other, so the ratio is measured in one run. "After a run": the
 splats computed first as a run's worker does (``point_splats.prepare_frames``), then the same
-build on the main thread, which only writes them. Beside them, the splats alone: the native
+build on the main thread, which only writes them (and their shading, which the worker
+computed from the run's values; beside it, in the same run, the main thread shading them
+itself, as it did before). Beside them, the splats alone: the native
 ``illumap.splats.splat_frames`` against the numpy version it replaced
 (tests/core/splat_frames_reference.py) on the same points, with the scan's normals and with
 normals estimated, one after the other in this run (their ratio; wall and process CPU
@@ -36,7 +38,8 @@ sys.path.insert(0, REPO)
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
-from addon.preview import mesh_preview, point_splats, surfel_preview as preview  # noqa: E402
+from addon.preview import (mesh_preview, point_splats, splat_shading,  # noqa: E402
+                           surfel_preview as preview)
 
 OUT = os.path.join(REPO, "bench", "results", "preview_build.json")
 sys.path.insert(0, os.path.join(REPO, "tests", "core"))
@@ -185,15 +188,25 @@ def main() -> None:
                 bpy.ops.wm.read_factory_settings(use_empty=True)
                 obj = scan(n, kind, radius)
                 points = timed(lambda: mesh_preview.build_mesh_preview([obj]), obj)
-                # After a run: its worker computed the splats (point_splats.prepare_frames),
-                # and the main thread only writes them.
-                bpy.ops.wm.read_factory_settings(use_empty=True)
-                obj = scan(n, kind, radius)
-                t0 = time.perf_counter()
-                point_splats.prepare_frames(*mesh_preview.splat_inputs(obj))
-                worker = time.perf_counter() - t0
-                after = timed(lambda: mesh_preview.build_mesh_preview([obj]), obj)
-                after["worker_s"] = worker
+                # After a run: its worker computed the splats (point_splats.prepare_frames)
+                # and shaded them from the run's values (prepare_shading, as ComputeTask
+                # does), and the main thread only writes them; beside it, in this run, the
+                # main thread shading them itself (as before prepare_shading).
+                unshaded = None
+                for shade in (False, True):
+                    bpy.ops.wm.read_factory_settings(use_empty=True)
+                    obj = scan(n, kind, radius)
+                    t0 = time.perf_counter()
+                    point_splats.prepare_frames(*mesh_preview.splat_inputs(obj))
+                    if shade:
+                        light = splat_shading.point_colours(obj, "illumination")[:, :3]
+                        point_splats.prepare_shading({obj.name: light.astype(np.float64)})
+                    worker = time.perf_counter() - t0
+                    after = timed(lambda: mesh_preview.build_mesh_preview([obj]), obj)
+                    after["worker_s"] = worker
+                    if not shade:
+                        unshaded = after
+                after["main_thread_shading"] = unshaded
                 bpy.ops.wm.read_factory_settings(use_empty=True)
                 obj = scan(n, kind)
                 discs = timed(lambda: preview.build_preview(bpy.context, obj), obj)
@@ -206,7 +219,8 @@ def main() -> None:
                       f"evaluate {points['evaluate_s']:.2f}); after a run "
                       f"{after['total_s']:.2f} s on the main thread (build CPU "
                       f"{after['build_cpu_s']:.2f} s; the worker's splats "
-                      f"{after['worker_s']:.2f} s); disc preview "
+                      f"{after['worker_s']:.2f} s; shading on the main thread: build CPU "
+                      f"{unshaded['build_cpu_s']:.2f} s); disc preview "
                       f"{discs['total_s']:.2f} s; shown {points['shown']:,} / "
                       f"{discs['shown']:,}", flush=True)
     out = OUT if sizes == [1_000_000] and not only else OUT.replace(

@@ -36,8 +36,8 @@ RIM_REACH = 0.0
 #: A second clipping line shrinks a cut ellipse only where it turns from the first by more
 #: than acos(this) (30°).
 PARALLEL_COS = np.cos(np.radians(30.0))
-#: Half the width of the strip along a crease that a point on it covers, in units of its
-#: radius.
+#: The strip along a crease that a point on it covers reaches this far into its own
+#: surface (and EDGE_SLACK past the line), in units of its radius.
 CREASE_WIDTH = 0.3
 #: Rounds in which the neighbours' clipping planes clip a point (reach: that many rings).
 PROPAGATE = 1
@@ -200,8 +200,9 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
     # A point on the crease itself belongs to both surfaces (a scan of two walls has one on
     # each, at the same place, with the same plane and each its own colour): its splat would
     # lay one surface's colour over the other's, so it keeps only a strip along the crease
-    # (CREASE_WIDTH × r either side), and its neighbours on either side, which reach the
-    # crease, cover the surface up to it. With the scan's own normals each point there lies in
+    # on its own side (CREASE_WIDTH × r into it, EDGE_SLACK × r past the line: across the
+    # line it would stand out of the other surface), and its neighbours on either side, which
+    # reach the crease, cover the surface up to it. With the scan's own normals each point there lies in
     # its own surface's plane: its splat is that surface's and stays whole.
     on_crease = (c_min == 0) & (normals is None)
     # Rims (``_rims``): the scan ends there; the splat reaches RIM_REACH × r beyond the
@@ -258,8 +259,8 @@ def splat_frames(positions, normals=None, radius=None, *, threads: int = 0) -> d
         b[sub] *= shrink
         offset[sub] *= shrink[:, None]
         clipped[sub] |= shrink < 1
-    b = np.where(on_crease, CREASE_WIDTH * r, b)
-    offset[on_crease] = 0.0
+    b = np.where(on_crease, 0.5 * (CREASE_WIDTH + EDGE_SLACK) * r, b)
+    offset[on_crease] = -0.5 * (CREASE_WIDTH - EDGE_SLACK) * r[on_crease, None] * w[on_crease]
     return _pack(n, axis, np.stack([a, b, a], 1), offset, clipped | on_crease)
 
 
@@ -275,7 +276,14 @@ def _second_lines(p, n, nb, sub, has, plane_n, plane_d, axis, a, b, offset, r, p
     inward = (near_offsets * own).sum(axis=1) / np.maximum(own.sum(axis=1), 1)
     inward = np.where(own.any(axis=1), inward, near_offsets.mean(axis=1))
     cand = np.concatenate([sub[:, None], nb[sub]], axis=1)              # (S, k + 1)
-    pm, pd = plane_n[cand], plane_d[cand]
+    # ... and the neighbours' own tangent planes: near a corner of three faces the third
+    # face's plane may clip none of the neighbours, yet the ellipse reaches over it.
+    own_n = n[nb[sub]]
+    pm = np.concatenate([plane_n[cand], own_n], axis=1)                  # (S, 2k + 1, 3)
+    pd = np.concatenate([plane_d[cand], np.einsum("ikc,ikc->ik", own_n, p[nb[sub]])], axis=1)
+    has_plane = np.concatenate([has[cand], np.ones(nb[sub].shape, bool)], axis=1)
+    rim_of = np.concatenate([rim_plane[cand], np.zeros(nb[sub].shape, bool)], axis=1)
+    cand = np.concatenate([cand, nb[sub]], axis=1)
     cos = np.einsum("ic,ikc->ik", ns, pm)
     h = np.einsum("ikc,ic->ik", pm, ps) - pd                            # signed, p off the plane
     t_len = np.sqrt(np.maximum(1.0 - cos ** 2, 1e-12))
@@ -285,7 +293,7 @@ def _second_lines(p, n, nb, sub, has, plane_n, plane_d, axis, a, b, offset, r, p
     # side its neighbours are on.
     side = np.where(np.abs(h) > ON_PLANE * near, np.sign(h),
                     -np.sign(np.einsum("ikc,ic->ik", pm, inward)))
-    usable = has[cand] & (np.abs(cos) < EDGE_COS) & (side != 0)
+    usable = has_plane & (np.abs(cos) < EDGE_COS) & (side != 0)
     dist = np.where(np.abs(h) > ON_PLANE * near, np.abs(h), 0.0) / t_len   # p to the line
     w = -side[..., None] * (pm - cos[..., None] * ns[:, None, :]) / t_len[..., None]
     bx = np.cross(ns, axis[sub])
@@ -299,7 +307,7 @@ def _second_lines(p, n, nb, sub, has, plane_n, plane_d, axis, a, b, offset, r, p
     cut = np.any(primary[sub] != 0, axis=1)[:, None]
     across = np.abs(np.einsum("ic,ikc->ik", primary[sub], w)) < PARALLEL_COS
     usable &= np.where(cut, across, np.abs(h) > ON_PLANE * near)
-    limit = dist + _slack(oriented, rim_plane[cand], pm, w) * r[sub, None]
+    limit = dist + _slack(oriented, rim_of, pm, w) * r[sub, None]
     scale = np.where(usable & (support > limit), limit / np.maximum(support, 1e-300), 1.0)
     return scale.min(axis=1)
 

@@ -115,3 +115,57 @@ def test_orientation_can_be_cancelled():
     p, n = torus(3000)
     with pytest.raises(illumap.Cancelled):
         pointcloud.orient_normals(p, n, progress=lambda fraction, phase: False)
+
+
+def _floor_and_wall(n=40, seed=12):
+    """A floor (z = 0, y > 0) meeting a wall (y = 0, z > 0), each jittered within the cells
+    of an n × n grid of the unit square: the points (2n², 3), each one's true normal (±z,
+    ±y) and its distance from the crease in spacings."""
+    rng = np.random.default_rng(seed)
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(n), np.arange(n)))
+    uv = (np.column_stack([i, j]) + rng.uniform(0.1, 0.9, (n * n, 2))) / n
+    p = np.concatenate([np.column_stack([uv[:, 0], uv[:, 1], np.zeros(len(uv))]),
+                        np.column_stack([uv[:, 0], np.zeros(len(uv)), uv[:, 1]])])
+    true = np.repeat([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]], len(uv), axis=0)
+    return p, true, np.r_[uv[:, 1], uv[:, 1]] * n
+
+
+def _tilt(normals, true):
+    """Degrees between each of ``normals`` and ``true``, either orientation."""
+    return np.degrees(np.arccos(np.clip(np.abs(np.einsum("ij,ij->i", normals, true)), 0, 1)))
+
+
+@pytest.mark.skipif(not illumap.native_available(), reason="needs the native core")
+def test_points_beside_a_crease_are_lit_about_their_own_plane():
+    """Beside a crease the PCA over all neighbours tilts towards the other surface (lit about
+    that tilt, a point takes the other surface's light); ``receiver_normals`` takes the
+    point's own plane there. Between half a spacing and two off the crease, every point whose
+    fitted plane is its surface's (within 1°) and whose PCA tilts less than
+    RECEIVER_CREASE_TILT is lit within 1° of its surface's normal, where the PCA tilts some
+    of them by more than 5°. (Others there keep a fit tilted by the other surface's points
+    among their neighbours: the plane fit's own error.) On a sphere, with no crease, the
+    receivers are the PCA's, oriented as the fitted planes."""
+    p, true, dist = _floor_and_wall()
+    k = 8
+    near = pointcloud.nearest(p, k)
+    planes = pointcloud.estimate_normals(p, k, neighbours=near)
+    lit = pointcloud.receiver_normals(p, planes, near)
+    pca = pointcloud.pca_normals(p, k, neighbours=near)
+    beside = ((dist > 0.5) & (dist < 2) & (p[:, 0] > 0.05) & (p[:, 0] < 0.95)
+              & (_tilt(planes, true) < 1) & (_tilt(pca, planes) < pointcloud.RECEIVER_CREASE_TILT))
+    assert beside.sum() > 60
+    assert (_tilt(pca, true)[beside] > 5).sum() > 10          # the PCA does tilt there
+    assert _tilt(lit, true)[beside].max() < 1
+    assert (np.einsum("ij,ij->i", lit, planes) > 0).all()       # oriented as the planes
+    s, _ = sphere(3000, seed=3)
+    near = pointcloud.nearest(s, k)
+    planes = pointcloud.estimate_normals(s, k, neighbours=near)
+    spread = pointcloud.pca_normals(s, k, neighbours=near)
+    spread *= np.sign(np.einsum("ij,ij->i", spread, planes))[:, None]
+    np.testing.assert_allclose(pointcloud.receiver_normals(s, planes, near), spread, atol=1e-12)
+
+
+def test_receiver_normals_refuse_mismatched_input():
+    p, _, _ = _floor_and_wall(n=5)
+    with pytest.raises(illumap.InputError, match="neighbours"):
+        pointcloud.receiver_normals(p, np.zeros_like(p), np.zeros((3, 9), np.int64))

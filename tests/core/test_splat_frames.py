@@ -8,6 +8,7 @@ import pytest
 
 import illumap
 from illumap import splats
+from illumap.neighbours import knn
 
 pytestmark = pytest.mark.skipif(not illumap.native_available(), reason="needs the native core")
 
@@ -183,7 +184,9 @@ def test_given_normals_splats_stay_on_a_boxs_convex_edges():
     top, as the concave slack (EDGE_SLACK, 3 × as far) did. The corner points themselves,
     with no neighbour on their own surface, are cut too (they were whole discs, tilted out of
     the box by most of their radius); within a radius of a corner, where three faces' lines
-    meet, splats still reach out up to half a radius (measured 0.46 r)."""
+    meet, splats still reach out up to half a radius (measured 0.46 r: an edge point beside
+    the corner whose own face's neighbours all lie on the edge, so that its twin's plane, the
+    other face's, cannot tell it a side)."""
     p, normals = welded_box(np.random.default_rng(6))
     frames = splats.splat_frames(p, normals)
     radius = np.median(frames["scale"][~frames["clipped"], 0])
@@ -196,3 +199,53 @@ def test_given_normals_splats_stay_on_a_boxs_convex_edges():
     corners = np.flatnonzero(from_corner == 0)
     assert len(corners) == 8 and frames["clipped"][corners].all()
     assert over[corners].max() < 0.3
+
+
+def test_near_a_corner_the_third_faces_plane_cuts_too():
+    """The welded box scanned without normals: within a radius of a corner, where three faces
+    meet, no splat reaches out of the box by more than 0.2 of its radius (EDGE_SLACK, and the
+    estimated planes' tilt there). Cut only by the lines of the planes that clipped its
+    neighbours, an ellipse whose neighbours none took the third face's plane reached over
+    it (0.38 r here, 0.47 r on another jitter): the neighbours' own tangent planes cut too."""
+    p, _ = welded_box(np.random.default_rng(7))
+    frames = splats.splat_frames(p)
+    radius = np.median(frames["scale"][~frames["clipped"], 0])
+    over = outside_reach(frames, p) / radius
+    box_corners = np.array([[x, y, z] for x in (0, .3) for y in (0, .3) for z in (0, .3)])
+    from_corner = np.linalg.norm(p[:, None] - box_corners[None], axis=2).min(1)
+    near = from_corner <= radius
+    assert near.sum() > 40
+    assert over[near].max() <= 0.2, over[near].max()
+
+
+def test_a_point_on_a_crease_keeps_its_own_side():
+    """A floor (z = 0, y > 0) meeting a wall (y = 0, z > 0) at a right angle, both scanned on
+    jittered grids whose edge rows lie on the crease, normals estimated: no splat reaches
+    past the other surface's plane by more than EDGE_SLACK of its radius (the slack that
+    closes the slit along an edge). A point on the crease takes either surface's plane; a
+    strip centred on it reached CREASE_WIDTH x r past the line, out of the other surface
+    with this one's light (the bright rim along a lit box's top-front edge). Left out: the
+    points none of whose nearest others has another plane (on the crease row, where every
+    point took the same surface's plane, nothing tells them the line: their discs stay
+    whole)."""
+    rng = np.random.default_rng(11)
+    uv = jittered(30, rng)
+    uv[uv[:, 1] < 1 / 30, 1] = 0.0                     # the first row on the crease itself
+    floor = np.column_stack([uv[:, 0], uv[:, 1], np.zeros(len(uv))])
+    wall = np.column_stack([uv[:, 0], np.zeros(len(uv)), uv[:, 1]])
+    p = np.concatenate([floor, wall])
+    f = splats.splat_frames(p)
+    n = f["normal"].astype(float)
+    axis = f["axis"].astype(float)
+    across = np.cross(n, axis)
+    a, b = f["scale"][:, 0].astype(float), f["scale"][:, 1].astype(float)
+    centre = p + f["offset"]
+    inner = (p[:, 0] > 0.1) & (p[:, 0] < 0.9)          # away from the scan's open ends
+    near = knn(p, p, splats.PREVIEW_NEIGHBOURS + 1)[0][:, 1:]
+    inner &= (np.abs(np.einsum("ic,ikc->ik", n, n[near])) < splats.PREVIEW_EDGE_COS).any(1)
+    for plane_axis, other in ((2, 1), (1, 2)):         # the floor's splats past y = 0, ...
+        mine = inner & (np.abs(n[:, plane_axis]) > 0.99)
+        reach = -(centre[mine, other] - np.hypot(a[mine] * axis[mine, other],
+                                                 b[mine] * across[mine, other]))
+        assert mine.sum() > 20                         # the points along the crease
+        assert (reach / a[mine]).max() <= splats.EDGE_SLACK * (1 + 1e-4) + 1e-6

@@ -137,3 +137,21 @@ def test_the_frames_neighbours_serve_the_shading():
         np.testing.assert_array_equal(given[key], found[key])
     with pytest.raises(illumap.InputError, match="neighbours"):
         splat_shading(p, frames, values, order=order, neighbours=neighbours[:, :3])
+
+
+def test_float32_points_and_frames_are_read_as_they_are():
+    """The preview's float32 points and frames, with the frames' search, go to the core without
+    float64 copies: the same shading, to the bit, as from their float64 copies."""
+    from test_splat_frames import box_corner
+
+    p = box_corner(np.random.default_rng(12)).astype(np.float32)
+    values = np.column_stack([p[:, 0] + p[:, 2], np.cos(4 * p[:, 1]), p[:, 0] * p[:, 1]])
+    frames = splats.splat_frames(p, with_neighbours=True)
+    order, neighbours = frames.pop("order"), frames.pop("neighbours")
+    assert all(frames[key].dtype == np.float32 for key in ("normal", "axis", "scale", "offset"))
+    single = splat_shading(p, frames, values, order=order, neighbours=neighbours)
+    double = splat_shading(p.astype(np.float64), {k: v.astype(np.float64) for k, v in frames.items()},
+                           values, order=order, neighbours=neighbours)
+    for key in single:
+        np.testing.assert_array_equal(single[key], double[key])
+    assert np.abs(single["dx"]).max() > 0.01

@@ -30,7 +30,8 @@ import numpy as np
 from .surfels import InputError
 
 __all__ = ["estimate_normals", "pca_normals", "plane_normals", "orient_normals",
-           "orientation_hints", "plane_through", "settled_normals", "DEFAULT_K"]
+           "orientation_hints", "plane_through", "settled_normals", "receiver_normals",
+           "DEFAULT_K"]
 
 #: Neighbours for the PCA and the orientation graph.
 DEFAULT_K = 12
@@ -212,3 +213,47 @@ def settled_normals(positions, normals) -> np.ndarray:
     idx, _ = _core.knn(p, p, min(SETTLE_NEIGHBOURS + 1, len(p)))
     return np.asarray(_core.settled_normals(p, n, idx, same_cos=SETTLE_COS,
                                             min_points=SETTLE_MIN_POINTS, on_a_line=ON_A_LINE))
+
+
+#: A neighbour whose fitted plane turns from the point's by more than acos(this) lies on
+#: another surface (the preview splats' ``splats.PREVIEW_EDGE_COS``).
+RECEIVER_TURN_COS = 0.9
+#: ... and a point whose PCA normal tilts from its plane by more than this (degrees) lies on
+#: the crease itself.
+RECEIVER_CREASE_TILT = 30.0
+
+
+def receiver_normals(points: np.ndarray, normals: np.ndarray,
+                     neighbours: np.ndarray) -> np.ndarray:
+    """The unit normals (P, 3) a scan without normals is lit about, oriented as ``normals``
+    (P, 3, :func:`estimate_normals`' planes) at ``points`` (P, 3, m), from the same search
+    ``neighbours`` (P, 1 + k, the point first, :func:`nearest`).
+
+    The PCA over all neighbours (:func:`pca_normals`): on a curved surface the smooth normal,
+    as a mesh's vertex normal is. But beside a crease, where some neighbour's plane turns
+    from the point's by more than acos ``RECEIVER_TURN_COS`` and the PCA tilts by less than
+    ``RECEIVER_CREASE_TILT`` from the point's plane, that tilt is the other surface's points
+    pulling it, and the point's own plane is taken: lit about the tilt, a point a row below
+    a lit box's top edge took the top's light, and the preview drew a bright band down the
+    box's dark front face. A point tilted further lies on the crease itself; the gather
+    lights it by the faces that meet there (``scan_values.crease_surfaces``, which finds
+    them from this tilt). Units: none (directions)."""
+    pts = _checked_points(points)
+    own = _checked_points(normals, "normals")
+    idx = np.ascontiguousarray(neighbours, dtype=np.int64)
+    if own.shape != pts.shape or idx.ndim != 2 or len(idx) != len(pts):
+        raise InputError(f"receiver_normals: normals {own.shape} and neighbours {idx.shape} "
+                         f"must have one row per point ({len(pts)})")
+    spread = pca_normals(pts, neighbours=idx)
+    cos = np.einsum("ij,ij->i", spread, own)
+    spread *= np.where(cos < 0, -1.0, 1.0)[:, None]
+    turned = np.zeros(len(pts), dtype=bool)
+    for lo in range(0, len(pts), _RECEIVER_CHUNK):      # bounded memory at millions of points
+        rows = slice(lo, lo + _RECEIVER_CHUNK)
+        turned[rows] = (np.abs(np.einsum("ic,ikc->ik", own[rows], own[idx[rows, 1:]]))
+                        < RECEIVER_TURN_COS).any(axis=1)
+    beside = turned & (np.abs(cos) >= np.cos(np.radians(RECEIVER_CREASE_TILT)))
+    return np.where(beside[:, None], own, spread)
+
+
+_RECEIVER_CHUNK = 1 << 18

@@ -134,9 +134,11 @@ def splat_triangles(positions, normals, areas, **options) -> np.ndarray:
 #   becomes the ellipse that touches it (``EDGE_SLACK`` of the radius past it, so no slit
 #   opens along the edge) and the disc's far side, a = r along the line and b = (r + c) / 2
 #   across, its centre moved (r − c) / 2 away from the line. A point on the crease itself
-#   keeps only a strip ``CREASE_WIDTH`` × r either side of it when the normals were estimated
-#   (a scan of two walls has a point of each there, in the same plane, each with its own
-#   wall's colour).
+#   keeps only a strip along it on its own surface's side, ``CREASE_WIDTH`` × r into it and
+#   ``EDGE_SLACK`` × r past the line, when the normals were estimated (a scan of two walls has a point of
+#   each there, each with its own wall's colour, and its plane may be either wall's): a strip
+#   across the line would stand out of the other surface with this one's light (the top
+#   edge of a lit box's front face drew a bright rim).
 # * Rims. Where the scan ends (among the ``RIM_NEIGHBOURS`` nearest points the widest angle
 #   exceeds ``RIM_GAP`` and their centroid lies ``RIM_SHIFT`` × the farthest one's distance
 #   off the point; a neighbour is a rim point facing about the same way), a line through the
@@ -146,7 +148,8 @@ def splat_triangles(positions, normals, areas, **options) -> np.ndarray:
 # * Neighbours' lines. Each point also tries the lines that clipped its neighbours
 #   (``PROPAGATE`` rounds); where a second line crosses the one that shaped the ellipse (a
 #   room's corner, a crease meeting the rim), the ellipse shrinks about its point until it
-#   ends there as well.
+#   ends there as well. The neighbours' own tangent planes count as such lines too: near a
+#   corner of three faces the third face's plane may have clipped no neighbour.
 #
 # Native (``_core.splat_widest_gaps``, ``_core.splat_frames``, splat_frames.cpp), both threads;
 # positions in the object's own coordinates, lengths in its units.
@@ -182,7 +185,7 @@ RIM_REACH = 0.0
 #: A second clipping line shrinks a cut ellipse only where it turns from the first by more
 #: than acos(this) (30°).
 PARALLEL_COS = float(np.cos(np.radians(30.0)))
-#: Half the width of the strip along a crease that a point on it covers, in units of r.
+#: How far into its own surface the strip of a point on a crease reaches (× r).
 CREASE_WIDTH = 0.3
 #: Rounds in which the neighbours' clipping planes clip a point.
 PROPAGATE = 1

@@ -415,16 +415,27 @@ void bind_point_tools(nb::module_& m) {
              std::int64_t k, double edge_cos, double ridge, int threads, nb::handle progress) {
               std::size_t n, rows;
               nb::object keep[6];
-              const double* P = view<double>(points, "points", 2, 3, n, keep[0]);
-              const double* arrays[5];
+              // Points and frames all float32 (the preview's): read as they are.
+              AnyArray probe;
+              const bool f32 = nb::try_cast<AnyArray>(points, probe, false) &&
+                               probe.dtype() == nb::dtype<float>();
+              const double* P = f32 ? nullptr : view<double>(points, "points", 2, 3, n, keep[0]);
+              const float* PF = f32 ? view<float>(points, "points", 2, 3, n, keep[0]) : nullptr;
+              const double* arrays[5] = {};
+              const float* floats[4] = {};
               const char* names[5] = {"normals", "axes", "scales", "offsets", "values"};
               nb::handle given[5] = {normals, axes, scales, offsets, values};
               for (int a = 0; a < 5; ++a) {
-                  arrays[a] = view<double>(given[a], names[a], 2, 3, rows, keep[a + 1]);
+                  if (f32 && a < 4)
+                      floats[a] = view<float>(given[a], names[a], 2, 3, rows, keep[a + 1]);
+                  else
+                      arrays[a] = view<double>(given[a], names[a], 2, 3, rows, keep[a + 1]);
                   if (rows != n)
                       throw nb::value_error((std::string(names[a]) +
                                              " must have one row per point").c_str());
               }
+              if (f32 && neighbours.is_none())
+                  throw nb::value_error("float32 points and frames need order and neighbours");
               if (k < 1 || std::size_t(k) >= n)
                   throw nb::value_error(("splat_shading needs 1 <= k < the number of points (" +
                                          std::to_string(n) + "), got k = " +
@@ -445,8 +456,12 @@ void bind_point_tools(nb::module_& m) {
               options.edge_cos = edge_cos;
               options.ridge = ridge;
               run_released(threads, progress, [&](Context& ctx) {
-                  splat_shading(ctx, P, arrays[0], arrays[1], arrays[2], arrays[3], arrays[4], n,
-                                std::size_t(k), options, out, OR, NB);
+                  if (f32)
+                      splat_shading(ctx, PF, floats[0], floats[1], floats[2], floats[3],
+                                    arrays[4], n, std::size_t(k), options, out, OR, NB);
+                  else
+                      splat_shading(ctx, P, arrays[0], arrays[1], arrays[2], arrays[3],
+                                    arrays[4], n, std::size_t(k), options, out, OR, NB);
               });
               return O;
           },

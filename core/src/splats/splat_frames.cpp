@@ -235,21 +235,28 @@ void ellipse(const Inputs& in, const SplatFrameOptions& o, std::size_t i, const 
         const V3 bx = cross(nv, axis);
         const bool cut = w.x != 0 || w.y != 0 || w.z != 0;
         double shrink = kInf;
-        for (std::size_t j = 0; j <= in.k; ++j) {
-            const std::size_t q = j == 0 ? i : std::size_t(row[j - 1]);
-            const V3 pm = at(clip.pn.data(), q);
-            const double cs = dot(nv, pm), h = dot(pm, p) - clip.pd[q];
+        // The clipping planes of the point and its neighbours (j <= k), then the neighbours'
+        // own tangent planes (j > k): near a corner of three faces the third face's plane
+        // may clip none of the neighbours, yet the ellipse reaches over it.
+        for (std::size_t j = 0; j <= 2 * in.k; ++j) {
+            const bool own_plane = j > in.k;
+            const std::size_t q = j == 0 ? i : std::size_t(row[(own_plane ? j - in.k : j) - 1]);
+            const V3 pm = own_plane ? at(in.nrm, q) : at(clip.pn.data(), q);
+            const double pd = own_plane ? dot(pm, at(in.p, q)) : clip.pd[q];
+            const bool has = own_plane || std::isfinite(clip.c[q]);
+            const bool rim_plane = !own_plane && clip.rim[q];
+            const double cs = dot(nv, pm), h = dot(pm, p) - pd;
             const double t_len = std::sqrt(std::max(1.0 - cs * cs, 1e-12));
             const double near = j == 0 ? 0.0 : norm(at(in.p, q) - p);
             const bool off = std::fabs(h) > o.on_plane * near;
             const double side = off ? sign(h) : -sign(dot(pm, inward));
-            bool usable = std::isfinite(clip.c[q]) && std::fabs(cs) < o.edge_cos && side != 0;
+            bool usable = has && std::fabs(cs) < o.edge_cos && side != 0;
             const double dist = (off ? std::fabs(h) : 0.0) / t_len;
             const V3 wl = (-side / t_len) * (pm - cs * nv);
             const double along = a * dot(axis, wl), across = b * dot(bx, wl);
             const double support = dot(offset, wl) + std::sqrt(along * along + across * across);
             usable = usable && (cut ? std::fabs(dot(w, wl)) < o.parallel_cos : off);
-            const double limit = dist + slack(o, clip.rim[q], pm, wl) * r;
+            const double limit = dist + slack(o, rim_plane, pm, wl) * r;
             shrink = std::min(shrink, usable && support > limit ? limit / std::max(support, 1e-300) : 1.0);
         }
         a *= shrink, b *= shrink;
@@ -257,8 +264,11 @@ void ellipse(const Inputs& in, const SplatFrameOptions& o, std::size_t i, const 
         clipped = clipped || shrink < 1;
     }
     if (on_crease) {
-        b = o.crease_width * r;
-        offset = V3{};
+        // Its own surface's side of the crease only (w points away from it), edge_slack x r
+        // past the line: the other face's points cover theirs, and a strip across the line
+        // would stand out of the other face with this face's light.
+        b = 0.5 * (o.crease_width + o.edge_slack) * r;
+        offset = (-0.5 * (o.crease_width - o.edge_slack) * r) * at(clip.w.data(), i);
     }
     const double row[10] = {axis.x, axis.y, axis.z, a, b, a, offset.x, offset.y, offset.z,
                             double(clipped || on_crease)};

@@ -27,7 +27,7 @@ struct SplatFrameOptions {
     double rim_along = 0.7;       // a rim point needs a rim neighbour facing within acos(this)
     double rim_reach = 0.0;       // a rim's splats reach this fraction of r past its line
     double parallel_cos = 0.8660254037844387;  // a second line turns by more than acos(this)
-    double crease_width = 0.3;    // half the strip a point on a crease keeps (x r)
+    double crease_width = 0.3;    // a crease point's strip reaches this far into its side (x r)
     int propagate = 1;            // rounds in which the neighbours' planes clip a point
     int rim_neighbours = 16;      // neighbours that tell a rim (for the candidates)
     bool crease_strips = true;    // points on a crease keep a strip (normals were estimated)

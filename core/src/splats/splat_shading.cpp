@@ -70,20 +70,23 @@ void shade(const double* points, const double* normals, const double* axes, cons
 }
 
 // The shading of all points in `order` (input indices), each with its k neighbours given as
-// positions in that order (local, n x k): on copies in that order, so that a point's
+// positions in that order (local, n x k): on float64 copies in that order, so that a point's
 // neighbours are near it in memory (in a scan's own order each of their reads would be a
-// cache miss), written back to the input's order.
-void shade_in_order(Context& ctx, const double* const inputs[6], std::size_t n, std::size_t k,
-                    const std::int64_t* order, const std::int64_t* local,
-                    const SplatShadingOptions& o, double* out) {
+// cache miss), written back to the input's order. geometry: points, normals, axes, scales,
+// offsets (float32 as the preview keeps them, or float64).
+template <class F>
+void shade_in_order(Context& ctx, const F* const geometry[5], const double* values,
+                    std::size_t n, std::size_t k, const std::int64_t* order,
+                    const std::int64_t* local, const SplatShadingOptions& o, double* out) {
     std::vector<double> sorted[6];
     for (auto& a : sorted) a.resize(3 * n);
     std::vector<double> result(9 * n);
     parallel_for(ctx, n, 8192, [&](std::size_t b, std::size_t e) {
         for (int a = 0; a < 6; ++a)
             for (std::size_t t = b; t < e; ++t)
-                std::copy(inputs[a] + 3 * order[t], inputs[a] + 3 * order[t] + 3,
-                          sorted[a].data() + 3 * t);
+                for (int c = 0; c < 3; ++c)
+                    sorted[a][3 * t + c] = a < 5 ? double(geometry[a][3 * order[t] + c])
+                                                 : values[3 * order[t] + c];
     });
     parallel_for(ctx, n, 4096, [&](std::size_t b, std::size_t e) {
         std::vector<double> st_of;
@@ -100,21 +103,42 @@ void shade_in_order(Context& ctx, const double* const inputs[6], std::size_t n, 
 
 }  // namespace
 
+namespace {
+
+void check_search(std::size_t n, std::size_t k, const std::int64_t* order,
+                  const std::int64_t* neighbours) {
+    if (k < 1 || k + 1 > n) throw std::invalid_argument("splat_shading needs 1 <= k < n");
+    for (std::size_t t = 0; t < n; ++t)
+        if (order[t] < 0 || std::size_t(order[t]) >= n)
+            throw std::out_of_range("order index out of range");
+    for (std::size_t j = 0; j < n * k; ++j)
+        if (neighbours[j] < 0 || std::size_t(neighbours[j]) >= n)
+            throw std::out_of_range("neighbour index out of range");
+}
+
+}  // namespace
+
+void splat_shading(Context& ctx, const float* points, const float* normals, const float* axes,
+                   const float* scales, const float* offsets, const double* values,
+                   std::size_t n, std::size_t k, const SplatShadingOptions& o, double* out,
+                   const std::int64_t* order, const std::int64_t* neighbours) {
+    if (!order || !neighbours) throw std::invalid_argument("splat_shading (float32) needs the search");
+    check_search(n, k, order, neighbours);
+    const float* const geometry[5] = {points, normals, axes, scales, offsets};
+    ctx.set_phase("shading", 0.0, 1.0);
+    shade_in_order(ctx, geometry, values, n, k, order, neighbours, o, out);
+}
+
 void splat_shading(Context& ctx, const double* points, const double* normals, const double* axes,
                    const double* scales, const double* offsets, const double* values,
                    std::size_t n, std::size_t k, const SplatShadingOptions& o, double* out,
                    const std::int64_t* order, const std::int64_t* neighbours) {
     if (k < 1 || k + 1 > n) throw std::invalid_argument("splat_shading needs 1 <= k < n");
-    const double* const inputs[6] = {points, normals, axes, scales, offsets, values};
+    const double* const geometry[5] = {points, normals, axes, scales, offsets};
     if (order && neighbours) {
-        for (std::size_t t = 0; t < n; ++t)
-            if (order[t] < 0 || std::size_t(order[t]) >= n)
-                throw std::out_of_range("order index out of range");
-        for (std::size_t j = 0; j < n * k; ++j)
-            if (neighbours[j] < 0 || std::size_t(neighbours[j]) >= n)
-                throw std::out_of_range("neighbour index out of range");
+        check_search(n, k, order, neighbours);
         ctx.set_phase("shading", 0.0, 1.0);
-        shade_in_order(ctx, inputs, n, k, order, neighbours, o, out);
+        shade_in_order(ctx, geometry, values, n, k, order, neighbours, o, out);
         return;
     }
     // No neighbours given: the kd-tree's order and each point's k nearest others in it.
@@ -135,7 +159,7 @@ void splat_shading(Context& ctx, const double* points, const double* normals, co
         }
     });
     ctx.set_phase("shading", 0.7, 0.3);
-    shade_in_order(ctx, inputs, n, k, tree_order.data(), local.data(), o, out);
+    shade_in_order(ctx, geometry, values, n, k, tree_order.data(), local.data(), o, out);
 }
 
 }  // namespace illumap

@@ -27,4 +27,11 @@ void splat_shading(Context& ctx, const double* points, const double* normals, co
                    std::size_t n, std::size_t k, const SplatShadingOptions& options, double* out,
                    const std::int64_t* order = nullptr, const std::int64_t* neighbours = nullptr);
 
+// The same from float32 points and frames (as the preview keeps them: no float64 copies of
+// them are made), with the search given (order and neighbours required).
+void splat_shading(Context& ctx, const float* points, const float* normals, const float* axes,
+                   const float* scales, const float* offsets, const double* values,
+                   std::size_t n, std::size_t k, const SplatShadingOptions& options, double* out,
+                   const std::int64_t* order, const std::int64_t* neighbours);
+
 }  // namespace illumap

@@ -39,7 +39,11 @@ For the scans the light at the points is part of the figure: showing the scan's 
 scanned meshes without splats (``preview_vs_cycles.py --scene``) separates it from the
 splats' own error (docs/results.md).
 
-Measured (``pytest -s``), Blender 5.2, 12-sided splats: mesh room 1.17% ± 0.09%, 0 of 641
+Measured (``pytest -s``), Blender 5.2, after the points beside a crease were lit about their
+own plane and a crease point's strip kept its side: mesh room 1.18% ± 0.09%, 0 of 641 lit
+blocks off (0.45% of lit pixels); room scan 1.81% ± 0.14%, 0.16% of blocks (0.69% of pixels);
+room scan with normals 2.35% ± 0.12%, 0 (0.53%); bunny scan 1.83% ± 0.12%, 0 (0.20%). Before,
+12-sided splats: mesh room 1.17% ± 0.09%, 0 of 641
 lit blocks off (0.45% of lit pixels); room scan 2.52% ± 0.22%, 0.31% of blocks (0.77% of
 pixels); room scan with normals 2.34% ± 0.12%, 0 (0.53%); bunny scan 1.84% ± 0.12%, 0 of 1024
 (0.20%); with 16 sides 2.51%, 2.33%, 1.84%. Before the splats' shading and convex creases:
