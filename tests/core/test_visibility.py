@@ -576,3 +576,29 @@ def test_visibility_build_can_be_cancelled(method):
     with pytest.raises(illumap.Cancelled):
         illumap.TransportOperator(s, method=method, visibility="exact", progress=progress)
     assert calls
+
+
+def test_triangles_shifted_by_the_core_are_the_callers_shifted_copy():
+    """The native operator takes the surfels' origin off each triangle corner itself
+    (``occluder_shift``), so a scan's millions of splat triangles need no shifted copy: the
+    same doubles as the caller's copy, hence the same floats, rays and transport, bit for bit,
+    a kilometre from the world origin where the shift is not exact."""
+    from illumap import _core
+    n = 8
+    s, lab = squares(n)
+    far = np.array([1234.5678, -987.654321, 321.0987])
+    tri = square_triangles(-1.5, 0.01, -1.5, 1.5, 0.5, 4) + far
+    p = np.ascontiguousarray(s.positions)        # the surfels as the core sees them
+    kw = dict(method="direct", visibility="exact")
+    copy = _core.Operator(p, s.normals, s.areas, occluder_triangles=np.ascontiguousarray(
+        (tri - far).reshape(-1, 9)), **kw)
+    shifted = _core.Operator(p, s.normals, s.areas, occluder_triangles=tri.reshape(-1, 9),
+                             occluder_shift=far, **kw)
+    x = np.random.default_rng(3).uniform(0.0, 1.0, (s.n, 3))
+    y = np.asarray(copy.apply(x))
+    assert np.array_equal(np.asarray(shifted.apply(x)), y)
+    unshielded = np.asarray(_core.Operator(p, s.normals, s.areas, method="direct").apply(x))
+    assert not np.allclose(y, unshielded)        # the triangles do block pairs
+    with pytest.raises(ValueError, match="occluder_shift"):
+        _core.Operator(p, s.normals, s.areas, occluder_triangles=tri.reshape(-1, 9),
+                       occluder_shift=np.array([0.0, np.nan, 0.0]), **kw)

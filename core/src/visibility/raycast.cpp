@@ -83,8 +83,12 @@ double disc_radius(const SurfelSoA& s, std::size_t i, double coverage) {
 
 OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
                              VisibilityOptions::Shape shape, const double* triangles,
-                             std::size_t n_tri)
+                             std::size_t n_tri, const double* shift)
     : shape_(shape), n_tri_(triangles ? n_tri : 0) {
+    const double no_shift[3] = {0.0, 0.0, 0.0};
+    const double* sh = shift ? shift : no_shift;
+    // Corner value k of the triangles, shifted (x - 0.0 is x: no shift changes no bit).
+    auto tri_at = [&](std::size_t k) { return triangles[k] - sh[k % 3]; };
     const auto t_start = std::chrono::steady_clock::now();
     const std::size_t n = s.n;
     if (!(coverage > 0) || !std::isfinite(coverage))
@@ -98,21 +102,25 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
         lo[2] = std::min(lo[2], s.pz[i]); hi[2] = std::max(hi[2], s.pz[i]);
     }
     for (std::size_t k = 0; k < 9 * n_tri_; ++k) {
-        if (!std::isfinite(triangles[k]))
+        const double x = tri_at(k);
+        if (!std::isfinite(x))
             throw std::invalid_argument("occluder triangle " + std::to_string(k / 9) +
                                         " has a corner that is not finite");
-        lo[k % 3] = std::min(lo[k % 3], triangles[k]);
-        hi[k % 3] = std::max(hi[k % 3], triangles[k]);
+        lo[k % 3] = std::min(lo[k % 3], x);
+        hi[k % 3] = std::max(hi[k % 3], x);
     }
     const bool any = n > 0 || n_tri_ > 0;
     const LocalFrame frame = make_local_frame(n + 3 * n_tri_, [&](std::size_t i, double* p) {
         if (i < n) {
             p[0] = s.px[i]; p[1] = s.py[i]; p[2] = s.pz[i];
         } else {
-            for (int d = 0; d < 3; ++d) p[d] = triangles[3 * (i - n) + d];
+            for (int d = 0; d < 3; ++d) p[d] = tri_at(3 * (i - n) + d);
         }
     }, [&](std::size_t i) {
-        return i < n ? s.area[i] : triangle_area(triangles + 9 * ((i - n) / 3)) / 3.0;
+        if (i < n) return s.area[i];
+        double c[9];
+        for (int k = 0; k < 9; ++k) c[k] = tri_at(9 * ((i - n) / 3) + k);
+        return triangle_area(c) / 3.0;
     });
     for (int d = 0; d < 3; ++d) {
         center_[d] = frame.center[d];
@@ -149,7 +157,7 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
             // The scene's own triangles; the surfels' radii (coverage 1) only size the trims.
             g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
             ctx.set_phase("visibility: triangles", 0.0, 0.2);
-            vertices_ = set_shared_triangles(ctx, impl_->device, g, triangles, n_tri_, center_);
+            vertices_ = set_shared_triangles(ctx, impl_->device, g, triangles, n_tri_, center_, sh);
             // Triangles neither overlap nor overhang: the trims only have to clear the
             // surfel's own triangle, a hair of the bulk's size, or the float noise where the
             // surfel lies far from the bulk (local_frame.hpp).
@@ -449,7 +457,8 @@ RaycastVisibility::RaycastVisibility(Context& ctx, const Octree& tree,
     if (!(opt.endpoint_offset >= 0))
         throw std::invalid_argument("endpoint_offset must be >= 0");
     scene_ = std::make_unique<OccluderScene>(ctx, tree.s, opt.coverage, opt.shape,
-                                             opt.triangles, opt.n_triangles);
+                                             opt.triangles, opt.n_triangles,
+                                             opt.triangles_shift);
     build_seconds_ = scene_->build_seconds();
     bytes_ = scene_->bytes();
 }

@@ -98,6 +98,9 @@ struct VisibilityOptions {
     // overhangs an outline and nothing leaks between surfels. Read only while building.
     const double* triangles = nullptr;
     std::size_t n_triangles = 0;
+    // The occluders are triangles[k] - triangles_shift[k % 3] (the caller's world corners in
+    // the surfels' frame, without a shifted copy of a scan's millions of splat triangles).
+    double triangles_shift[3] = {0.0, 0.0, 0.0};
     // "exact": cast the samples of a node pair as packets of 8 rays (no early exit) instead of
     // one by one with early exit on the first disagreement.
     bool packets = false;
