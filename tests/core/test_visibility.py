@@ -602,3 +602,29 @@ def test_triangles_shifted_by_the_core_are_the_callers_shifted_copy():
     with pytest.raises(ValueError, match="occluder_shift"):
         _core.Operator(p, s.normals, s.areas, occluder_triangles=tri.reshape(-1, 9),
                        occluder_shift=np.array([0.0, np.nan, 0.0]), **kw)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_visibility_cast_against_the_receivers_ray_scene_blocks_the_same_pairs(method):
+    """Exact visibility cast against the caller's ray scene of the same triangles (the
+    receivers' ``MeshOccluders``, one BVH per run) instead of one of its own: the same pairs
+    blocked as the ideal half-blocked transfer (its floats are relative to that scene's own
+    centre, so the bits may differ, not the blocking), and the same transfer as its own scene
+    to within float rounding. A ray scene of other triangles is refused."""
+    from illumap.receivers import MeshOccluders
+    n = 16
+    h = 1.0 / n
+    s, lab = squares(n)
+    ref, _ = ideal_half_blocked(s, lab)
+    tri = square_triangles(-1.5, 0.01, -1.5, 1.5, 0.5, 8)
+    own = illumap.TransportOperator(s, method=method, visibility="exact", occluder_triangles=tri)
+    shared = illumap.TransportOperator(s, method=method, visibility="exact",
+                                       occluder_triangles=tri, occluders=MeshOccluders(tri))
+    T_own, T_shared = (transfer(op, s, lab == 0, lab == 1) for op in (own, shared))
+    assert abs(T_shared / ref - 1) <= (1e-9 if method == "direct" else 1.25 * h), (T_shared, ref)
+    assert T_shared == pytest.approx(T_own, rel=1e-9)
+    from illumap import _core
+    with pytest.raises(ValueError, match="occluder_scene"):
+        _core.Operator(np.ascontiguousarray(s.positions), s.normals, s.areas, method=method,
+                       visibility="exact", occluder_triangles=tri.reshape(-1, 9),
+                       occluder_scene=MeshOccluders(tri[:4])._scene)

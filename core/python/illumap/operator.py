@@ -320,8 +320,9 @@ class TransportOperator:
         ``conservation.MAX_SCALE`` gets the rest from the first hits of its own rays
         (``conservation.first_hit_fill``), so that every row sums to its share exactly.
     occluders : receivers.MeshOccluders or None
-        The caller's ray scene of ``occluder_triangles`` (the gather's), which the fill casts
-        against instead of building its own (a scan's splats: ~1 GB and seconds per 1M points).
+        The caller's ray scene of ``occluder_triangles`` (the gather's; built on the same
+        array, else not taken), which exact visibility and the fill cast against instead of
+        building their own (a scan's splats: ~1 GB and seconds per 1M points each).
     threads : int
         Worker threads, 0 = all hardware threads.
     progress : callable(fraction, phase) -> bool | None, optional
@@ -359,7 +360,11 @@ class TransportOperator:
             raise InputError(f"progress: expected a callable or None, got {progress!r}")
         self.surfels = surfels
         self.occluder_triangles = _check_triangles(occluder_triangles)
-        self._fill_occluders = occluders
+        # The caller's ray scene of these very triangles (the same array), or none.
+        t = self.occluder_triangles
+        self._fill_occluders = occluders if (
+            occluders is not None and t is not None and occluders.corners.shape == t.shape
+            and occluders.corners.ctypes.data == t.ctypes.data) else None
         # The kernel sees only differences of positions: the native core gets them relative to
         # their median (snapped: ``core_origin``), so tree bounds, facing tests and rays keep
         # their precision wherever the scene sits.
@@ -377,6 +382,8 @@ class TransportOperator:
                 occluder_triangles=(None if self.occluder_triangles is None
                                     else self.occluder_triangles.reshape(-1, 9)),
                 occluder_shift=np.ascontiguousarray(self.origin, dtype=np.float64).reshape(3),
+                occluder_scene=(None if self._fill_occluders is None
+                                else self._fill_occluders._scene),   # one BVH per run
                 **self.visibility_options,
             )
         self.balance = None
@@ -447,7 +454,7 @@ class TransportOperator:
             return None
         from .receivers import MeshOccluders
         occluders = self._fill_occluders
-        if occluders is None or occluders.n != len(self.occluder_triangles):
+        if occluders is None:
             occluders = MeshOccluders(self.occluder_triangles, threads=self.threads)
         self._fill_occluders = None   # the caller's to keep or let go
         fill = conservation.first_hit_fill(occluders, self.surfels.positions,

@@ -14,7 +14,8 @@ void bind_operator(nb::module_& m) {
                 int visibility_samples, double coverage, const std::string& visibility_shape,
                 double endpoint_offset, double seed_delta, int seed_k, double seed_t1,
                 double seed_t2, double seed_t3, int seed_leaf_points, bool seed_binary_pairs,
-                nb::handle occluder_triangles, nb::handle occluder_shift) {
+                nb::handle occluder_triangles, nb::handle occluder_shift,
+                nb::handle occluder_scene) {
                  if (method != "fmm" && method != "direct")
                      throw nb::value_error("method must be 'fmm' or 'direct'");
                  if (near_field != "disc" && near_field != "point")
@@ -71,6 +72,14 @@ void bind_operator(nb::module_& m) {
                          opt.vis.triangles_shift[d] = sh[d];
                      }
                  }
+                 if (occluder_scene.is_valid() && !occluder_scene.is_none()) {
+                     // The receivers' ray scene of the same triangles: cast against, not
+                     // built again (the operator retains its Embree scene).
+                     const MeshScene* sc = nb::cast<PyMeshScene&>(occluder_scene).scene.get();
+                     if (!opt.vis.triangles || sc->size() != opt.vis.n_triangles)
+                         throw nb::value_error("occluder_scene must be a MeshScene of occluder_triangles");
+                     opt.vis.triangles_scene = sc;
+                 }
                  std::unique_ptr<TransportOperator> op;
                  run_released(threads, progress, [&](Context& ctx) {
                      op = std::make_unique<TransportOperator>(ctx, P, N, A, np, opt);
@@ -87,7 +96,8 @@ void bind_operator(nb::module_& m) {
              nb::arg("seed_k") = 8, nb::arg("seed_t1") = 0.5, nb::arg("seed_t2") = 0.5,
              nb::arg("seed_t3") = 0.5, nb::arg("seed_leaf_points") = 8,
              nb::arg("seed_binary_pairs") = true, nb::arg("occluder_triangles").none() = nb::none(),
-             nb::arg("occluder_shift").none() = nb::none())
+             nb::arg("occluder_shift").none() = nb::none(),
+             nb::arg("occluder_scene").none() = nb::none())
         .def("apply",
              [](PyOperator& self, nb::handle values, nb::handle progress) {
                  std::size_t nv;

@@ -93,6 +93,8 @@ MeshScene::MeshScene(Context& ctx, const double* corners, std::size_t n_tri) : n
 
 MeshScene::~MeshScene() { delete impl_; }
 
+void* MeshScene::rtc_scene() const { return impl_ ? impl_->scene : nullptr; }
+
 std::array<float, 3> MeshScene::triangle_normal(std::size_t t) const {
     const double* c = corners_ + 9 * t;
     const double e1[3] = {c[3] - c[0], c[4] - c[1], c[5] - c[2]};

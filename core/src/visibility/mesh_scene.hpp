@@ -60,6 +60,9 @@ public:
     // Whether a triangle meets the open segment a -> b (one ray, calling thread).
     bool occluded(const double* a, const double* b) const;
     const double* triangle_corners(std::size_t t) const { return corners_ + 9 * t; }
+    // The Embree scene (RTCScene), for an OccluderScene that casts against these triangles
+    // instead of building its own (it retains it: the scene outlives this object if need be).
+    void* rtc_scene() const;
 
 private:
     struct Impl;
