@@ -87,13 +87,12 @@ MeshScene::MeshScene(Context& ctx, const double* corners, std::size_t n_tri) : n
         impl_ = nullptr;
         throw;
     }
+    rtc_scene_ = impl_->scene;
     build_seconds_ =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
 }
 
 MeshScene::~MeshScene() { delete impl_; }
-
-void* MeshScene::rtc_scene() const { return impl_ ? impl_->scene : nullptr; }
 
 std::array<float, 3> MeshScene::triangle_normal(std::size_t t) const {
     const double* c = corners_ + 9 * t;
