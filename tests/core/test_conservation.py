@@ -248,6 +248,26 @@ def test_a_fill_takes_the_surfels_its_rays_meet():
     assert bare.max() * 3 < 0.9 and plain.fill is None
 
 
+def test_a_fill_cast_against_the_callers_ray_scene_is_the_same():
+    """The fill against the caller's ray scene of the same triangles (``occluders=``, the
+    gather's, which the run shares) gives the same entries, bit for bit, as against the one
+    it builds itself; a ray scene of other triangles is not taken."""
+    s, a, b = scenes.parallel_squares(8)
+    tris = np.r_[_square(0.0, down=False) + [0.5, 0.5, 0.0], _square(1.0) + [0.5, 0.5, 0.0]]
+    hits = np.full(s.n, 0.9)
+    own = illumap.TransportOperator(s, method="direct", hemisphere_hits=hits,
+                                    occluder_triangles=tris)
+    shared = illumap.TransportOperator(s, method="direct", hemisphere_hits=hits,
+                                       occluder_triangles=tris, occluders=MeshOccluders(tris))
+    other = illumap.TransportOperator(s, method="direct", hemisphere_hits=hits,
+                                      occluder_triangles=tris, occluders=MeshOccluders(tris[:2]))
+    for op in (shared, other):
+        assert np.array_equal(op.fill.rows, own.fill.rows)
+        assert np.array_equal(op.fill.cols, own.fill.cols)
+        assert np.array_equal(op.fill.weights, own.fill.weights)
+    assert own.fill.cols.size > 0 and np.all(a[own.fill.rows] != a[own.fill.cols])
+
+
 def test_a_fill_never_takes_a_lit_surfel_across_a_wall():
     """A surfel sealed inside a closed box whose walls lie 2 cm inside a room's: its rays meet
     the box's back faces, which no surfel faces, and the room's surfels that face the same way

@@ -191,6 +191,26 @@ def test_a_box_edge_point_is_lit_as_the_mean_of_its_faces():
     assert all(c.own[i] != ((c.rows == i).sum() >= 2) for i in corner)
 
 
+def test_crease_search_reports_its_chunks_and_can_be_cancelled(monkeypatch):
+    """The crease search walks a scan's points in chunks (a 1M-point scan: 31), telling the
+    run's progress before each; a cancel there stops it with illumap.Cancelled. Listening
+    changes nothing it finds."""
+    import illumap.scan_values as sv
+    monkeypatch.setattr(sv, "_CREASE_CHUNK", 100)
+    p = grid_cube()
+    n = outward_pca(p)
+    heard = []
+    c = crease_surfaces(p, n, progress=lambda f, phase: heard.append((f, phase)))
+    quiet = crease_surfaces(p, n)
+    assert len(heard) == -(-len(p) // 100) and {ph for _, ph in heard} == {"creases"}
+    assert [f for f, _ in heard] == sorted(f for f, _ in heard) and heard[-1][0] < 1.0
+    assert np.array_equal(c.rows, quiet.rows) and np.array_equal(c.normals, quiet.normals)
+    calls = []
+    with pytest.raises(illumap.Cancelled):
+        crease_surfaces(p, n, progress=lambda f, phase: calls.append(f) or len(calls) < 2)
+    assert len(calls) == 2
+
+
 def test_crease_means_count_each_face_once():
     c = Creases(rows=np.array([1, 1, 2]), normals=np.zeros((3, 3)), points=np.zeros((3, 3)),
                 own=np.array([True, False, True]))

@@ -371,9 +371,6 @@ def first_hit_fill(occluders, positions, normals, rows, missing, *, rays: int = 
         return empty
     count = int(rays)
     k = min(int(neighbours), len(p))
-    corners = occluders.corners
-    tn = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    tn /= np.maximum(np.linalg.norm(tn, axis=1), 1e-300)[:, None]
     dirs = rc.cosine_directions(n[rows], count, rows, int(seed) + 0xF111).reshape(-1, 3)
     src = np.repeat(np.arange(len(rows)), count)
     o = np.repeat(p[rows] + occluders.offset * n[rows], count, axis=0)
@@ -381,7 +378,12 @@ def first_hit_fill(occluders, positions, normals, rows, missing, *, rays: int = 
     met = tri >= 0
     src, tri, front = src[met], tri[met], front[met]
     hit = o[met] + dist[met, None] * dirs[met]
-    side = np.where(front[:, None], tn[tri], -tn[tri])
+    # The hit triangles' unit normals only (all of a scan's splats: 0.3 GB and twice that
+    # in temporaries at 1M points).
+    corners = occluders.corners[tri]
+    tn = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    tn /= np.maximum(np.linalg.norm(tn, axis=1), 1e-300)[:, None]
+    side = np.where(front[:, None], tn, -tn)
     near, _ = _core.knn(p, np.ascontiguousarray(hit), k)
     facing = np.einsum("mkc,mc->mk", n[near], side) > FILL_SIDE_COS
     cand = np.flatnonzero(facing.ravel())

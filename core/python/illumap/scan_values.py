@@ -207,7 +207,8 @@ class Creases:
         return out / np.maximum(count, 1)[:, None]
 
 
-def crease_surfaces(points, normals, *, k: int = CREASE_NEIGHBOURS) -> Creases:
+def crease_surfaces(points, normals, *, k: int = CREASE_NEIGHBOURS,
+                    progress=None) -> Creases:
     """The faces that meet at each scan point on a crease, to light it by instead of the
     point's own outward ``normals`` (P, 3). Positions in metres.
 
@@ -224,7 +225,11 @@ def crease_surfaces(points, normals, *, k: int = CREASE_NEIGHBOURS) -> Creases:
     near an edge but not on it lies on one face's planes only and keeps its own value.
     Concave creases count as convex ones do; so do twins (points at the same position, where
     two scanned objects touch), which cannot be told apart and both take the faces' mean.
+    ``progress(fraction, phase)`` hears each chunk of points (phase "creases"); returning
+    False or raising cancels with ``illumap.Cancelled``.
     """
+    from ._progress import ProgressGuard
+    guard = ProgressGuard(progress)
     p = _rows3("points", points)
     n = _rows3("normals", normals, len(p))
     P = len(p)
@@ -238,6 +243,7 @@ def crease_surfaces(points, normals, *, k: int = CREASE_NEIGHBOURS) -> Creases:
     crease = np.zeros(P, dtype=bool)
     found = []
     for lo in range(0, P, _CREASE_CHUNK):
+        guard.check(lo / P, "creases")
         rows = np.arange(lo, min(lo + _CREASE_CHUNK, P))
         rows = rows[_may_crease(p, n, rows, idx[rows], dist[rows])]
         if len(rows):

@@ -138,9 +138,6 @@ def link_rays(occluders, positions, normals, origins, ids, seed: int, count: int
     from . import receivers as rc
     begin = time.perf_counter()
     rows = np.asarray(rows, dtype=np.int64).reshape(-1)
-    corners = occluders.corners
-    tn = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    tn /= np.maximum(np.linalg.norm(tn, axis=1), 1e-300)[:, None]
     picked = np.arange(0, count, max(1, count // LINK_RAYS))      # spread over the lattice
     src, dst = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
     for start in range(0, len(rows), CHUNK):
@@ -152,7 +149,12 @@ def link_rays(occluders, positions, normals, origins, ids, seed: int, count: int
         met = tri >= 0
         lit = met if lit_backs is None else met & (front | lit_backs[np.maximum(tri, 0)])
         ray = np.flatnonzero(lit)
-        side = tn[tri[ray]] * np.where(front[ray], 1.0, -1.0)[:, None]
+        # The hit triangles' unit normals only (all of a scan's splats: 0.3 GB, and twice
+        # that in temporaries, at 1M points).
+        corners = occluders.corners[tri[ray]]
+        tn = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        tn /= np.maximum(np.linalg.norm(tn, axis=1), 1e-300)[:, None]
+        side = tn * np.where(front[ray], 1.0, -1.0)[:, None]
         at = o[ray] + dist[ray, None] * dirs[ray]
         src.append(chunk[ray // len(picked)])
         dst.append(resolve_hits(occluders, positions, normals, at, side))

@@ -14,7 +14,8 @@ void bind_operator(nb::module_& m) {
                 int visibility_samples, double coverage, const std::string& visibility_shape,
                 double endpoint_offset, double seed_delta, int seed_k, double seed_t1,
                 double seed_t2, double seed_t3, int seed_leaf_points, bool seed_binary_pairs,
-                nb::handle occluder_triangles) {
+                nb::handle occluder_triangles, nb::handle occluder_shift,
+                nb::handle occluder_scene) {
                  if (method != "fmm" && method != "direct")
                      throw nb::value_error("method must be 'fmm' or 'direct'");
                  if (near_field != "disc" && near_field != "point")
@@ -61,6 +62,24 @@ void bind_operator(nb::module_& m) {
                      opt.vis.triangles = view<double>(occluder_triangles, "occluder_triangles", 2, 9, nt, keep_tri);
                      opt.vis.n_triangles = nt;
                  }
+                 if (occluder_shift.is_valid() && !occluder_shift.is_none()) {
+                     std::size_t ns;
+                     nb::object keep_shift;
+                     const double* sh = view<double>(occluder_shift, "occluder_shift", 1, 3, ns, keep_shift);
+                     if (ns != 3) throw nb::value_error("occluder_shift must have 3 entries");
+                     for (int d = 0; d < 3; ++d) {
+                         if (!std::isfinite(sh[d])) throw nb::value_error("occluder_shift is not finite");
+                         opt.vis.triangles_shift[d] = sh[d];
+                     }
+                 }
+                 if (occluder_scene.is_valid() && !occluder_scene.is_none()) {
+                     // The receivers' ray scene of the same triangles: cast against, not
+                     // built again (the operator retains its Embree scene).
+                     const MeshScene* sc = nb::cast<PyMeshScene&>(occluder_scene).scene.get();
+                     if (!opt.vis.triangles || sc->size() != opt.vis.n_triangles)
+                         throw nb::value_error("occluder_scene must be a MeshScene of occluder_triangles");
+                     opt.vis.triangles_scene = sc;
+                 }
                  std::unique_ptr<TransportOperator> op;
                  run_released(threads, progress, [&](Context& ctx) {
                      op = std::make_unique<TransportOperator>(ctx, P, N, A, np, opt);
@@ -76,7 +95,9 @@ void bind_operator(nb::module_& m) {
              nb::arg("endpoint_offset") = 0.05, nb::arg("seed_delta") = 2.0,
              nb::arg("seed_k") = 8, nb::arg("seed_t1") = 0.5, nb::arg("seed_t2") = 0.5,
              nb::arg("seed_t3") = 0.5, nb::arg("seed_leaf_points") = 8,
-             nb::arg("seed_binary_pairs") = true, nb::arg("occluder_triangles").none() = nb::none())
+             nb::arg("seed_binary_pairs") = true, nb::arg("occluder_triangles").none() = nb::none(),
+             nb::arg("occluder_shift").none() = nb::none(),
+             nb::arg("occluder_scene").none() = nb::none())
         .def("apply",
              [](PyOperator& self, nb::handle values, nb::handle progress) {
                  std::size_t nv;

@@ -36,13 +36,18 @@ inline bool embree_build_progress(void* cancel_flag, double) {
 // it. A splat's fan of 12 triangles needs 13 vertices instead of 36, a mesh's strip about one
 // per triangle; Embree sees the same floats as with three vertices per triangle. The chunks
 // are fixed, so the buffers do not depend on the threads. Returns the number of vertices.
+// `shift` (may be null: none) is taken off each corner first, in double: the same floats as
+// corners shifted by the caller beforehand.
 inline std::size_t set_shared_triangles(Context& ctx, RTCDevice dev, RTCGeometry g,
                                         const double* corners, std::size_t n_tri,
-                                        const double center[3]) {
+                                        const double center[3], const double* shift = nullptr) {
     constexpr std::size_t kChunk = std::size_t(1) << 14;
     constexpr int kWindow = 16;
     auto corner = [&](std::size_t t, int c, float out[3]) {
-        for (int d = 0; d < 3; ++d) out[d] = float(corners[9 * t + 3 * c + d] - center[d]);
+        for (int d = 0; d < 3; ++d) {
+            const double x = corners[9 * t + 3 * c + d];
+            out[d] = float((shift ? x - shift[d] : x) - center[d]);
+        }
     };
     unsigned* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
         g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), n_tri));

@@ -87,6 +87,7 @@ MeshScene::MeshScene(Context& ctx, const double* corners, std::size_t n_tri) : n
         impl_ = nullptr;
         throw;
     }
+    rtc_scene_ = impl_->scene;
     build_seconds_ =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
 }

@@ -60,6 +60,10 @@ public:
     // Whether a triangle meets the open segment a -> b (one ray, calling thread).
     bool occluded(const double* a, const double* b) const;
     const double* triangle_corners(std::size_t t) const { return corners_ + 9 * t; }
+    // The Embree scene (RTCScene), for an OccluderScene that casts against these triangles
+    // instead of building its own (it retains it: the scene outlives this object if need be).
+    // Inline, so that code using it need not link this file (the native tests).
+    void* rtc_scene() const { return rtc_scene_; }
 
 private:
     struct Impl;
@@ -71,6 +75,7 @@ private:
     double extent_ = 0;
     double build_seconds_ = 0;
     std::size_t vertices_ = 0;
+    void* rtc_scene_ = nullptr;  // impl_'s scene, once built
 
     // [s0, s1] of p + t u inside the (padded) box, intersected with [0, len]; false if empty.
     bool clip(const double* p, const double* u, double len, double& s0, double& s1) const;

@@ -3,6 +3,7 @@
 #include "visibility/raycast.hpp"
 
 #include "visibility/embree_util.hpp"
+#include "visibility/mesh_scene.hpp"
 #include "geometry/local_frame.hpp"
 
 #include <chrono>
@@ -83,8 +84,13 @@ double disc_radius(const SurfelSoA& s, std::size_t i, double coverage) {
 
 OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
                              VisibilityOptions::Shape shape, const double* triangles,
-                             std::size_t n_tri)
+                             std::size_t n_tri, const double* shift, const MeshScene* shared)
     : shape_(shape), n_tri_(triangles ? n_tri : 0) {
+    if (n_tri_ == 0 || (shared && shared->size() != n_tri_)) shared = nullptr;
+    const double no_shift[3] = {0.0, 0.0, 0.0};
+    const double* sh = shift ? shift : no_shift;
+    // Corner value k of the triangles, shifted (x - 0.0 is x: no shift changes no bit).
+    auto tri_at = [&](std::size_t k) { return triangles[k] - sh[k % 3]; };
     const auto t_start = std::chrono::steady_clock::now();
     const std::size_t n = s.n;
     if (!(coverage > 0) || !std::isfinite(coverage))
@@ -98,24 +104,30 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
         lo[2] = std::min(lo[2], s.pz[i]); hi[2] = std::max(hi[2], s.pz[i]);
     }
     for (std::size_t k = 0; k < 9 * n_tri_; ++k) {
-        if (!std::isfinite(triangles[k]))
+        const double x = tri_at(k);
+        if (!std::isfinite(x))
             throw std::invalid_argument("occluder triangle " + std::to_string(k / 9) +
                                         " has a corner that is not finite");
-        lo[k % 3] = std::min(lo[k % 3], triangles[k]);
-        hi[k % 3] = std::max(hi[k % 3], triangles[k]);
+        lo[k % 3] = std::min(lo[k % 3], x);
+        hi[k % 3] = std::max(hi[k % 3], x);
     }
     const bool any = n > 0 || n_tri_ > 0;
     const LocalFrame frame = make_local_frame(n + 3 * n_tri_, [&](std::size_t i, double* p) {
         if (i < n) {
             p[0] = s.px[i]; p[1] = s.py[i]; p[2] = s.pz[i];
         } else {
-            for (int d = 0; d < 3; ++d) p[d] = triangles[3 * (i - n) + d];
+            for (int d = 0; d < 3; ++d) p[d] = tri_at(3 * (i - n) + d);
         }
     }, [&](std::size_t i) {
-        return i < n ? s.area[i] : triangle_area(triangles + 9 * ((i - n) / 3)) / 3.0;
+        if (i < n) return s.area[i];
+        double c[9];
+        for (int k = 0; k < 9; ++k) c[k] = tri_at(9 * ((i - n) / 3) + k);
+        return triangle_area(c) / 3.0;
     });
     for (int d = 0; d < 3; ++d) {
-        center_[d] = frame.center[d];
+        // The shared scene's floats are its corners less its own centre: in this frame (the
+        // shift taken off), that centre less the shift.
+        center_[d] = shared ? shared->frame().center[d] - sh[d] : frame.center[d];
         lo_[d] = any ? lo[d] : 0.0;
         hi_[d] = any ? hi[d] : 0.0;
     }
@@ -137,19 +149,29 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
         throw std::runtime_error("embree: rtcNewDevice failed");
     }
     try {
-        impl_->scene = rtcNewScene(impl_->device);
-        rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);
-        // Watertight: a ray through an edge two triangles share hits one of them on every
-        // CPU (without it, AMD EPYC let rays through a split square's inner edges).
-        rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
         impl_->cancel = &ctx.cancel;
-        rtcSetSceneProgressMonitorFunction(impl_->scene, embree_build_progress, &ctx.cancel);
+        if (shared) {   // built (the same quality and flags) and committed; not committed here
+            impl_->scene = static_cast<RTCScene>(shared->rtc_scene());
+            rtcRetainScene(impl_->scene);
+        } else {
+            impl_->scene = rtcNewScene(impl_->device);
+            rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);
+            // Watertight: a ray through an edge two triangles share hits one of them on every
+            // CPU (without it, AMD EPYC let rays through a split square's inner edges).
+            rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
+            rtcSetSceneProgressMonitorFunction(impl_->scene, embree_build_progress, &ctx.cancel);
+        }
         RTCGeometry g = nullptr;  // the occluders: quads as triangle pairs, or oriented discs
         if (n_tri_ > 0) {
             // The scene's own triangles; the surfels' radii (coverage 1) only size the trims.
-            g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-            ctx.set_phase("visibility: triangles", 0.0, 0.2);
-            vertices_ = set_shared_triangles(ctx, impl_->device, g, triangles, n_tri_, center_);
+            if (shared) {
+                vertices_ = shared->vertices();
+            } else {
+                g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+                ctx.set_phase("visibility: triangles", 0.0, 0.2);
+                vertices_ = set_shared_triangles(ctx, impl_->device, g, triangles, n_tri_,
+                                                 center_, sh);
+            }
             // Triangles neither overlap nor overhang: the trims only have to clear the
             // surfel's own triangle, a hair of the bulk's size, or the float noise where the
             // surfel lies far from the bulk (local_frame.hpp).
@@ -283,10 +305,12 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
         // calling thread polls the monitor; a cancel makes build_progress stop Embree. Small
         // builds (well under the 50 ms between polls) start from the calling thread.
         ctx.set_phase("visibility: BVH", 0.2, 0.8);
-        if (n + n_tri_ < kWatchedBuild)  // triangles count too: a scan's splats are millions
-            rtcCommitScene(impl_->scene);
-        else
-            run_watched(ctx, [&] { rtcCommitScene(impl_->scene); });
+        if (!shared) {
+            if (n + n_tri_ < kWatchedBuild)  // triangles count too: a scan's splats are millions
+                rtcCommitScene(impl_->scene);
+            else
+                run_watched(ctx, [&] { rtcCommitScene(impl_->scene); });
+        }
         if (ctx.cancel.load()) throw Cancelled();
         throw_embree(impl_->device, "BVH build");
         if (n_tri_ > 0 && n > 0) find_faces(ctx, s);
@@ -449,7 +473,8 @@ RaycastVisibility::RaycastVisibility(Context& ctx, const Octree& tree,
     if (!(opt.endpoint_offset >= 0))
         throw std::invalid_argument("endpoint_offset must be >= 0");
     scene_ = std::make_unique<OccluderScene>(ctx, tree.s, opt.coverage, opt.shape,
-                                             opt.triangles, opt.n_triangles);
+                                             opt.triangles, opt.n_triangles,
+                                             opt.triangles_shift, opt.triangles_scene);
     build_seconds_ = scene_->build_seconds();
     bytes_ = scene_->bytes();
 }

@@ -61,8 +61,14 @@ public:
     // With `triangles` (n_tri x 9 doubles, world corners) the occluders are those triangles;
     // the endpoint trims then only clear the surfel's own triangle (radius() is 1e-4 of the
     // scene's size), so no ray slips past a wall near its end.
+    // `shift` (3 doubles, may be null) is taken off every triangle corner (in double, as a
+    // caller's shifted copy would be), so a scan's splats need no shifted copy. `shared` (may
+    // be null): a ray scene of the same triangles (world corners, shift not taken off), which
+    // is cast against (retained) instead of building one: its floats are relative to its own
+    // centre, which this scene's rays then use.
     OccluderScene(Context& ctx, const SurfelSoA& s, double coverage, VisibilityOptions::Shape shape,
-                  const double* triangles = nullptr, std::size_t n_tri = 0);
+                  const double* triangles = nullptr, std::size_t n_tri = 0,
+                  const double* shift = nullptr, const MeshScene* shared = nullptr);
     ~OccluderScene();
     OccluderScene(const OccluderScene&) = delete;
     OccluderScene& operator=(const OccluderScene&) = delete;

@@ -69,6 +69,8 @@ enum class LeafMode : std::uint8_t {
 
 enum class VisMethod : std::uint8_t { None = 0, Seed = 1, Exact = 2 };
 
+class MeshScene;  // visibility/mesh_scene.hpp
+
 struct VisibilityOptions {
     VisMethod method = VisMethod::None;
     LeafMode leaf_mode = LeafMode::PerPair;
@@ -98,6 +100,12 @@ struct VisibilityOptions {
     // overhangs an outline and nothing leaks between surfels. Read only while building.
     const double* triangles = nullptr;
     std::size_t n_triangles = 0;
+    // The occluders are triangles[k] - triangles_shift[k % 3] (the caller's world corners in
+    // the surfels' frame, without a shifted copy of a scan's millions of splat triangles).
+    double triangles_shift[3] = {0.0, 0.0, 0.0};
+    // A ray scene of these same triangles (the receivers'), cast against instead of building
+    // one of its own: one BVH of a scan's splats per run. May be null.
+    const MeshScene* triangles_scene = nullptr;
     // "exact": cast the samples of a node pair as packets of 8 rays (no early exit) instead of
     // one by one with early exit on the first disagreement.
     bool packets = false;

@@ -76,7 +76,8 @@ class Evaluation:
         shadows = None
         if all_lamps and s.lamp_shadows:
             shadows = lights.Shadows(occ.segment_query(normals), samples=samples,
-                                     seed=s.seed, extent=occ.extent, ids=ids)
+                                     seed=s.seed, extent=occ.extent, ids=ids,
+                                     progress=self.report)   # a cancel between lamps, rays
         direct = lights.incident_radiance(all_lamps, points, normals, shadows=shadows)
         if timed:
             self.lap("direct")

@@ -61,6 +61,7 @@ def run(scene: "Scene | Lit", progress: Progress | None = None, *,
     check(settings)
     occluder_shape(settings)   # an unknown shape is refused before any work
     lit = scene if isinstance(scene, Lit) else light(scene, progress)
+    scene = None   # nor may this frame hold the caller's ray scene through the solve (below)
     while True:
         if builds_own_ray_scene(lit.scene) and lit.scene.occluders is not None:
             # The gather's ray scene is released while the solve holds its own of the same

@@ -31,12 +31,12 @@ class Solved:
 
 
 def builds_own_ray_scene(scene) -> bool:
-    """Whether the solve of ``scene`` casts its visibility rays against the scene's triangles
-    in a ray scene of its own (exact visibility or a target error, on the last pass), so that
-    the gather's ray scene of the same triangles need not be held meanwhile."""
+    """Whether the solve of ``scene`` builds ray scenes of the scene's triangles of its own
+    and does not take the gather's (a target error, on the last pass), so that the gather's
+    need not be held meanwhile. Exact visibility without a target takes it for its fill
+    (``TransportOperator(occluders=)``)."""
     s = scene.settings
-    return (scene.refine is None and scene.triangles_occlude
-            and (s.target_error is not None or s.visibility == "exact"))
+    return scene.refine is None and scene.triangles_occlude and s.target_error is not None
 
 
 def _solver_call(lit: Lit, progress: Progress | None) -> tuple:
@@ -82,6 +82,8 @@ def _solver_call(lit: Lit, progress: Progress | None) -> tuple:
                 # Meshes only: surfels see each other past the true triangles (what lamp
                 # shadows and receivers see too), not past discs that overhang outlines.
                 kwargs["occluder_triangles"] = scene.triangles
+                if scene.occluders is not None:   # its fill casts against the gather's
+                    kwargs["occluders"] = scene.occluders
             else:  # the lamp shadows' occluders
                 kwargs.update(coverage=SURFEL_COVERAGE, visibility_shape=shape)
     if lit.hemisphere is not None:
