@@ -82,6 +82,11 @@ def exact_direct(scene: Scene, direct: np.ndarray | None, direct_lamps: np.ndarr
 #: their indirect light is rescaled to a lattice point's (``rest_for_sky_seen``): where the
 #: surfels see almost only sky their indirect light is small and its share noisy.
 MIN_HIDDEN_SHARE = 0.05
+#: The indirect light is only ever lowered (scaled at most this): where a point sees less sky
+#: than its surfels, raising it by their hidden shares' ratio amplified the solve's own noise
+#: (the resting sphere's lowest ring in the white furnace read up to 1.009, with 1.5 as with
+#: no bound; 1.002 before the rescale, 0.9998 with this bound).
+MAX_REST_SCALE = 1.0
 
 
 def rest_for_sky_seen(color, seen: np.ndarray, from_sky: np.ndarray, albedo: np.ndarray,
@@ -92,7 +97,8 @@ def rest_for_sky_seen(color, seen: np.ndarray, from_sky: np.ndarray, albedo: np.
     own share (``from_sky``: their reflected sky light, interpolated; ``albedo`` there). Each
     direction then counts once, the sky's or a surface's: where a point sees more sky than the
     surfels round it (a rim beside a contact), the sky cast afresh on top of their indirect
-    light read above 1 in a white furnace."""
+    light read above 1 in a white furnace. Never raised (``MAX_REST_SCALE``): where the
+    point sees less sky than its surfels it keeps their indirect light."""
     c = np.asarray(color, dtype=np.float64).reshape(1, 3)
     lit = c > 0
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -103,7 +109,7 @@ def rest_for_sky_seen(color, seen: np.ndarray, from_sky: np.ndarray, albedo: np.
     v_point = np.clip(v_point, 0.0, 1.0)
     v_surfels = np.clip(v_surfels, 0.0, 1.0)
     hidden = np.maximum(1.0 - v_surfels, MIN_HIDDEN_SHARE)
-    return rest * ((1.0 - v_point) / hidden - 1.0)
+    return rest * (np.minimum((1.0 - v_point) / hidden, MAX_REST_SCALE) - 1.0)
 
 
 #: A lattice point is beside a contact where a surfel of a surface facing it lies within this
