@@ -77,4 +77,4 @@ def breakdown(name: str, samples: int = furnace.DEFAULT_SAMPLES, worst: int = 25
 if __name__ == "__main__":
     furnace.reference_run.register_addon()
     for case_name in sys.argv[1:] or ["intersecting", "resting", "monkey"]:
-        breakdown(case_name, save=f"/tmp/h52/breakdown_{case_name}.npz")
+        breakdown(case_name, save=f"/tmp/h52b/breakdown_{case_name}.npz")

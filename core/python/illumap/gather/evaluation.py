@@ -151,11 +151,11 @@ def prepare(scene: Scene, occ, direct: np.ndarray | None, direct_lamps: np.ndarr
                   if len(back_rows) else None)
     phases = {"straddling": time.perf_counter() - mark}
     mark = time.perf_counter()
-    exact, lattice_lit = exact_direct(scene, direct, direct_lamps, occ, sent, ~back, field_,
-                                      owners, sides, shadow_samples)
+    exact, lattice_lit, correction = exact_direct(scene, direct, direct_lamps, occ, sent, ~back,
+                                                  field_, owners, sides, shadow_samples)
     exact, contact_points = gathered_at_contacts(scene, occ, exact, ~back, field_, back_field,
                                                  owners, back_owners, sides,
-                                                 min(gather_rays, CONTACT_RAYS))
+                                                 min(gather_rays, CONTACT_RAYS), correction)
     report = None if progress is None else (lambda f, _p="": progress(f, "gather"))
     ev = Evaluation(scene=scene, occ=occ, back=back, field_=field_, exact=exact, gatherer=None,
                     gather_rays=gather_rays, shadow_samples=shadow_samples, report=report,
