@@ -101,7 +101,8 @@ SOURCE_FIXES = (
 # Embree's virtual curve intersectors (six files, compiled again for every ISA: the heaviest part
 # of the build) instantiate every curve basis even when EMBREE_GEOMETRY_CURVE is off; only their
 # point entries (spheres, discs, oriented discs) can be reached then, so the curve entries are
-# compiled only with curves on. About a third less compiling for the whole build.
+# compiled only with curves on (each 4-wide file: 153 s to compile before, 11-19 s after, on
+# this machine under load).
 CURVE_FIXES = tuple(
     (f"kernels/geometry/curve_intersector_virtual_{variant}.cpp", old, new)
     for variant in ("4v", "4i", "4i_mb", "8v", "8i", "8i_mb")
