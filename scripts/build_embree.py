@@ -6,8 +6,9 @@ with the Zig toolchain (scripts/zig_toolchain.py), for the portable wheels.
 Why this Embree: a static library with Embree's own tasking system needs no TBB at all, so the
 wheel cannot clash with the TBB that bpy loads (in either import order), and it bundles no shared
 library. Only what Illumap uses is built (triangles and oriented-disc points, single rays, ray
-streams and packets of 8) with SSE2 kernels (every x86-64 CPU), which keeps the one-off build to
-a few CPU-minutes.
+streams and packets of 8), with the SSE2, SSE4.2, AVX and AVX2 kernels among which Embree picks
+at run time (SSE2 on any x86-64 CPU, AVX2 where the CPU has it); the curve code that points
+would drag in is left out (CURVE_FIXES), which keeps the one-off build to a few CPU-minutes.
 
 The source comes from Debian's archive (``apt-get source embree``: a deb-src line for Debian's own
 archive is added when missing). Idempotent: a stamp records the configuration; a second run with
@@ -42,8 +43,8 @@ Components: main
 Signed-By: /usr/share/keyrings/debian-archive-keyring.gpg
 """
 
-# Embree's CMake options. Geometry types and ISAs Illumap does not use are off: the build is
-# about a third of the full one.
+# Embree's CMake options. Geometry types Illumap does not use are off (issue 58 may need
+# EMBREE_GEOMETRY_USER); the filter functions stay on (Embree's default).
 OPTIONS = {
     "EMBREE_STATIC_LIB": "ON",
     "EMBREE_TASKING_SYSTEM": "INTERNAL",
@@ -62,21 +63,28 @@ OPTIONS = {
     "CMAKE_POLICY_VERSION_MINIMUM": "3.5",
     "CMAKE_BUILD_TYPE": "Release",
 }
-# The kernels: SSE2 only (every x86-64 CPU; Embree's 4-wide BVH). AVX2 kernels would trace
-# faster on most machines but cost twice this build, and they need the AVX set as well: Embree
-# compiles its 8-wide BVH builders only for AVX and selects them only through AVX's slot, so an
-# SSE2+AVX2 build fails every BVH8 build with RTC_ERROR_UNSUPPORTED_CPU ("BVH build failed
-# (error 5)"). To turn them on: EMBREE_ISA_AVX and EMBREE_ISA_AVX2 "ON", with FLAGS_AVX2 given
-# -mpopcnt, which newer clang needs for its popcnt intrinsic under AVX2 ("-mf16c -mavx2 -mfma
-# -mlzcnt -mbmi -mbmi2 -mpopcnt").
+# The kernels: SSE2, SSE4.2, AVX and AVX2, as Embree's own release builds (less AVX-512); Embree
+# picks the best one the CPU has when a device is made (rtcNewDevice; "isa=sse2" in its config
+# forces another). AVX2 needs the AVX set beside it: Embree compiles its 8-wide BVH builders for
+# AVX only and selects them through AVX's slot (an SSE2+AVX2 build fails every BVH8 build with
+# RTC_ERROR_UNSUPPORTED_CPU, "BVH build failed (error 5)"). Zig's clang does not imply POPCNT by
+# SSE4.2 as GCC does, so each of these ISAs' flags names it (Embree's SSE4.2 level requires a
+# CPU with POPCNT anyway).
+X86_ISAS = {"EMBREE_MAX_ISA": "NONE", "EMBREE_ISA_SSE2": "ON", "EMBREE_ISA_SSE42": "ON",
+            "EMBREE_ISA_AVX": "ON", "EMBREE_ISA_AVX2": "ON", "EMBREE_ISA_AVX512": "OFF",
+            "FLAGS_SSE42": "-msse4.2 -mpopcnt", "FLAGS_AVX": "-mavx -mpopcnt",
+            "FLAGS_AVX2": "-mf16c -mavx2 -mfma -mlzcnt -mbmi -mbmi2 -mpopcnt"}
+# SSE2 only: every x86-64 CPU, Embree's 4-wide BVH.
+SSE2_ONLY = {"EMBREE_MAX_ISA": "NONE", "EMBREE_ISA_SSE2": "ON", "EMBREE_ISA_SSE42": "OFF",
+             "EMBREE_ISA_AVX": "OFF", "EMBREE_ISA_AVX2": "OFF", "EMBREE_ISA_AVX512": "OFF"}
 ISA_OPTIONS = {
-    "linux-x64": {"EMBREE_MAX_ISA": "NONE", "EMBREE_ISA_SSE2": "ON", "EMBREE_ISA_SSE42": "OFF",
-                  "EMBREE_ISA_AVX": "OFF", "EMBREE_ISA_AVX2": "OFF", "EMBREE_ISA_AVX512": "OFF"},
-    # Windows: SSE2 kernels, as on Linux. MinGW's math.h hides M_PI unless _USE_MATH_DEFINES
+    "linux-x64": X86_ISAS,
+    # Windows: still SSE2 only. X86_ISAS should build there as well (the same clang), but that
+    # build and its run under Wine (scripts/windows_native_tests.py) have not been done yet;
+    # switch to X86_ISAS once they pass. MinGW's math.h hides M_PI unless _USE_MATH_DEFINES
     # comes before its first include.
-    "windows-x64": {"EMBREE_MAX_ISA": "NONE", "EMBREE_ISA_SSE2": "ON", "EMBREE_ISA_SSE42": "OFF",
-                    "EMBREE_ISA_AVX": "OFF", "EMBREE_ISA_AVX2": "OFF", "EMBREE_ISA_AVX512": "OFF",
-                    "EMBREE_IGNORE_CMAKE_CXX_FLAGS": "OFF", "CMAKE_CXX_FLAGS": "-D_USE_MATH_DEFINES"},
+    "windows-x64": {**SSE2_ONLY, "EMBREE_IGNORE_CMAKE_CXX_FLAGS": "OFF",
+                    "CMAKE_CXX_FLAGS": "-D_USE_MATH_DEFINES"},
     # Apple silicon: Embree maps its SSE code onto NEON.
     "macos-arm64": {"EMBREE_MAX_ISA": "NONE", "EMBREE_ISA_NEON": "ON", "EMBREE_ISA_NEON2X": "OFF"},
 }
@@ -89,6 +97,33 @@ SOURCE_FIXES = (
     ("kernels/geometry/pointi.h",
      '<< "i {" << line.v0 << ", " << line.geomID()',
      '<< "i {" << line.geomID()'),
+)
+# Embree's virtual curve intersectors (six files, compiled again for every ISA: the heaviest part
+# of the build) instantiate every curve basis even when EMBREE_GEOMETRY_CURVE is off; only their
+# point entries (spheres, discs, oriented discs) can be reached then, so the curve entries are
+# compiled only with curves on (each 4-wide file: 153 s to compile before, 11-19 s after, on
+# this machine under load).
+CURVE_FIXES = tuple(
+    (f"kernels/geometry/curve_intersector_virtual_{variant}.cpp", old, new)
+    for variant in ("4v", "4i", "4i_mb", "8v", "8i", "8i_mb")
+    for old, new in (
+        ("        intersector.vtbl[Geometry::GTY_CONE_LINEAR_CURVE ]",
+         "#if defined(EMBREE_GEOMETRY_CURVE)\n"
+         "        intersector.vtbl[Geometry::GTY_CONE_LINEAR_CURVE ]"),
+        ("        return intersector;", "#endif\n        return intersector;"),
+    )) + (
+    # Likewise the curve geometries (one per basis) that rtcNewGeometry makes for curve types
+    # only, and only when EMBREE_GEOMETRY_CURVE is on.
+    ("kernels/common/scene_curves.cpp",
+     "    CurveGeometry* createCurves(Device* device, Geometry::GType gtype)\n    {\n",
+     "    CurveGeometry* createCurves(Device* device, Geometry::GType gtype)\n    {\n"
+     "#if !defined(EMBREE_GEOMETRY_CURVE)\n"
+     '      throw_RTCError(RTC_ERROR_INVALID_OPERATION,"invalid geometry type");\n#else\n'),
+    ("kernels/common/scene_curves.cpp",
+     '      default: throw_RTCError(RTC_ERROR_INVALID_OPERATION,"invalid geometry type");\n'
+     "      }\n",
+     '      default: throw_RTCError(RTC_ERROR_INVALID_OPERATION,"invalid geometry type");\n'
+     "      }\n#endif\n"),
 )
 # The version resource of Embree's DLL: a static library has no use for it, and the file is
 # UTF-16, which Zig's resource compiler rejects. Applied for every target (other platforms ignore
@@ -159,14 +194,15 @@ def unpack(tarball: Path) -> Path:
     """The patched source tree under build/embree/src (unpacked once)."""
     source = EMBREE_DIR / "src" / f"embree-{VERSION}"
     stamp = source / ".illumap-unpacked"
-    fixes = hashlib.sha256(repr(SOURCE_FIXES + WINDOWS_FIXES).encode()).hexdigest()
+    fixes = hashlib.sha256(repr(SOURCE_FIXES + CURVE_FIXES + WINDOWS_FIXES).encode()
+                           ).hexdigest()
     if stamp.is_file() and stamp.read_text() == fixes:
         return source
     shutil.rmtree(source.parent, ignore_errors=True)
     source.parent.mkdir(parents=True)
     with tarfile.open(tarball) as archive:
         archive.extractall(source.parent, filter="data")
-    for relative, old, new in SOURCE_FIXES + WINDOWS_FIXES:
+    for relative, old, new in SOURCE_FIXES + CURVE_FIXES + WINDOWS_FIXES:
         path = source / relative
         text = path.read_text()
         if text.count(old) != 1:
@@ -191,7 +227,8 @@ def configuration(target: Target) -> tuple[dict[str, str], str]:
     """Embree's CMake options for ``target`` and a key that changes when they or the toolchain
     change (the stamp of a finished build)."""
     options = {**OPTIONS, **ISA_OPTIONS[target.name]}
-    fixes = SOURCE_FIXES + (WINDOWS_FIXES if target.cmake_system == "Windows" else ())
+    fixes = SOURCE_FIXES + CURVE_FIXES + \
+        (WINDOWS_FIXES if target.cmake_system == "Windows" else ())
     key = hashlib.sha256(repr((sorted(options.items()), toolchain_file(target).read_text(),
                                fixes)).encode()).hexdigest()
     return options, key
@@ -212,7 +249,8 @@ def build(target: Target) -> Path:
     shutil.rmtree(install, ignore_errors=True)
     started, cpu_before = time.monotonic(), _children_cpu()
     log(f"{target.name}: configuring and building (once; several minutes on two cores)")
-    run("cmake", "-G", "Ninja", "-S", source, "-B", work, f"-DCMAKE_TOOLCHAIN_FILE={toolchain}",
+    run("cmake", "-G", "Ninja", "-Wno-dev", "-Wno-deprecated", "-S", source, "-B", work,
+        f"-DCMAKE_TOOLCHAIN_FILE={toolchain}",
         f"-DCMAKE_INSTALL_PREFIX={install}", *(f"-D{k}={v}" for k, v in options.items()))
     run("cmake", "--build", work)
     # Headers, static libraries and CMake config ("devel"); the "lib" component would also

@@ -14,7 +14,9 @@ Usage from the other build scripts::
 
 from __future__ import annotations
 
+import re
 import stat
+import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -57,6 +59,23 @@ def zig_executable() -> Path:
     return zig
 
 
+def _shared_zig(folder: Path, zig: Path) -> Path:
+    """The zig the existing wrappers in ``folder`` run, when it is still there and the same
+    version as ``zig``; else ``zig``. Each environment installs its own ``ziglang``, and Zig's
+    cache keys its entries by the paths of its own headers and runtime sources: one zig for
+    every build keeps one cache, so the second Python version's wheel reuses the first one's
+    objects of the core (everything but the bindings) and Zig's C++ runtime."""
+    wrapper = folder / "c++"
+    match = re.search(r'^exec "([^"]+)"', wrapper.read_text(), re.M) if wrapper.is_file() else None
+    if not match or Path(match.group(1)) == zig or not Path(match.group(1)).is_file():
+        return zig
+
+    def version(executable: Path | str) -> str:
+        return subprocess.run([str(executable), "version"], text=True, capture_output=True
+                              ).stdout.strip()
+    return Path(match.group(1)) if version(match.group(1)) == version(zig) else zig
+
+
 def _write_executable(path: Path, text: str) -> None:
     if not path.is_file() or path.read_text() != text:
         path.write_text(text)
@@ -68,7 +87,7 @@ def toolchain_file(target: Target) -> Path:
     the toolchain file's path."""
     folder = TOOLCHAIN_DIR / target.name
     folder.mkdir(parents=True, exist_ok=True)
-    zig = zig_executable()
+    zig = _shared_zig(folder, zig_executable())
     tools = {}
     for tool, command in (("cc", f"cc -target {target.zig_triple}"),
                           ("c++", f"c++ -target {target.zig_triple}"),

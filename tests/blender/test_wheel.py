@@ -93,3 +93,15 @@ def test_auditwheel_confirms_the_manylinux_2_28_tag() -> None:
     assert match, text
     assert (int(match.group(1)), int(match.group(2))) <= (2, 28), text
     assert "system-provided shared libraries" in text or "external versioned symbols" in text, text
+
+
+def test_native_module_carries_embree_kernels_for_every_x86_level() -> None:
+    """Embree in the module has its SSE2, SSE4.2, AVX and AVX2 kernels (scripts/build_embree.py
+    ISA_OPTIONS), so its runtime dispatch can pick AVX2's 8-wide BVHs where the CPU has them and
+    still run on an SSE2-only CPU. Embree names each intersector by its ISA (``avx2::BVH8...``);
+    those names are in the module's read-only data. AVX-512 is not built."""
+    import illumap._core
+    data = Path(illumap._core.__file__).read_bytes()
+    for name in (b"sse2::BVH4", b"sse42::BVH4", b"avx::BVH8", b"avx2::BVH8"):
+        assert name in data, f"no {name.decode()} intersectors in {illumap._core.__file__}"
+    assert b"avx512::" not in data
