@@ -16,7 +16,7 @@ USE_CORE = """
     import numpy as np
     import illumap
     from illumap import scenes
-    box = scenes.closed_box(60, emission=1.0, albedo=0.5)
+    box = scenes.closed_box(20, emission=1.0, albedo=0.5)
     solution = illumap.solve(box, method="direct", visibility="exact", threads=2)
     assert solution.converged and np.isfinite(solution.radiosity).all()
     assert solution.radiosity.min() > 0.0, solution.radiosity.min()
