@@ -4,7 +4,8 @@
 Runs ``bench/reference/furnace.py``'s case against its cached Cycles reference and splits the
 summed squared error (the numerator of the relative RMS) by object, by the reference's value
 (sealed 0, contact 0.5/0.75 means of a POINT bake, lit 1), by height above the floor, and
-lists the worst vertices with their position, Illumap's value and the reference's.
+lists the worst vertices with their position, Illumap's value and the reference's; the arrays
+go to out/breakdown/<case>.npz.
 
     .venv/bin/python bench/experiments/first_hit_breakdown.py intersecting resting monkey
 """
@@ -76,5 +77,7 @@ def breakdown(name: str, samples: int = furnace.DEFAULT_SAMPLES, worst: int = 25
 
 if __name__ == "__main__":
     furnace.reference_run.register_addon()
+    folder = os.path.join(os.path.dirname(os.path.dirname(HERE)), "out", "breakdown")
+    os.makedirs(folder, exist_ok=True)
     for case_name in sys.argv[1:] or ["intersecting", "resting", "monkey"]:
-        breakdown(case_name, save=f"/tmp/h52b/breakdown_{case_name}.npz")
+        breakdown(case_name, save=os.path.join(folder, f"{case_name}.npz"))
