@@ -480,6 +480,7 @@ def read_receivers(obj, warnings: list[str], depsgraph=None,
                      points=np.ascontiguousarray(positions),
                      normals=np.ascontiguousarray(normals), albedo=albedo,
                      emission=emission, vertex_count=nv, inward=np.ascontiguousarray(inward),
+                     faces=np.ascontiguousarray(tm.normal[tri]),
                      corner_id=corner_ids(corner_vertex, corner_vertex[following],
                                           corner_vertex[preceding]))
 
