@@ -411,6 +411,10 @@ def _evaluated_corners(obj, mesh, evaluated) -> np.ndarray | str:
     return best
 
 
+#: A triangle whose corner normals differ by less than this (per component) is flat-shaded.
+FLAT_CORNERS = 1e-6
+
+
 def read_receivers(obj, warnings: list[str], depsgraph=None,
                    material_warnings: list[str] | None = None) -> Receivers | None:
     """The receivers of ``obj``'s mesh corners in world space, on the surface Blender shows
@@ -469,6 +473,11 @@ def read_receivers(obj, warnings: list[str], depsgraph=None,
     inward = tm.corners[tri].mean(axis=1) - corner
     positions = corner + RECEIVER_INSET * inward
     normals = tm.corner_normals[tri, slot]
+    # The face below which a corner's gather drops its rays (a renderer drops the directions
+    # of a smooth normal's hemisphere below the triangle). A flat face (its three corners of
+    # one normal) drops none: a renderer shades it with the triangle's own normal.
+    flat = np.ptp(tm.corner_normals[tri], axis=1).max(axis=1) < FLAT_CORNERS
+    faces = np.where(flat[:, None], normals, tm.normal[tri])
     samples = MeshSamples(mesh=tm, positions=positions, normals=normals, areas=np.ones(nl),
                           triangle=tri, bary=bary, material_index=tm.material_index[tri])
     albedo, emission = surfel_materials(samples, warnings if material_warnings is None
@@ -480,6 +489,7 @@ def read_receivers(obj, warnings: list[str], depsgraph=None,
                      points=np.ascontiguousarray(positions),
                      normals=np.ascontiguousarray(normals), albedo=albedo,
                      emission=emission, vertex_count=nv, inward=np.ascontiguousarray(inward),
+                     faces=np.ascontiguousarray(faces),
                      corner_id=corner_ids(corner_vertex, corner_vertex[following],
                                           corner_vertex[preceding]))
 

@@ -364,11 +364,13 @@ class Gatherer:
             progress=progress)
 
     def gather(self, positions, normals, *, rays, ids: np.ndarray | None = None, seed: int = 0,
-               threads: int = 0, progress: Progress | None = None) -> GatherResult:
+               faces=None, threads: int = 0,
+               progress: Progress | None = None) -> GatherResult:
         """Indirect incident radiance at receivers (``positions``, unit ``normals``, (M, 3)),
         as ``gather``."""
         p = _rows3("positions", positions)
         n = _rows3("normals", normals, len(p))
+        f = None if faces is None else _rows3("faces", faces, len(p))
         per = None
         if np.ndim(rays) == 0:
             if int(rays) < 1:
@@ -385,7 +387,7 @@ class Gatherer:
         if len(ids) != len(p):
             raise InputError(f"ids must have {len(p)} entries, got {len(ids)}")
         radiance, stderr, reach, open_, halves = self._gatherer.gather(
-            p, n, ids, rays=int(rays), seed=int(seed), rays_per=per, threads=threads,
+            p, n, ids, rays=int(rays), seed=int(seed), rays_per=per, faces=f, threads=threads,
             progress=progress)
         return GatherResult(radiance=radiance, stderr=stderr, rays=count, reach=reach, open=open_,
                             halves=halves)
@@ -408,8 +410,8 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
            ids: np.ndarray | None = None, seed: int = 0, background=None,
            back_field: SurfelField | None = None, two_sided=None, owners=None,
            back_owners=None, exact: ExactPart | None = None,
-           back_exact: ExactPart | None = None, tabulate: bool = True, threads: int = 0,
-           progress: Progress | None = None) -> GatherResult:
+           back_exact: ExactPart | None = None, tabulate: bool = True, faces=None,
+           threads: int = 0, progress: Progress | None = None) -> GatherResult:
     """Indirect incident radiance at receivers (``positions``, unit ``normals``, (M, 3)).
 
     ``rays`` cosine-distributed rays per receiver (an int, or an int array (M,) of counts
@@ -425,7 +427,10 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
     ``tabulate``: the field is tabulated on the triangles that are not splats, a lattice
     looked up once per point (False: each hit looks it up itself, cheaper where few rays meet
     many such triangles; an exact part keeps its lattice). ``ids`` (M,) name the receivers
-    for their random streams (default: their rows). Runs natively on ``threads`` (0: all), the GIL
+    for their random streams (default: their rows). ``faces`` (M, 3) unit: the geometric
+    normal of the face each receiver lies in (a mesh corner's triangle); a ray that leaves
+    below it takes nothing, as a renderer's diffuse surface drops the directions of a smooth
+    normal's hemisphere that lie below its face (None: every ray counts). Runs natively on ``threads`` (0: all), the GIL
     released; ``progress`` returning False cancels (``illumap.Cancelled``). Many calls over
     one scene and field: ``Gatherer``, which tabulates once.
     """
@@ -433,4 +438,5 @@ def gather(occluders: MeshOccluders, field: SurfelField, positions, normals, *, 
                     two_sided=two_sided, owners=owners, back_owners=back_owners, exact=exact,
                     back_exact=back_exact, tabulate=tabulate, threads=threads,
                     progress=progress).gather(positions, normals, rays=rays, ids=ids, seed=seed,
-                                              threads=threads, progress=progress)
+                                              faces=faces, threads=threads,
+                                              progress=progress)

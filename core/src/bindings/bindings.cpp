@@ -271,7 +271,8 @@ void bind_gather(nb::module_& m) {
              "A final gather prepared once for any number of receivers (its field tables).")
         .def("gather",
              [](PyGatherer& self, nb::handle positions, nb::handle normals, nb::handle ids, int rays,
-                std::uint64_t seed, nb::handle rays_per, int threads, nb::handle progress) {
+                std::uint64_t seed, nb::handle rays_per, nb::handle faces, int threads,
+                nb::handle progress) {
                  const double *P, *N;
                  nb::object k1, k2, k3;
                  const std::size_t m = paired_rays(positions, "positions", normals, "normals", P, N, k1, k2);
@@ -292,6 +293,13 @@ void bind_gather(nb::module_& m) {
                          per[i] = std::int32_t(R[i]);
                      }
                  }
+                 const double* F = nullptr;
+                 nb::object k7;
+                 if (faces.is_valid() && !faces.is_none()) {
+                     std::size_t nf;
+                     F = view<double>(faces, "faces", 2, 3, nf, k7);
+                     if (nf != m) throw nb::value_error("faces must have one row per receiver");
+                 }
                  double *out, *err, *reach, *open, *halves;
                  auto a1 = new_array(m, 3, &out);
                  auto a2 = new_array(m, 0, &err);
@@ -302,13 +310,13 @@ void bind_gather(nb::module_& m) {
                      ctx.set_phase("gather", 0.0, 1.0);
                      checkpoint(ctx, 0.0);
                      self.plan->gather(ctx, P, N, I, m, rays, seed, per.empty() ? nullptr : per.data(),
-                                       out, err, reach, open, halves);
+                                       out, err, reach, open, halves, F);
                  });
                  return nb::make_tuple(a1, a2, a3, a4, a5);
              },
              nb::arg("positions"), nb::arg("normals"), nb::arg("ids"), nb::kw_only(),
              nb::arg("rays"), nb::arg("seed") = 0, nb::arg("rays_per").none() = nb::none(),
-             nb::arg("threads") = 0, nb::arg("progress") = nb::none(),
+             nb::arg("faces").none() = nb::none(), nb::arg("threads") = 0, nb::arg("progress") = nb::none(),
              "Final gather: (mean radiance (M, 3), standard error of its luminance (M,), reach (M,) m, "
              "share of the rays that hit nothing (M,), half the difference of the even and odd "
              "rays' mean luminance (M,)).")

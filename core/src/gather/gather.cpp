@@ -390,7 +390,8 @@ void GatherPlan::hit_values(Context& ctx, const std::int64_t* triangles,
 void GatherPlan::gather(Context& ctx, const double* positions, const double* normals,
                         const std::int64_t* ids, std::size_t m, int rays, std::uint64_t seed,
                         const std::int32_t* rays_per, double* out, double* stderr_out,
-                        double* reach_out, double* open_out, double* halves_out) const {
+                        double* reach_out, double* open_out, double* halves_out,
+                        const double* faces) const {
     const MeshScene& scene = scene_;
     const SurfelField& front = front_;
     const SurfelField* back = back_;
@@ -411,6 +412,7 @@ void GatherPlan::gather(Context& ctx, const double* positions, const double* nor
         for (std::size_t i = lo; i < hi; ++i) {
             const double* p = positions + 3 * i;
             const double* n = normals + 3 * i;
+            const double* g = faces ? faces + 3 * i : nullptr;
             const std::size_t K = rays_per ? std::size_t(std::max(1, rays_per[i]))
                                            : std::size_t(std::max(1, rays));
             cosine_directions(n, K, ids ? ids[i] : std::int64_t(i), seed, dir.data());
@@ -422,7 +424,10 @@ void GatherPlan::gather(Context& ctx, const double* positions, const double* nor
             std::size_t misses = 0;
             for (std::size_t k = 0; k < K; ++k) {
                 double v[3] = {background[0], background[1], background[2]};
-                if (prim[k] < 0) {
+                const double* dk = dir.data() + 3 * k;
+                if (g && dk[0] * g[0] + dk[1] * g[1] + dk[2] * g[2] <= 0.0) {
+                    v[0] = v[1] = v[2] = 0.0;   // below the receiver's face: dropped
+                } else if (prim[k] < 0) {
                     ++misses;
                 } else {
                     nearness += 1.0 / std::max(dist[k] + offset, 1e-300);

@@ -110,12 +110,15 @@ public:
     // halves_out (m, may be null): half the difference between the mean luminance of the
     // even and the odd rays. The rays are a lattice, not independent: stderr_out overstates
     // the mean's error where the light is smooth; the halves' squares, pooled over many
-    // receivers, follow it.
+    // receivers, follow it. faces (m x 3 unit, may be null): the geometric normal of the
+    // face each receiver lies in; a ray of the shading normal's hemisphere that leaves below
+    // that face takes nothing (a renderer's diffuse surface drops such directions: a smooth
+    // normal tilted off its face does not see through its own surface).
     void gather(Context& ctx, const double* positions, const double* normals,
                 const std::int64_t* ids, std::size_t m, int rays, std::uint64_t seed,
                 const std::int32_t* rays_per, double* out, double* stderr_out,
                 double* reach_out = nullptr, double* open_out = nullptr,
-                double* halves_out = nullptr) const;
+                double* halves_out = nullptr, const double* faces = nullptr) const;
     // What a gather ray takes at each of m hits (triangle, front face or not, the point on
     // it, m x 3): out (m x 3) radiance, the tables' interpolation where they cover the
     // point, as in `gather`.

@@ -73,7 +73,11 @@ def merged_corners(occ, rec, lamps_=(), pressed=None) -> tuple[np.ndarray, np.nd
     Returns (the rows to evaluate, each corner's row among them)."""
     if len(rec.points) == 0:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    key = np.column_stack([rec.corner_vertex, np.round(rec.normals * 1e5).astype(np.int64)])
+    # A corner whose rays stop at its face (a smooth normal off its triangle) sees its own
+    # share of the hemisphere: the corners of a vertex join only within one face plane.
+    faces = rec.normals if getattr(rec, "faces", None) is None else rec.faces
+    key = np.column_stack([rec.corner_vertex, np.round(rec.normals * 1e5).astype(np.int64),
+                           np.round(faces * 1e5).astype(np.int64)])
     _, group = np.unique(key, axis=0, return_inverse=True)
     group = group.ravel()
     # The lead is the corner of least identity, not the first in Blender's loop order, which

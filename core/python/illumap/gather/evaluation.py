@@ -53,20 +53,22 @@ class Evaluation:
     def all_lamps(self) -> list:
         return list(self.scene.lamps) + list(self.scene.emitters)
 
-    def gather_at(self, points, normals, ids, rays):
-        """The prepared gather at receivers (``Gatherer.gather``)."""
+    def gather_at(self, points, normals, ids, rays, faces=None):
+        """The prepared gather at receivers (``Gatherer.gather``; ``faces``: their faces'
+        geometric normals, or None)."""
         return self.gatherer.gather(points, normals, rays=rays, seed=self.scene.settings.seed,
-                                    ids=ids, progress=self.report)
+                                    ids=ids, faces=faces, progress=self.report)
 
     def incident_at(self, points, normals, ids, meshes=None, rays=None, shared=None,
-                    samples=None, gaps=False, timed=False):
+                    samples=None, gaps=False, timed=False, faces=None):
         """Incident radiance (M, 3) at receivers, the gather's result, the rays cast and the
         receivers found covered (inside or under another surface: no light). ``shared`` (M,)
         int: receivers of one group (≥ 0) share the gather through an irradiance cache
         (``illumap.irradiance_cache``); -1 or None: each gathers itself. ``gaps``: correct
         the receivers that face a gap (``across_gaps``; the main batch's). ``timed``: its
         parts go into ``phases``. ``rays``, ``samples``: the gather's and the shadows' (None:
-        the evaluation's)."""
+        the evaluation's). ``faces`` (M, 3): the geometric normals of the receivers' faces,
+        below which their rays take nothing (None: no face)."""
         s = self.scene.settings
         rays = self.gather_rays if rays is None else rays
         samples = self.shadow_samples if samples is None else samples
@@ -90,7 +92,8 @@ class Evaluation:
                 here, so that the receivers between records take the corrected light."""
                 nonlocal gap_cast
                 g = self.gather_at(points[rows], normals[rows], ids[rows],
-                                   rays if rays_ is None else rays_)
+                                   rays if rays_ is None else rays_,
+                                   None if faces is None else faces[rows])
                 if gaps and rays_ is None:
                     fixed, cast_ = across_gaps(self.scene, occ, self.exact, self.gatherer,
                                                ~self.back, points[rows], normals[rows],
@@ -106,7 +109,7 @@ class Evaluation:
             if timed:
                 self.lap("gather")
         else:
-            gathered = self.gather_at(points, normals, ids, rays)
+            gathered = self.gather_at(points, normals, ids, rays, faces)
             if timed:
                 self.lap("gather")
             if gaps:

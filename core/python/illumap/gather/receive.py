@@ -200,6 +200,9 @@ def _evaluate(ev: Evaluation, batch: list, batch_ids: list) -> _Main:
                              pressed_in(rec)) for rec in batch]
     points = np.concatenate([rec.points[rows] for rec, (rows, _) in zip(batch, merged)])
     normals = np.concatenate([rec.normals[rows] for rec, (rows, _) in zip(batch, merged)])
+    # A point's own normal stands for its face: its cosine rays all lie above it.
+    faces = np.concatenate([(rec.normals if rec.faces is None else rec.faces)[rows]
+                            for rec, (rows, _) in zip(batch, merged)])
     offsets = np.cumsum([0] + [len(rows) for rows, _ in merged])
     # Each receiver's rays follow from its identity in its object alone (a corner's from
     # its vertex and face, a point's from its row, both sides of a point alike): not from
@@ -215,7 +218,8 @@ def _evaluate(ev: Evaluation, batch: list, batch_ids: list) -> _Main:
                                      np.int64)
                              for part, (rows, _) in enumerate(merged)])
     incident, gathered, cast, covered = ev.incident_at(points, normals, ids, batch_meshes,
-                                                       shared=shared, gaps=True, timed=True)
+                                                       shared=shared, gaps=True, timed=True,
+                                                       faces=faces)
     values_of = [rec.emission + rec.albedo * incident[lo + index]
                  for rec, lo, (_, index) in zip(batch, offsets[:-1], merged)]
     sums = _noise_sums(ev, batch, offsets, merged, values_of, gathered)

@@ -48,6 +48,7 @@ def rows_of(rec, rows: np.ndarray, normals: np.ndarray | None = None):
                    normals=rec.normals[rows] if normals is None else normals,
                    albedo=rec.albedo[rows], emission=rec.emission[rows],
                    inward=None if rec.inward is None else rec.inward[rows],
+                   faces=None if rec.faces is None else rec.faces[rows],
                    corner_id=rec.ids[rows])
 
 

@@ -59,6 +59,9 @@ class Receivers:
     vertex_count: int
     inward: np.ndarray | None = None   # (L, 3) m, from each corner to its triangle's centroid
     corner_id: np.ndarray | None = None  # (L,) int64 stable identity; None: the row
+    # (L, 3) unit geometric normal of each corner's face: its gather drops the directions of
+    # the smooth normal's hemisphere below that face, as a renderer does; None: none dropped
+    faces: np.ndarray | None = None
 
     @property
     def ids(self) -> np.ndarray:
