@@ -1,0 +1,85 @@
+#!/usr/bin/env python3
+"""Illumap at its default settings against the cached Cycles references of bench scenes, with no
+Cycles sweep (a diagnostic; ``bench/reference/run.py`` gives the published figures).
+
+Prints each scene's relative RMS over its vertices, per object, with the run's wall and
+process CPU seconds. ``--rounds N`` runs each scene N times; ``--without-corner-split`` adds,
+alternating in the same process, runs where a vertex's smooth corners share one evaluation
+across face planes (the drop of rays below each corner's face kept), to measure what the
+per-face split costs and buys.
+
+    .venv/bin/python bench/experiments/default_against_cached.py monkey cornell
+    .venv/bin/python bench/experiments/default_against_cached.py --rounds 2 --without-corner-split monkey
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import importlib
+import os
+import resource
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.dirname(HERE))
+sys.path.insert(0, os.path.dirname(os.path.dirname(HERE)))
+
+from reference import run  # noqa: E402
+
+
+def _cpu_seconds() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _variants(without_split: bool) -> list[tuple[str, object]]:
+    receive = importlib.import_module("illumap.gather.receive")
+    corners = importlib.import_module("illumap.gather.corners")
+    split = corners.merged_corners
+
+    def unsplit(occ, rec, *args, **kwargs):
+        return split(occ, dataclasses.replace(rec, faces=None), *args, **kwargs)
+
+    chosen = [("default", split)] + ([("no corner split", unsplit)] if without_split else [])
+    return [(label, (receive, fn)) for label, fn in chosen]
+
+
+def score(pipeline, name: str) -> tuple[dict, float, float]:
+    """One default run of scene ``name``: its scored row, wall s and process CPU s."""
+    import bpy
+    scene = run.scenes.build(name)
+    reference = run.load_reference(scene, 1)
+    objects, spans = run.scan_objects(scene)
+    cpu, wall = _cpu_seconds(), time.perf_counter()
+    pipeline.compute(bpy.context, objects, run.make_settings(pipeline, {}))
+    cpu, wall = _cpu_seconds() - cpu, time.perf_counter() - wall
+    values = {o.name: run.read_illumination(o) for o in scene.scored if o.name not in spans}
+    values.update(run.read_scan(spans) if spans else {})
+    row = run._scored_row(scene, "default", "illumap", values, reference["outgoing"], wall)
+    return row, wall, cpu
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("scenes", nargs="+")
+    parser.add_argument("--rounds", type=int, default=1)
+    parser.add_argument("--without-corner-split", action="store_true")
+    args = parser.parse_args()
+    pipeline = run.register_addon()
+    variants = _variants(args.without_corner_split)
+    for _ in range(args.rounds):
+        for name in args.scenes:
+            for label, (module, fn) in variants:
+                module.merged_corners = fn
+                row, wall, cpu = score(pipeline, name)
+                objects = row.get("objects") or {}
+                parts = " ".join(f"{k} {v.get('relative_rms', float('nan')):.4f}"
+                                 for k, v in objects.items()) if isinstance(objects, dict) else ""
+                print(f"{name} [{label}]: relative RMS {row['relative_rms']:.4f}, {wall:.2f} s wall, "
+                      f"{cpu:.2f} s CPU  {parts}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
