@@ -104,8 +104,11 @@ def cpu_model_object(target: Target) -> Path:
             raise SystemExit("gcc is missing (scripts/setup_env.sh installs g++)")
         libgcc = Path(subprocess.run([gcc, "-print-libgcc-file-name"], text=True,
                                      capture_output=True, check=True).stdout.strip())
-    subprocess.run(["ar", "x", str(libgcc), "cpuinfo.o"], cwd=folder, check=True)
-    return folder / "cpuinfo.o"
+    extracted = folder / "cpuinfo.o"
+    # Extracting again would give it a new time stamp, and every build after would relink.
+    if not extracted.exists() or extracted.stat().st_mtime < libgcc.stat().st_mtime:
+        subprocess.run(["ar", "x", str(libgcc), "cpuinfo.o"], cwd=folder, check=True)
+    return extracted
 
 
 def build_linux(python: Path, target: Target, output_dir: Path) -> Path:
