@@ -26,37 +26,19 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import build_embree  # noqa: E402
-from windows_native_tests import EMBREE_LIBRARIES, SOURCES, SRC, TESTS  # noqa: E402
-from zig_toolchain import ROOT, TARGETS, toolchain_file  # noqa: E402
+from native_test_build import QUAD_TESTS, build_visibility_tests  # noqa: E402
+from zig_toolchain import ROOT  # noqa: E402
 
 OUT = ROOT / "build" / "native-tests" / "linux-x64"
 SHIM = ROOT / "scripts" / "embree_config_shim.cpp"
-# The exact-mode tests run again with squares instead of discs, as core/tests_native/run.sh does.
-QUAD_TESTS = "degenerate occluder half rooms scale reciprocity furnace coverage"
 # A quick test whose scenes show the dispatch (discs and triangles both).
 DISPATCH_TEST = "occluder"
 
 
 def build() -> Path:
     """Compile and link test_visibility for linux-x64; return its path."""
-    target = TARGETS["linux-x64"]
-    install = build_embree.build(target).parents[2]  # <install>/lib/cmake/embree-x.y.z
-    compiler = toolchain_file(target).parent / "c++"
-    OUT.mkdir(parents=True, exist_ok=True)
-    exe = OUT / "test_visibility"
-    libraries = [f"-l{name}" for name in EMBREE_LIBRARIES
-                 if (install / "lib" / f"lib{name}.a").is_file()]
-    command = [str(compiler), "-std=c++17", "-O2", "-Wall", "-I", str(SRC),
-               "-I", str(install / "include"), str(TESTS / "test_visibility.cpp"), str(SHIM),
-               *(str(SRC / name) for name in SOURCES), "-L", str(install / "lib"),
-               "-Wl,--wrap=rtcNewDevice", "-Wl,--start-group", *libraries, "-Wl,--end-group",
-               "-pthread", "-o", str(exe)]
-    result = subprocess.run(command, text=True, capture_output=True)
-    if result.returncode != 0:
-        sys.stderr.write(result.stdout + result.stderr)
-        raise SystemExit("test_visibility did not build")
-    return exe
+    return build_visibility_tests("linux-x64", OUT / "test_visibility", extra_sources=(SHIM,),
+                                  extra_flags=("-Wl,--wrap=rtcNewDevice", "-pthread"))
 
 
 def run(exe: Path, config: str, only: str = "", shape: str = "", capture: bool = False

@@ -21,17 +21,10 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import build_embree  # noqa: E402
-from zig_toolchain import ROOT, TARGETS, toolchain_file  # noqa: E402
+from native_test_build import QUAD_TESTS, build_visibility_tests  # noqa: E402
+from zig_toolchain import ROOT  # noqa: E402
 
-SRC = ROOT / "core" / "src"
-TESTS = ROOT / "core" / "tests_native"
 OUT = ROOT / "build" / "windows-native"
-SOURCES = ("visibility/visibility.cpp", "visibility/visibility_factory.cpp", "visibility/raycast.cpp",
-           "visibility/seed_visibility.cpp", "geometry/octree.cpp")
-# Embree's static libraries, the kernels first (they use the others).
-EMBREE_LIBRARIES = ("embree3", "embree_avx2", "embree_sse42", "embree_avx", "lexers", "tasking",
-                    "sys", "math", "simd")
 WINE_CANDIDATES = ("wine64", "/usr/lib/wine/wine64", "wine")
 
 
@@ -46,23 +39,7 @@ def wine() -> str | None:
 
 def build() -> Path:
     """Compile and link test_visibility.exe; return its path."""
-    target = TARGETS["windows-x64"]
-    embree_cmake = build_embree.build(target)
-    install = embree_cmake.parents[2]  # <install>/lib/cmake/embree-x.y.z
-    compiler = toolchain_file(target).parent / "c++"
-    OUT.mkdir(parents=True, exist_ok=True)
-    exe = OUT / "test_visibility.exe"
-    libraries = [f"-l{name}" for name in EMBREE_LIBRARIES
-                 if (install / "lib" / f"lib{name}.a").is_file()]
-    command = [str(compiler), "-std=c++17", "-O2", "-Wall", "-I", str(SRC),
-               "-I", str(install / "include"), str(TESTS / "test_visibility.cpp"),
-               *(str(SRC / name) for name in SOURCES), "-L", str(install / "lib"),
-               "-Wl,--start-group", *libraries, "-Wl,--end-group", "-o", str(exe)]
-    result = subprocess.run(command, text=True, capture_output=True)
-    if result.returncode != 0:
-        sys.stderr.write(result.stdout + result.stderr)
-        raise SystemExit("test_visibility.exe did not build")
-    return exe
+    return build_visibility_tests("windows-x64", OUT / "test_visibility.exe")
 
 
 def run(exe: Path, only: str = "", shape: str = "") -> int:
@@ -88,8 +65,8 @@ def main() -> int:
     if args.build_only:
         return 0
     status = run(exe, args.only)
-    # The exact-mode tests again with squares instead of discs, as core/tests_native/run.sh does.
-    quad = run(exe, "degenerate occluder half rooms scale reciprocity furnace coverage", "quad")
+    # The exact-mode tests again with squares instead of discs.
+    quad = run(exe, QUAD_TESTS, "quad")
     return status or quad
 
 
