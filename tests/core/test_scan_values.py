@@ -322,3 +322,58 @@ def test_only_points_beside_a_second_face_are_grouped_and_nothing_changes():
     np.testing.assert_array_equal(got.own, ~crease)
     looked = scan_values._may_crease(p, n, rows, idx, dist)
     assert crease.sum() > 50 and looked[crease].all() and looked.mean() < 0.5
+
+
+def block_on_floor(angle_deg=17.0, floor_cell=0.1, block_cell=0.09, size=0.5, height=0.6):
+    """A floor grid (``floor_cell``) and an open-bottomed block standing on it (its four
+    sides and top on ``block_cell`` grids, each face's rim its own points, as the Cornell
+    box's blocks are scanned), turned by ``angle_deg`` about z so that its grids and the
+    floor's do not line up. Returns (points, outward normals, block centre (x, y), the
+    block's bottom-ring rows, its corner rows)."""
+    t = np.arange(0.0, 2.0 + 1e-9, floor_cell)
+    u, v = (a.ravel() for a in np.meshgrid(t, t))
+    floor = np.column_stack([u, v, np.zeros_like(u)])
+    a = np.radians(angle_deg)
+    turn = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0, 0, 1.0]])
+    centre = np.array([1.03, 0.97, 0.0])
+    s = np.linspace(-size / 2, size / 2, int(round(size / block_cell)) + 1)
+    h = np.linspace(0.0, height, int(round(height / block_cell)) + 1)
+    parts, normals = [], []
+    for axis, sign in ((0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0)):
+        a1, a2 = np.meshgrid(s, h)
+        side = np.zeros((a1.size, 3))
+        side[:, axis] = sign * size / 2
+        side[:, 1 - axis], side[:, 2] = a1.ravel(), a2.ravel()
+        out = np.zeros(3)
+        out[axis] = sign
+        parts.append(side)
+        normals.append(np.tile(out, (len(side), 1)))
+    a1, a2 = np.meshgrid(s, s)
+    parts.append(np.column_stack([a1.ravel(), a2.ravel(), np.full(a1.size, height)]))
+    normals.append(np.tile([0.0, 0.0, 1.0], (a1.size, 1)))
+    block = np.concatenate(parts) @ turn.T + centre
+    block_n = np.concatenate(normals) @ turn.T
+    p = np.concatenate([floor, block])
+    n = np.concatenate([np.tile([0.0, 0.0, 1.0], (len(floor), 1)), block_n])
+    ring = len(floor) + np.flatnonzero(block[:, 2] == 0.0)
+    local = (block[:, :2] - centre[:2]) @ turn[:2, :2]
+    corner = len(floor) + np.flatnonzero((block[:, 2] == 0.0) &
+                                         (np.abs(local) > size / 2 - 1e-9).all(axis=1))
+    return p, n, centre[:2], ring, corner, (turn, size)
+
+
+def test_a_block_standing_on_a_floor_takes_the_floor_outside_it():
+    """Where a block stands on a floor, its bottom ring's points lie on the floor's plane too,
+    with floor points all around them (under the block as well). The floor's light there is
+    what it receives beside the block: it is evaluated a hair outside the block, on the side
+    the block's face faces, never inside the block (where it would read dark)."""
+    p, n, centre, ring, corner, (turn, size) = block_on_floor()
+    c = crease_surfaces(p, n)
+    floor_faces = np.flatnonzero(np.isin(c.rows, ring) & (c.normals[:, 2] > 0.99))
+    looked = np.unique(c.rows[floor_faces])
+    edges = np.setdiff1d(ring, corner)
+    assert np.isin(edges, looked).mean() > 0.9
+    local = (c.points[floor_faces, :2] - centre) @ turn[:2, :2]
+    outside = (np.abs(local) > size / 2).any(axis=1)
+    assert outside.all(), f"{int((~outside).sum())} of {len(outside)} evaluated inside the block"
+    assert (c.points[floor_faces, 2] > 0.0).all()

@@ -328,12 +328,47 @@ def _crease_faces(p, n, rows, idx, dist, crease) -> tuple:
         v -= np.einsum("ec,ec->e", v, faces[rs, g[short]])[:, None] * faces[rs, g[short]]
         norm = np.linalg.norm(v, axis=1, keepdims=True)
         inward[short] = np.where(norm > 1e-12, v / np.maximum(norm, 1e-300), inward[short])
+    _open_side(inward, r, g, face & mine[:, None], faces, members, er, en, scale)
     # A hair off the face too: near an edge the neighbours' splats tilt a little, and from
     # the face's exact plane a receiver would start behind them.
     at = p[rows[r]] + CREASE_INSET * scale[r, None] * (inward + faces[r, g])
     out = np.concatenate([rows[r], rows[er]]).astype(np.int64)
     order = np.argsort(out, kind="stable")
     return out[order], np.concatenate([faces[r, g], en])[order], np.concatenate([at, eat])[order]
+
+
+def _open_side(inward, r, g, face, faces, members, er, en, scale) -> None:
+    """Point each face that goes on past the point into its open part, in place: where
+    another face of the point rests on it or crosses it (a block standing on a floor,
+    intersecting parts), the face's points lie on both sides of the other's plane, and only
+    the side the other faces is open; evaluated the other way (into the block) it reads
+    dark. ``inward`` (E, 3): the direction into each face (``r``, ``g``: its point and group)
+    so far; ``er``, ``en``: the faces ``_corner_faces`` inferred."""
+    if not len(r):
+        return
+    towards = np.zeros((len(r), 3))
+    margin = CREASE_ON_PLANE * scale[r]
+
+    def add(entries, normal, ok):
+        side = np.einsum("ekc,ec->ek", members[r[entries], g[entries]], normal)
+        both = ok & (side > margin[entries, None]).any(axis=1) & \
+            (side < -margin[entries, None]).any(axis=1)
+        np.add.at(towards, entries[both], normal[both])
+
+    every = np.arange(len(r))
+    for h in range(face.shape[1]):                      # the other faces found at the point
+        add(every, faces[r, h], face[r, h] & (g != h))
+    lo = np.searchsorted(r, er, side="left")            # the inferred ones (r is sorted)
+    hi = np.searchsorted(r, er, side="right")
+    for step in range(face.shape[1]):
+        pick = lo + step < hi
+        if pick.any():
+            add(lo[pick] + step, en[pick], np.ones(int(pick.sum()), dtype=bool))
+    own = faces[r, g]
+    towards -= np.einsum("ec,ec->e", towards, own)[:, None] * own
+    length = np.linalg.norm(towards, axis=1, keepdims=True)
+    moved = length[:, 0] > 0.1
+    inward[moved] = towards[moved] / length[moved]
 
 
 def _corner_faces(p, rows, mine, face, faces, line, line_normal, members, scale) -> tuple:
