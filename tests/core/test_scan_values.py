@@ -377,3 +377,50 @@ def test_a_block_standing_on_a_floor_takes_the_floor_outside_it():
     outside = (np.abs(local) > size / 2).any(axis=1)
     assert outside.all(), f"{int((~outside).sum())} of {len(outside)} evaluated inside the block"
     assert (c.points[floor_faces, 2] > 0.0).all()
+
+
+def floor_and_wall(n=11):
+    """A floor (z = 0) and a wall (y = 0) scanned as two objects sharing their junction's
+    points (twins): points, outward normals, the floor's rows, the wall's."""
+    t = np.linspace(0.0, 1.0, n)
+    u, v = (a.ravel() for a in np.meshgrid(t, t))
+    floor = np.column_stack([u, v, np.zeros_like(u)])
+    wall = np.column_stack([u, np.zeros_like(u), v])
+    p = np.concatenate([floor, wall])
+    nrm = np.concatenate([np.tile([0.0, 0, 1], (len(u), 1)), np.tile([0.0, 1, 0], (len(u), 1))])
+    return p, nrm, np.arange(len(u)), len(u) + np.arange(len(u))
+
+
+def test_twin_points_of_different_colours_take_their_own_surface():
+    """Where a red wall meets a white floor, the junction's white point was scanned on the
+    floor and the red one on the wall: given the colours, each takes its own surface's light
+    alone (one face, that surface's normal), the twins no longer the mean of both."""
+    p, n, floor, wall = floor_and_wall()
+    albedo = np.where(np.isin(np.arange(len(p)), wall)[:, None], [0.6, 0.05, 0.05], [0.7, 0.7, 0.7])
+    c = crease_surfaces(p, n, albedo=albedo)
+    junction = np.flatnonzero((p[:, 1] == 0.0) & (p[:, 2] == 0.0))
+    assert len(junction) == 22
+    for i in junction:
+        faces = c.normals[c.rows == i]
+        want = 2 if i in floor else 1          # the axis of the point's own surface's normal
+        assert not c.own[i] and len(faces) >= 1
+        assert (np.abs(faces[:, want]) > 0.99).all(), (i, faces)
+
+
+def test_twin_points_whose_colour_every_face_has_take_all_faces():
+    """A checkered floor meeting a wall of one of its colours: the colour of a twin does not
+    tell its surface (both faces have points of it), so it stands for both, as without
+    colours; a floor point of the other colour next to the junction, on the floor alone,
+    keeps its own normal."""
+    p, n, floor, wall = floor_and_wall()
+    white, black = [0.8, 0.8, 0.8], [0.05, 0.05, 0.05]
+    cell = (np.floor(p[:, 0] * 10 + 1e-9) + np.floor(p[:, 1] * 10 + 1e-9)) % 2
+    albedo = np.where(np.isin(np.arange(len(p)), floor)[:, None] & (cell[:, None] == 1), black, white)
+    plain = crease_surfaces(p, n)
+    c = crease_surfaces(p, n, albedo=albedo)
+    junction = np.flatnonzero((p[:, 1] == 0.0) & (p[:, 2] == 0.0))
+    white_twins = [i for i in junction if (albedo[i] == white).all()]
+    assert len(white_twins) >= 11
+    for i in white_twins:
+        np.testing.assert_array_equal(c.normals[c.rows == i], plain.normals[plain.rows == i])
+    np.testing.assert_array_equal(c.own, plain.own)
