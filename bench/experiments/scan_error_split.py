@@ -134,13 +134,17 @@ def _solved(bpy, scene, result, spans, values, reference, regions, args) -> None
         along = (np.einsum("pc,pc->p", job.normals[src.start:src.stop], true_n) > 0)[:, None]
         other = result.radiosity[back.start:back.stop]
         solved, inner = np.where(along, solved, other), np.where(along, other, solved)
-        direct = np.where(along, job.direct[back.start:back.stop],
-                          job.direct[src.start:src.stop]) if job.direct is not None else None
+        direct = None
+        if job.direct is not None:
+            ahead, behind = job.direct[src.start:src.stop], job.direct[back.start:back.stop]
+            direct = (np.where(along, behind, ahead), np.where(along, ahead, behind))
         for n, (s, c) in spans.items():
-            lit = "" if direct is None else (f", its direct light {direct[s:s + c].mean():.5f} "
-                                            f"({int((direct[s:s + c].max(axis=1) > 0).sum())} lit)")
+            lit = "" if direct is None else (
+                f" (direct {direct[0][s:s + c].mean():.5f}, "
+                f"{int((direct[0][s:s + c].max(axis=1) > 0).sum())} lit)")
+            out = "" if direct is None else f" (direct {direct[1][s:s + c].mean():.5f})"
             print(f"    {n:10s} solved inner side {inner[s:s + c].mean():.4f}{lit}, outer "
-                  f"{solved[s:s + c].mean():.4f}, Cycles {reference[n].mean():.4f}")
+                  f"{solved[s:s + c].mean():.4f}{out}, Cycles {reference[n].mean():.4f}")
     surf = {n: solved[s:s + c] for n, (s, c) in spans.items()}
     surf.update({o.name: values[o.name] for o in scene.scored if o.name not in spans})
     report("solved surfels at the points", scene, surf, reference, regions)
