@@ -424,3 +424,16 @@ def test_twin_points_whose_colour_every_face_has_take_all_faces():
     for i in white_twins:
         np.testing.assert_array_equal(c.normals[c.rows == i], plain.normals[plain.rows == i])
     np.testing.assert_array_equal(c.own, plain.own)
+
+
+def test_twins_of_one_noisy_colour_take_all_faces():
+    """A floor and a wall of the same paint scanned with colour noise (±0.05 per channel): a
+    twin's colour lies within both faces' spread, so it tells nothing, and each twin stands
+    for both faces, as without colours."""
+    p, n, floor, wall = floor_and_wall()
+    rng = np.random.default_rng(5)
+    albedo = np.clip(0.6 + rng.uniform(-0.05, 0.05, (len(p), 3)), 0.0, 1.0)
+    plain = crease_surfaces(p, n)
+    c = crease_surfaces(p, n, albedo=albedo)
+    np.testing.assert_array_equal(c.rows, plain.rows)
+    np.testing.assert_array_equal(c.normals, plain.normals)

@@ -225,11 +225,11 @@ def crease_surfaces(points, normals, *, k: int = CREASE_NEIGHBOURS, albedo=None,
     near an edge but not on it lies on one face's planes only and keeps its own value.
     Concave creases count as convex ones do; so do twins (points at the same position, where
     two scanned objects touch), which cannot be told apart by place and both take the faces'
-    mean. Their colour can tell them apart: given the points' ``albedo`` (P, 3), a point whose
-    colour some of its faces' points have (within ``CREASE_SAME_COLOUR``) and others' do not
-    lies on the former (a red wall's point where it meets a white floor) and takes their
-    light alone; where every face or none has its colour (a textured or uniform surface), it
-    takes them all.
+    mean. Their colour can tell them apart: given the points' ``albedo`` (P, 3), a point
+    leaves out the faces whose points are all of another colour (``CREASE_OTHER_COLOUR``: a
+    red wall's point where it meets a white floor takes the wall's light alone), unless all
+    its faces are; one surface scanned with noisy colour, or a checkered floor's twin (the
+    floor has its colour too), takes them all.
     ``progress(fraction, phase)`` hears each chunk of points (phase "creases"); returning
     False or raising cancels with ``illumap.Cancelled``.
     """
@@ -348,21 +348,23 @@ def _crease_faces(p, n, rows, idx, dist, crease, colour=None) -> tuple:
     return out[order], np.concatenate([faces[r, g], en])[order], np.concatenate([at, eat])[order]
 
 
-#: A face's point has a crease point's colour when no channel of their albedos differs by more.
-CREASE_SAME_COLOUR = 0.02
+#: A face is of another colour than a crease point when every one of its points' albedos
+#: differs from the point's by more than this in some channel (scan noise stays below it).
+CREASE_OTHER_COLOUR = 0.1
 
 
 def _faces_of_own_colour(colour, rows, idx, r, member, offsets, scale) -> np.ndarray:
-    """Which found faces (E,) a crease point keeps by colour (``crease_surfaces``): those
-    with a point of its own colour (itself and its twins, at its position, left out),
-    where some of its faces have one and others not; all of them elsewhere. ``r``: each
-    face's row among ``rows``; ``member`` (E, k + 1): the face's points among the row's
-    neighbours ``idx``; ``offsets`` (E, k + 1, 3) m, theirs from the point."""
-    apart = np.linalg.norm(offsets, axis=2) > 1e-6 * scale[:, None]
-    same = np.abs(colour[idx[r]] - colour[rows[r]][:, None, :]).max(axis=2) <= CREASE_SAME_COLOUR
-    has = (member & apart & same).any(axis=1)
-    with_colour = np.bincount(r, has, minlength=len(rows)) > 0
-    return has | ~with_colour[r]
+    """Which found faces (E,) a crease point keeps by colour (``crease_surfaces``): all but
+    those of another colour (``CREASE_OTHER_COLOUR``; itself and its twins, at its position,
+    left out), unless all are. A surface of one colour scanned with noise, or a checkered
+    floor (which has both colours), is never another colour. ``r``: each face's row among
+    ``rows``; ``member`` (E, k + 1): the face's points among the row's neighbours ``idx``;
+    ``offsets`` (E, k + 1, 3) m, theirs from the point."""
+    use = member & (np.linalg.norm(offsets, axis=2) > 1e-6 * scale[:, None])
+    apart = np.abs(colour[idx[r]] - colour[rows[r]][:, None, :]).max(axis=2)
+    other = np.where(use, apart, np.inf).min(axis=1) > CREASE_OTHER_COLOUR
+    own = np.bincount(r, ~other, minlength=len(rows)) > 0
+    return ~other | ~own[r]
 
 
 def _open_side(inward, r, g, face, faces, members, er, en, scale) -> None:
