@@ -322,3 +322,118 @@ def test_only_points_beside_a_second_face_are_grouped_and_nothing_changes():
     np.testing.assert_array_equal(got.own, ~crease)
     looked = scan_values._may_crease(p, n, rows, idx, dist)
     assert crease.sum() > 50 and looked[crease].all() and looked.mean() < 0.5
+
+
+def block_on_floor(angle_deg=17.0, floor_cell=0.1, block_cell=0.09, size=0.5, height=0.6):
+    """A floor grid (``floor_cell``) and an open-bottomed block standing on it (its four
+    sides and top on ``block_cell`` grids, each face's rim its own points, as the Cornell
+    box's blocks are scanned), turned by ``angle_deg`` about z so that its grids and the
+    floor's do not line up. Returns (points, outward normals, block centre (x, y), the
+    block's bottom-ring rows, its corner rows)."""
+    t = np.arange(0.0, 2.0 + 1e-9, floor_cell)
+    u, v = (a.ravel() for a in np.meshgrid(t, t))
+    floor = np.column_stack([u, v, np.zeros_like(u)])
+    a = np.radians(angle_deg)
+    turn = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0, 0, 1.0]])
+    centre = np.array([1.03, 0.97, 0.0])
+    s = np.linspace(-size / 2, size / 2, int(round(size / block_cell)) + 1)
+    h = np.linspace(0.0, height, int(round(height / block_cell)) + 1)
+    parts, normals = [], []
+    for axis, sign in ((0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0)):
+        a1, a2 = np.meshgrid(s, h)
+        side = np.zeros((a1.size, 3))
+        side[:, axis] = sign * size / 2
+        side[:, 1 - axis], side[:, 2] = a1.ravel(), a2.ravel()
+        out = np.zeros(3)
+        out[axis] = sign
+        parts.append(side)
+        normals.append(np.tile(out, (len(side), 1)))
+    a1, a2 = np.meshgrid(s, s)
+    parts.append(np.column_stack([a1.ravel(), a2.ravel(), np.full(a1.size, height)]))
+    normals.append(np.tile([0.0, 0.0, 1.0], (a1.size, 1)))
+    block = np.concatenate(parts) @ turn.T + centre
+    block_n = np.concatenate(normals) @ turn.T
+    p = np.concatenate([floor, block])
+    n = np.concatenate([np.tile([0.0, 0.0, 1.0], (len(floor), 1)), block_n])
+    ring = len(floor) + np.flatnonzero(block[:, 2] == 0.0)
+    local = (block[:, :2] - centre[:2]) @ turn[:2, :2]
+    corner = len(floor) + np.flatnonzero((block[:, 2] == 0.0) &
+                                         (np.abs(local) > size / 2 - 1e-9).all(axis=1))
+    return p, n, centre[:2], ring, corner, (turn, size)
+
+
+def test_a_block_standing_on_a_floor_takes_the_floor_outside_it():
+    """Where a block stands on a floor, its bottom ring's points lie on the floor's plane too,
+    with floor points all around them (under the block as well). The floor's light there is
+    what it receives beside the block: it is evaluated a hair outside the block, on the side
+    the block's face faces, never inside the block (where it would read dark)."""
+    p, n, centre, ring, corner, (turn, size) = block_on_floor()
+    c = crease_surfaces(p, n)
+    floor_faces = np.flatnonzero(np.isin(c.rows, ring) & (c.normals[:, 2] > 0.99))
+    looked = np.unique(c.rows[floor_faces])
+    edges = np.setdiff1d(ring, corner)
+    assert np.isin(edges, looked).mean() > 0.9
+    local = (c.points[floor_faces, :2] - centre) @ turn[:2, :2]
+    outside = (np.abs(local) > size / 2).any(axis=1)
+    assert outside.all(), f"{int((~outside).sum())} of {len(outside)} evaluated inside the block"
+    assert (c.points[floor_faces, 2] > 0.0).all()
+
+
+def floor_and_wall(n=11):
+    """A floor (z = 0) and a wall (y = 0) scanned as two objects sharing their junction's
+    points (twins): points, outward normals, the floor's rows, the wall's."""
+    t = np.linspace(0.0, 1.0, n)
+    u, v = (a.ravel() for a in np.meshgrid(t, t))
+    floor = np.column_stack([u, v, np.zeros_like(u)])
+    wall = np.column_stack([u, np.zeros_like(u), v])
+    p = np.concatenate([floor, wall])
+    nrm = np.concatenate([np.tile([0.0, 0, 1], (len(u), 1)), np.tile([0.0, 1, 0], (len(u), 1))])
+    return p, nrm, np.arange(len(u)), len(u) + np.arange(len(u))
+
+
+def test_twin_points_of_different_colours_take_their_own_surface():
+    """Where a red wall meets a white floor, the junction's white point was scanned on the
+    floor and the red one on the wall: given the colours, each takes its own surface's light
+    alone (one face, that surface's normal), the twins no longer the mean of both."""
+    p, n, floor, wall = floor_and_wall()
+    albedo = np.where(np.isin(np.arange(len(p)), wall)[:, None], [0.6, 0.05, 0.05], [0.7, 0.7, 0.7])
+    c = crease_surfaces(p, n, albedo=albedo)
+    junction = np.flatnonzero((p[:, 1] == 0.0) & (p[:, 2] == 0.0))
+    assert len(junction) == 22
+    for i in junction:
+        faces = c.normals[c.rows == i]
+        want = 2 if i in floor else 1          # the axis of the point's own surface's normal
+        assert not c.own[i] and len(faces) >= 1
+        assert (np.abs(faces[:, want]) > 0.99).all(), (i, faces)
+
+
+def test_twin_points_whose_colour_every_face_has_take_all_faces():
+    """A checkered floor meeting a wall of one of its colours: the colour of a twin does not
+    tell its surface (both faces have points of it), so it stands for both, as without
+    colours; a floor point of the other colour next to the junction, on the floor alone,
+    keeps its own normal."""
+    p, n, floor, wall = floor_and_wall()
+    white, black = [0.8, 0.8, 0.8], [0.05, 0.05, 0.05]
+    cell = (np.floor(p[:, 0] * 10 + 1e-9) + np.floor(p[:, 1] * 10 + 1e-9)) % 2
+    albedo = np.where(np.isin(np.arange(len(p)), floor)[:, None] & (cell[:, None] == 1), black, white)
+    plain = crease_surfaces(p, n)
+    c = crease_surfaces(p, n, albedo=albedo)
+    junction = np.flatnonzero((p[:, 1] == 0.0) & (p[:, 2] == 0.0))
+    white_twins = [i for i in junction if (albedo[i] == white).all()]
+    assert len(white_twins) >= 11
+    for i in white_twins:
+        np.testing.assert_array_equal(c.normals[c.rows == i], plain.normals[plain.rows == i])
+    np.testing.assert_array_equal(c.own, plain.own)
+
+
+def test_twins_of_one_noisy_colour_take_all_faces():
+    """A floor and a wall of the same paint scanned with colour noise (±0.05 per channel): a
+    twin's colour lies within both faces' spread, so it tells nothing, and each twin stands
+    for both faces, as without colours."""
+    p, n, floor, wall = floor_and_wall()
+    rng = np.random.default_rng(5)
+    albedo = np.clip(0.6 + rng.uniform(-0.05, 0.05, (len(p), 3)), 0.0, 1.0)
+    plain = crease_surfaces(p, n)
+    c = crease_surfaces(p, n, albedo=albedo)
+    np.testing.assert_array_equal(c.rows, plain.rows)
+    np.testing.assert_array_equal(c.normals, plain.normals)

@@ -207,7 +207,7 @@ class Creases:
         return out / np.maximum(count, 1)[:, None]
 
 
-def crease_surfaces(points, normals, *, k: int = CREASE_NEIGHBOURS,
+def crease_surfaces(points, normals, *, k: int = CREASE_NEIGHBOURS, albedo=None,
                     progress=None) -> Creases:
     """The faces that meet at each scan point on a crease, to light it by instead of the
     point's own outward ``normals`` (P, 3). Positions in metres.
@@ -224,7 +224,12 @@ def crease_surfaces(points, normals, *, k: int = CREASE_NEIGHBOURS,
     point (the edge's own points, their fits tilted between the faces) is no face. A point
     near an edge but not on it lies on one face's planes only and keeps its own value.
     Concave creases count as convex ones do; so do twins (points at the same position, where
-    two scanned objects touch), which cannot be told apart and both take the faces' mean.
+    two scanned objects touch), which cannot be told apart by place and both take the faces'
+    mean. Their colour can tell them apart: given the points' ``albedo`` (P, 3), a point
+    leaves out the faces whose points are all of another colour (``CREASE_OTHER_COLOUR``: a
+    red wall's point where it meets a white floor takes the wall's light alone), unless all
+    its faces are; one surface scanned with noisy colour, or a checkered floor's twin (the
+    floor has its colour too), takes them all.
     ``progress(fraction, phase)`` hears each chunk of points (phase "creases"); returning
     False or raising cancels with ``illumap.Cancelled``.
     """
@@ -232,6 +237,7 @@ def crease_surfaces(points, normals, *, k: int = CREASE_NEIGHBOURS,
     guard = ProgressGuard(progress)
     p = _rows3("points", points)
     n = _rows3("normals", normals, len(p))
+    colour = None if albedo is None else _rows3("albedo", albedo, len(p))
     P = len(p)
     nothing = Creases(np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros((0, 3)),
                       np.ones(P, dtype=bool))
@@ -247,7 +253,7 @@ def crease_surfaces(points, normals, *, k: int = CREASE_NEIGHBOURS,
         rows = np.arange(lo, min(lo + _CREASE_CHUNK, P))
         rows = rows[_may_crease(p, n, rows, idx[rows], dist[rows])]
         if len(rows):
-            found.append(_crease_faces(p, n, rows, idx[rows], dist[rows], crease))
+            found.append(_crease_faces(p, n, rows, idx[rows], dist[rows], crease, colour))
     r = np.concatenate([f[0] for f in found]) if found else np.zeros(0, dtype=np.int64)
     if len(r) == 0:
         return nothing
@@ -274,7 +280,7 @@ def _may_crease(p, n, rows, idx, dist) -> np.ndarray:
     return ~me.any(axis=1) | (free & differ).any(axis=1)
 
 
-def _crease_faces(p, n, rows, idx, dist, crease) -> tuple:
+def _crease_faces(p, n, rows, idx, dist, crease, colour=None) -> tuple:
     """``crease_surfaces`` for the points ``rows`` (their ``idx``, ``dist``: k + 1 nearest,
     themselves included): marks ``crease[rows]`` and returns (point, face normal, where to
     evaluate) per face of a crease point."""
@@ -289,6 +295,7 @@ def _crease_faces(p, n, rows, idx, dist, crease) -> tuple:
     local = np.arange(R)
     mean_normal = np.zeros((R, G, 3))
     members = np.zeros((R, G, idx.shape[1], 3))          # each group's offsets, 0 elsewhere
+    in_group = np.zeros((R, G, idx.shape[1]), dtype=bool)
     found = np.zeros((R, G), dtype=bool)
     key = np.where(me, -1.0, dist)
     for g in range(G):
@@ -300,6 +307,7 @@ def _crease_faces(p, n, rows, idx, dist, crease) -> tuple:
         found[:, g] = left & (member.sum(axis=1) >= CREASE_MIN_VOTES) & (length > 0)
         mean_normal[:, g] = total / np.maximum(length, 1e-300)[:, None]
         members[:, g] = member[..., None] * offsets
+        in_group[:, g] = member
         free &= ~member
     faces, on_line = plane_through(members)
     faces *= np.where(np.einsum("pgc,pgc->pg", faces, mean_normal) < 0, -1.0, 1.0)[..., None]
@@ -328,12 +336,69 @@ def _crease_faces(p, n, rows, idx, dist, crease) -> tuple:
         v -= np.einsum("ec,ec->e", v, faces[rs, g[short]])[:, None] * faces[rs, g[short]]
         norm = np.linalg.norm(v, axis=1, keepdims=True)
         inward[short] = np.where(norm > 1e-12, v / np.maximum(norm, 1e-300), inward[short])
+    _open_side(inward, r, g, face & mine[:, None], faces, members, er, en, scale)
     # A hair off the face too: near an edge the neighbours' splats tilt a little, and from
     # the face's exact plane a receiver would start behind them.
     at = p[rows[r]] + CREASE_INSET * scale[r, None] * (inward + faces[r, g])
+    keep = np.ones(len(r), dtype=bool) if colour is None else \
+        _faces_of_own_colour(colour, rows, idx, r, in_group[r, g], offsets[r], scale[r])
+    r, g, at = r[keep], g[keep], at[keep]
     out = np.concatenate([rows[r], rows[er]]).astype(np.int64)
     order = np.argsort(out, kind="stable")
     return out[order], np.concatenate([faces[r, g], en])[order], np.concatenate([at, eat])[order]
+
+
+#: A face is of another colour than a crease point when every one of its points' albedos
+#: differs from the point's by more than this in some channel (scan noise stays below it).
+CREASE_OTHER_COLOUR = 0.1
+
+
+def _faces_of_own_colour(colour, rows, idx, r, member, offsets, scale) -> np.ndarray:
+    """Which found faces (E,) a crease point keeps by colour (``crease_surfaces``): all but
+    those of another colour (``CREASE_OTHER_COLOUR``; itself and its twins, at its position,
+    left out), unless all are. A surface of one colour scanned with noise, or a checkered
+    floor (which has both colours), is never another colour. ``r``: each face's row among
+    ``rows``; ``member`` (E, k + 1): the face's points among the row's neighbours ``idx``;
+    ``offsets`` (E, k + 1, 3) m, theirs from the point."""
+    use = member & (np.linalg.norm(offsets, axis=2) > 1e-6 * scale[:, None])
+    apart = np.abs(colour[idx[r]] - colour[rows[r]][:, None, :]).max(axis=2)
+    other = np.where(use, apart, np.inf).min(axis=1) > CREASE_OTHER_COLOUR
+    own = np.bincount(r, ~other, minlength=len(rows)) > 0
+    return ~other | ~own[r]
+
+
+def _open_side(inward, r, g, face, faces, members, er, en, scale) -> None:
+    """Point each face that goes on past the point into its open part, in place: where
+    another face of the point rests on it or crosses it (a block standing on a floor,
+    intersecting parts), the face's points lie on both sides of the other's plane, and only
+    the side the other faces is open; evaluated the other way (into the block) it reads
+    dark. ``inward`` (E, 3): the direction into each face (``r``, ``g``: its point and group)
+    so far; ``er``, ``en``: the faces ``_corner_faces`` inferred."""
+    if not len(r):
+        return
+    towards = np.zeros((len(r), 3))
+    margin = CREASE_ON_PLANE * scale[r]
+
+    def add(entries, normal, ok):
+        side = np.einsum("ekc,ec->ek", members[r[entries], g[entries]], normal)
+        both = ok & (side > margin[entries, None]).any(axis=1) & \
+            (side < -margin[entries, None]).any(axis=1)
+        np.add.at(towards, entries[both], normal[both])
+
+    every = np.arange(len(r))
+    for h in range(face.shape[1]):                      # the other faces found at the point
+        add(every, faces[r, h], face[r, h] & (g != h))
+    lo = np.searchsorted(r, er, side="left")            # the inferred ones (r is sorted)
+    hi = np.searchsorted(r, er, side="right")
+    for step in range(face.shape[1]):
+        pick = lo + step < hi
+        if pick.any():
+            add(lo[pick] + step, en[pick], np.ones(int(pick.sum()), dtype=bool))
+    own = faces[r, g]
+    towards -= np.einsum("ec,ec->e", towards, own)[:, None] * own
+    length = np.linalg.norm(towards, axis=1, keepdims=True)
+    moved = length[:, 0] > 0.1
+    inward[moved] = towards[moved] / length[moved]
 
 
 def _corner_faces(p, rows, mine, face, faces, line, line_normal, members, scale) -> tuple:

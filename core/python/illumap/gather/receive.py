@@ -278,7 +278,8 @@ def _scan_values(ev: Evaluation, point_sets: list, scan_parts: list, rest_values
             values[done] = chosen
             values[both] = np.where(side[both, None], along, against)
             outward = np.where(side[:, None], front.normals, -front.normals)
-            faces = crease_surfaces(front.points, outward, progress=ev.report)
+            faces = crease_surfaces(front.points, outward, albedo=front.albedo,
+                                    progress=ev.report)
             if len(faces.rows):
                 r = faces.rows
                 extra, _, more, _ = ev.incident_at(faces.points, faces.normals, r)
