@@ -391,12 +391,14 @@ void GatherPlan::gather(Context& ctx, const double* positions, const double* nor
                         const std::int64_t* ids, std::size_t m, int rays, std::uint64_t seed,
                         const std::int32_t* rays_per, double* out, double* stderr_out,
                         double* reach_out, double* open_out, double* halves_out,
-                        const double* faces) const {
+                        const double* faces, const FaceShares* shares) const {
     const MeshScene& scene = scene_;
     const SurfelField& front = front_;
     const SurfelField* back = back_;
     const double offset = opt_.offset;
     const double* background = opt_.background;
+    if (shares && shares->count && !shares->start)
+        throw std::invalid_argument("face shares need their receivers' offsets");
     std::size_t K_max = std::size_t(std::max(1, rays));
     if (rays_per)
         for (std::size_t i = 0; i < m; ++i)
@@ -408,7 +410,64 @@ void GatherPlan::gather(Context& ctx, const double* positions, const double* nor
         std::vector<std::int64_t> prim(K_max);
         std::vector<std::uint8_t> face(K_max);
         std::vector<float> uv(2 * K_max);
+        // Each ray's value and what it met (0: dropped, 1: nothing, 2: a surface at rdist),
+        // the lowest it leaves over the faces that share it, and a share's own casts.
+        std::vector<double> val(3 * K_max), rdist(K_max), low(K_max);
+        std::vector<std::uint8_t> state(K_max);
+        std::vector<double> sval(3 * K_max), sdist_(K_max);
+        std::vector<std::uint8_t> sstate(K_max);
+        std::vector<double> org2(3 * K_max), dir2(3 * K_max), dist2(K_max);
+        std::vector<std::int64_t> prim2(K_max);
+        std::vector<std::uint8_t> face2(K_max);
+        std::vector<float> uv2(2 * K_max);
+        std::vector<std::size_t> redo(K_max);
         KdTree::Best best{std::size_t(std::max(front.k(), back ? back->k() : 1))};
+        // The value ray k (from org/dir, what intersect found) takes, and its state.
+        auto take = [&](std::size_t k, const double* o, const double* d, const std::int64_t* pr,
+                        const std::uint8_t* fc, const float* u, const double* ds, double* v,
+                        std::uint8_t& st, double& rd) {
+            v[0] = background[0];
+            v[1] = background[1];
+            v[2] = background[2];
+            if (pr[k] < 0) {
+                st = 1;
+                return;
+            }
+            st = 2;
+            rd = ds[k];
+            const double q[3] = {o[3 * k] + ds[k] * d[3 * k], o[3 * k + 1] + ds[k] * d[3 * k + 1],
+                                 o[3 * k + 2] + ds[k] * d[3 * k + 2]};
+            hit_value(std::size_t(pr[k]), fc[k] != 0, u[2 * k], u[2 * k + 1], q, best, v);
+        };
+        // The mean and its statistics of K rays' values into row r of the outputs.
+        auto summarize = [&](std::size_t r, std::size_t K, const double* vs, const std::uint8_t* sts,
+                             const double* ds) {
+            double sum[3] = {0, 0, 0}, lum = 0, lum2 = 0, lum_odd = 0, nearness = 0;
+            std::size_t misses = 0;
+            for (std::size_t k = 0; k < K; ++k) {
+                const double* v = vs + 3 * k;
+                if (sts[k] == 0) continue;   // dropped: takes nothing
+                if (sts[k] == 1) ++misses;
+                else nearness += 1.0 / std::max(ds[k] + offset, 1e-300);
+                for (int c = 0; c < 3; ++c) sum[c] += v[c];
+                const double y = kLumR * v[0] + kLumG * v[1] + kLumB * v[2];
+                lum += y;
+                lum2 += y * y;
+                if (k & 1) lum_odd += y;
+            }
+            for (int c = 0; c < 3; ++c) out[3 * r + c] = sum[c] / double(K);
+            const double mean = lum / double(K);
+            const double var = std::max(0.0, lum2 / double(K) - mean * mean);
+            stderr_out[r] = std::sqrt(var / double(K));
+            if (halves_out) {
+                const std::size_t odd = K / 2, even = K - odd;
+                halves_out[r] = odd ? 0.5 * ((lum - lum_odd) / double(even) - lum_odd / double(odd))
+                                    : 0.0;
+            }
+            if (reach_out) reach_out[r] = nearness > 0 ? double(K) / nearness : HUGE_VAL;
+            if (open_out) open_out[r] = double(misses) / double(K);
+        };
+        auto dot3 = [](const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
         for (std::size_t i = lo; i < hi; ++i) {
             const double* p = positions + 3 * i;
             const double* n = normals + 3 * i;
@@ -420,40 +479,57 @@ void GatherPlan::gather(Context& ctx, const double* positions, const double* nor
                 for (int d = 0; d < 3; ++d) org[3 * k + d] = p[d] + offset * n[d];
             scene.intersect_serial(org.data(), dir.data(), K, HUGE_VAL, prim.data(), dist.data(),
                                    face.data(), uv.data());
-            double sum[3] = {0, 0, 0}, lum = 0, lum2 = 0, lum_odd = 0, nearness = 0;
-            std::size_t misses = 0;
+            const std::size_t s0 = shares ? std::size_t(shares->start[i]) : 0;
+            const std::size_t s1 = shares ? std::size_t(shares->start[i + 1]) : 0;
             for (std::size_t k = 0; k < K; ++k) {
-                double v[3] = {background[0], background[1], background[2]};
                 const double* dk = dir.data() + 3 * k;
-                if (g && dk[0] * g[0] + dk[1] * g[1] + dk[2] * g[2] <= 0.0) {
-                    v[0] = v[1] = v[2] = 0.0;   // below the receiver's face: dropped
-                } else if (prim[k] < 0) {
-                    ++misses;
-                } else {
-                    nearness += 1.0 / std::max(dist[k] + offset, 1e-300);
-                    const double q[3] = {org[3 * k] + dist[k] * dir[3 * k],
-                                         org[3 * k + 1] + dist[k] * dir[3 * k + 1],
-                                         org[3 * k + 2] + dist[k] * dir[3 * k + 2]};
-                    hit_value(std::size_t(prim[k]), face[k] != 0, uv[2 * k], uv[2 * k + 1], q,
-                              best, v);
+                low[k] = g ? dot3(dk, g) : 1.0;
+                for (std::size_t s = s0; s < s1; ++s) low[k] = std::min(low[k], dot3(dk, shares->faces + 3 * s));
+                if (g && dot3(dk, g) <= 0.0) {   // below the receiver's face: dropped
+                    state[k] = 0;
+                    val[3 * k] = val[3 * k + 1] = val[3 * k + 2] = 0.0;
+                    continue;
                 }
-                for (int c = 0; c < 3; ++c) sum[c] += v[c];
-                const double y = kLumR * v[0] + kLumG * v[1] + kLumB * v[2];
-                lum += y;
-                lum2 += y * y;
-                if (k & 1) lum_odd += y;
+                take(k, org.data(), dir.data(), prim.data(), face.data(), uv.data(), dist.data(),
+                     val.data() + 3 * k, state[k], rdist[k]);
             }
-            for (int c = 0; c < 3; ++c) out[3 * i + c] = sum[c] / double(K);
-            const double mean = lum / double(K);
-            const double var = std::max(0.0, lum2 / double(K) - mean * mean);
-            stderr_out[i] = std::sqrt(var / double(K));
-            if (halves_out) {
-                const std::size_t odd = K / 2, even = K - odd;
-                halves_out[i] = odd ? 0.5 * ((lum - lum_odd) / double(even) - lum_odd / double(odd))
-                                    : 0.0;
+            summarize(i, K, val.data(), state.data(), rdist.data());
+            // The corners that share the receiver's rays, each in its own face: a ray above
+            // every face of the group counts as cast; one below some face is cast again from
+            // the corner's own point (from the receiver's it could meet the face it is below);
+            // one below the corner's face takes nothing.
+            for (std::size_t s = s0; s < s1; ++s) {
+                const double* gs = shares->faces + 3 * s;
+                const double* ps = shares->positions + 3 * s;
+                std::size_t nredo = 0;
+                for (std::size_t k = 0; k < K; ++k) {
+                    const double* dk = dir.data() + 3 * k;
+                    if (dot3(dk, gs) <= 0.0) {
+                        sstate[k] = 0;
+                        sval[3 * k] = sval[3 * k + 1] = sval[3 * k + 2] = 0.0;
+                    } else if (low[k] > 0.0) {
+                        sstate[k] = state[k];
+                        sdist_[k] = rdist[k];
+                        for (int c = 0; c < 3; ++c) sval[3 * k + c] = val[3 * k + c];
+                    } else {
+                        for (int d = 0; d < 3; ++d) {
+                            org2[3 * nredo + d] = ps[d] + offset * n[d];
+                            dir2[3 * nredo + d] = dk[d];
+                        }
+                        redo[nredo++] = k;
+                    }
+                }
+                if (nredo) {
+                    scene.intersect_serial(org2.data(), dir2.data(), nredo, HUGE_VAL, prim2.data(),
+                                           dist2.data(), face2.data(), uv2.data());
+                    for (std::size_t j = 0; j < nredo; ++j) {
+                        const std::size_t k = redo[j];
+                        take(j, org2.data(), dir2.data(), prim2.data(), face2.data(), uv2.data(),
+                             dist2.data(), sval.data() + 3 * k, sstate[k], sdist_[k]);
+                    }
+                }
+                summarize(m + s, K, sval.data(), sstate.data(), sdist_.data());
             }
-            if (reach_out) reach_out[i] = nearness > 0 ? double(K) / nearness : HUGE_VAL;
-            if (open_out) open_out[i] = double(misses) / double(K);
         }
     });
 }

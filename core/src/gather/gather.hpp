@@ -80,6 +80,17 @@ void gather_lattices(const MeshScene& scene, const SurfelField& front, const Sur
                      const std::int64_t* owner_back, GatherLattice& front_out,
                      GatherLattice& back_out);
 
+// Corners that share a receiver's rays, each in a face of its own (a smooth vertex's corners,
+// whose triangles' planes differ): receiver i's are rows [start[i], start[i + 1]) (start: m + 1
+// offsets), each with its point and its face's unit geometric normal (count x 3 each). Its
+// normal and ray directions are the receiver's.
+struct FaceShares {
+    std::size_t count = 0;
+    const std::int64_t* start = nullptr;
+    const double* positions = nullptr;
+    const double* faces = nullptr;
+};
+
 // A gather prepared once for any number of receivers: the fields tabulated on the lattice
 // of every triangle that needs one. Preparing it reads every triangle, so many batches of
 // receivers in a large scene cost far less through one plan than through a plan each.
@@ -114,11 +125,18 @@ public:
     // face each receiver lies in; a ray of the shading normal's hemisphere that leaves below
     // that face takes nothing (a renderer's diffuse surface drops such directions: a smooth
     // normal tilted off its face does not see through its own surface).
+    // shares (may be null): corners that take the receivers' rays in faces of their own, one
+    // evaluation per receiver: their results follow the receivers' in every output (rows m ..
+    // m + shares->count - 1, the outputs sized for them). A ray above every face of its
+    // receiver's group counts for each corner whose face it is above as it was cast; one below
+    // some face of the group is cast again from that corner's own point; one below the
+    // corner's face takes nothing: each corner's mean is that of a gather of its own.
     void gather(Context& ctx, const double* positions, const double* normals,
                 const std::int64_t* ids, std::size_t m, int rays, std::uint64_t seed,
                 const std::int32_t* rays_per, double* out, double* stderr_out,
                 double* reach_out = nullptr, double* open_out = nullptr,
-                double* halves_out = nullptr, const double* faces = nullptr) const;
+                double* halves_out = nullptr, const double* faces = nullptr,
+                const FaceShares* shares = nullptr) const;
     // What a gather ray takes at each of m hits (triangle, front face or not, the point on
     // it, m x 3): out (m x 3) radiance, the tables' interpolation where they cover the
     // point, as in `gather`.
