@@ -371,8 +371,8 @@ class Gatherer:
         faces of their own, (start (M + 1,) int: receiver i's are rows start[i]:start[i + 1],
         their points (E, 3), their faces' unit normals (E, 3)); the result then has M + E
         rows, theirs after the receivers', each the mean a gather of its own would give (a
-        ray below some face of its receiver's group cast again from the corner's point; those
-        few casts are not in ``rays``, which counts the receivers' rays)."""
+        ray below its receiver's face and above its own cast again from the corner's point;
+        those few casts are not in ``rays``, which counts the receivers' rays)."""
         p = _rows3("positions", positions)
         n = _rows3("normals", normals, len(p))
         f = None if faces is None else _rows3("faces", faces, len(p))

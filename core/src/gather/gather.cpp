@@ -411,8 +411,8 @@ void GatherPlan::gather(Context& ctx, const double* positions, const double* nor
         std::vector<std::uint8_t> face(K_max);
         std::vector<float> uv(2 * K_max);
         // Each ray's value and what it met (0: dropped, 1: nothing, 2: a surface at rdist),
-        // the lowest it leaves over the faces that share it, and a share's own casts.
-        std::vector<double> val(3 * K_max), rdist(K_max), low(K_max);
+        // and a share's own casts.
+        std::vector<double> val(3 * K_max), rdist(K_max);
         std::vector<std::uint8_t> state(K_max);
         std::vector<double> sval(3 * K_max), sdist_(K_max);
         std::vector<std::uint8_t> sstate(K_max);
@@ -483,8 +483,6 @@ void GatherPlan::gather(Context& ctx, const double* positions, const double* nor
             const std::size_t s1 = shares ? std::size_t(shares->start[i + 1]) : 0;
             for (std::size_t k = 0; k < K; ++k) {
                 const double* dk = dir.data() + 3 * k;
-                low[k] = g ? dot3(dk, g) : 1.0;
-                for (std::size_t s = s0; s < s1; ++s) low[k] = std::min(low[k], dot3(dk, shares->faces + 3 * s));
                 if (g && dot3(dk, g) <= 0.0) {   // below the receiver's face: dropped
                     state[k] = 0;
                     val[3 * k] = val[3 * k + 1] = val[3 * k + 2] = 0.0;
@@ -495,9 +493,10 @@ void GatherPlan::gather(Context& ctx, const double* positions, const double* nor
             }
             summarize(i, K, val.data(), state.data(), rdist.data());
             // The corners that share the receiver's rays, each in its own face: a ray above
-            // every face of the group counts as cast; one below some face is cast again from
-            // the corner's own point (from the receiver's it could meet the face it is below);
-            // one below the corner's face takes nothing.
+            // the receiver's face and the corner's counts as cast (both points lie at the
+            // vertex: they see its other faces alike); one below the receiver's face only is
+            // cast again from the corner's own point (from the receiver's it enters the
+            // receiver's own surface); one below the corner's face takes nothing.
             for (std::size_t s = s0; s < s1; ++s) {
                 const double* gs = shares->faces + 3 * s;
                 const double* ps = shares->positions + 3 * s;
@@ -507,7 +506,7 @@ void GatherPlan::gather(Context& ctx, const double* positions, const double* nor
                     if (dot3(dk, gs) <= 0.0) {
                         sstate[k] = 0;
                         sval[3 * k] = sval[3 * k + 1] = sval[3 * k + 2] = 0.0;
-                    } else if (low[k] > 0.0) {
+                    } else if (state[k] != 0) {
                         sstate[k] = state[k];
                         sdist_[k] = rdist[k];
                         for (int c = 0; c < 3; ++c) sval[3 * k + c] = val[3 * k + c];

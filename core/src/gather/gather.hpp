@@ -127,9 +127,9 @@ public:
     // normal tilted off its face does not see through its own surface).
     // shares (may be null): corners that take the receivers' rays in faces of their own, one
     // evaluation per receiver: their results follow the receivers' in every output (rows m ..
-    // m + shares->count - 1, the outputs sized for them). A ray above every face of its
-    // receiver's group counts for each corner whose face it is above as it was cast; one below
-    // some face of the group is cast again from that corner's own point; one below the
+    // m + shares->count - 1, the outputs sized for them). A ray above the receiver's face and
+    // a corner's counts for the corner as it was cast (both points lie at the vertex); one
+    // above the corner's face only is cast again from the corner's own point; one below the
     // corner's face takes nothing: each corner's mean is that of a gather of its own.
     void gather(Context& ctx, const double* positions, const double* normals,
                 const std::int64_t* ids, std::size_t m, int rays, std::uint64_t seed,
