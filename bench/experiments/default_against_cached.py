@@ -8,7 +8,8 @@ alternating in the same process, runs where a vertex's smooth corners share one 
 across face planes (the drop of rays below each corner's face kept), to measure what the
 per-face split costs and buys; ``--separate-face-gathers`` runs where each face plane's
 corners cast rays of their own instead of taking their vertex's (``merged_corners``' casters).
-``--seeds`` runs each scene at these seeds (surfels and rays placed afresh: the noise).
+``--seeds`` runs each scene at these seeds (surfels and rays placed afresh: the noise);
+``--cpu-phases`` prints the receivers' phases in process CPU seconds after each run.
 
     .venv/bin/python bench/experiments/default_against_cached.py monkey cornell
     .venv/bin/python bench/experiments/default_against_cached.py --rounds 2 --without-corner-split monkey
@@ -55,6 +56,27 @@ def _variants(without_split: bool, separate: bool) -> list[tuple[str, object]]:
     return [(label, (receive, fn)) for label, fn in chosen]
 
 
+def _print_cpu_phases() -> None:
+    """Time the receivers' phases with the process's CPU clock (all threads), not the wall
+    clock, and print them after each run: on a shared machine the wall clock measures the
+    neighbours."""
+    import types
+    evaluation = importlib.import_module("illumap.gather.evaluation")
+    receive = importlib.import_module("illumap.gather.receive")
+    cpu_clock = types.SimpleNamespace(perf_counter=time.process_time)
+    evaluation.time = receive.time = cpu_clock
+    once = receive._receive_once
+
+    def printing(*args, **kwargs):
+        light = once(*args, **kwargs)
+        print("  receivers, CPU s: " + " ".join(
+            f"{k.replace('receivers: ', '')} {v:.2f}" for k, v in light.timings.items())
+            + f" ({light.stats['points']} evaluations)", flush=True)
+        return light
+
+    receive._receive_once = printing
+
+
 def score(pipeline, name: str, seed: int = 0) -> tuple[dict, float, float]:
     """One default run of scene ``name``: its scored row, wall s and process CPU s."""
     import bpy
@@ -77,8 +99,11 @@ def main() -> None:
     parser.add_argument("--without-corner-split", action="store_true")
     parser.add_argument("--separate-face-gathers", action="store_true")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0])
+    parser.add_argument("--cpu-phases", action="store_true")
     args = parser.parse_args()
     pipeline = run.register_addon()
+    if args.cpu_phases:
+        _print_cpu_phases()
     variants = _variants(args.without_corner_split, args.separate_face_gathers)
     for _ in range(args.rounds):
         for name, seed in [(n, s) for n in args.scenes for s in args.seeds]:

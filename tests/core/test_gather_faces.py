@@ -172,3 +172,26 @@ def test_shares_need_faces_and_consistent_offsets():
     with pytest.raises(Exception, match="share_start"):
         gatherer.gather(corners[:1], up, rays=8, faces=faces[:1],
                         shares=(np.array([0, 2]), corners[1:], faces[1:]))
+
+
+def test_a_vertex_casts_once_and_its_other_face_planes_take_its_rays():
+    """``face_rows``: the corners joined to one lead are a row per face plane; the lead's plane
+    casts (its caster is itself), the others take its rays; a corner that joined none casts."""
+    from types import SimpleNamespace
+
+    from illumap.gather.corners import face_rows
+    up = [0.0, 0.0, 1.0]
+    tilted = [0.0, np.sin(0.3), np.cos(0.3)]
+    other = [np.sin(0.3), 0.0, np.cos(0.3)]
+    # corners 0-3 join lead 1 (faces: up, tilted, up, other); corner 4 joined none
+    rec = SimpleNamespace(normals=np.tile(up, (5, 1)),
+                          faces=np.array([up, tilted, up, other, up]),
+                          ids=np.array([5, 1, 7, 3, 9]))
+    rows, index, casters = face_rows(rec, np.array([1, 1, 1, 1, 4]))
+    np.testing.assert_array_equal(rows, [0, 1, 3, 4])        # up (least id 5), tilted, other, 4
+    np.testing.assert_array_equal(rows[index], [0, 1, 0, 3, 4])
+    np.testing.assert_array_equal(casters, [1, 1, 1, 3])      # the lead's row casts for its vertex
+    flat = SimpleNamespace(normals=rec.normals, faces=None, ids=rec.ids)
+    rows, index, casters = face_rows(flat, np.array([1, 1, 1, 1, 4]))
+    np.testing.assert_array_equal(rows, [1, 4])
+    np.testing.assert_array_equal(casters, [0, 1])
