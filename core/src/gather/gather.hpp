@@ -145,6 +145,17 @@ public:
     std::size_t triangles() const { return scene_.size(); }
 
 private:
+    // Rays cast together and what the scene found for them (n entries each; org, dir n x 3).
+    struct RayBatchView {
+        const double *org, *dir, *dist;
+        const std::int64_t* prim;
+        const std::uint8_t* face;
+        const float* uv;
+    };
+    // What ray k of `b` takes: the background where it met nothing (state 1), else the value
+    // at its hit (state 2, dist its distance).
+    void take(const RayBatchView& b, std::size_t k, KdTree::Best& best, double* v,
+              std::uint8_t& state, double& dist) const;
     // The radiance a ray takes at a hit on triangle t (front face or back) at barycentric
     // (u, v) (Embree's: weights of corners 1 and 2), the point q.
     void hit_value(std::size_t t, bool front_face, double u, double v, const double q[3],
