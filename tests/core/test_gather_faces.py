@@ -117,6 +117,10 @@ def test_shared_rays_give_each_face_its_exact_share_of_the_sky():
     expected = 1.0 - (1.0 - np.cos(np.radians(RIDGE_TILTS_DEG))) / 2.0
     np.testing.assert_allclose(g.radiance[:, 0], expected, atol=TOLERANCE)
     np.testing.assert_allclose(g.open, g.radiance[:, 0], atol=1e-12)   # only the sky is lit
+    # Cast again: the rays below the first face (none of which is below the second, as the
+    # faces fall away on either side), a share (1 − cos θ₁) / 2 of the 4,096.
+    again = (1.0 - np.cos(np.radians(RIDGE_TILTS_DEG[0]))) / 2.0
+    assert g.rays - 4096 == pytest.approx(again * 4096, abs=TOLERANCE * 4096)
 
 
 def test_shared_rays_give_what_separate_gathers_give():

@@ -332,7 +332,7 @@ void bind_gather(nb::module_& m) {
                      self.plan->gather(ctx, P, N, I, m, rays, seed, per.empty() ? nullptr : per.data(),
                                        out, err, reach, open, halves, F, with_shares ? &sh : nullptr);
                  });
-                 return nb::make_tuple(a1, a2, a3, a4, a5);
+                 return nb::make_tuple(a1, a2, a3, a4, a5, std::size_t(sh.recast));
              },
              nb::arg("positions"), nb::arg("normals"), nb::arg("ids"), nb::kw_only(),
              nb::arg("rays"), nb::arg("seed") = 0, nb::arg("rays_per").none() = nb::none(),
@@ -341,8 +341,9 @@ void bind_gather(nb::module_& m) {
              nb::arg("threads") = 0, nb::arg("progress") = nb::none(),
              "Final gather: (mean radiance (M, 3), standard error of its luminance (M,), reach (M,) m, "
              "share of the rays that hit nothing (M,), half the difference of the even and odd "
-             "rays' mean luminance (M,)); with shares (corners taking the receivers' rays in faces "
-             "of their own: offsets (M + 1,), points and faces (E, 3)) each has M + E rows.")
+             "rays' mean luminance (M,), rays cast again for the shares); with shares (corners taking "
+             "the receivers' rays in faces of their own: offsets (M + 1,), points and faces (E, 3)) "
+             "each array has M + E rows.")
         .def("hit_values",
              [](PyGatherer& self, nb::handle triangles, nb::handle front, nb::handle points,
                 int threads) {

@@ -487,6 +487,7 @@ void GatherPlan::gather(Context& ctx, const double* positions, const double* nor
         RayValues lead(K_max), own(K_max);
         std::vector<std::size_t> redo(K_max);
         KdTree::Best best{std::size_t(std::max(front_.k(), back_ ? back_->k() : 1))};
+        std::size_t recast = 0;
         auto view = [](const RayBatch& b) {
             return RayBatchView{b.org.data(), b.dir.data(), b.dist.data(), b.prim.data(),
                                 b.face.data(), b.uv.data()};
@@ -535,6 +536,7 @@ void GatherPlan::gather(Context& ctx, const double* positions, const double* nor
                     }
                 }
                 if (nredo) {
+                    recast += nredo;
                     again.cast(scene, nredo);
                     const RayBatchView av = view(again);
                     for (std::size_t j = 0; j < nredo; ++j) {
@@ -545,6 +547,7 @@ void GatherPlan::gather(Context& ctx, const double* positions, const double* nor
                 rows.set(m + s, K, own);
             }
         }
+        if (shares) shares->recast += recast;
     });
 }
 

@@ -15,6 +15,7 @@
 #include "geometry/knn.hpp"
 #include "visibility/mesh_scene.hpp"
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -89,6 +90,7 @@ struct FaceShares {
     const std::int64_t* start = nullptr;
     const double* positions = nullptr;
     const double* faces = nullptr;
+    mutable std::atomic<std::size_t> recast{0};   // out: the rays cast again for them
 };
 
 // A gather prepared once for any number of receivers: the fields tabulated on the lattice
