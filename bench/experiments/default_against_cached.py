@@ -71,7 +71,7 @@ def _print_cpu_phases() -> None:
         light = once(*args, **kwargs)
         print("  receivers, CPU s: " + " ".join(
             f"{k.replace('receivers: ', '')} {v:.2f}" for k, v in light.timings.items())
-            + f" ({light.stats['points']} evaluations)", flush=True)
+            + f" ({light.stats['points']} evaluations, {light.stats['rays']} rays)", flush=True)
         return light
 
     receive._receive_once = printing
