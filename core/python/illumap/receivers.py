@@ -364,13 +364,25 @@ class Gatherer:
             progress=progress)
 
     def gather(self, positions, normals, *, rays, ids: np.ndarray | None = None, seed: int = 0,
-               faces=None, threads: int = 0,
+               faces=None, shares=None, threads: int = 0,
                progress: Progress | None = None) -> GatherResult:
         """Indirect incident radiance at receivers (``positions``, unit ``normals``, (M, 3)),
-        as ``gather``."""
+        as ``gather``. ``shares`` (with ``faces``): corners that take the receivers' rays in
+        faces of their own, (start (M + 1,) int: receiver i's are rows start[i]:start[i + 1],
+        their points (E, 3), their faces' unit normals (E, 3)); the result then has M + E
+        rows, theirs after the receivers', each the mean a gather of its own would give (a
+        ray below its receiver's face and above its own cast again from the corner's point;
+        ``rays`` counts the receivers' rays and these)."""
         p = _rows3("positions", positions)
         n = _rows3("normals", normals, len(p))
         f = None if faces is None else _rows3("faces", faces, len(p))
+        start = share_points = share_faces = None
+        if shares is not None:
+            if f is None:
+                raise InputError("shares need the receivers' faces")
+            start = np.ascontiguousarray(shares[0], dtype=np.int64).reshape(-1)
+            share_points = _rows3("share positions", shares[1])
+            share_faces = _rows3("share faces", shares[2], len(share_points))
         per = None
         if np.ndim(rays) == 0:
             if int(rays) < 1:
@@ -386,11 +398,12 @@ class Gatherer:
                else np.ascontiguousarray(ids, dtype=np.int64).reshape(-1))
         if len(ids) != len(p):
             raise InputError(f"ids must have {len(p)} entries, got {len(ids)}")
-        radiance, stderr, reach, open_, halves = self._gatherer.gather(
-            p, n, ids, rays=int(rays), seed=int(seed), rays_per=per, faces=f, threads=threads,
+        radiance, stderr, reach, open_, halves, recast = self._gatherer.gather(
+            p, n, ids, rays=int(rays), seed=int(seed), rays_per=per, faces=f, share_start=start,
+            share_positions=share_points, share_faces=share_faces, threads=threads,
             progress=progress)
-        return GatherResult(radiance=radiance, stderr=stderr, rays=count, reach=reach, open=open_,
-                            halves=halves)
+        return GatherResult(radiance=radiance, stderr=stderr, rays=count + int(recast),
+                            reach=reach, open=open_, halves=halves)
 
     def hit_values(self, triangles, front, points, *, threads: int = 0) -> np.ndarray:
         """What a gather ray takes (M, 3: outgoing radiance, W/(m² sr)) where it meets

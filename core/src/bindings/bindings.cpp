@@ -271,7 +271,8 @@ void bind_gather(nb::module_& m) {
              "A final gather prepared once for any number of receivers (its field tables).")
         .def("gather",
              [](PyGatherer& self, nb::handle positions, nb::handle normals, nb::handle ids, int rays,
-                std::uint64_t seed, nb::handle rays_per, nb::handle faces, int threads,
+                std::uint64_t seed, nb::handle rays_per, nb::handle faces, nb::handle share_start,
+                nb::handle share_positions, nb::handle share_faces, int threads,
                 nb::handle progress) {
                  const double *P, *N;
                  nb::object k1, k2, k3;
@@ -300,26 +301,49 @@ void bind_gather(nb::module_& m) {
                      F = view<double>(faces, "faces", 2, 3, nf, k7);
                      if (nf != m) throw nb::value_error("faces must have one row per receiver");
                  }
+                 // Corners sharing the receivers' rays in faces of their own (FaceShares).
+                 FaceShares sh;
+                 nb::object k8, k9, k10;
+                 const bool with_shares = share_start.is_valid() && !share_start.is_none();
+                 if (with_shares) {
+                     if (!F) throw nb::value_error("face shares need the receivers' faces");
+                     std::size_t ns, np_, nfs;
+                     sh.start = view<std::int64_t>(share_start, "share_start", 1, 0, ns, k8);
+                     if (ns != m + 1) throw nb::value_error("share_start must have one entry per receiver and one more");
+                     sh.positions = view<double>(share_positions, "share_positions", 2, 3, np_, k9);
+                     sh.faces = view<double>(share_faces, "share_faces", 2, 3, nfs, k10);
+                     if (np_ != nfs) throw nb::value_error("share_positions and share_faces must have as many rows");
+                     if (sh.start[0] != 0 || std::size_t(sh.start[m]) != np_)
+                         throw nb::value_error("share_start must run from 0 to the number of shares");
+                     for (std::size_t i = 0; i < m; ++i)
+                         if (sh.start[i + 1] < sh.start[i]) throw nb::value_error("share_start must not decrease");
+                     sh.count = np_;
+                 }
+                 const std::size_t rows = m + sh.count;
                  double *out, *err, *reach, *open, *halves;
-                 auto a1 = new_array(m, 3, &out);
-                 auto a2 = new_array(m, 0, &err);
-                 auto a3 = new_array(m, 0, &reach);
-                 auto a4 = new_array(m, 0, &open);
-                 auto a5 = new_array(m, 0, &halves);
+                 auto a1 = new_array(rows, 3, &out);
+                 auto a2 = new_array(rows, 0, &err);
+                 auto a3 = new_array(rows, 0, &reach);
+                 auto a4 = new_array(rows, 0, &open);
+                 auto a5 = new_array(rows, 0, &halves);
                  run_released(threads, progress, [&](Context& ctx) {
                      ctx.set_phase("gather", 0.0, 1.0);
                      checkpoint(ctx, 0.0);
                      self.plan->gather(ctx, P, N, I, m, rays, seed, per.empty() ? nullptr : per.data(),
-                                       out, err, reach, open, halves, F);
+                                       out, err, reach, open, halves, F, with_shares ? &sh : nullptr);
                  });
-                 return nb::make_tuple(a1, a2, a3, a4, a5);
+                 return nb::make_tuple(a1, a2, a3, a4, a5, std::size_t(sh.recast));
              },
              nb::arg("positions"), nb::arg("normals"), nb::arg("ids"), nb::kw_only(),
              nb::arg("rays"), nb::arg("seed") = 0, nb::arg("rays_per").none() = nb::none(),
-             nb::arg("faces").none() = nb::none(), nb::arg("threads") = 0, nb::arg("progress") = nb::none(),
+             nb::arg("faces").none() = nb::none(), nb::arg("share_start").none() = nb::none(),
+             nb::arg("share_positions").none() = nb::none(), nb::arg("share_faces").none() = nb::none(),
+             nb::arg("threads") = 0, nb::arg("progress") = nb::none(),
              "Final gather: (mean radiance (M, 3), standard error of its luminance (M,), reach (M,) m, "
              "share of the rays that hit nothing (M,), half the difference of the even and odd "
-             "rays' mean luminance (M,)).")
+             "rays' mean luminance (M,), rays cast again for the shares); with shares (corners taking "
+             "the receivers' rays in faces of their own: offsets (M + 1,), points and faces (E, 3)) "
+             "each array has M + E rows.")
         .def("hit_values",
              [](PyGatherer& self, nb::handle triangles, nb::handle front, nb::handle points,
                 int threads) {

@@ -387,74 +387,167 @@ void GatherPlan::hit_values(Context& ctx, const std::int64_t* triangles,
     });
 }
 
+namespace {
+
+// Rays cast together: origins, directions and what the scene found (MeshScene::intersect_serial).
+struct RayBatch {
+    std::vector<double> org, dir, dist;
+    std::vector<std::int64_t> prim;
+    std::vector<std::uint8_t> face;
+    std::vector<float> uv;
+    explicit RayBatch(std::size_t K)
+        : org(3 * K), dir(3 * K), dist(K), prim(K), face(K), uv(2 * K) {}
+    void cast(const MeshScene& scene, std::size_t n) {
+        scene.intersect_serial(org.data(), dir.data(), n, HUGE_VAL, prim.data(), dist.data(),
+                               face.data(), uv.data());
+    }
+};
+
+// What each of a receiver's rays takes: its value (3 each) and what it met (0: dropped, it
+// takes nothing; 1: nothing, the background; 2: a surface at `dist`).
+struct RayValues {
+    std::vector<double> value, dist;
+    std::vector<std::uint8_t> state;
+    explicit RayValues(std::size_t K) : value(3 * K), dist(K), state(K) {}
+    void drop(std::size_t k) {
+        state[k] = 0;
+        value[3 * k] = value[3 * k + 1] = value[3 * k + 2] = 0.0;
+    }
+};
+
+// The gather's outputs (GatherPlan::gather): row r takes the mean of K rays' values and its
+// statistics.
+struct GatherRows {
+    double *out, *stderr_out, *reach_out, *open_out, *halves_out;
+    double offset;
+    void set(std::size_t r, std::size_t K, const RayValues& rv) const {
+        double sum[3] = {0, 0, 0}, lum = 0, lum2 = 0, lum_odd = 0, nearness = 0;
+        std::size_t misses = 0;
+        for (std::size_t k = 0; k < K; ++k) {
+            if (rv.state[k] == 0) continue;   // dropped: takes nothing
+            const double* v = rv.value.data() + 3 * k;
+            if (rv.state[k] == 1) ++misses;
+            else nearness += 1.0 / std::max(rv.dist[k] + offset, 1e-300);
+            for (int c = 0; c < 3; ++c) sum[c] += v[c];
+            const double y = kLumR * v[0] + kLumG * v[1] + kLumB * v[2];
+            lum += y;
+            lum2 += y * y;
+            if (k & 1) lum_odd += y;
+        }
+        for (int c = 0; c < 3; ++c) out[3 * r + c] = sum[c] / double(K);
+        const double mean = lum / double(K);
+        const double var = std::max(0.0, lum2 / double(K) - mean * mean);
+        stderr_out[r] = std::sqrt(var / double(K));
+        if (halves_out) {
+            const std::size_t odd = K / 2, even = K - odd;
+            halves_out[r] = odd ? 0.5 * ((lum - lum_odd) / double(even) - lum_odd / double(odd)) : 0.0;
+        }
+        if (reach_out) reach_out[r] = nearness > 0 ? double(K) / nearness : HUGE_VAL;
+        if (open_out) open_out[r] = double(misses) / double(K);
+    }
+};
+
+double dot3(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+}  // namespace
+
+void GatherPlan::take(const RayBatchView& b, std::size_t k, KdTree::Best& best, double* v,
+                      std::uint8_t& state, double& dist) const {
+    for (int c = 0; c < 3; ++c) v[c] = opt_.background[c];
+    if (b.prim[k] < 0) {
+        state = 1;
+        return;
+    }
+    state = 2;
+    dist = b.dist[k];
+    const double* o = b.org + 3 * k;
+    const double* d = b.dir + 3 * k;
+    const double q[3] = {o[0] + dist * d[0], o[1] + dist * d[1], o[2] + dist * d[2]};
+    hit_value(std::size_t(b.prim[k]), b.face[k] != 0, b.uv[2 * k], b.uv[2 * k + 1], q, best, v);
+}
+
 void GatherPlan::gather(Context& ctx, const double* positions, const double* normals,
                         const std::int64_t* ids, std::size_t m, int rays, std::uint64_t seed,
                         const std::int32_t* rays_per, double* out, double* stderr_out,
                         double* reach_out, double* open_out, double* halves_out,
-                        const double* faces) const {
+                        const double* faces, const FaceShares* shares) const {
     const MeshScene& scene = scene_;
-    const SurfelField& front = front_;
-    const SurfelField* back = back_;
     const double offset = opt_.offset;
-    const double* background = opt_.background;
+    if (shares && shares->count && !shares->start)
+        throw std::invalid_argument("face shares need their receivers' offsets");
     std::size_t K_max = std::size_t(std::max(1, rays));
     if (rays_per)
         for (std::size_t i = 0; i < m; ++i)
             K_max = std::max(K_max, std::size_t(std::max(1, rays_per[i])));
     const std::size_t K_grain = std::size_t(std::max(1, rays));
+    const GatherRows rows{out, stderr_out, reach_out, open_out, halves_out, offset};
     ctx.set_phase("gather", 0.1, 0.9);
     parallel_for(ctx, m, std::max<std::size_t>(1, 4096 / K_grain), [&](std::size_t lo, std::size_t hi) {
-        std::vector<double> org(3 * K_max), dir(3 * K_max), dist(K_max);
-        std::vector<std::int64_t> prim(K_max);
-        std::vector<std::uint8_t> face(K_max);
-        std::vector<float> uv(2 * K_max);
-        KdTree::Best best{std::size_t(std::max(front.k(), back ? back->k() : 1))};
+        RayBatch cast(K_max), again(K_max);
+        RayValues lead(K_max), own(K_max);
+        std::vector<std::size_t> redo(K_max);
+        KdTree::Best best{std::size_t(std::max(front_.k(), back_ ? back_->k() : 1))};
+        std::size_t recast = 0;
+        auto view = [](const RayBatch& b) {
+            return RayBatchView{b.org.data(), b.dir.data(), b.dist.data(), b.prim.data(),
+                                b.face.data(), b.uv.data()};
+        };
         for (std::size_t i = lo; i < hi; ++i) {
             const double* p = positions + 3 * i;
             const double* n = normals + 3 * i;
             const double* g = faces ? faces + 3 * i : nullptr;
             const std::size_t K = rays_per ? std::size_t(std::max(1, rays_per[i]))
                                            : std::size_t(std::max(1, rays));
-            cosine_directions(n, K, ids ? ids[i] : std::int64_t(i), seed, dir.data());
+            cosine_directions(n, K, ids ? ids[i] : std::int64_t(i), seed, cast.dir.data());
             for (std::size_t k = 0; k < K; ++k)
-                for (int d = 0; d < 3; ++d) org[3 * k + d] = p[d] + offset * n[d];
-            scene.intersect_serial(org.data(), dir.data(), K, HUGE_VAL, prim.data(), dist.data(),
-                                   face.data(), uv.data());
-            double sum[3] = {0, 0, 0}, lum = 0, lum2 = 0, lum_odd = 0, nearness = 0;
-            std::size_t misses = 0;
+                for (int d = 0; d < 3; ++d) cast.org[3 * k + d] = p[d] + offset * n[d];
+            cast.cast(scene, K);
+            const RayBatchView cv = view(cast);
             for (std::size_t k = 0; k < K; ++k) {
-                double v[3] = {background[0], background[1], background[2]};
-                const double* dk = dir.data() + 3 * k;
-                if (g && dk[0] * g[0] + dk[1] * g[1] + dk[2] * g[2] <= 0.0) {
-                    v[0] = v[1] = v[2] = 0.0;   // below the receiver's face: dropped
-                } else if (prim[k] < 0) {
-                    ++misses;
-                } else {
-                    nearness += 1.0 / std::max(dist[k] + offset, 1e-300);
-                    const double q[3] = {org[3 * k] + dist[k] * dir[3 * k],
-                                         org[3 * k + 1] + dist[k] * dir[3 * k + 1],
-                                         org[3 * k + 2] + dist[k] * dir[3 * k + 2]};
-                    hit_value(std::size_t(prim[k]), face[k] != 0, uv[2 * k], uv[2 * k + 1], q,
-                              best, v);
+                if (g && dot3(cast.dir.data() + 3 * k, g) <= 0.0) lead.drop(k);   // below its face
+                else take(cv, k, best, lead.value.data() + 3 * k, lead.state[k], lead.dist[k]);
+            }
+            rows.set(i, K, lead);
+            // The corners that share the receiver's rays, each in its own face: a ray above
+            // the receiver's face and the corner's counts as cast (both points lie at the
+            // vertex: they see its other faces alike); one below the receiver's face only is
+            // cast again from the corner's own point (from the receiver's it enters the
+            // receiver's own surface); one below the corner's face takes nothing.
+            const std::size_t s0 = shares ? std::size_t(shares->start[i]) : 0;
+            const std::size_t s1 = shares ? std::size_t(shares->start[i + 1]) : 0;
+            for (std::size_t s = s0; s < s1; ++s) {
+                const double* gs = shares->faces + 3 * s;
+                const double* ps = shares->positions + 3 * s;
+                std::size_t nredo = 0;
+                for (std::size_t k = 0; k < K; ++k) {
+                    const double* dk = cast.dir.data() + 3 * k;
+                    if (dot3(dk, gs) <= 0.0) {
+                        own.drop(k);
+                    } else if (lead.state[k] != 0) {
+                        own.state[k] = lead.state[k];
+                        own.dist[k] = lead.dist[k];
+                        for (int c = 0; c < 3; ++c) own.value[3 * k + c] = lead.value[3 * k + c];
+                    } else {
+                        for (int d = 0; d < 3; ++d) {
+                            again.org[3 * nredo + d] = ps[d] + offset * n[d];
+                            again.dir[3 * nredo + d] = dk[d];
+                        }
+                        redo[nredo++] = k;
+                    }
                 }
-                for (int c = 0; c < 3; ++c) sum[c] += v[c];
-                const double y = kLumR * v[0] + kLumG * v[1] + kLumB * v[2];
-                lum += y;
-                lum2 += y * y;
-                if (k & 1) lum_odd += y;
+                if (nredo) {
+                    recast += nredo;
+                    again.cast(scene, nredo);
+                    const RayBatchView av = view(again);
+                    for (std::size_t j = 0; j < nredo; ++j) {
+                        const std::size_t k = redo[j];
+                        take(av, j, best, own.value.data() + 3 * k, own.state[k], own.dist[k]);
+                    }
+                }
+                rows.set(m + s, K, own);
             }
-            for (int c = 0; c < 3; ++c) out[3 * i + c] = sum[c] / double(K);
-            const double mean = lum / double(K);
-            const double var = std::max(0.0, lum2 / double(K) - mean * mean);
-            stderr_out[i] = std::sqrt(var / double(K));
-            if (halves_out) {
-                const std::size_t odd = K / 2, even = K - odd;
-                halves_out[i] = odd ? 0.5 * ((lum - lum_odd) / double(even) - lum_odd / double(odd))
-                                    : 0.0;
-            }
-            if (reach_out) reach_out[i] = nearness > 0 ? double(K) / nearness : HUGE_VAL;
-            if (open_out) open_out[i] = double(misses) / double(K);
         }
+        if (shares) shares->recast += recast;
     });
 }
 

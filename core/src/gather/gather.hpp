@@ -15,6 +15,7 @@
 #include "geometry/knn.hpp"
 #include "visibility/mesh_scene.hpp"
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -80,6 +81,18 @@ void gather_lattices(const MeshScene& scene, const SurfelField& front, const Sur
                      const std::int64_t* owner_back, GatherLattice& front_out,
                      GatherLattice& back_out);
 
+// Corners that share a receiver's rays, each in a face of its own (a smooth vertex's corners,
+// whose triangles' planes differ): receiver i's are rows [start[i], start[i + 1]) (start: m + 1
+// offsets), each with its point and its face's unit geometric normal (count x 3 each). Its
+// normal and ray directions are the receiver's.
+struct FaceShares {
+    std::size_t count = 0;
+    const std::int64_t* start = nullptr;
+    const double* positions = nullptr;
+    const double* faces = nullptr;
+    mutable std::atomic<std::size_t> recast{0};   // out: the rays cast again for them
+};
+
 // A gather prepared once for any number of receivers: the fields tabulated on the lattice
 // of every triangle that needs one. Preparing it reads every triangle, so many batches of
 // receivers in a large scene cost far less through one plan than through a plan each.
@@ -114,11 +127,18 @@ public:
     // face each receiver lies in; a ray of the shading normal's hemisphere that leaves below
     // that face takes nothing (a renderer's diffuse surface drops such directions: a smooth
     // normal tilted off its face does not see through its own surface).
+    // shares (may be null): corners that take the receivers' rays in faces of their own, one
+    // evaluation per receiver: their results follow the receivers' in every output (rows m ..
+    // m + shares->count - 1, the outputs sized for them). A ray above the receiver's face and
+    // a corner's counts for the corner as it was cast (both points lie at the vertex); one
+    // above the corner's face only is cast again from the corner's own point; one below the
+    // corner's face takes nothing: each corner's mean is that of a gather of its own.
     void gather(Context& ctx, const double* positions, const double* normals,
                 const std::int64_t* ids, std::size_t m, int rays, std::uint64_t seed,
                 const std::int32_t* rays_per, double* out, double* stderr_out,
                 double* reach_out = nullptr, double* open_out = nullptr,
-                double* halves_out = nullptr, const double* faces = nullptr) const;
+                double* halves_out = nullptr, const double* faces = nullptr,
+                const FaceShares* shares = nullptr) const;
     // What a gather ray takes at each of m hits (triangle, front face or not, the point on
     // it, m x 3): out (m x 3) radiance, the tables' interpolation where they cover the
     // point, as in `gather`.
@@ -127,6 +147,17 @@ public:
     std::size_t triangles() const { return scene_.size(); }
 
 private:
+    // Rays cast together and what the scene found for them (n entries each; org, dir n x 3).
+    struct RayBatchView {
+        const double *org, *dir, *dist;
+        const std::int64_t* prim;
+        const std::uint8_t* face;
+        const float* uv;
+    };
+    // What ray k of `b` takes: the background where it met nothing (state 1), else the value
+    // at its hit (state 2, dist its distance).
+    void take(const RayBatchView& b, std::size_t k, KdTree::Best& best, double* v,
+              std::uint8_t& state, double& dist) const;
     // The radiance a ray takes at a hit on triangle t (front face or back) at barycentric
     // (u, v) (Embree's: weights of corners 1 and 2), the point q.
     void hit_value(std::size_t t, bool front_face, double u, double v, const double q[3],

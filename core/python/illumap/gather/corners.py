@@ -57,7 +57,8 @@ def lift_blocked(occ, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
     return (tri >= 0) & (dist < LIFT_CLEAR * occ.offset)
 
 
-def merged_corners(occ, rec, lamps_=(), pressed=None) -> tuple[np.ndarray, np.ndarray]:
+def merged_corners(occ, rec, lamps_=(), pressed=None
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Which corners of ``rec`` share one evaluation: corners of one vertex with one normal
     (a flat grid's four) see the same light unless a wall stands on the vertex between them
     or a shadow edge runs through it, so each joins the first such corner when a ray between
@@ -70,14 +71,16 @@ def merged_corners(occ, rec, lamps_=(), pressed=None) -> tuple[np.ndarray, np.nd
     surface lies against. A vertex one of whose corners is pressed has a solid standing on it
     (a box's corner on a floor's vertex), and the ray between its other corners grazes that
     solid's edge, which rounding decides: its corners are evaluated each in its own face.
-    Returns (the rows to evaluate, each corner's row among them)."""
+    A corner whose rays stop at its face (``rec.faces``: a smooth normal off its triangle)
+    sees its own share of the hemisphere: the joined corners of each face plane are a row of
+    their own, which casts no rays of its own but takes its caster's (the lead's row) in its
+    own face (``Gatherer.gather``'s ``shares``): one gather per vertex, as many values as
+    face planes. Returns (the rows to evaluate, each corner's row among them, each row's
+    caster among them: itself where it casts its own rays)."""
+    empty = np.zeros(0, dtype=np.int64)
     if len(rec.points) == 0:
-        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    # A corner whose rays stop at its face (a smooth normal off its triangle) sees its own
-    # share of the hemisphere: the corners of a vertex join only within one face plane.
-    faces = rec.normals if getattr(rec, "faces", None) is None else rec.faces
-    key = np.column_stack([rec.corner_vertex, np.round(rec.normals * 1e5).astype(np.int64),
-                           np.round(faces * 1e5).astype(np.int64)])
+        return empty, empty, empty
+    key = np.column_stack([rec.corner_vertex, np.round(rec.normals * 1e5).astype(np.int64)])
     _, group = np.unique(key, axis=0, return_inverse=True)
     group = group.ravel()
     # The lead is the corner of least identity, not the first in Blender's loop order, which
@@ -111,8 +114,23 @@ def merged_corners(occ, rec, lamps_=(), pressed=None) -> tuple[np.ndarray, np.nd
             split = (lit[lead[pair]] != lit[pair]) & ~grazing[lead[pair]] & ~grazing[pair]
             free[np.flatnonzero(free)[split]] = False
         joined[others[free]] = lead[others[free]]
-    rows, index = np.unique(joined, return_inverse=True)
-    return rows, index.ravel()
+    return face_rows(rec, joined)
+
+
+def face_rows(rec, joined: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The rows of ``merged_corners`` from each corner's lead (``joined``, itself where it
+    joins none): the corners of one lead in one face plane (``rec.faces``; None: the normal)
+    are one row, led by the corner of least identity (the lead's own row: the lead), and
+    each row's caster is its lead's row."""
+    faces = rec.normals if getattr(rec, "faces", None) is None else rec.faces
+    key = np.column_stack([joined, np.round(faces * 1e5).astype(np.int64)])
+    _, plane = np.unique(key, axis=0, return_inverse=True)
+    plane = plane.ravel()
+    by_plane = np.lexsort((rec.ids, plane))
+    starts = np.flatnonzero(np.r_[True, np.diff(plane[by_plane]) != 0])
+    own = by_plane[starts][plane]
+    rows, index = np.unique(own, return_inverse=True)
+    return rows, index.ravel(), np.searchsorted(rows, joined[rows])
 
 
 #: A lamp whose centre a receiver sees within asin(this) of its own plane (0.6°) sends it

@@ -198,30 +198,33 @@ def _evaluate(ev: Evaluation, batch: list, batch_ids: list) -> _Main:
 
     merged = [merged_corners(occ, rec, ev.all_lamps if s.lamp_shadows else (),
                              pressed_in(rec)) for rec in batch]
-    points = np.concatenate([rec.points[rows] for rec, (rows, _) in zip(batch, merged)])
-    normals = np.concatenate([rec.normals[rows] for rec, (rows, _) in zip(batch, merged)])
+    points = np.concatenate([rec.points[rows] for rec, (rows, *_) in zip(batch, merged)])
+    normals = np.concatenate([rec.normals[rows] for rec, (rows, *_) in zip(batch, merged)])
     # A point's own normal stands for its face: its cosine rays all lie above it.
     faces = np.concatenate([(rec.normals if rec.faces is None else rec.faces)[rows]
-                            for rec, (rows, _) in zip(batch, merged)])
-    offsets = np.cumsum([0] + [len(rows) for rows, _ in merged])
+                            for rec, (rows, *_) in zip(batch, merged)])
+    offsets = np.cumsum([0] + [len(rows) for rows, *_ in merged])
     # Each receiver's rays follow from its identity in its object alone (a corner's from
     # its vertex and face, a point's from its row, both sides of a point alike): not from
     # which other objects are in the batch, nor from the order Blender keeps faces in.
     ids = np.concatenate([rec.ids[rows] if own is None else own[rows]
-                          for rec, own, (rows, _) in zip(batch, batch_ids, merged)]
+                          for rec, own, (rows, *_) in zip(batch, batch_ids, merged)]
                          ).astype(np.int64)
     # Each batch row's mesh among the MESH sources (-1: a point cloud's point).
     batch_meshes = np.concatenate([np.full(len(rows), mesh_of.get(rec.name, -1), np.int64)
-                                   for rec, (rows, _) in zip(batch, merged)])
+                                   for rec, (rows, *_) in zip(batch, merged)])
     # A point cloud's points (each part of the batch on its own) share their gathers.
     shared = np.concatenate([np.full(len(rows), part if part >= len(scene.receivers) else -1,
                                      np.int64)
-                             for part, (rows, _) in enumerate(merged)])
+                             for part, (rows, *_) in enumerate(merged)])
+    # A vertex's corners in other face planes take its lead's rays in their own faces.
+    casters = np.concatenate([lo + c for lo, (_, _, c) in zip(offsets[:-1], merged)]
+                             ).astype(np.int64)
     incident, gathered, cast, covered = ev.incident_at(points, normals, ids, batch_meshes,
                                                        shared=shared, gaps=True, timed=True,
-                                                       faces=faces)
+                                                       faces=faces, casters=casters)
     values_of = [rec.emission + rec.albedo * incident[lo + index]
-                 for rec, lo, (_, index) in zip(batch, offsets[:-1], merged)]
+                 for rec, lo, (_, index, _) in zip(batch, offsets[:-1], merged)]
     sums = _noise_sums(ev, batch, offsets, merged, values_of, gathered)
     ev.lap("values")
     return _Main(values_of, gathered, int(cast), covered, len(points), sums)
@@ -234,7 +237,7 @@ def _noise_sums(ev: Evaluation, batch: list, offsets, merged: list, values_of: l
     lum = np.asarray(LUMINANCE_WEIGHTS, dtype=np.float64)
     background = None if ev.scene.world is None else ev.scene.world.color
     noise2 = light2 = indirect = from_surfels = total = 0.0
-    for rec, lo, (_, index), values in zip(batch, offsets[:-1], merged, values_of):
+    for rec, lo, (_, index, _), values in zip(batch, offsets[:-1], merged, values_of):
         rows = lo + index
         rho = rec.albedo @ lum
         # The halves' squares pooled, not the rays' variance: the rays are a lattice,
