@@ -5,8 +5,6 @@
   drops those directions, and so does the corner gather, so the solve must too (without it
   the smooth Suzanne's surfels kept light that Cycles' lose, and only the kernel's leaks
   into sealed pockets had made up for it);
-* a mesh surfel's first-hit row counts as known however few of its hits found a surfel
-  (inside a pocket too thin for the linking path, between an eyeball and its socket);
 * an open surfel's row couples to enclosed surfels only as much as its first hits meet
   them: the kernel's leaks across an intersection line or through the surface a surfel
   stands on no longer darken it.
@@ -75,37 +73,6 @@ def test_linking_rays_below_the_face_meet_nothing():
                                       faces=np.tile([0.0, 0.0, 1.0], (len(s.areas), 1)))
     wf = hf.linker(np.arange(len(s.areas)))
     assert len(wf.rows) == 0
-
-
-def test_trusted_rows_are_known():
-    """A row most of whose hits found no surfel is unknown, unless trusted (a mesh's
-    surfel); trusting changes no weight."""
-    src = np.array([0, 0, 0, 1, 1, 1, 2])
-    dst = np.array([1, -1, -1, -1, -1, 2, 0])
-    hits = np.array([0.6, 0.5, 0.3])
-    w = sealing.links(src, dst, hits)
-    assert w.known.tolist() == [False, False, True]
-    t = sealing.links(src, dst, hits, trusted=np.array([True, False, False]))
-    assert t.known.tolist() == [True, False, True]
-    assert np.array_equal(t.weights, w.weights) and np.array_equal(t.cols, w.cols)
-
-
-def test_a_mesh_surfel_is_trusted_a_scan_point_is_not():
-    """``hemisphere_hits`` trusts the surfels whose rays start where they lie (a mesh's),
-    not the inset ones (a scan's points): a scan point's rows stay unknown where its bumpy
-    splats hide its hits."""
-    ground = _ground(2.0)
-    ceiling = _ground(20.0)[:, ::-1] + [0.0, 0.0, 0.5]   # facing down, no surfel on it
-    s = sampling.sample_triangles(ground, 50, np.random.default_rng(2))
-    n = np.tile([0.0, 0.0, 1.0], (50, 1))
-    inset = np.zeros(50, dtype=bool)
-    inset[::2] = True
-    h = conservation.hemisphere_hits(MeshOccluders(np.r_[ground, ceiling]), s.positions, n,
-                                     links=True, inset=inset)
-    assert h.hits.min() > 0.8
-    w = h.linker(np.arange(50))       # the ceiling's hits: no surfel carries them
-    assert len(w.rows) == 0
-    assert w.known.tolist() == (~inset).tolist()
 
 
 def _box(lo, hi):

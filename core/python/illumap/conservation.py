@@ -289,10 +289,8 @@ def hemisphere_hits(occluders, positions, normals, *, lit_backs=None,
     if links:
         import functools
         from . import sealing
-        trusted = (np.ones(len(p), dtype=bool) if inset is None
-                   else ~np.asarray(inset, dtype=bool).reshape(-1))    # a mesh's surfels
         linker = functools.partial(sealing.link_rays, occluders, p, n, lift, ids, seed, count,
-                                   backs, hits, trusted=trusted, faces=faces)
+                                   backs, hits, faces=faces)
     return Hemisphere(hits, open_, len(p) * count, None, linker)
 
 

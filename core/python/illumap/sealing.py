@@ -127,15 +127,14 @@ def resolve_hits(occluders, positions: np.ndarray, normals: np.ndarray, hits: np
 
 
 def link_rays(occluders, positions, normals, origins, ids, seed: int, count: int, lit_backs,
-              hits, rows, *, trusted=None, faces=None) -> Links:
+              hits, rows, *, faces=None) -> Links:
     """The first-hit transport (``Links`` over all N surfels) of the surfels ``rows``: every
     (count / ``LINK_RAYS``)-th ray of each one's hemisphere lattice (``receivers.
     cosine_directions`` with ``ids`` and ``seed``, as ``conservation.hemisphere_hits`` casts
     them from ``origins``, lifted) whose first hit is a lit face (front, or a back where
     ``lit_backs`` (T,) says so; None: all) is given to the surfel there (``resolve_hits``).
-    ``hits`` (N,): each surfel's hit share, which its row spreads. ``trusted`` (N,) bool:
-    surfels whose row counts as known however few of its hits found a surfel (``links``).
-    ``faces`` (N, 3): each surfel's face normal (0: none), below which its rays meet nothing
+    ``hits`` (N,): each surfel's hit share, which its row spreads. ``faces`` (N, 3): each
+    surfel's face normal (0: none), below which its rays meet nothing
     (``conservation.hemisphere_hits``)."""
     import time
     from . import receivers as rc
@@ -165,7 +164,7 @@ def link_rays(occluders, positions, normals, origins, ids, seed: int, count: int
         at = o[ray] + dist[ray, None] * dirs[ray]
         src.append(chunk[ray // len(picked)])
         dst.append(resolve_hits(occluders, positions, normals, at, side))
-    w = links(np.concatenate(src), np.concatenate(dst), hits, trusted=trusted)
+    w = links(np.concatenate(src), np.concatenate(dst), hits)
     w.seconds = time.perf_counter() - begin
     return w
 
@@ -183,24 +182,16 @@ def _sees(occluders, a: np.ndarray, b: np.ndarray, na: np.ndarray, nb: np.ndarra
     return seen
 
 
-def links(src: np.ndarray, dst: np.ndarray, hits: np.ndarray, *, trusted=None) -> Links:
+def links(src: np.ndarray, dst: np.ndarray, hits: np.ndarray) -> Links:
     """The first-hit transport from resolved rays: ray k of surfel ``src[k]`` met surfel
     ``dst[k]`` (-1: a lit face that no surfel carries there). Each surfel's ``hits`` share
-    (N,) is spread evenly over its resolved rays; one without any keeps none.
-
-    A row is known when KNOWN_SHARE of its hits found a surfel, or where ``trusted`` (N,)
-    bool says so: a mesh's surfels, whose hits a surfel misses only inside a pocket too
-    thin for the bent path (between an eyeball and its socket), not on a scan's bumps. Such
-    a row that reaches nothing is sealed: kept unknown, Suzanne's socket surfels under the
-    eyes kept their kernel rows, leaked and read 0.92 where Cycles reads 0.1."""
+    (N,) is spread evenly over its resolved rays; one without any keeps none."""
     src = np.asarray(src, dtype=np.int64)
     dst = np.asarray(dst, dtype=np.int64)
     n = len(hits)
     got = dst >= 0
     met = np.bincount(src, minlength=n)
     known = np.bincount(src[got], minlength=n) >= KNOWN_SHARE * met
-    if trusted is not None:
-        known |= np.asarray(trusted, dtype=bool).reshape(-1)
     src, dst = src[got], dst[got]
     key = src * n + dst
     key, count = np.unique(key, return_counts=True)
