@@ -475,14 +475,9 @@ def read_receivers(obj, warnings: list[str], depsgraph=None,
     normals = tm.corner_normals[tri, slot]
     # The face below which a corner's gather drops its rays (a renderer drops the directions
     # of a smooth normal's hemisphere below the triangle). A flat face (its three corners of
-    # one normal) drops none: a renderer shades it with the triangle's own normal, which is
-    # the corner's normal here too. Blender's flat corner normal is its polygon's: on a bent
-    # quad it leans off both of the quad's triangles, and the flat-shaded Suzanne's corners
-    # had gathered over a hemisphere that Cycles does not use.
+    # one normal) drops none: a renderer shades it with the triangle's own normal.
     flat = np.ptp(tm.corner_normals[tri], axis=1).max(axis=1) < FLAT_CORNERS
-    normals = np.where(flat[:, None], tm.normal[tri], normals)
-    faces = normals.copy()
-    faces[~flat] = tm.normal[tri[~flat]]
+    faces = np.where(flat[:, None], normals, tm.normal[tri])
     samples = MeshSamples(mesh=tm, positions=positions, normals=normals, areas=np.ones(nl),
                           triangle=tri, bary=bary, material_index=tm.material_index[tri])
     albedo, emission = surfel_materials(samples, warnings if material_warnings is None
