@@ -226,7 +226,7 @@ class Hemisphere:
 
 def hemisphere_hits(occluders, positions, normals, *, lit_backs=None,
                     rays: int = HEMISPHERE_RAYS, inset=None, ids=None, seed: int = 0,
-                    links: bool = False, progress=None) -> Hemisphere:
+                    links: bool = False, progress=None, faces=None) -> Hemisphere:
     """Each surfel's cosine-weighted share (N,) of its hemisphere whose first hit is a lit
     face, and the share that meets nothing: rays from ``positions`` (N, 3, m) about unit
     ``normals`` against ``occluders`` (``receivers.MeshOccluders``: the scene's triangles
@@ -241,12 +241,17 @@ def hemisphere_hits(occluders, positions, normals, *, lit_backs=None,
     themselves; a mesh's surfels lie inside their triangles). ``ids`` (N,) int name each
     surfel's random stream (default: its row): a surfel keeps its rays when others are added
     or removed. ``links``: keep what ``Hemisphere.enclosed`` needs to cast the surfels'
-    linking rays (``sealing.link_rays``). Dimensionless, in [0, 1]."""
+    linking rays (``sealing.link_rays``). ``faces`` (N, 3): the unit geometric normal of
+    each surfel's face (0: none); a ray below it is neither a hit nor open, as a renderer
+    drops the directions of a smooth normal's hemisphere below the triangle (None: no face).
+    Dimensionless, in [0, 1]."""
     from . import receivers as rc
     p = np.ascontiguousarray(positions, dtype=np.float64)
     n = np.ascontiguousarray(normals, dtype=np.float64)
     if len(p) == 0:
         return Hemisphere(np.zeros(0), np.zeros(0), 0)
+    if faces is not None:
+        faces = np.ascontiguousarray(faces, dtype=np.float64).reshape(len(p), 3)
     origins = p
     if inset is not None and np.any(inset):
         rows = np.flatnonzero(np.asarray(inset, dtype=bool))
@@ -272,14 +277,20 @@ def hemisphere_hits(occluders, positions, normals, *, lit_backs=None,
         tri, _, front = occluders.intersect(o, dirs.reshape(-1, 3))
         met = tri >= 0
         lit = met if backs is None else met & (front | backs[np.maximum(tri, 0)])
+        free = ~met
+        if faces is not None:
+            above = (np.einsum("mkc,mc->mk", dirs, faces[start:stop]) > 0.0) \
+                | ~faces[start:stop].any(axis=1)[:, None]
+            lit &= above.ravel()
+            free &= above.ravel()
         hits[start:stop] = lit.reshape(-1, count).mean(axis=1)
-        open_[start:stop] = (~met).reshape(-1, count).mean(axis=1)
+        open_[start:stop] = free.reshape(-1, count).mean(axis=1)
     linker = None
     if links:
         import functools
         from . import sealing
         linker = functools.partial(sealing.link_rays, occluders, p, n, lift, ids, seed, count,
-                                   backs, hits)
+                                   backs, hits, faces=faces)
     return Hemisphere(hits, open_, len(p) * count, None, linker)
 
 

@@ -127,13 +127,15 @@ def resolve_hits(occluders, positions: np.ndarray, normals: np.ndarray, hits: np
 
 
 def link_rays(occluders, positions, normals, origins, ids, seed: int, count: int, lit_backs,
-              hits, rows) -> Links:
+              hits, rows, *, faces=None) -> Links:
     """The first-hit transport (``Links`` over all N surfels) of the surfels ``rows``: every
     (count / ``LINK_RAYS``)-th ray of each one's hemisphere lattice (``receivers.
     cosine_directions`` with ``ids`` and ``seed``, as ``conservation.hemisphere_hits`` casts
     them from ``origins``, lifted) whose first hit is a lit face (front, or a back where
     ``lit_backs`` (T,) says so; None: all) is given to the surfel there (``resolve_hits``).
-    ``hits`` (N,): each surfel's hit share, which its row spreads."""
+    ``hits`` (N,): each surfel's hit share, which its row spreads. ``faces`` (N, 3): each
+    surfel's face normal (0: none), below which its rays meet nothing
+    (``conservation.hemisphere_hits``)."""
     import time
     from . import receivers as rc
     begin = time.perf_counter()
@@ -148,6 +150,10 @@ def link_rays(occluders, positions, normals, origins, ids, seed: int, count: int
         tri, dist, front = occluders.intersect(o, dirs)
         met = tri >= 0
         lit = met if lit_backs is None else met & (front | lit_backs[np.maximum(tri, 0)])
+        if faces is not None:
+            f = faces[chunk]
+            lit &= ((np.einsum("mkc,mc->mk", dirs.reshape(len(chunk), -1, 3), f) > 0.0)
+                    | ~f.any(axis=1)[:, None]).ravel()
         ray = np.flatnonzero(lit)
         # The hit triangles' unit normals only (all of a scan's splats: 0.3 GB, and twice
         # that in temporaries, at 1M points).

@@ -98,7 +98,26 @@ def hemisphere_hits(scene: Scene, progress: Progress | None = None):
         if src.name in clouds:
             points[src.start:src.stop] = True
     return hits(occ, scene.positions, scene.normals, lit_backs=lit_backs, inset=points, ids=ids,
-                seed=scene.settings.seed, links=True, progress=report)
+                seed=scene.settings.seed, links=True, progress=report, faces=surfel_faces(scene))
+
+
+def surfel_faces(scene: Scene) -> np.ndarray | None:
+    """(N, 3) the unit geometric normal of each mesh surfel's triangle, turned to its side
+    (a back surfel's the other way), 0 for a scan's points; None without mesh triangles.
+    Below it a smooth normal's hemisphere sends nothing, as in a renderer (the final
+    gather's corners drop the same directions)."""
+    if scene.triangles is None or scene.mesh_triangle_start is None or scene.triangle is None:
+        return None
+    faces = np.zeros((scene.count, 3))
+    meshes = [src for src in scene.sources if src.kind == "MESH"]
+    for i, src in enumerate(meshes):
+        rows = np.arange(src.start, src.stop)
+        tri = scene.triangles[scene.mesh_triangle_start[i] + scene.triangle[rows]]
+        f = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        f /= np.maximum(np.linalg.norm(f, axis=1, keepdims=True), 1e-300)
+        f *= np.where(np.einsum("ij,ij->i", f, scene.normals[rows]) < 0.0, -1.0, 1.0)[:, None]
+        faces[rows] = f
+    return faces
 
 
 def light(scene: Scene, progress: Progress | None = None) -> Lit:
