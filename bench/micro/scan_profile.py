@@ -2,7 +2,7 @@
 """Where a dense scan's time goes: the Cornell box scanned at ``--cell`` m (as
 bench/scaling_scans.py builds it), prepared and run at default settings under cProfile.
 Prints the run's phases, its CPU seconds and the top functions by own and cumulative time
-(native calls show as the builtins that enter them).
+(CPU seconds of all threads; native calls show as the Python functions that enter them).
 
     .venv/bin/python bench/micro/scan_profile.py --cell 0.01 [--top 40] [--out prof.txt]
 """
@@ -53,7 +53,7 @@ def main(argv=None) -> int:
     depsgraph = bpy.context.evaluated_depsgraph_get()
     settings = run.make_settings(pipeline, {})
     calls = _logged_gathers()
-    prof = cProfile.Profile()
+    prof = cProfile.Profile(time.process_time)   # CPU seconds, all threads: the machine is shared
     c0, t0 = time.process_time(), time.perf_counter()
     prof.enable()
     job = pipeline.prepare(depsgraph, objects, settings)

@@ -82,7 +82,7 @@ NEAR_RECORD_FLOORS = 2.0
 PHASE = "gather"
 #: Rays each receiver measures its own reach with: one in 16 that meets a surface nearby
 #: brings its reach down to that distance × 16.
-PROBE_RAYS = 16
+PROBE_RAYS = 8
 
 
 @dataclass
