@@ -158,7 +158,7 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
     guard.check(0.0, PHASE)
     if len(shared):
         raw[shared], cast = _probed_reach(gather_rows, p, group, shared, max_reach, spacing,
-                                          NEAR_RECORD_FLOORS * min_reach)
+                                          min_reach)
         rays += cast
     reach = np.maximum(raw, min_reach)
     own = reach.copy()
@@ -220,12 +220,13 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
 #: With a floor on the reach, the probe is first cast at sentinels about this many of the
 #: receivers' spacings apart (one per cell of that side, per group); a receiver whose
 #: PROBE_SENTINEL_NEIGHBOURS nearest sentinels of its group lie within 2 cells and all reach
-#: NEAR_RECORD_FLOORS floors or farther takes the least of their reaches (nearer than its
-#: own, mostly: its records' domains shrink, never grow) and casts no probe; every other
-#: receiver probes itself. Surroundings nearer than that (a crease, a panel under a
-#: ceiling) then always probe themselves, but for a patch narrower than the sentinels'
-#: spacing that lies between them. Groups of fewer receivers than PROBE_SENTINEL_MIN probe
-#: every receiver. (990k-point Cornell box scan: 990k probes of 8 rays, 8 CPU-s.)
+#: the floor or farther takes the least of their reaches (nearer than its own, mostly: its
+#: records' domains shrink rather than grow) and casts no probe; every other receiver probes
+#: itself. Surroundings nearer than the floor (a panel under a ceiling, the foot of a wall,
+#: where the reach falls towards the crease and the sentinels on that side read less) then
+#: probe themselves, but for a patch narrower than the sentinels' spacing that lies between
+#: them. Groups of fewer receivers than PROBE_SENTINEL_MIN probe every receiver. (990k-point
+#: Cornell box scan: 990k probes of 8 rays before, 8 CPU-s.)
 PROBE_SENTINEL_SPACING = 4.0
 PROBE_SENTINEL_NEIGHBOURS = 8
 PROBE_SENTINEL_MIN = 4096
@@ -234,8 +235,8 @@ PROBE_SENTINEL_MIN = 4096
 def _probed_reach(gather_rows, p: np.ndarray, group: np.ndarray, rows: np.ndarray,
                   max_reach: float, spacing: float, far: float) -> tuple[np.ndarray, int]:
     """Each receiver ``rows``' own reach (m, before the floor) from the probe, shared
-    through sentinels where the floor ``far`` / NEAR_RECORD_FLOORS > 0 (see
-    ``PROBE_SENTINEL_SPACING``), and the rays cast."""
+    through sentinels where all reach the floor ``far`` > 0 (see ``PROBE_SENTINEL_SPACING``),
+    and the rays cast."""
     raw = np.full(len(rows), np.nan)
     cast = 0
     if far > 0 and np.isfinite(spacing) and spacing > 0 and len(rows) >= PROBE_SENTINEL_MIN:
