@@ -364,8 +364,10 @@ def _weights(p, n, group, reach, own, record, rows, accuracy, raw=None, min_reac
     w = np.zeros((len(rows), k))
     valid = np.zeros((len(rows), k), dtype=bool)
     recs = np.flatnonzero(record & (group >= 0))
-    for g in np.unique(group[rows]):
-        mine = np.flatnonzero(group[rows] == g)
+    present = np.unique(group[rows])
+    for g in present:
+        # One group (a scan's points): its rows are all of them, copied as slices.
+        mine = slice(None) if len(present) == 1 else np.flatnonzero(group[rows] == g)
         theirs = recs[group[recs] == g]
         if len(theirs) == 0:
             continue
