@@ -86,3 +86,12 @@ def test_a_subset_of_rows_is_answered_in_its_order():
     rows = np.random.default_rng(3).permutation(len(p))[: len(p) // 2]
     got = shared_probe(Probe(p, visible), p, np.zeros(len(p), dtype=np.int64), rows)
     np.testing.assert_array_equal(got, visible(p[rows]))
+
+
+def test_first_in_each_cell_is_numpys_unique_rows():
+    from illumap.shared_shadows import first_in_each_cell
+    rng = np.random.default_rng(5)
+    for key in (rng.integers(0, 7, (5000, 4)), rng.integers(0, 2 ** 40, (300, 3)),
+                np.zeros((0, 3), dtype=np.int64)):
+        _, first = np.unique(key, axis=0, return_index=True)
+        np.testing.assert_array_equal(first_in_each_cell(key), np.sort(first))

@@ -44,6 +44,7 @@ import numpy as np
 from . import _core
 from ._progress import ProgressGuard
 from .receivers import GatherResult
+from .shared_shadows import first_in_each_cell
 from .surfels import InputError
 
 #: Ward's a: the largest ε at which a record still counts. Its domain reaches a·R_i across a
@@ -243,9 +244,9 @@ def _probed_reach(gather_rows, p: np.ndarray, group: np.ndarray, rows: np.ndarra
         cell = PROBE_SENTINEL_SPACING * spacing
         g = group[rows]
         q = p[rows]
-        key = np.column_stack([g, np.floor((q - q.min(axis=0)) / cell).astype(np.int64)])
-        _, first = np.unique(key, axis=0, return_index=True)
-        sentinels = np.sort(first)
+        # groups are ≥ 0 here (the receivers that share records)
+        sentinels = first_in_each_cell(
+            np.column_stack([g, np.floor((q - q.min(axis=0)) / cell).astype(np.int64)]))
         probe = gather_rows(rows[sentinels], rays=PROBE_RAYS)
         cast += int(probe.rays)
         raw[sentinels] = _bounded(probe.reach, max_reach)
