@@ -391,6 +391,7 @@ def lamp_visibility(lamp: Lamp, p: np.ndarray, n: np.ndarray, rows: np.ndarray,
     salt = zlib.crc32(lamp.name.encode())
     if k < 2 * PROBE_SAMPLES or lamp.kind == "WORLD":
         return _visible_fraction(lamp, p, n, rows, shadows, k, salt)
+
     def probe(r):
         return _visible_fraction(lamp, p, n, r, shadows, PROBE_SAMPLES, salt ^ _PROBE_SALT)
     if shadows.groups is None:
