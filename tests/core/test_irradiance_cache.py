@@ -255,3 +255,31 @@ def test_progress_is_reported_between_chunks_and_a_cancel_stops_the_cache(monkey
         cached_gather(field, p, n, max_reach=2.0,
                       progress=lambda f, phase: calls.append(f) or len(calls) < 3)
     assert len(calls) == 3 and field.full.sum() <= len(p) // 10
+
+
+def test_with_a_floor_the_probe_is_shared_through_sentinels_and_the_panel_still_probes():
+    """With a floor on the reach, receivers amid sentinels that all reach the floor take the
+    least of their reaches instead of probing (``PROBE_SENTINEL_SPACING``): far fewer probe
+    rays than points, while every point under the panel (surroundings 1 mm away) still
+    probes itself and takes no lit record."""
+    from illumap.irradiance_cache import PROBE_SENTINEL_SPACING
+    p, n = floor()
+    n = -n
+    under = lambda q: (q[:, 0] > 0.3) & (q[:, 0] < 0.6) & (q[:, 1] > 0.3) & (q[:, 1] < 0.6)
+    probed = np.zeros(len(p), dtype=int)
+
+    class Counting(Field):
+        def __call__(self, rows, rays=None):
+            if rays is not None:
+                probed[rows] += 1
+            return super().__call__(rows, rays)
+
+    field = Counting(p, lambda q: np.where(under(q)[:, None], 0.0, 1.0) * np.ones((len(q), 3)),
+                     lambda q: np.where(under(q), 1e-3, 2.0))
+    got = cached_gather(field, p, n, max_reach=2.0, min_reach=0.2)
+    hidden = under(p)
+    assert (probed[hidden] == 1).all()
+    assert probed.max() == 1
+    assert probed.sum() < len(p) * (hidden.mean() + 4.0 / PROBE_SENTINEL_SPACING ** 2)
+    assert (got.radiance[hidden] == 0).all()
+    assert (got.radiance[~hidden] == 1).all()

@@ -104,6 +104,9 @@ class Shadows:
     # Each point's samples follow from its id (default: its row), so a subset of points can
     # be evaluated with the patterns they would have had among all of them.
     ids: np.ndarray | None = None
+    # (M,) int: the probe of a sized lamp is shared within each group (≥ 0) of close points
+    # (a dense scan's: ``illumap.shared_shadows``); None or -1: every point probes itself.
+    groups: np.ndarray | None = None
 
     def report(self, done: float) -> None:
         """Tell ``progress`` that ``done`` of the planned rays were cast; raise
@@ -388,7 +391,14 @@ def lamp_visibility(lamp: Lamp, p: np.ndarray, n: np.ndarray, rows: np.ndarray,
     salt = zlib.crc32(lamp.name.encode())
     if k < 2 * PROBE_SAMPLES or lamp.kind == "WORLD":
         return _visible_fraction(lamp, p, n, rows, shadows, k, salt)
-    out = _visible_fraction(lamp, p, n, rows, shadows, PROBE_SAMPLES, salt ^ _PROBE_SALT)
+
+    def probe(r):
+        return _visible_fraction(lamp, p, n, r, shadows, PROBE_SAMPLES, salt ^ _PROBE_SALT)
+    if shadows.groups is None:
+        out = probe(rows)
+    else:
+        from .shared_shadows import shared_probe
+        out = shared_probe(probe, p, shadows.groups, rows)
     mixed = np.flatnonzero((out > 0.0) & (out < 1.0))
     if mixed.size:
         out[mixed] = _visible_fraction(lamp, p, n, rows[mixed], shadows, k, salt)

@@ -108,9 +108,12 @@ class Evaluation:
         # sample its lamps afresh (taken from the caster, Suzanne read 1.12% where its own
         # shadow rays give 1.07%, for 0.03 s).
         if all_lamps and s.lamp_shadows:
+            # A point cloud's points (``shared``) share the lamps' probes as their gathers.
+            groups = shared if shared is not None and s.gather_cache > 0 else None
             shadows = lights.Shadows(occ.segment_query(normals), samples=samples,
                                      seed=s.seed, extent=occ.extent, ids=ids,
-                                     progress=self.report)   # a cancel between lamps, rays
+                                     progress=self.report,   # a cancel between lamps, rays
+                                     groups=groups)
         direct = lights.incident_radiance(all_lamps, points, normals, shadows=shadows)
         if timed:
             self.lap("direct")

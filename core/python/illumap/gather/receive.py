@@ -285,7 +285,11 @@ def _scan_values(ev: Evaluation, point_sets: list, scan_parts: list, rest_values
                                     progress=ev.report)
             if len(faces.rows):
                 r = faces.rows
-                extra, _, more, _ = ev.incident_at(faces.points, faces.normals, r)
+                # The faces' receivers lie along the creases, as dense as the points:
+                # they share their gathers as the points do (the cache's normal term
+                # keeps each face's records to that face).
+                extra, _, more, _ = ev.incident_at(faces.points, faces.normals, r,
+                                                   shared=np.zeros(len(r), dtype=np.int64))
                 rays += more
                 values = faces.mean(values, front.emission[r] + front.albedo[r] * extra)
                 creases += int(len(np.unique(r)))
