@@ -95,3 +95,25 @@ def test_pairs_within_one_scan_keep_the_point_rule():
 def test_bad_scan_surfels_are_refused(bad):
     with pytest.raises(illumap.InputError, match="scan_surfels"):
         TransportOperator(_layout(2.0), method="direct", scan_surfels=bad)
+
+
+def test_the_solve_numbers_each_clouds_surfels():
+    """``stages.solve.scan_surfels``: a mesh's surfels 0, each point cloud's (both sides of its
+    points) its place among the scene's clouds, counted from 1; None without a cloud."""
+    from illumap.settings import Settings
+    from illumap.stages.scene import PointCloud, Scene, Source
+    from illumap.stages.solve import scan_surfels
+    n = 9
+    zeros = np.zeros((n, 3))
+    sources = (Source("Floor", "MESH", 0, 3, 1.0), Source("Bunny", "POINTS", 3, 5, 1.0),
+               Source("Room", "POINTS", 5, 7, 1.0), Source("Bunny", "BACK", 7, 9, 1.0))
+
+    def cloud(name):
+        return PointCloud(name, zeros[:2], zeros[:2], zeros[:2], zeros[:2], np.arange(2))
+
+    scene = Scene(settings=Settings(), positions=zeros, normals=np.tile([0, 0, 1.0], (n, 1)),
+                  areas=np.ones(n), albedo=zeros, emission=zeros, solve_emission=zeros,
+                  sources=sources, clouds=(cloud("Bunny"), cloud("Room")))
+    assert scan_surfels(scene).tolist() == [0, 0, 0, 1, 1, 2, 2, 1, 1]
+    mesh_only = Scene(**{**scene.__dict__, "sources": sources[:1], "clouds": ()})
+    assert scan_surfels(mesh_only) is None
