@@ -340,9 +340,9 @@ class TransportOperator:
         building their own (a scan's splats: ~1 GB and seconds per 1M points each).
     scan_surfels : (N,) int array or None
         The point cloud (scan) each surfel stands for a point of, 1, 2, …, or 0 (a mesh's
-        surfel). A close pair of facing surfels (normals opposed, each centre within the
-        other's radius of its plane) of a scan and another object takes its near-field form
-        factors averaged over the receiver's disc, and no visibility test between the two
+        surfel). A close pair of facing surfels (normals opposed, each centre within half
+        the other's radius of its plane) of a scan and another object takes its near-field
+        form factors averaged over the receiver's disc, and no visibility test between the two
         centres, which in a gap under a scan meets the scan's own bumpy splats
         (``core/src/transport/near_field.hpp``). None: no scan.
     threads : int

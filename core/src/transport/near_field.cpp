@@ -124,10 +124,10 @@ double disc_to_polygon(const double x[3], const double n[3], double receiver_are
 
 bool facing_plates(const double d[3], const double ni[3], const double nj[3], double area_i,
                    double area_j) {
-    // d = x_i − x_j. Each centre lies within the other's radius of its plane.
+    // d = x_i − x_j. Each centre lies within half the other's radius of its plane (a thin gap).
     if (dot(ni, nj) > kPlateCos) return false;
     const double hj = -dot(ni, d), hi = dot(nj, d);
-    return hj > 0.0 && hi > 0.0 && hj * hj * kPi < area_i && hi * hi * kPi < area_j;
+    return hj > 0.0 && hi > 0.0 && 4.0 * hj * hj * kPi < area_i && 4.0 * hi * hi * kPi < area_j;
 }
 
 void NearCorrection::apply_add(Context& ctx, const double* x, double* y) const {

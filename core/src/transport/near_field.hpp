@@ -38,7 +38,7 @@ double disc_to_polygon(const double x[3], const double n[3], double receiver_are
 constexpr double kPlateCos = -0.5;
 
 // Whether surfels i and j (d = x_i − x_j) face each other as close plates: normals opposed
-// (cos < kPlateCos), each centre in front of the other's plane by less than its radius.
+// (cos < kPlateCos), each centre in front of the other's plane by less than half its radius.
 bool facing_plates(const double d[3], const double ni[3], const double nj[3], double area_i,
                    double area_j);
 
