@@ -93,7 +93,7 @@ VISIBILITY_DEFAULTS = {
 OPERATOR_KEYWORDS = ("method", "order", "theta", "leaf_size", "near_field", "visibility",
                      "threads", "occluder_triangles", "hemisphere_hits",
                      "hemisphere_bound", "hemisphere_balance", "hemisphere_fill",
-                     "hemisphere_enclosed", "hemisphere_links", "occluders") \
+                     "hemisphere_enclosed", "hemisphere_links", "occluders", "scan_surfels") \
     + tuple(VISIBILITY_DEFAULTS)
 
 
@@ -149,7 +149,7 @@ def validate_keywords(*, method=DEFAULT_METHOD, order=DEFAULT_ORDER, theta=DEFAU
                       visibility=DEFAULT_VISIBILITY, threads=0, occluder_triangles=None,
                       hemisphere_hits=None, hemisphere_bound=None, hemisphere_balance="rows",
                       hemisphere_fill=True, hemisphere_enclosed=None, hemisphere_links=None,
-                      occluders=None, **visibility_keywords) -> dict:
+                      occluders=None, scan_surfels=None, **visibility_keywords) -> dict:
     """Check the operator keywords (raises InputError) and return them normalized."""
     out = {}
     _check_triangles(occluder_triangles)
@@ -200,6 +200,21 @@ def core_origin(positions: np.ndarray) -> np.ndarray:
     step = 2.0 ** np.ceil(np.log2(spread))
     snapped = np.round(median / step) * step
     return snapped if np.all(np.isfinite(snapped)) else median
+
+
+def _check_scan_surfels(scan, n: int) -> np.ndarray | None:
+    """``scan_surfels`` as the native operator takes it ((N,) float64 cloud numbers), or
+    None."""
+    if scan is None:
+        return None
+    ids = np.asarray(scan)
+    if ids.shape != (n,):
+        raise InputError(f"scan_surfels: expected shape ({n},), got {ids.shape}")
+    if ids.dtype == bool:
+        ids = ids.astype(np.int64)
+    if not np.issubdtype(ids.dtype, np.integer) or (ids < 0).any() or (ids >= 2 ** 32).any():
+        raise InputError("scan_surfels: expected integers in [0, 2^32) (0: not a scan)")
+    return np.ascontiguousarray(ids, dtype=np.float64)
 
 
 def _check_enclosed(enclosed, links, n: int) -> np.ndarray | None:
@@ -323,6 +338,13 @@ class TransportOperator:
         The caller's ray scene of ``occluder_triangles`` (the gather's; built on the same
         array, else not taken), which exact visibility and the fill cast against instead of
         building their own (a scan's splats: ~1 GB and seconds per 1M points each).
+    scan_surfels : (N,) int array or None
+        The point cloud (scan) each surfel stands for a point of, 1, 2, …, or 0 (a mesh's
+        surfel). A close pair of facing surfels (normals opposed, each centre within half
+        the other's radius of its plane) of a scan and another object takes its near-field
+        form factors averaged over the receiver's disc, and no visibility test between the two
+        centres, which in a gap under a scan meets the scan's own bumpy splats
+        (``core/src/transport/near_field.hpp``). None: no scan.
     threads : int
         Worker threads, 0 = all hardware threads.
     progress : callable(fraction, phase) -> bool | None, optional
@@ -337,7 +359,7 @@ class TransportOperator:
                  occluder_triangles=None, hemisphere_hits=None, hemisphere_bound=None,
                  hemisphere_balance: str = "rows", hemisphere_fill: bool = True,
                  hemisphere_enclosed=None, hemisphere_links=None, occluders=None,
-                 **visibility_keywords):
+                 scan_surfels=None, **visibility_keywords):
         if not isinstance(surfels, Surfels):
             raise InputError(
                 f"surfels: expected an illumap.Surfels, got {type(surfels).__name__} "
@@ -384,6 +406,7 @@ class TransportOperator:
                 occluder_shift=np.ascontiguousarray(self.origin, dtype=np.float64).reshape(3),
                 occluder_scene=(None if self._fill_occluders is None
                                 else self._fill_occluders._scene),   # one BVH per run
+                scan_surfels=_check_scan_surfels(scan_surfels, surfels.n),
                 **self.visibility_options,
             )
         self.balance = None

@@ -15,7 +15,7 @@ void bind_operator(nb::module_& m) {
                 double endpoint_offset, double seed_delta, int seed_k, double seed_t1,
                 double seed_t2, double seed_t3, int seed_leaf_points, bool seed_binary_pairs,
                 nb::handle occluder_triangles, nb::handle occluder_shift,
-                nb::handle occluder_scene) {
+                nb::handle occluder_scene, nb::handle scan_surfels) {
                  if (method != "fmm" && method != "direct")
                      throw nb::value_error("method must be 'fmm' or 'direct'");
                  if (near_field != "disc" && near_field != "point")
@@ -80,6 +80,19 @@ void bind_operator(nb::module_& m) {
                          throw nb::value_error("occluder_scene must be a MeshScene of occluder_triangles");
                      opt.vis.triangles_scene = sc;
                  }
+                 if (scan_surfels.is_valid() && !scan_surfels.is_none()) {
+                     std::size_t ns;
+                     nb::object keep_scan;
+                     const double* flags = view<double>(scan_surfels, "scan_surfels", 1, 1, ns, keep_scan);
+                     if (ns != np)
+                         throw nb::value_error("scan_surfels must have one entry per surfel");
+                     opt.scan.resize(np);
+                     for (std::size_t k = 0; k < np; ++k) {
+                         if (!(flags[k] >= 0.0 && flags[k] < 4294967296.0))
+                             throw nb::value_error("scan_surfels must lie in [0, 2^32)");
+                         opt.scan[k] = std::uint32_t(flags[k]);
+                     }
+                 }
                  std::unique_ptr<TransportOperator> op;
                  run_released(threads, progress, [&](Context& ctx) {
                      op = std::make_unique<TransportOperator>(ctx, P, N, A, np, opt);
@@ -97,7 +110,8 @@ void bind_operator(nb::module_& m) {
              nb::arg("seed_t3") = 0.5, nb::arg("seed_leaf_points") = 8,
              nb::arg("seed_binary_pairs") = true, nb::arg("occluder_triangles").none() = nb::none(),
              nb::arg("occluder_shift").none() = nb::none(),
-             nb::arg("occluder_scene").none() = nb::none())
+             nb::arg("occluder_scene").none() = nb::none(),
+             nb::arg("scan_surfels").none() = nb::none())
         .def("apply",
              [](PyOperator& self, nb::handle values, nb::handle progress) {
                  std::size_t nv;

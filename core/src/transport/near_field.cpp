@@ -104,6 +104,32 @@ double point_to_polygon(const double x[3], const double n[3], const double c[3],
     return std::min(1.0, std::fabs(sum) / (2.0 * kPi));
 }
 
+double disc_to_polygon(const double x[3], const double n[3], double receiver_area,
+                       const double c[3], const double m[3], double area) {
+    // A 7-point rule on the disc (exact for polynomials of degree 5): the centre, weight 1/4,
+    // and six points at sqrt(2/3) of the radius, weight 1/8 each.
+    double u[3], v[3];
+    tangent_basis(n, u, v);
+    const double r = std::sqrt(receiver_area / kPi) * std::sqrt(2.0 / 3.0);
+    double sum = 0.25 * point_to_polygon(x, n, c, m, area);
+    for (int k = 0; k < 6; ++k) {
+        const double a = kPi * k / 3.0;
+        const double cu = r * std::cos(a), sv = r * std::sin(a);
+        const double p[3] = {x[0] + cu * u[0] + sv * v[0], x[1] + cu * u[1] + sv * v[1],
+                             x[2] + cu * u[2] + sv * v[2]};
+        sum += 0.125 * point_to_polygon(p, n, c, m, area);
+    }
+    return sum;
+}
+
+bool facing_plates(const double d[3], const double ni[3], const double nj[3], double area_i,
+                   double area_j) {
+    // d = x_i − x_j. Each centre lies within half the other's radius of its plane (a thin gap).
+    if (dot(ni, nj) > kPlateCos) return false;
+    const double hj = -dot(ni, d), hi = dot(nj, d);
+    return hj > 0.0 && hi > 0.0 && 4.0 * hj * hj * kPi < area_i && 4.0 * hi * hi * kPi < area_j;
+}
+
 void NearCorrection::apply_add(Context& ctx, const double* x, double* y) const {
     const std::size_t n = offsets.empty() ? 0 : offsets.size() - 1;
     parallel_for(ctx, n, 4096, [&](std::size_t b, std::size_t e) {
@@ -188,8 +214,67 @@ NearCorrection assemble_correction(std::size_t n, std::vector<std::vector<Sparse
     return out;
 }
 
+// The correction entries of the close pair (i, j), t = π r² / Ā apart, appended to `out`.
+static void close_pair(const SurfelSoA& s, std::size_t i, std::uint32_t j, double t,
+                       const PairVisibilityFn* vis, const std::uint32_t* scan,
+                       std::vector<SparseEntry>& out) {
+    const double xi[3] = {s.px[i], s.py[i], s.pz[i]};
+    const double ni[3] = {s.nx[i], s.ny[i], s.nz[i]};
+    const double Ai = s.area[i], Aj = s.area[j];
+    const double d[3] = {xi[0] - s.px[j], xi[1] - s.py[j], xi[2] - s.pz[j]};
+    const double r2 = dot(d, d);
+    const double xj[3] = {s.px[j], s.py[j], s.pz[j]};
+    const double nj[3] = {s.nx[j], s.ny[j], s.nz[j]};
+    const double p_ij = pair_factor(d[0], d[1], d[2], ni[0], ni[1], ni[2],
+                                   nj[0], nj[1], nj[2], Aj);
+    const double p_ji = pair_factor(-d[0], -d[1], -d[2], nj[0], nj[1], nj[2],
+                                   ni[0], ni[1], ni[2], Ai);
+    // Centres that do not face stay at zero, as in the far field:
+    // otherwise octagons overhanging an edge, or tilted neighbours on
+    // a convex surface, would let a surface light itself. Coplanar
+    // pairs count as not facing even when rounding tilts them by
+    // 1e-16 (a box standing on a floor would otherwise flip between
+    // seeing a full hemisphere and nothing with the scene's scale).
+    // Planes within kContactHeight of each other are in contact.
+    const double rr = std::sqrt(r2);
+    const double cos_i = -dot(ni, d) / rr, cos_j = dot(nj, d) / rr;
+    const double contact = kContactHeight * std::sqrt(std::min(Ai, Aj));
+    if (p_ij == 0.0 || cos_i <= kCoplanarCos || cos_j <= kCoplanarCos ||
+        std::max(cos_i, cos_j) * rr <= contact)
+        return;
+    // A scan's surfel and one facing it closer than their size (the scan's
+    // base 1.5 mm over a floor): the receiver's centre alone sees the one
+    // source overhead and none of the neighbours its rim lies over, and the
+    // segment between two centres through the gap meets the scan's own
+    // bumpy splats; such a pair passed the light between itself alone and
+    // read 0.13 (Cycles 0.85). Averaged over the receiver's disc, unblocked.
+    // Not within one scan: a base point's neighbour's back, 0.2 mm lower,
+    // would face it as a plate does.
+    const bool plates = scan && scan[i] != scan[j] &&
+                        facing_plates(d, ni, nj, Ai, Aj);
+    const double f_ij = plates ? disc_to_polygon(xi, ni, Ai, xj, nj, Aj)
+                               : point_to_polygon(xi, ni, xj, nj, Aj);
+    const double f_ji = plates ? disc_to_polygon(xj, nj, Aj, xi, ni, Ai)
+                               : point_to_polygon(xj, nj, xi, ni, Ai);
+    const double g = 0.5 * (Ai * f_ij + Aj * f_ji);  // symmetric
+    const double w = polygon_weight(t);
+    double c_ij = w * (g / Ai - p_ij);
+    double c_ji = w * (g / Aj - p_ji);
+    double vis_ij = 1.0;
+    if (vis && !plates && (c_ij != 0.0 || c_ji != 0.0)) {
+        vis_ij = (*vis)(std::uint32_t(i), j);
+        c_ij *= vis_ij;
+        c_ji *= vis_ij;
+    }
+    const double v = vis_ij;
+    if (c_ij != 0.0)
+        out.push_back({std::int64_t(i), std::int64_t(j), c_ij, v * p_ij + c_ij});
+    if (c_ji != 0.0)
+        out.push_back({std::int64_t(j), std::int64_t(i), c_ji, v * p_ji + c_ji});
+}
+
 NearCorrection build_near_correction(Context& ctx, const SurfelSoA& s,
-                                     const PairVisibilityFn* vis) {
+                                     const PairVisibilityFn* vis, const std::uint32_t* scan) {
     const std::size_t n = s.n;
     if (n < 2) {
         std::vector<std::vector<SparseEntry>> none;
@@ -240,7 +325,6 @@ NearCorrection build_near_correction(Context& ctx, const SurfelSoA& s,
         std::size_t count = 0;
         for (std::size_t i = b; i < e; ++i) {
             const double xi[3] = {s.px[i], s.py[i], s.pz[i]};
-            const double ni[3] = {s.nx[i], s.ny[i], s.nz[i]};
             const double Ai = s.area[i];
             const double R = reach[i];
             const CellKey k0 = key_of(xi[0] - R, xi[1] - R, xi[2] - R);
@@ -277,42 +361,7 @@ NearCorrection build_near_correction(Context& ctx, const SurfelSoA& s,
                     const double t = kPi * r2 / (0.5 * (Ai + Aj));
                     if (t > 2.0 * kT0) continue;
                     ++count;
-                    const double xj[3] = {s.px[j], s.py[j], s.pz[j]};
-                    const double nj[3] = {s.nx[j], s.ny[j], s.nz[j]};
-                    const double p_ij = pair_factor(d[0], d[1], d[2], ni[0], ni[1], ni[2],
-                                                   nj[0], nj[1], nj[2], Aj);
-                    const double p_ji = pair_factor(-d[0], -d[1], -d[2], nj[0], nj[1], nj[2],
-                                                   ni[0], ni[1], ni[2], Ai);
-                    // Centres that do not face stay at zero, as in the far field:
-                    // otherwise octagons overhanging an edge, or tilted neighbours on
-                    // a convex surface, would let a surface light itself. Coplanar
-                    // pairs count as not facing even when rounding tilts them by
-                    // 1e-16 (a box standing on a floor would otherwise flip between
-                    // seeing a full hemisphere and nothing with the scene's scale).
-                    // Planes within kContactHeight of each other are in contact.
-                    const double rr = std::sqrt(r2);
-                    const double cos_i = -dot(ni, d) / rr, cos_j = dot(nj, d) / rr;
-                    const double contact = kContactHeight * std::sqrt(std::min(Ai, Aj));
-                    if (p_ij == 0.0 || cos_i <= kCoplanarCos || cos_j <= kCoplanarCos ||
-                        std::max(cos_i, cos_j) * rr <= contact)
-                        continue;
-                    const double f_ij = point_to_polygon(xi, ni, xj, nj, Aj);
-                    const double f_ji = point_to_polygon(xj, nj, xi, ni, Ai);
-                    const double g = 0.5 * (Ai * f_ij + Aj * f_ji);  // symmetric
-                    const double w = polygon_weight(t);
-                    double c_ij = w * (g / Ai - p_ij);
-                    double c_ji = w * (g / Aj - p_ji);
-                    double vis_ij = 1.0;
-                    if (vis && (c_ij != 0.0 || c_ji != 0.0)) {
-                        vis_ij = (*vis)(std::uint32_t(i), j);
-                        c_ij *= vis_ij;
-                        c_ji *= vis_ij;
-                    }
-                    const double v = vis_ij;
-                    if (c_ij != 0.0)
-                        mine.push_back({std::int64_t(i), std::int64_t(j), c_ij, v * p_ij + c_ij});
-                    if (c_ji != 0.0)
-                        mine.push_back({std::int64_t(j), std::int64_t(i), c_ji, v * p_ji + c_ji});
+                    close_pair(s, i, j, t, vis, scan, mine);
                 }
             }
         }

@@ -29,6 +29,19 @@ constexpr int kPolygonSides = 8;  // regular octagon of the surfel's area
 double point_to_polygon(const double x[3], const double n[3], const double c[3],
                         const double m[3], double area);
 
+// point_to_polygon averaged over the disc of area `receiver_area` centred at x in its plane:
+// the form factor from that disc (as its octagon's neighbours see it) to the polygon.
+double disc_to_polygon(const double x[3], const double n[3], double receiver_area,
+                       const double c[3], const double m[3], double area);
+
+// Two surfels whose normals' cosine is below this face each other as plates do.
+constexpr double kPlateCos = -0.5;
+
+// Whether surfels i and j (d = x_i − x_j) face each other as close plates: normals opposed
+// (cos < kPlateCos), each centre in front of the other's plane by less than half its radius.
+bool facing_plates(const double d[3], const double ni[3], const double nj[3], double area_i,
+                   double area_j);
+
 struct NearCorrection {
     std::vector<std::int64_t> offsets;  // CSR by receiver (caller's order), size n + 1
     std::vector<std::int64_t> columns;
@@ -67,7 +80,13 @@ using PairVisibilityFn = std::function<float(std::uint32_t, std::uint32_t)>;
 
 // Finds every pair with π r² ≤ 2 t0 Ā_ij and stores its correction. Multithreaded. With `vis`,
 // each stored pair's correction is multiplied by V(i, j) (so that F·V = F_point·V + C·V).
+// `scan` (n entries, or nullptr): the point cloud each surfel stands for a point of (1, 2, …;
+// 0: a mesh's). A pair of facing plates (facing_plates) of a scan and another object takes
+// the plates rule: its form factors averaged over the receiver's disc (disc_to_polygon), and
+// no visibility test between the two centres. Within one scan (its points' two sides, a thin
+// part) the pair keeps the point rule.
 NearCorrection build_near_correction(Context& ctx, const SurfelSoA& s,
-                                     const PairVisibilityFn* vis = nullptr);
+                                     const PairVisibilityFn* vis = nullptr,
+                                     const std::uint32_t* scan = nullptr);
 
 }  // namespace illumap

@@ -70,7 +70,8 @@ void TransportOperator::build_near(Context& ctx) {
         return vis_->pair(iperm_[i], iperm_[j]);
     };
     near_ = std::make_unique<NearCorrection>(
-        build_near_correction(ctx, orig_, vis_ ? &vf : nullptr));
+        build_near_correction(ctx, orig_, vis_ ? &vf : nullptr,
+                              opt_.scan.size() == n_ ? opt_.scan.data() : nullptr));
     timings_["build_near"] = seconds_since(t0);
 }
 

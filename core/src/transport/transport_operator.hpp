@@ -28,6 +28,10 @@ struct OperatorOptions {
     // V per pair (F_point·V as F_point minus a sparse correction over the blocked pairs, O(N²)
     // rays once per geometry), and apply_rows applies V per pair on the fly.
     VisibilityOptions vis;
+    // The point cloud (scan) each surfel stands for a point of, 1, 2, …, or 0 (a mesh's); empty:
+    // none. Close facing pairs of a scan and another object take the plates rule
+    // (near_field.hpp).
+    std::vector<std::uint32_t> scan;
 };
 
 class TransportOperator {

@@ -39,6 +39,19 @@ def builds_own_ray_scene(scene) -> bool:
     return scene.refine is None and scene.triangles_occlude and s.target_error is not None
 
 
+def scan_surfels(scene) -> np.ndarray | None:
+    """(N,) int64: the point cloud (1, 2, … in ``scene.clouds``' order) each surfel stands for
+    a point of (both sides of a point), 0 for a mesh's; None when the scene has no cloud."""
+    number = {cloud.name: k + 1 for k, cloud in enumerate(scene.clouds)}
+    if not number:
+        return None
+    out = np.zeros(scene.count, dtype=np.int64)
+    for src in scene.sources:
+        if src.name in number and src.kind in ("POINTS", "BACK"):
+            out[src.start:src.stop] = number[src.name]
+    return out if out.any() else None
+
+
 def _solver_call(lit: Lit, progress: Progress | None) -> tuple:
     """(the solve function, its keywords) for this lit scene's settings."""
     import illumap
@@ -86,6 +99,9 @@ def _solver_call(lit: Lit, progress: Progress | None) -> tuple:
                     kwargs["occluders"] = scene.occluders
             else:  # the lamp shadows' occluders
                 kwargs.update(coverage=SURFEL_COVERAGE, visibility_shape=shape)
+    scan = scan_surfels(scene)
+    if scan is not None:
+        kwargs["scan_surfels"] = scan
     if lit.hemisphere is not None:
         kwargs["hemisphere_hits"] = lit.hemisphere.hits
         # Surfels that light reaches only through a slit take their rows from first hits.
