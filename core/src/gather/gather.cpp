@@ -321,16 +321,13 @@ GatherPlan::GatherPlan(Context& ctx, const MeshScene& scene, const SurfelField& 
     // lattice (sub-triangles that are not clean) still look up the whole field.
     auto table = [&](const SurfelField& field, const ExactPart* exact, double sign,
                      const std::vector<std::uint8_t>& only) {
-        FieldTable tab = lattice_layout(scene, field.reach(), only.empty() ? nullptr : only.data());
         const bool split = exact && exact->rest && exact->lattice;
         // Without a table each hit looks the field up itself (cheaper for a few receivers in
-        // a large scene). An exact part lives on the lattice, so it keeps one.
-        if (!split && !opt.tabulate) {
-            std::fill(tab.n.begin(), tab.n.end(), 0u);
-            std::fill(tab.start.begin(), tab.start.end(), std::size_t(0));
-            std::fill(tab.sub_start.begin(), tab.sub_start.end(), std::size_t(0));
-            return tab;
-        }
+        // a large scene): an empty table, which has no lattice for any triangle (per-triangle
+        // arrays of zeros were 0.48 GB for a 990k scan's straddling surfels). An exact part
+        // lives on the lattice, so it keeps one.
+        if (!split && !opt.tabulate) return FieldTable{};
+        FieldTable tab = lattice_layout(scene, field.reach(), only.empty() ? nullptr : only.data());
         fill_table(ctx, scene, split ? *exact->rest : field, sign, opt.offset,
                    split ? exact->lattice : nullptr, tab);
         return tab;
