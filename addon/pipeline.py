@@ -38,7 +38,7 @@ from illumap.stages.errors import NoLight, RunError
 from illumap.stages.light import Lit
 from illumap.stages.light import light as light_stage
 from illumap.stages.scene import Scene, Source  # noqa: F401
-from illumap.stages.solve import Solved, builds_own_ray_scene  # noqa: F401
+from illumap.stages.solve import Solved  # noqa: F401
 
 from . import checks
 from .read import sampling
@@ -178,11 +178,6 @@ def run_passes(job: Job, progress: Progress | None = None, *, on_main=None,
             jobs.append(new)
         return None if new is None else to_scene(new)
     start = [_lit(job)]
-    if builds_own_ray_scene(to_scene(job)):
-        # The run lets its gather's ray scene go while the solve builds its own (a scan's
-        # splats: ~1 GB per 1M points); neither the job nor this frame may hold it meanwhile.
-        # ``_keep_light`` keeps the one the gather builds again.
-        job.occluders = None
     with _user_errors():
         gathered = illumap.run(start.pop(), progress, next_pass=following if passes else None)
     last = _keep_light(jobs[-1], gathered.solved.lit)

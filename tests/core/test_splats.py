@@ -167,3 +167,20 @@ def test_splats_beside_an_edge_lie_in_their_own_surface():
     from illumap.pointcloud import settled_normals
     np.testing.assert_allclose(settled_normals(p, n)[first_row], [[0.0, -1.0, 0.0]] * len(first_row),
                                atol=1e-9)
+
+
+def test_splats_written_into_a_callers_array_in_chunks_are_the_same(monkeypatch):
+    """Fans built a few points at a time straight into the caller's array (a scan's scene
+    holds its splat corners once) are the fans built whole, bit for bit."""
+    rng = np.random.default_rng(7)
+    p, a = jittered_grid(12, 1.0, rng)
+    n = np.tile([0.0, 0.0, 1.0], (len(p), 1))
+    whole = splats.splat_triangles(p, n, a)
+    monkeypatch.setattr(splats, "FAN_CHUNK", 17)     # 144 points: 9 chunks, the last short
+    out = np.full((len(whole) + 24, 3, 3), np.nan)
+    got = splats.splat_triangles(p, n, a, out=out[12:-12])
+    assert np.shares_memory(got, out)
+    assert np.array_equal(out[12:-12], whole)
+    assert np.isnan(out[:12]).all() and np.isnan(out[-12:]).all()   # nothing written outside
+    with pytest.raises(splats.InputError, match="out must be C-contiguous float64"):
+        splats.splat_triangles(p, n, a, out=np.empty((len(whole), 3, 3), dtype=np.float32))

@@ -240,10 +240,26 @@ def _check_triangles(triangles) -> np.ndarray | None:
     t = np.ascontiguousarray(triangles, dtype=np.float64)
     if t.ndim != 3 or t.shape[1:] != (3, 3) or len(t) == 0:
         raise InputError(f"occluder_triangles: expected shape (T, 3, 3) with T >= 1, got {t.shape}")
-    bad = ~np.isfinite(t).all(axis=(1, 2))
-    if bad.any():
-        raise InputError(f"occluder_triangles[{int(np.flatnonzero(bad)[0])}] is not finite")
+    bad = first_nonfinite_row(t)
+    if bad >= 0:
+        raise InputError(f"occluder_triangles[{bad}] is not finite")
     return t
+
+
+#: Rows checked at once by ``first_nonfinite_row``: a scan's 12M splat triangles checked whole
+#: took a 107 MB mask, twice per solve.
+FINITE_CHECK_ROWS = 1 << 16
+
+
+def first_nonfinite_row(array: np.ndarray) -> int:
+    """The first row of ``array`` (any shape, rows along axis 0) holding a value that is not
+    finite, or -1; checked ``FINITE_CHECK_ROWS`` rows at a time, so the mask stays small."""
+    for lo in range(0, len(array), FINITE_CHECK_ROWS):
+        part = array[lo:lo + FINITE_CHECK_ROWS]
+        if not np.isfinite(part).all():
+            rows = np.isfinite(part.reshape(len(part), -1)).all(axis=1)
+            return lo + int(np.flatnonzero(~rows)[0])
+    return -1
 
 
 class TransportOperator:

@@ -5,6 +5,8 @@
 
 #include "parallel.hpp"
 
+#include <limits>
+
 namespace illumap::bindings {
 
 void bind_mesh_scene(nb::module_& m) {
@@ -165,7 +167,7 @@ void bind_gather(nb::module_& m) {
         nb::object scene_ref, front_ref, back_ref, keep_front_rest, keep_back_rest,
             keep_front_lattice, keep_back_lattice;
         std::vector<std::uint8_t> sided;
-        std::vector<std::int64_t> own_front, own_back;
+        std::vector<OwnerRow> own_front, own_back;
         ExactPart ex_front, ex_back;
         GatherOptions opt;
         std::unique_ptr<GatherPlan> plan;
@@ -204,7 +206,7 @@ void bind_gather(nb::module_& m) {
                  }
                  // Splat owners: -1, or a row of the field they index.
                  auto owners = [&](nb::handle h, const char* name, const SurfelField* field) {
-                     std::vector<std::int64_t> o;
+                     std::vector<OwnerRow> o;
                      if (!h.is_valid() || h.is_none()) return o;
                      std::size_t no;
                      nb::object keep;
@@ -212,18 +214,21 @@ void bind_gather(nb::module_& m) {
                      if (no != T)
                          throw nb::value_error((std::string(name) + " must have one entry per triangle").c_str());
                      const std::int64_t limit = field ? std::int64_t(field->size()) : 0;
+                     if (limit > std::int64_t(std::numeric_limits<OwnerRow>::max()))
+                         throw nb::value_error((std::string(name) + ": a field of more than 2^31 - 1 "
+                                                "surfels cannot own splats").c_str());
                      for (std::size_t t = 0; t < no; ++t)
                          if (O[t] < -1 || O[t] >= limit)
                              throw nb::value_error((std::string(name) + "[" + std::to_string(t) +
                                                     "] is not -1 or a surfel of its field").c_str());
-                     o.assign(O, O + no);
+                     o.assign(O, O + no);   // in range, so each fits OwnerRow
                      return o;
                  };
                  g.own_front = owners(owner_front, "owner_front", front.field.get());
                  g.own_back = owners(owner_back, "owner_back", back_field);
                  const std::uint8_t* sided = g.sided.empty() ? nullptr : g.sided.data();
-                 const std::int64_t* of = g.own_front.empty() ? nullptr : g.own_front.data();
-                 const std::int64_t* ob = g.own_back.empty() ? nullptr : g.own_back.data();
+                 const OwnerRow* of = g.own_front.empty() ? nullptr : g.own_front.data();
+                 const OwnerRow* ob = g.own_back.empty() ? nullptr : g.own_back.data();
                  // Exact parts: a rest field and one value per lattice point, both or neither.
                  GatherLattice lat_front, lat_back;
                  if (!front_lattice.is_none() || !back_lattice.is_none())
@@ -384,8 +389,19 @@ void bind_gather(nb::module_& m) {
               const std::int64_t* S = rows(two_sided, "two_sided", k1);
               std::vector<std::uint8_t> sided;
               if (S) sided.assign(S, S + T);
-              const std::int64_t* OF = rows(owner_front, "owner_front", k2);
-              const std::int64_t* OB = rows(owner_back, "owner_back", k3);
+              // Only the sign of an owner matters here (which triangles have a lattice).
+              auto owner_rows = [&](const std::int64_t* O) {
+                  std::vector<OwnerRow> o;
+                  if (O) {
+                      o.resize(T);
+                      for (std::size_t t = 0; t < T; ++t) o[t] = O[t] < 0 ? OwnerRow(-1) : OwnerRow(0);
+                  }
+                  return o;
+              };
+              const std::vector<OwnerRow> of = owner_rows(rows(owner_front, "owner_front", k2));
+              const std::vector<OwnerRow> ob = owner_rows(rows(owner_back, "owner_back", k3));
+              const OwnerRow* OF = of.empty() ? nullptr : of.data();
+              const OwnerRow* OB = ob.empty() ? nullptr : ob.data();
               const SurfelField* back_field = back.is_none() ? nullptr : nb::cast<PySurfelField&>(back).field.get();
               GatherLattice f, b;
               {

@@ -68,6 +68,10 @@ struct ExactPart {
     const double* lattice = nullptr;
 };
 
+// A splat triangle's surfel: a row of the field it indexes, or -1 (one per triangle: 32 bits,
+// half of what a scan's 12 triangles per point cost in 64).
+using OwnerRow = std::int32_t;
+
 // The points (and their surface normals, the side's) of the lattices a gather with the same
 // arguments tabulates the front and back fields on, each moved a hair towards its
 // triangle's centroid. n x 3 row-major each.
@@ -77,8 +81,8 @@ struct GatherLattice {
     std::size_t size() const { return points.size() / 3; }
 };
 void gather_lattices(const MeshScene& scene, const SurfelField& front, const SurfelField* back,
-                     const std::uint8_t* two_sided, const std::int64_t* owner_front,
-                     const std::int64_t* owner_back, GatherLattice& front_out,
+                     const std::uint8_t* two_sided, const OwnerRow* owner_front,
+                     const OwnerRow* owner_back, GatherLattice& front_out,
                      GatherLattice& back_out);
 
 // Corners that share a receiver's rays, each in a face of its own (a smooth vertex's corners,
@@ -107,8 +111,8 @@ class GatherPlan {
 public:
     GatherPlan(Context& ctx, const MeshScene& scene, const SurfelField& front,
                const SurfelField* back, const GatherOptions& opt,
-               const std::uint8_t* two_sided = nullptr, const std::int64_t* owner_front = nullptr,
-               const std::int64_t* owner_back = nullptr, const ExactPart* front_exact = nullptr,
+               const std::uint8_t* two_sided = nullptr, const OwnerRow* owner_front = nullptr,
+               const OwnerRow* owner_back = nullptr, const ExactPart* front_exact = nullptr,
                const ExactPart* back_exact = nullptr);
     ~GatherPlan();
     GatherPlan(const GatherPlan&) = delete;
@@ -168,8 +172,8 @@ private:
     const SurfelField* back_;
     GatherOptions opt_;
     const std::uint8_t* two_sided_;
-    const std::int64_t* owner_front_;
-    const std::int64_t* owner_back_;
+    const OwnerRow* owner_front_;
+    const OwnerRow* owner_back_;
     std::unique_ptr<Tables> tables_;
 };
 

@@ -20,7 +20,7 @@ from .errors import RunError
 from .light import Lit, check_light, light
 from .scene import Progress, Scene
 from .scene import with_occluders
-from .solve import Solved, builds_own_ray_scene, solve
+from .solve import Solved, solve
 
 #: ``next_pass(solved) -> Scene | None``: the scene of the pass after ``solved`` (whose scene
 #: has ``refine`` set), or None to end the run with this pass.
@@ -61,12 +61,8 @@ def run(scene: "Scene | Lit", progress: Progress | None = None, *,
     check(settings)
     occluder_shape(settings)   # an unknown shape is refused before any work
     lit = scene if isinstance(scene, Lit) else light(scene, progress)
-    scene = None   # nor may this frame hold the caller's ray scene through the solve (below)
+    scene = None   # the lit scene holds what the passes need; this frame holds nothing more
     while True:
-        if builds_own_ray_scene(lit.scene) and lit.scene.occluders is not None:
-            # The gather's ray scene is released while the solve holds its own of the same
-            # triangles, and built again for the gather (a scan's splats: ~1 GB per 1M points).
-            lit = replace(lit, scene=replace(lit.scene, occluders=None))
         solved = solve_lit(lit, progress)
         if lit.scene.refine is None:   # the last pass: the light where the user sees it
             return gather(solved, progress)

@@ -30,15 +30,6 @@ class Solved:
     warnings: tuple = ()
 
 
-def builds_own_ray_scene(scene) -> bool:
-    """Whether the solve of ``scene`` builds ray scenes of the scene's triangles of its own
-    and does not take the gather's (a target error, on the last pass), so that the gather's
-    need not be held meanwhile. Exact visibility without a target takes it for its fill
-    (``TransportOperator(occluders=)``)."""
-    s = scene.settings
-    return scene.refine is None and scene.triangles_occlude and s.target_error is not None
-
-
 def scan_surfels(scene) -> np.ndarray | None:
     """(N,) int64: the point cloud (1, 2, … in ``scene.clouds``' order) each surfel stands for
     a point of (both sides of a point), 0 for a mesh's; None when the scene has no cloud."""
@@ -72,6 +63,8 @@ def _solver_call(lit: Lit, progress: Progress | None) -> tuple:
                       scored=~(scene.emission.max(axis=1) > 0))
         if scene.triangles_occlude:
             kwargs["occluder_triangles"] = scene.triangles   # as without a target (below)
+            if scene.occluders is not None:   # casts against the gather's ray scene
+                kwargs["occluders"] = scene.occluders
         chosen = scene.accuracy or {}
         if scene.refine is not None and chosen:
             # An adaptive pass 1 only finds where the light varies: the final count's settings
