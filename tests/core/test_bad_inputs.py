@@ -164,13 +164,13 @@ def test_scales_inside_the_limits_still_solve():
 def test_the_first_non_finite_triangle_is_named_past_the_checks_chunks(monkeypatch):
     """Triangles are checked for finite corners a chunk at a time (a scan's 12M splat
     triangles at once took a 107 MB mask): the first bad one is still the one named."""
-    from illumap import operator
+    from illumap import array_checks
     from illumap.receivers import MeshOccluders
-    monkeypatch.setattr(operator, "FINITE_CHECK_ROWS", 4)
+    monkeypatch.setattr(array_checks, "FINITE_CHECK_ROWS", 4)
     tri = np.tile(TRI, (11, 1, 1)).astype(np.float64)
-    assert operator.first_nonfinite_row(tri) == -1
+    assert array_checks.first_nonfinite_row(tri) == -1
     tri[9, 2, 1] = np.inf
     tri[10, 0, 0] = np.nan
-    assert operator.first_nonfinite_row(tri) == 9
+    assert array_checks.first_nonfinite_row(tri) == 9
     with pytest.raises(illumap.InputError, match=r"corners of triangle 9 are not finite"):
         MeshOccluders(tri)

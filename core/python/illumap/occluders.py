@@ -20,7 +20,8 @@ import numpy as np
 
 from ._progress import ProgressGuard
 from .limits import limit
-from .operator import OCCLUDER_SHAPES, read_float_array, require_finite
+from .array_checks import read_float_array, require_finite
+from .operator import OCCLUDER_SHAPES
 from .surfels import InputError, Surfels
 
 try:

@@ -57,7 +57,7 @@ def _corners(corners) -> np.ndarray:
     c = np.ascontiguousarray(corners, dtype=np.float64)
     if c.ndim != 3 or c.shape[1:] != (3, 3):
         raise InputError(f"corners must have shape (T, 3, 3), got {c.shape}")
-    from .operator import first_nonfinite_row   # chunked: a scan's splats are 12M triangles
+    from .array_checks import first_nonfinite_row   # chunked: a scan's splats are 12M triangles
     bad = first_nonfinite_row(c)
     if bad >= 0:
         raise InputError(f"corners of triangle {bad} are not finite")
