@@ -101,13 +101,15 @@ def splat_radii(positions, normals, areas, *, reach: float = DEFAULT_REACH,
     return np.asarray(radii), u, v
 
 
-def splat_triangles(positions, normals, areas, **options) -> np.ndarray:
+def splat_triangles(positions, normals, areas, *, nearest: np.ndarray | None = None,
+                    **options) -> np.ndarray:
     """(N × sides, 3, 3) triangles, the splats of N points as fans about them (point i's are
     rows i·sides … (i+1)·sides − 1), each in the plane of its point's surface
     (``pointcloud.settled_normals``), wound so that their normals agree with ``normals``.
-    Options: see ``splat_radii``."""
+    ``nearest``: the points' own search, passed on to ``settled_normals``. Options: see
+    ``splat_radii``."""
     p = np.ascontiguousarray(positions, dtype=np.float64)
-    facing = np.ascontiguousarray(settled_normals(p, normals), dtype=np.float64)
+    facing = np.ascontiguousarray(settled_normals(p, normals, nearest), dtype=np.float64)
     radii, u, v = splat_radii(p, facing, areas, **options)
     return np.asarray(_core.splat_fans(p, np.ascontiguousarray(u), np.ascontiguousarray(v),
                                        np.ascontiguousarray(radii), facing))
