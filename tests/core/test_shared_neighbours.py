@@ -64,3 +64,16 @@ def test_normals_and_receivers_from_one_table_equal_separate_searches():
     np.testing.assert_array_equal(pointcloud.receiver_normals(pts, normals, table),
                                   pointcloud.receiver_normals(pts, normals,
                                                               pointcloud.nearest(pts, k)))
+
+
+def test_the_points_own_search_equals_a_search_of_the_same_points_as_other_queries():
+    """knn(points, points) visits the queries in the tree's order (no Morton sort); the same
+    points permuted as queries take the sorted path: every answer is the same, ties (the
+    regular grid) included."""
+    from illumap.neighbours import knn
+    pts = _floor_and_wall(0.03, 0.0)
+    own_idx, own_dist = knn(pts, pts, 13)
+    perm = np.random.default_rng(2).permutation(len(pts))
+    idx, dist = knn(pts, pts[perm], 13)
+    np.testing.assert_array_equal(own_idx[perm], idx)
+    np.testing.assert_array_equal(own_dist[perm], dist)
