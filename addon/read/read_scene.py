@@ -243,6 +243,8 @@ def _build(scene: _ReadScene, progress: Progress | None = None) -> Job:
     triangles, two_sided, splat_point = _surface_triangles(scene.mesh_surfaces, clouds,
                                                            scene.point_sources,
                                                            [p.neighbours for p in full])
+    for samples in (*scene.read, *full):    # the shared search's tables: 72 B a point
+        samples.neighbours = None
     stop_if_cancelled()
     occluders = None
     if triangles is not None and any(m.two_sided for m in scene.mesh_surfaces):
