@@ -5,6 +5,7 @@ Prints the run's phases, its CPU seconds and the top functions by own and cumula
 (CPU seconds of all threads; native calls show as the Python functions that enter them).
 
     .venv/bin/python bench/micro/scan_profile.py --cell 0.01 [--top 40] [--out prof.txt]
+    .venv/bin/python bench/micro/scan_profile.py --cell 0.007 --prepare-only   # 990k, prepare
 """
 from __future__ import annotations
 
