@@ -53,6 +53,9 @@ class PointSamples:
     # Estimated normals: the directions each point is lit from as a receiver
     # (``illumap.pointcloud.receiver_normals``); None: ``normals``.
     receiver_normals: np.ndarray | None = None
+    # ``own_neighbours`` indices (N, k + 1) when the areas were estimated and the normals
+    # will be: the search is made once, for the spacing, the normals and the splats.
+    neighbours: np.ndarray | None = None
 
 
 class _Attributes:
@@ -86,8 +89,21 @@ def _read_attr(attributes, name: str, count: int, width: int) -> np.ndarray | No
 
 def estimate_areas(positions: np.ndarray, k: int = K_NEIGHBOURS) -> np.ndarray:
     """Area per point (m²) from neighbour spacing (see the module docstring)."""
-    _, dist = knn(positions, positions, k + 1)
-    d2 = dist[:, 1:] ** 2
+    return areas_from_distances(own_neighbours(positions, k)[1])
+
+
+def own_neighbours(positions: np.ndarray, k: int = K_NEIGHBOURS) -> tuple[np.ndarray, np.ndarray]:
+    """Each point's ``k`` nearest other points and itself: indices (N, k + 1) int64, the
+    point first where it has no duplicate, and distances (N, k + 1), m. The one search of a
+    scan's own points that its spacing (``areas_from_distances``), its normals and its
+    splats' planes (``illumap.pointcloud.nearest``, ``settled_normals``) all read."""
+    return knn(positions, positions, k + 1)
+
+
+def areas_from_distances(distances: np.ndarray) -> np.ndarray:
+    """Area per point (m²) from ``own_neighbours``' distances (N, k + 1), m (module
+    docstring: 1/ρ ≈ 2π·mean_j(d_j²)/(k+1) over the k other points)."""
+    d2 = distances[:, 1:] ** 2
     return 2 * np.pi * d2.mean(axis=1) / (d2.shape[1] + 1)
 
 
@@ -214,13 +230,16 @@ def _finish(obj, obj_eval, name, pos, extra, active, mats, warnings) -> PointSam
             f"Point cloud '{name}' has no '{missing}' attribute and only {count} points: too few to "
             f"estimate it from neighbours (needs at least 4). Add a '{missing}' attribute.")
     k = min(K_NEIGHBOURS, count - 1)
+    table = None
     if radius is not None:
         # Areas scale with the transform's area factor |det|^(2/3).
         areas = np.pi * radius.astype(np.float64) ** 2 * abs(np.linalg.det(lin)) ** (2.0 / 3.0)
         if not np.all(np.isfinite(areas)) or (areas <= 0).any():
             raise IllumapError(f"Point cloud '{name}': radius attribute has zero, negative or NaN values")
     else:
-        areas = estimate_areas(pos, k)
+        table, dist = own_neighbours(pos, k)
+        areas = areas_from_distances(dist)
+        del dist
         _check_spacing(name, pos, areas, k)
         warnings.append(f"Point cloud '{name}': no 'radius' attribute; areas estimated from the "
                         f"spacing of {k} nearest neighbours")
@@ -256,7 +275,8 @@ def _finish(obj, obj_eval, name, pos, extra, active, mats, warnings) -> PointSam
     albedo = np.clip(np.nan_to_num(albedo), 0.0, materials.MAX_ALBEDO)
     return PointSamples(name=name, positions=pos, normals=normal, areas=areas, albedo=albedo,
                         emission=np.maximum(np.nan_to_num(emission), 0.0), colors=colors,
-                        two_sided=extra["normal"] is None)
+                        two_sided=extra["normal"] is None,
+                        neighbours=table if normal is None else None)
 
 
 def with_normals(samples: PointSamples) -> PointSamples:
@@ -269,7 +289,11 @@ def with_normals(samples: PointSamples) -> PointSamples:
     pos = samples.positions
     k = min(K_NEIGHBOURS, len(pos) - 1)
     from illumap import pointcloud as core_pointcloud  # noqa: PLC0415 - native, loaded on use
-    around = core_pointcloud.nearest(pos, k)     # one search for both fits
+    # One search for the spacing, both fits and the splats' planes: the same k + 1 columns
+    # ``nearest`` would find (k ≥ 2 here, as it clamps).
+    around = samples.neighbours
+    if around is None:
+        around = core_pointcloud.nearest(pos, k)
     normal = estimate_normals(pos, k, neighbours=around)
     receiver = core_pointcloud.receiver_normals(pos, normal, around)
-    return replace(samples, normals=normal, receiver_normals=receiver)
+    return replace(samples, normals=normal, receiver_normals=receiver, neighbours=around)

@@ -241,7 +241,10 @@ def _build(scene: _ReadScene, progress: Progress | None = None) -> Job:
     parts = _with_points(scene.mesh_parts, point_parts, scene.point_sources)
     stop_if_cancelled()
     triangles, two_sided, splat_point = _surface_triangles(scene.mesh_surfaces, clouds,
-                                                           scene.point_sources)
+                                                           scene.point_sources,
+                                                           [p.neighbours for p in full])
+    for samples in (*scene.read, *full):    # the shared search's tables: 72 B a point
+        samples.neighbours = None
     stop_if_cancelled()
     occluders = None
     if triangles is not None and any(m.two_sided for m in scene.mesh_surfaces):
@@ -341,8 +344,8 @@ def _thin_points(part: tuple, count: int, order: np.ndarray | None) -> tuple[tup
     from illumap.neighbours import knn
     cell = np.sqrt(areas.sum() / count)
     for _ in range(3):   # a surface crosses more cells than its area / cell²: correct the size
-        keys = np.floor((positions[order] - positions.min(axis=0)) / cell).astype(np.int64)
-        _, first = np.unique(keys, axis=0, return_index=True)
+        keys = _cell_keys(positions[order] - positions.min(axis=0), cell)
+        _, first = np.unique(keys, axis=0 if keys.ndim == 2 else None, return_index=True)
         keep = np.sort(order[first])
         if abs(len(keep) - count) <= 0.1 * count:
             break
@@ -358,11 +361,25 @@ def _thin_points(part: tuple, count: int, order: np.ndarray | None) -> tuple[tup
     return thinned, owner
 
 
-def _surface_triangles(tri_meshes: list, point_parts: list, point_sources: list) -> tuple:
+def _cell_keys(offsets: np.ndarray, cell: float) -> np.ndarray:
+    """The grid cell (side ``cell``, m) of each of ``offsets`` (N, 3, m, ≥ 0): one int64 per
+    cell where the grid's cells fit in one (a 1-D unique sorts them 5× faster than rows),
+    else rows (N, 3). Equal keys, equal cells, either way."""
+    cells = np.floor(offsets / cell).astype(np.int64)
+    extent = cells.max(axis=0) + 1 if len(cells) else np.ones(3, np.int64)
+    if float(extent[0]) * float(extent[1]) * float(extent[2]) >= 2.0 ** 62:
+        return cells
+    return (cells[:, 0] * extent[1] + cells[:, 1]) * extent[2] + cells[:, 2]
+
+
+def _surface_triangles(tri_meshes: list, point_parts: list, point_sources: list,
+                       point_neighbours: list | None = None) -> tuple:
     """The scene's surface as triangles (T, 3, 3), m: the meshes' own, then each point
     cloud's splats (``illumap.splats``); which of them are two-sided (T,) bool (open meshes;
     point clouds of unknown orientation); and the point each splat triangle belongs to (T,)
-    int64, counted over all clouds in order (-1: a mesh's). Nones for an empty scene."""
+    int64, counted over all clouds in order (-1: a mesh's). Nones for an empty scene.
+    ``point_neighbours``: per cloud, its points' own search (``pointcloud.own_neighbours``)
+    or None, so the splats' planes need not search again."""
     if not tri_meshes and not point_parts:
         return None, None, None
     from illumap.splats import DEFAULT_SIDES, splat_triangles
@@ -381,11 +398,12 @@ def _surface_triangles(tri_meshes: list, point_parts: list, point_sources: list)
         sided[start:stop] = tm.two_sided
         start = stop
     first = 0
-    for part, (_, _, both) in zip(point_parts, point_sources):
+    nearest = point_neighbours or [None] * len(point_parts)
+    for part, (_, _, both), table in zip(point_parts, point_sources, nearest):
         n = len(part[0])
         stop = start + n * DEFAULT_SIDES
         if n:
-            splat_triangles(part[0], part[1], part[2], out=corners[start:stop])
+            splat_triangles(part[0], part[1], part[2], out=corners[start:stop], nearest=table)
         sided[start:stop] = both
         owner[start:stop].reshape(n, DEFAULT_SIDES)[:] = first + np.arange(n)[:, None]
         start, first = stop, first + n

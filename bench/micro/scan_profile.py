@@ -5,6 +5,7 @@ Prints the run's phases, its CPU seconds and the top functions by own and cumula
 (CPU seconds of all threads; native calls show as the Python functions that enter them).
 
     .venv/bin/python bench/micro/scan_profile.py --cell 0.01 [--top 40] [--out prof.txt]
+    .venv/bin/python bench/micro/scan_profile.py --cell 0.007 --prepare-only   # 990k, prepare
 """
 from __future__ import annotations
 
@@ -43,6 +44,8 @@ def main(argv=None) -> int:
     ap.add_argument("--cell", type=float, default=0.01)
     ap.add_argument("--top", type=int, default=40)
     ap.add_argument("--out", default=None, help="also write the report here")
+    ap.add_argument("--prepare-only", action="store_true",
+                    help="profile only pipeline.prepare (the scan's normals, kNN, splats, BVH)")
     args = ap.parse_args(argv)
     import bpy
     from reference import run
@@ -58,6 +61,9 @@ def main(argv=None) -> int:
     prof.enable()
     job = pipeline.prepare(depsgraph, objects, settings)
     c1 = time.process_time()
+    if args.prepare_only:
+        prof.disable()
+        return _report_prepare(prof, points, c1 - c0, time.perf_counter() - t0, args)
     result = pipeline.run(job)
     prof.disable()
     cpu, wall = time.process_time() - c0, time.perf_counter() - t0
@@ -71,6 +77,22 @@ def main(argv=None) -> int:
     print("gathers (receivers, rays, rays cast, wall s, cpu s):", file=out)
     for row in calls:
         print("  %9d %5s %11d %7.2f %7.2f" % row, file=out)
+    stats = pstats.Stats(prof, stream=out)
+    stats.sort_stats("tottime").print_stats(args.top)
+    stats.sort_stats("cumulative").print_stats(args.top)
+    text = out.getvalue()
+    print(text)
+    if args.out:
+        with open(args.out, "w") as f:
+            f.write(text)
+    return 0
+
+
+def _report_prepare(prof, points: int, cpu: float, wall: float, args) -> int:
+    """Print (and write to ``--out``) the prepare phase's CPU seconds and top functions."""
+    out = io.StringIO()
+    print(f"points {points}  prepare wall {wall:.1f} s  cpu {cpu:.1f} s"
+          f"  load {os.getloadavg()[0]:.2f}", file=out)
     stats = pstats.Stats(prof, stream=out)
     stats.sort_stats("tottime").print_stats(args.top)
     stats.sort_stats("cumulative").print_stats(args.top)

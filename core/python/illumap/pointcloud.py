@@ -197,20 +197,26 @@ SETTLE_COS = 0.9
 SETTLE_MIN_POINTS = 4
 
 
-def settled_normals(positions, normals) -> np.ndarray:
+def settled_normals(positions, normals, neighbours: np.ndarray | None = None) -> np.ndarray:
     """Each point's normal refitted as the plane through it and those of its
     ``SETTLE_NEIGHBOURS`` nearest points on the same surface (normals within acos
     ``SETTLE_COS``), oriented as given. A fit over all neighbours tilts beside an edge, where
     the other surface's points are among them (a block's side 6° downwards next to the floor
     it stands on): its splat, in that plane, then stands off the true surface by a tenth of
     the spacing at its far end and shadows the points along the edge. Returns (N, 3).
-    Native (``illumap._core.settled_normals``)."""
+    ``neighbours``: the points' own search (P, SETTLE_NEIGHBOURS + 1, the point first, as
+    :func:`nearest` with k = ``SETTLE_NEIGHBOURS`` makes it) when the caller has it; else it
+    is made here. Native (``illumap._core.settled_normals``)."""
     from . import _core
     p = np.ascontiguousarray(positions, dtype=np.float64)
     n = np.ascontiguousarray(normals, dtype=np.float64)
     if len(p) < SETTLE_MIN_POINTS:
         return n
-    idx, _ = _core.knn(p, p, min(SETTLE_NEIGHBOURS + 1, len(p)))
+    columns = min(SETTLE_NEIGHBOURS + 1, len(p))
+    if neighbours is not None and np.shape(neighbours) == (len(p), columns):
+        idx = np.ascontiguousarray(neighbours, dtype=np.int64)
+    else:
+        idx, _ = _core.knn(p, p, columns)
     return np.asarray(_core.settled_normals(p, n, idx, same_cos=SETTLE_COS,
                                             min_points=SETTLE_MIN_POINTS, on_a_line=ON_A_LINE))
 

@@ -107,15 +107,17 @@ FAN_CHUNK = 1 << 16
 
 
 def splat_triangles(positions, normals, areas, *, out: np.ndarray | None = None,
+                    nearest: np.ndarray | None = None,
                     **options) -> np.ndarray:
     """(N × sides, 3, 3) triangles, the splats of N points as fans about them (point i's are
     rows i·sides … (i+1)·sides − 1), each in the plane of its point's surface
     (``pointcloud.settled_normals``), wound so that their normals agree with ``normals``.
     ``out``: a C-contiguous float64 array of that shape to write them into (returned), so a
-    caller assembling all of a scene's triangles holds them once. Options: see
+    caller assembling all of a scene's triangles holds them once. ``nearest``: the points' own
+    search, passed on to ``settled_normals``. Options: see
     ``splat_radii``."""
     p = np.ascontiguousarray(positions, dtype=np.float64)
-    facing = np.ascontiguousarray(settled_normals(p, normals), dtype=np.float64)
+    facing = np.ascontiguousarray(settled_normals(p, normals, nearest), dtype=np.float64)
     radii, u, v = splat_radii(p, facing, areas, **options)
     sides = radii.shape[1]
     shape = (len(p) * sides, 3, 3)

@@ -156,9 +156,17 @@ void knn(Context& ctx, const double* points, std::size_t n, const double* querie
     KdTree tree(ctx, points, n);
     // Visit queries in Morton order: neighbouring queries touch the same tree nodes, so the
     // tree stays in cache (random query order is several times slower at millions of points).
-    std::vector<std::uint64_t> key(m);
+    // The points' own search (queries = points, the scans' spacing, normals and splats) visits
+    // them in the tree's order instead, as coherent and already at hand: no keys, no sort.
+    // Each query's answer depends on the query alone, so the order changes no result.
     std::vector<std::size_t> order(m);
-    {
+    const bool own = m == n && (queries == points ||
+                                std::equal(queries, queries + 3 * m, points));
+    if (own) {
+        const std::vector<std::int64_t>& tree_order = tree.order();
+        for (std::size_t i = 0; i < m; ++i) order[i] = std::size_t(tree_order[i]);
+    } else {
+        std::vector<std::uint64_t> key(m);
         double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
         for (std::size_t i = 0; i < m; ++i)
             for (int d = 0; d < 3; ++d) {

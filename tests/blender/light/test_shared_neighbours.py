@@ -1,0 +1,77 @@
+"""A scan without radius and normals is searched once for its own neighbours (issue 58):
+the spacing's areas, the normals and the receiver normals made from that one table equal
+what separate searches give, bit for bit; the thinning grid's one-number cell keys group
+the points as rows of cell indices do."""
+
+from dataclasses import replace
+
+import bpy
+import numpy as np
+
+from illumap_bpy_testing import link
+
+from addon.read import pointcloud, read_scene
+
+
+def _scan_of_a_box_corner(step=0.03, jitter=0.0):
+    """A floor and two walls meeting at a corner, on a regular grid (neighbours tie)."""
+    s = np.arange(0.0, 0.9, step) + step / 2
+    a, b = (g.ravel() for g in np.meshgrid(s, s, indexing="ij"))
+    z = np.zeros_like(a)
+    pts = np.concatenate([np.stack([a, b, z], 1), np.stack([z, a, b], 1),
+                          np.stack([a, z, b], 1)])
+    return pts + np.random.default_rng(5).normal(0.0, jitter, pts.shape)
+
+
+def _read(pts):
+    mesh = bpy.data.meshes.new("Scan")
+    mesh.vertices.add(len(pts))
+    mesh.vertices.foreach_set("co", np.asarray(pts, np.float32).ravel())
+    obj = link(bpy.data.objects.new("Scan", mesh))
+    return pointcloud.read_points(obj, bpy.context.evaluated_depsgraph_get(), [])
+
+
+def test_one_search_gives_the_areas_and_normals_separate_searches_give():
+    from illumap import pointcloud as core_pointcloud
+    for jitter in (0.0, 0.002):
+        read = _read(_scan_of_a_box_corner(jitter=jitter))
+        k = pointcloud.K_NEIGHBOURS
+        assert read.normals is None and read.neighbours.shape == (len(read.positions), k + 1)
+        np.testing.assert_array_equal(read.areas, pointcloud.bound_stray_areas(
+            pointcloud.estimate_areas(read.positions, k))[0])
+        shared = pointcloud.with_normals(read)
+        separate = pointcloud.with_normals(replace(read, neighbours=None))
+        np.testing.assert_array_equal(shared.neighbours,
+                                      core_pointcloud.nearest(read.positions, k))
+        np.testing.assert_array_equal(shared.normals, separate.normals)
+        np.testing.assert_array_equal(shared.receiver_normals, separate.receiver_normals)
+
+
+def test_a_cloud_with_normals_keeps_no_table():
+    pts = _scan_of_a_box_corner(step=0.1)
+    mesh = bpy.data.meshes.new("Normals")
+    mesh.vertices.add(len(pts))
+    mesh.vertices.foreach_set("co", np.asarray(pts, np.float32).ravel())
+    attr = mesh.attributes.new("normal", "FLOAT_VECTOR", "POINT")
+    attr.data.foreach_set("vector", np.tile([0.0, 0.0, 1.0], len(pts)).astype(np.float32))
+    obj = link(bpy.data.objects.new("Normals", mesh))
+    read = pointcloud.read_points(obj, bpy.context.evaluated_depsgraph_get(), [])
+    assert read.normals is not None and read.neighbours is None
+
+
+def test_cell_keys_group_points_as_rows_of_cell_indices_do():
+    rng = np.random.default_rng(7)
+    offsets = rng.uniform(0.0, 3.0, (20000, 3)) * np.array([1.0, 0.5, 2.0])
+    for cell in (0.05, 0.4, 3.5):
+        keys = read_scene._cell_keys(offsets, cell)
+        rows = np.floor(offsets / cell).astype(np.int64)
+        assert keys.ndim == 1
+        _, first_key, inverse_key = np.unique(keys, return_index=True, return_inverse=True)
+        _, first_row, inverse_row = np.unique(rows, axis=0, return_index=True,
+                                              return_inverse=True)
+        np.testing.assert_array_equal(np.sort(first_key), np.sort(first_row))
+        # Same partition: a point's key group and row group hold the same points.
+        np.testing.assert_array_equal(first_key[inverse_key.ravel()],
+                                      first_row[inverse_row.ravel()])
+    # A grid too fine for one int64 per cell falls back to rows.
+    assert read_scene._cell_keys(np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]]), 1e-7).ndim == 2
