@@ -223,7 +223,7 @@ class Parts:
                 k: int = PART_NEIGHBOURS) -> np.ndarray:
         """The surfel (M,) int64 for each hit point ``hits`` (M, 3) on triangle
         ``hit_triangles`` (M,) lit on the side of unit normal ``sides`` (M, 3): the nearest of
-        its ``k`` nearest surfels that lies on the same part and faces that side, whether it
+        its part's ``k`` surfels nearest to it that faces that side, whether it
         sees the hit or not; -1 where none does or the triangle has no part."""
         from . import _core
         m = len(hits)
@@ -232,14 +232,22 @@ class Parts:
         rows = np.flatnonzero(tri < self.count)
         if len(rows) == 0 or len(positions) == 0:
             return out
-        k = min(int(k), len(positions))
-        near, _ = _core.knn(positions, np.ascontiguousarray(hits[rows]), k)
-        near = near.reshape(len(rows), k).astype(np.int64)
-        ok = (self.surfel[near] == self.label[tri[rows]][:, None]) \
-            & (np.einsum("mkc,mc->mk", normals[near], sides[rows]) > LINK_SIDE_COS)
-        first = np.argmax(ok, axis=1)                  # knn lists the nearest first
-        has = ok[np.arange(len(rows)), first]
-        out[rows[has]] = near[has, first[has]]
+        part = self.label[tri[rows]]
+        # Each part's own surfels only: a small part (an eyeball) among a dense one (the
+        # head) has none among the hit's nearest surfels of all parts.
+        for label in np.unique(part):
+            q = rows[part == label]
+            own = np.flatnonzero(self.surfel == label)
+            if len(own) == 0:
+                continue
+            kk = min(int(k), len(own))
+            near, _ = _core.knn(np.ascontiguousarray(positions[own]),
+                                np.ascontiguousarray(hits[q]), kk)
+            near = own[near.reshape(len(q), kk).astype(np.int64)]
+            ok = np.einsum("mkc,mc->mk", normals[near], sides[q]) > LINK_SIDE_COS
+            first = np.argmax(ok, axis=1)              # knn lists the nearest first
+            has = ok[np.arange(len(q)), first]
+            out[q[has]] = near[has, first[has]]
         return out
 
 
