@@ -160,10 +160,9 @@ def link_rays(occluders, positions, normals, origins, ids, seed: int, count: int
     begin = time.perf_counter()
     rows = np.asarray(rows, dtype=np.int64).reshape(-1)
     picked = np.arange(0, count, max(1, count // LINK_RAYS))      # spread over the lattice
-    part_of = None
+    part_of = None               # built at the first hit that needs it (1M triangles: ~3 s)
     if triangles is not None:
         triangles = np.asarray(triangles, dtype=np.int64).reshape(-1)
-        part_of = Parts(occluders.corners, triangles)
     src, dst = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
     spare = [np.zeros(0, np.int64)]
     for start in range(0, len(rows), CHUNK):
@@ -189,10 +188,13 @@ def link_rays(occluders, positions, normals, origins, ids, seed: int, count: int
         src.append(chunk[ray // len(picked)])
         got = resolve_hits(occluders, positions, normals, at, side)
         other = np.full(len(got), -1, dtype=np.int64)
-        if part_of is not None:
-            # A scan's points keep to the hits they see: the floor under a bunny scan, dark
-            # along seen hits, is lit through hundreds of bounces (scan_normals 3.08 -> 3.10%).
-            lost = np.flatnonzero((got < 0) & (triangles[chunk[ray // len(picked)]] >= 0))
+        # A scan's points keep to the hits they see: the floor under a bunny scan, dark
+        # along seen hits, is lit through hundreds of bounces (scan_normals 3.08 -> 3.10%).
+        lost = (np.zeros(0, np.int64) if triangles is None else
+                np.flatnonzero((got < 0) & (triangles[chunk[ray // len(picked)]] >= 0)))
+        if len(lost):
+            if part_of is None:
+                part_of = Parts(occluders.corners, triangles)
             other[lost] = part_of.resolve(positions, normals, at[lost], side[lost],
                                           tri[ray][lost])
         dst.append(got)
@@ -217,6 +219,8 @@ class Parts:
         self.label = triangle_parts(np.asarray(corners)[:t])
         self.surfel = np.where(triangles >= 0, self.label[np.maximum(triangles, 0)], -1) \
             if t else np.full(len(triangles), -1, dtype=np.int64)
+        self.order = np.argsort(self.surfel, kind="stable")        # each part's surfels
+        self.sorted = self.surfel[self.order]
 
     def resolve(self, positions: np.ndarray, normals: np.ndarray, hits: np.ndarray,
                 sides: np.ndarray, hit_triangles: np.ndarray,
@@ -237,7 +241,8 @@ class Parts:
         # head) has none among the hit's nearest surfels of all parts.
         for label in np.unique(part):
             q = rows[part == label]
-            own = np.flatnonzero(self.surfel == label)
+            own = self.order[np.searchsorted(self.sorted, label, side="left"):
+                             np.searchsorted(self.sorted, label, side="right")]
             if len(own) == 0:
                 continue
             kk = min(int(k), len(own))
