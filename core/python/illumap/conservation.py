@@ -226,7 +226,7 @@ class Hemisphere:
 
 def hemisphere_hits(occluders, positions, normals, *, lit_backs=None,
                     rays: int = HEMISPHERE_RAYS, inset=None, ids=None, seed: int = 0,
-                    links: bool = False, progress=None, faces=None) -> Hemisphere:
+                    links: bool = False, progress=None, faces=None, triangles=None) -> Hemisphere:
     """Each surfel's cosine-weighted share (N,) of its hemisphere whose first hit is a lit
     face, and the share that meets nothing: rays from ``positions`` (N, 3, m) about unit
     ``normals`` against ``occluders`` (``receivers.MeshOccluders``: the scene's triangles
@@ -244,7 +244,8 @@ def hemisphere_hits(occluders, positions, normals, *, lit_backs=None,
     linking rays (``sealing.link_rays``). ``faces`` (N, 3): the unit geometric normal of
     each surfel's face (0: none); a ray below it is neither a hit nor open, as a renderer
     drops the directions of a smooth normal's hemisphere below the triangle (None: no face).
-    Dimensionless, in [0, 1]."""
+    ``triangles`` (N,): the occluder triangle of each surfel (-1: none), for the linking
+    rays (``sealing.link_rays``). Dimensionless, in [0, 1]."""
     from . import receivers as rc
     p = np.ascontiguousarray(positions, dtype=np.float64)
     n = np.ascontiguousarray(normals, dtype=np.float64)
@@ -290,7 +291,8 @@ def hemisphere_hits(occluders, positions, normals, *, lit_backs=None,
         import functools
         from . import sealing
         linker = functools.partial(sealing.link_rays, occluders, p, n, lift, ids, seed, count,
-                                   backs, hits, faces=faces)
+                                   backs, hits, faces=faces,
+                                   triangles=triangles)
     return Hemisphere(hits, open_, len(p) * count, None, linker)
 
 

@@ -98,7 +98,24 @@ def hemisphere_hits(scene: Scene, progress: Progress | None = None):
         if src.name in clouds:
             points[src.start:src.stop] = True
     return hits(occ, scene.positions, scene.normals, lit_backs=lit_backs, inset=points, ids=ids,
-                seed=scene.settings.seed, links=True, progress=report, faces=surfel_faces(scene))
+                seed=scene.settings.seed, links=True, progress=report, faces=surfel_faces(scene),
+                triangles=surfel_triangles(scene))
+
+
+def surfel_triangles(scene: Scene) -> np.ndarray | None:
+    """(N,) int64 the row in ``scene.triangles`` of each mesh surfel's triangle (a back
+    surfel's too), -1 for a scan's points; None without mesh triangles."""
+    if scene.triangles is None or scene.mesh_triangle_start is None or scene.triangle is None:
+        return None
+    out = np.full(scene.count, -1, dtype=np.int64)
+    meshes = [src.name for src in scene.sources if src.kind == "MESH"]
+    for src in scene.sources:
+        if src.name in meshes and src.kind in ("MESH", "BACK"):
+            rows = np.arange(src.start, src.stop)
+            local = np.asarray(scene.triangle[rows], dtype=np.int64)
+            start = int(scene.mesh_triangle_start[meshes.index(src.name)])
+            out[rows] = np.where(local >= 0, start + local, -1)
+    return out
 
 
 def surfel_faces(scene: Scene) -> np.ndarray | None:
