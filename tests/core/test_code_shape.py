@@ -97,3 +97,19 @@ def test_the_check_sees_a_long_file_and_a_long_function():
     assert found == ["addon/new_module.py:1 has 601 lines (limit 600)",
                      "addon/new_module.py:1 long() has 121 lines (limit 120)"]
     assert offences(files={"addon/new_module.py": function[:function.rindex("    x118")]}) == []
+
+
+def test_test_files_have_unique_names():
+    """pytest imports test files by their base name (tests/ has no packages): two files of one
+    name in different folders stop the whole suite at collection, though each runs alone."""
+    seen: dict[str, str] = {}
+    clashes = []
+    for base, dirs, files in os.walk(os.path.join(ROOT, "tests")):
+        dirs[:] = sorted(d for d in dirs if d != "__pycache__")
+        for name in sorted(files):
+            if name.startswith("test_") and name.endswith(".py"):
+                path = os.path.relpath(os.path.join(base, name), ROOT)
+                if name in seen:
+                    clashes.append(f"{seen[name]} and {path}")
+                seen.setdefault(name, path)
+    assert not clashes, "test files that share a name:\n" + "\n".join(clashes)
