@@ -77,15 +77,7 @@ def main(argv=None) -> int:
     print("gathers (receivers, rays, rays cast, wall s, cpu s):", file=out)
     for row in calls:
         print("  %9d %5s %11d %7.2f %7.2f" % row, file=out)
-    stats = pstats.Stats(prof, stream=out)
-    stats.sort_stats("tottime").print_stats(args.top)
-    stats.sort_stats("cumulative").print_stats(args.top)
-    text = out.getvalue()
-    print(text)
-    if args.out:
-        with open(args.out, "w") as f:
-            f.write(text)
-    return 0
+    return _finish(prof, out, args)
 
 
 def _report_prepare(prof, points: int, cpu: float, wall: float, args) -> int:
@@ -93,6 +85,12 @@ def _report_prepare(prof, points: int, cpu: float, wall: float, args) -> int:
     out = io.StringIO()
     print(f"points {points}  prepare wall {wall:.1f} s  cpu {cpu:.1f} s"
           f"  load {os.getloadavg()[0]:.2f}", file=out)
+    return _finish(prof, out, args)
+
+
+def _finish(prof, out: io.StringIO, args) -> int:
+    """Append the profile's top functions (own and cumulative time) to ``out``, print it and
+    write it to ``--out``."""
     stats = pstats.Stats(prof, stream=out)
     stats.sort_stats("tottime").print_stats(args.top)
     stats.sort_stats("cumulative").print_stats(args.top)
