@@ -15,6 +15,7 @@ from typing import Callable
 import numpy as np
 
 from illumap import lights
+from illumap.grid_cells import first_in_each_cell
 from illumap.identities import object_rng
 from illumap.settings import DEFAULT_BUDGET, Settings
 from illumap.stages.scene import PointCloud, Source
@@ -344,9 +345,8 @@ def _thin_points(part: tuple, count: int, order: np.ndarray | None) -> tuple[tup
     from illumap.neighbours import knn
     cell = np.sqrt(areas.sum() / count)
     for _ in range(3):   # a surface crosses more cells than its area / cell²: correct the size
-        keys = _cell_keys(positions[order] - positions.min(axis=0), cell)
-        _, first = np.unique(keys, axis=0 if keys.ndim == 2 else None, return_index=True)
-        keep = np.sort(order[first])
+        cells = np.floor((positions[order] - positions.min(axis=0)) / cell).astype(np.int64)
+        keep = np.sort(order[first_in_each_cell(cells)])
         if abs(len(keep) - count) <= 0.1 * count:
             break
         cell *= np.sqrt(len(keep) / count)
@@ -359,17 +359,6 @@ def _thin_points(part: tuple, count: int, order: np.ndarray | None) -> tuple[tup
     thinned = (positions[keep], normals[keep], area, weighted[0], weighted[1]) + \
         tuple(p[keep] for p in part[5:])
     return thinned, owner
-
-
-def _cell_keys(offsets: np.ndarray, cell: float) -> np.ndarray:
-    """The grid cell (side ``cell``, m) of each of ``offsets`` (N, 3, m, ≥ 0): one int64 per
-    cell where the grid's cells fit in one (a 1-D unique sorts them 5× faster than rows),
-    else rows (N, 3). Equal keys, equal cells, either way."""
-    cells = np.floor(offsets / cell).astype(np.int64)
-    extent = cells.max(axis=0) + 1 if len(cells) else np.ones(3, np.int64)
-    if float(extent[0]) * float(extent[1]) * float(extent[2]) >= 2.0 ** 62:
-        return cells
-    return (cells[:, 0] * extent[1] + cells[:, 1]) * extent[2] + cells[:, 2]
 
 
 def _surface_triangles(tri_meshes: list, point_parts: list, point_sources: list,

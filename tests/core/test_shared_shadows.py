@@ -89,7 +89,7 @@ def test_a_subset_of_rows_is_answered_in_its_order():
 
 
 def test_first_in_each_cell_is_numpys_unique_rows():
-    from illumap.shared_shadows import first_in_each_cell
+    from illumap.grid_cells import first_in_each_cell
     rng = np.random.default_rng(5)
     for key in (rng.integers(0, 7, (5000, 4)), rng.integers(0, 2 ** 40, (300, 3)),
                 np.zeros((0, 3), dtype=np.int64)):

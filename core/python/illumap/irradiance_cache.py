@@ -44,7 +44,7 @@ import numpy as np
 from . import _core
 from ._progress import ProgressGuard
 from .receivers import GatherResult
-from .shared_shadows import first_in_each_cell
+from .grid_cells import first_in_each_cell
 from .surfels import InputError
 
 #: Ward's a: the largest ε at which a record still counts. Its domain reaches a·R_i across a

@@ -1,7 +1,6 @@
 """A scan without radius and normals is searched once for its own neighbours (issue 58):
 the spacing's areas, the normals and the receiver normals made from that one table equal
-what separate searches give, bit for bit; the thinning grid's one-number cell keys group
-the points as rows of cell indices do."""
+what separate searches give, bit for bit."""
 
 from dataclasses import replace
 
@@ -10,7 +9,7 @@ import numpy as np
 
 from illumap_bpy_testing import link
 
-from addon.read import pointcloud, read_scene
+from addon.read import pointcloud
 
 
 def _scan_of_a_box_corner(step=0.03, jitter=0.0):
@@ -57,21 +56,3 @@ def test_a_cloud_with_normals_keeps_no_table():
     obj = link(bpy.data.objects.new("Normals", mesh))
     read = pointcloud.read_points(obj, bpy.context.evaluated_depsgraph_get(), [])
     assert read.normals is not None and read.neighbours is None
-
-
-def test_cell_keys_group_points_as_rows_of_cell_indices_do():
-    rng = np.random.default_rng(7)
-    offsets = rng.uniform(0.0, 3.0, (20000, 3)) * np.array([1.0, 0.5, 2.0])
-    for cell in (0.05, 0.4, 3.5):
-        keys = read_scene._cell_keys(offsets, cell)
-        rows = np.floor(offsets / cell).astype(np.int64)
-        assert keys.ndim == 1
-        _, first_key, inverse_key = np.unique(keys, return_index=True, return_inverse=True)
-        _, first_row, inverse_row = np.unique(rows, axis=0, return_index=True,
-                                              return_inverse=True)
-        np.testing.assert_array_equal(np.sort(first_key), np.sort(first_row))
-        # Same partition: a point's key group and row group hold the same points.
-        np.testing.assert_array_equal(first_key[inverse_key.ravel()],
-                                      first_row[inverse_row.ravel()])
-    # A grid too fine for one int64 per cell falls back to rows.
-    assert read_scene._cell_keys(np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]]), 1e-7).ndim == 2
