@@ -268,9 +268,9 @@ def _gap_share(px, margin):
 
 def _magenta_world(scene):
     """A pure magenta background that no disc's colour comes near, seen only through gaps."""
+    from addon import compat
     world = bpy.data.worlds.new("Gaps")
-    world.use_nodes = True
-    background = next(n for n in world.node_tree.nodes if n.type == "BACKGROUND")
+    background = next(n for n in compat.node_tree(world).nodes if n.type == "BACKGROUND")
     background.inputs["Color"].default_value = (1.0, 0.0, 1.0, 1.0)
     background.inputs["Strength"].default_value = 1.0
     scene.world = world
