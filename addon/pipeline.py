@@ -177,9 +177,8 @@ def run_passes(job: Job, progress: Progress | None = None, *, on_main=None,
         if new is not None:
             jobs.append(new)
         return None if new is None else to_scene(new)
-    start = [_lit(job)]
     with _user_errors():
-        gathered = illumap.run(start.pop(), progress, next_pass=following if passes else None)
+        gathered = illumap.run(_lit(job), progress, next_pass=following if passes else None)
     last = _keep_light(jobs[-1], gathered.solved.lit)
     solved = gathered.solved
     return Result(radiosity=gathered.radiosity, iterations=solved.iterations,

@@ -119,21 +119,24 @@ def surfel_triangles(scene: Scene) -> np.ndarray | None:
 
 
 def surfel_faces(scene: Scene) -> np.ndarray | None:
-    """(N, 3) the unit geometric normal of each mesh surfel's triangle, turned to its side
-    (a back surfel's the other way), 0 for a scan's points; None without mesh triangles.
+    """(N, 3) the unit geometric normal of each front mesh surfel's triangle, turned to its
+    side; 0 for a mesh's back surfels and a scan's points; None without mesh triangles.
     Below it a smooth normal's hemisphere sends nothing, as in a renderer (the final
     gather's corners drop the same directions)."""
-    if scene.triangles is None or scene.mesh_triangle_start is None or scene.triangle is None:
+    triangle = surfel_triangles(scene)
+    if triangle is None:
         return None
+    front = np.zeros(scene.count, dtype=bool)
+    for src in scene.sources:
+        if src.kind == "MESH":
+            front[src.start:src.stop] = True
+    rows = np.flatnonzero(front & (triangle >= 0))
+    tri = scene.triangles[triangle[rows]]
+    f = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    f /= np.maximum(np.linalg.norm(f, axis=1, keepdims=True), 1e-300)
+    f *= np.where(np.einsum("ij,ij->i", f, scene.normals[rows]) < 0.0, -1.0, 1.0)[:, None]
     faces = np.zeros((scene.count, 3))
-    meshes = [src for src in scene.sources if src.kind == "MESH"]
-    for i, src in enumerate(meshes):
-        rows = np.arange(src.start, src.stop)
-        tri = scene.triangles[scene.mesh_triangle_start[i] + scene.triangle[rows]]
-        f = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        f /= np.maximum(np.linalg.norm(f, axis=1, keepdims=True), 1e-300)
-        f *= np.where(np.einsum("ij,ij->i", f, scene.normals[rows]) < 0.0, -1.0, 1.0)[:, None]
-        faces[rows] = f
+    faces[rows] = f
     return faces
 
 
