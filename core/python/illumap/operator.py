@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 from . import conservation, limits
-from .array_checks import check_values, first_nonfinite_row, read_float_array, require_finite  # noqa: F401
+from .array_checks import check_values, first_nonfinite_row
 from .surfels import InputError, Surfels
 from ._progress import ProgressGuard
 
