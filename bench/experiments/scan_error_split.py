@@ -16,6 +16,13 @@ with its bias Σ_region (x − r) / sqrt(Σ_all r² · n_region) and its count.
     .venv/bin/python bench/experiments/scan_error_split.py --worst Floor,ShortBlock --region twin scan_room
     .venv/bin/python bench/experiments/scan_error_split.py --dump /tmp/split scan_object
 
+With a scan and its mesh twin in one run (``scan_room cornell``), each object's solve is also
+compared at the scan's points: the scan's solved surfels (the side along the mesh's vertex
+normals) against the mesh's solve there (its front surfels of that object, the 8 nearest whose
+normals agree with the nearest one's, inverse-distance weighted), as mean luminance and as
+relative RMS of each against Cycles, beside both finals: where the scan's solve is off but
+its final is not, the final gather is not the cause, and the other way round.
+
 ``--dump PREFIX`` saves PREFIX_<scene>.npz (values, reference, regions, positions, kept rows,
 objects' names and counts) for offline study; ``--creases FILE`` saves the points and outward
 normals the run gives ``illumap.scan_values.crease_surfaces``.
@@ -120,14 +127,15 @@ def _vertex_normals(obj) -> np.ndarray:
     return out / np.linalg.norm(out, axis=1, keepdims=True)
 
 
-def _solved(bpy, scene, result, spans, values, reference, regions, args) -> None:
-    """The scan's solved surfels against the reference (the module docstring)."""
+def _solved(bpy, scene, result, spans, values, reference, regions, args) -> dict | None:
+    """The scan's solved surfels against the reference (the module docstring); returns
+    {object: its points' solved outer side (V, 3)}, None where the scan was thinned."""
     job = result.job
     src = next(s for s in job.sources if s.kind == "POINTS")
     back = next((s for s in job.sources if s.kind == "BACK" and s.name == src.name), None)
     if src.stop - src.start != sum(c for _, c in spans.values()):
         print(f"  (scan thinned: {src.stop - src.start} surfels for the points)")
-        return
+        return None
     solved = result.radiosity[src.start:src.stop]
     if back is not None:
         true_n = np.concatenate([_vertex_normals(bpy.data.objects[n]) for n in spans])
@@ -159,10 +167,48 @@ def _solved(bpy, scene, result, spans, values, reference, regions, args) -> None
         scale = abs(np.linalg.det(np.array(obj.matrix_world)[:3, :3])) ** (2 / 3)
         true = sum(p.area for p in obj.data.polygons) * scale
         print(f"    area {n:10s} estimated / true {areas[s:s + c].sum() / true:.4f}")
+    return {n: solved[s:s + c] for n, (s, c) in spans.items()}
 
 
-def one(pipeline, name: str, args) -> None:
-    """Run scene ``name`` at default and print its split."""
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+def mesh_solve_at(result, name: str, points: np.ndarray, k: int = 8) -> np.ndarray:
+    """The mesh run's solved radiance (V, 3) of object ``name`` at ``points`` (V, 3) m: its
+    front surfels, the ``k`` nearest whose normals agree (cos > 0.9) with the nearest one's,
+    inverse-distance weighted."""
+    from scipy.spatial import cKDTree
+    job = result.job
+    rows = np.concatenate([np.arange(s.start, s.stop) for s in job.sources
+                           if s.name == name and s.kind == "MESH"])
+    d, j = cKDTree(job.positions[rows]).query(points, k=k)
+    normals = job.normals[rows[j]]
+    w = (np.einsum("pkc,pc->pk", normals, normals[:, 0]) > 0.9) / np.maximum(d, 1e-4)
+    return np.einsum("pk,pkc->pc", w, result.radiosity[rows[j]]) / w.sum(axis=1)[:, None]
+
+
+def against_mesh(bpy, scan_run: dict, mesh_run: dict) -> None:
+    """Each scanned object's solve and final at its points, scan against mesh twin (the
+    module docstring)."""
+    print(f"  solve at the points, {scan_run['name']} against {mesh_run['name']} "
+          "(mean luminance; relative RMS against Cycles):")
+    for n, solved in scan_run["solved"].items():
+        keep = scan_run["keep"][n]
+        r = scan_run["reference"][n][keep]
+        mesh = mesh_solve_at(mesh_run["result"], n,
+                             bake.vertex_positions(bpy.data.objects[n]))[keep]
+        rows = [("Cycles", r), ("scan solve", solved[keep]), ("mesh solve", mesh),
+                ("scan final", scan_run["values"][n][keep]),
+                ("mesh final", mesh_run["values"][n][keep])]
+        print(f"    {n:10s} " + ", ".join(
+            f"{label} {float(np.mean(v @ LUMINANCE)):.4f}"
+            + ("" if label == "Cycles" else f" ({score.relative_rms(v, r):.4f})")
+            for label, v in rows))
+
+
+def one(pipeline, name: str, args) -> dict:
+    """Run scene ``name`` at default and print its split; returns what ``against_mesh``
+    compares."""
     import bpy
     scene = run.scenes.build(name)
     reference = run.load_reference(scene, 1)["outgoing"]
@@ -181,8 +227,12 @@ def one(pipeline, name: str, args) -> None:
                  positions=np.concatenate([bake.vertex_positions(o) for o in scene.scored]),
                  keep=np.concatenate([bake.baked_vertices(o) for o in scene.scored]))
     report("final", scene, values, reference, regions)
+    solved = None
     if spans:
-        _solved(bpy, scene, result, spans, values, reference, regions, args)
+        solved = _solved(bpy, scene, result, spans, values, reference, regions, args)
+    return dict(name=name, twin=scene.reference, result=result, values=values,
+                reference=reference, solved=solved,
+                keep={o.name: bake.baked_vertices(o) for o in scene.scored})
 
 
 def _save_creases(path: str) -> None:
@@ -208,8 +258,14 @@ def main() -> None:
     pipeline = run.register_addon()
     if args.creases:
         _save_creases(args.creases)
+    import bpy
+    runs = {}
     for name in args.scenes:
-        one(pipeline, name, args)
+        runs[name] = one(pipeline, name, args)
+    for run_ in runs.values():
+        mesh = runs.get(run_["twin"])
+        if run_["solved"] and mesh is not None and mesh is not run_:
+            against_mesh(bpy, run_, mesh)
 
 
 if __name__ == "__main__":
