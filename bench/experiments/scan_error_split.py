@@ -23,6 +23,11 @@ normals agree with the nearest one's, inverse-distance weighted), as mean lumina
 relative RMS of each against Cycles, beside both finals: where the scan's solve is off but
 its final is not, the final gather is not the cause, and the other way round.
 
+``--dark-inside A,B`` (an experiment): before the gather, the solved radiance of the inner
+side (against the mesh's vertex normals) of scanned objects A, B is set to 0, the solve left
+as it is: what a solve that kept the inside of closed scanned parts dark would buy through
+the gather (``--dark-inside ShortBlock,TallBlock scan_room``).
+
 ``--dump PREFIX`` saves PREFIX_<scene>.npz (values, reference, regions, positions, kept rows,
 objects' names and counts) for offline study; ``--creases FILE`` saves the points and outward
 normals the run gives ``illumap.scan_values.crease_surfaces``.
@@ -214,6 +219,8 @@ def one(pipeline, name: str, args) -> dict:
     reference = run.load_reference(scene, 1)["outgoing"]
     regions = regions_of(scene, reference, args.cell)
     objects, spans = run.scan_objects(scene)
+    if args.dark_inside and spans:
+        _dark_inside(bpy, args.dark_inside.split(","), spans)
     result = pipeline.compute(bpy.context, objects, run.make_settings(pipeline, {}))
     values = {o.name: run.read_illumination(o) for o in scene.scored if o.name not in spans}
     values.update(run.read_scan(spans) if spans else {})
@@ -235,6 +242,27 @@ def one(pipeline, name: str, args) -> dict:
                 keep={o.name: bake.baked_vertices(o) for o in scene.scored})
 
 
+def _dark_inside(bpy, names: list[str], spans: dict) -> None:
+    """Patch the gather so that the inner sides of the scanned objects ``names`` send
+    nothing (``--dark-inside``)."""
+    import importlib
+    receive = importlib.import_module("illumap.gather.receive")
+    inner = receive._receive_once
+
+    def wrapped(scene, direct, direct_lamps, radiosity, *args, **kwargs):
+        src = next(s for s in scene.sources if s.kind == "POINTS")
+        back = next(s for s in scene.sources if s.kind == "BACK" and s.name == src.name)
+        radiosity = radiosity.copy()
+        for n in names:
+            start, count = spans[n]
+            along = np.einsum("pc,pc->p", scene.normals[src.start + start:src.start + start + count],
+                              _vertex_normals(bpy.data.objects[n])) > 0
+            rows = np.arange(start, start + count)
+            radiosity[np.where(along, back.start + rows, src.start + rows)] = 0.0
+        return inner(scene, direct, direct_lamps, radiosity, *args, **kwargs)
+    receive._receive_once = wrapped
+
+
 def _save_creases(path: str) -> None:
     """Save the points and outward normals the run gives ``crease_surfaces``."""
     import illumap.scan_values as sv
@@ -254,6 +282,8 @@ def main() -> None:
     parser.add_argument("--region", default="interior", choices=REGIONS)
     parser.add_argument("--dump", default="", help="save PREFIX_<scene>.npz")
     parser.add_argument("--creases", default="", help="save crease_surfaces' input here")
+    parser.add_argument("--dark-inside", default="",
+                        help="scanned objects whose inner sides send nothing to the gather")
     args = parser.parse_args()
     pipeline = run.register_addon()
     if args.creases:
