@@ -115,6 +115,38 @@ def report(label: str, scene, values: dict, reference: dict, regions: dict) -> N
               f"  {_split({n: values[n]}, {n: reference[n]}, keep, regions, own)}")
 
 
+#: Bands of distance (m) to the nearest vertex of another scored object, for ``bands``.
+BANDS = (0.0, 1e-4, 0.05, 0.1, 0.2, 0.4, np.inf)
+
+
+def bands(scene, values: dict, reference: dict, lit: dict | None = None) -> None:
+    """Print the squared error's share (× 10⁻⁴ of Σ r², the relative RMS squared) by distance
+    to another object (``BANDS``: twins, contact, ..., far from any junction), and with
+    ``lit`` ({object: (V,) bool}) by lamp-lit points (direct light on either side) against
+    the rest: where the error lies."""
+    from scipy.spatial import cKDTree
+    objs = scene.scored
+    pos = {o.name: bake.vertex_positions(o) for o in objs}
+    keep = {o.name: bake.baked_vertices(o) for o in objs}
+    total = sum(float(np.sum(reference[o.name][keep[o.name]] ** 2)) for o in objs)
+    err, dist, lamp = [], [], []
+    for o in objs:
+        n, k = o.name, keep[o.name]
+        others = np.concatenate([pos[q.name] for q in objs if q is not o])
+        dist.append(cKDTree(others).query(pos[n])[0][k])
+        err.append(np.sum((values[n][k] - reference[n][k]) ** 2, axis=1) / total * 1e4)
+        lamp.append(lit[n][k] if lit is not None else np.zeros(int(k.sum()), dtype=bool))
+    err, dist, lamp = np.concatenate(err), np.concatenate(dist), np.concatenate(lamp)
+    rows = []
+    for lo, hi in zip(BANDS[:-1], BANDS[1:]):
+        m = (dist >= lo) & (dist < hi)
+        rows.append(f"[{lo:g}, {hi:g}) m {err[m].sum():.2f} ({int(m.sum())})")
+    print(f"  squared error × 1e4 ({err.sum():.2f}) by distance to another object: " + ", ".join(rows))
+    if lit is not None:
+        print(f"    lamp-lit points {err[lamp].sum():.2f} ({int(lamp.sum())}), the rest "
+              f"{err[~lamp].sum():.2f} ({int((~lamp).sum())})")
+
+
 def worst(values, reference, positions, count: int = 12) -> list:
     """(position, value, reference) of the ``count`` largest errors (mean of the channels)."""
     v, r = values.mean(axis=1), reference.mean(axis=1)
@@ -234,6 +266,17 @@ def one(pipeline, name: str, args) -> dict:
                  positions=np.concatenate([bake.vertex_positions(o) for o in scene.scored]),
                  keep=np.concatenate([bake.baked_vertices(o) for o in scene.scored]))
     report("final", scene, values, reference, regions)
+    lit = None
+    if spans and result.job.direct is not None:
+        job = result.job
+        src = next(s for s in job.sources if s.kind == "POINTS")
+        back = next((s for s in job.sources if s.kind == "BACK" and s.name == src.name), None)
+        either = job.direct[src.start:src.stop].max(axis=1) > 0
+        if back is not None and back.stop - back.start == len(either):
+            either |= job.direct[back.start:back.stop].max(axis=1) > 0
+        if len(either) == sum(c for _, c in spans.values()):
+            lit = {n: either[s:s + c] for n, (s, c) in spans.items()}
+    bands(scene, values, reference, lit)
     solved = None
     if spans:
         solved = _solved(bpy, scene, result, spans, values, reference, regions, args)
