@@ -28,6 +28,14 @@ side (against the mesh's vertex normals) of scanned objects A, B is set to 0, th
 as it is: what a solve that kept the inside of closed scanned parts dark would buy through
 the gather (``--dark-inside ShortBlock,TallBlock scan_room``).
 
+``--leak A,B`` (scans): how much of the transport rows of the inner sides of scanned objects
+A, B (against the mesh's vertex normals; face points apart from edge points, whose fitted
+normal is off the vertex normal by more than ~18°) reaches surfels outside them (every surfel
+but those inner sides and both sides of the points Cycles reads 0 at): a closed part's is 0;
+rays against the same splats find a few tenths of a percent. ``--leaf-mode MODE`` builds the
+solve's operator with that ``visibility_leaf_mode`` (``per_pair_all``: far leaf pairs per
+pair too).
+
 ``--dump PREFIX`` saves PREFIX_<scene>.npz (values, reference, regions, positions, kept rows,
 objects' names and counts) for offline study; ``--creases FILE`` saves the points and outward
 normals the run gives ``illumap.scan_values.crease_surfaces``.
@@ -253,6 +261,7 @@ def one(pipeline, name: str, args) -> dict:
     objects, spans = run.scan_objects(scene)
     if args.dark_inside and spans:
         _dark_inside(bpy, args.dark_inside.split(","), spans)
+    built = _capture_operators() if args.leak and spans else None
     result = pipeline.compute(bpy.context, objects, run.make_settings(pipeline, {}))
     values = {o.name: run.read_illumination(o) for o in scene.scored if o.name not in spans}
     values.update(run.read_scan(spans) if spans else {})
@@ -280,6 +289,8 @@ def one(pipeline, name: str, args) -> dict:
     solved = None
     if spans:
         solved = _solved(bpy, scene, result, spans, values, reference, regions, args)
+    if built:
+        leak(bpy, result, built[-1], spans, reference, args.leak.split(","))
     return dict(name=name, twin=scene.reference, result=result, values=values,
                 reference=reference, solved=solved,
                 keep={o.name: bake.baked_vertices(o) for o in scene.scored})
@@ -306,6 +317,51 @@ def _dark_inside(bpy, names: list[str], spans: dict) -> None:
     receive._receive_once = wrapped
 
 
+def _capture_operators() -> list:
+    """Keep every TransportOperator built from now on (for ``--leak``)."""
+    import importlib
+    operator = importlib.import_module("illumap.operator")
+    built = []
+    init = operator.TransportOperator.__init__
+
+    def wrapped(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        built.append(self)
+    operator.TransportOperator.__init__ = wrapped
+    return built
+
+
+def leak(bpy, result, op, spans, reference, names: list[str]) -> None:
+    """Print the share of the inner sides' rows that reaches outside (``--leak``)."""
+    job = result.job
+    src = next(s for s in job.sources if s.kind == "POINTS")
+    back = next(s for s in job.sources if s.kind == "BACK" and s.name == src.name)
+    inside, parts = [], []
+    for n in names:
+        start, count = spans[n]
+        normals = job.normals[src.start + start:src.start + start + count]
+        true = _vertex_normals(bpy.data.objects[n])
+        rows = np.arange(start, start + count)
+        along = np.einsum("pc,pc->p", normals, true) > 0
+        inner = np.where(along, back.start + rows, src.start + rows)
+        edge = np.abs(np.einsum("pc,pc->p", normals, true)) < 0.95
+        inside.append(inner)
+        parts.append((n, inner, edge))
+    for n, (start, count) in spans.items():
+        dark = start + np.flatnonzero(reference[n].mean(axis=1) < 1e-3)
+        inside += [src.start + dark, back.start + dark]
+    x = np.ones((op.n, 3))
+    x[np.concatenate(inside)] = 0.0
+    out = op.apply(x)[:, 0]
+    rows = op.apply(np.ones((op.n, 3)))[:, 0]
+    for n, inner, edge in parts:
+        for label, pick in (("faces", ~edge), ("edges", edge)):
+            r = inner[pick]
+            if len(r):
+                print(f"    leak {n:10s} inner {label} ({len(r)}): {out[r].mean():.4f} of rows "
+                      f"{rows[r].mean():.3f} reach outside (max {out[r].max():.3f})")
+
+
 def _save_creases(path: str) -> None:
     """Save the points and outward normals the run gives ``crease_surfaces``."""
     import illumap.scan_values as sv
@@ -325,10 +381,18 @@ def main() -> None:
     parser.add_argument("--region", default="interior", choices=REGIONS)
     parser.add_argument("--dump", default="", help="save PREFIX_<scene>.npz")
     parser.add_argument("--creases", default="", help="save crease_surfaces' input here")
+    parser.add_argument("--leak", default="",
+                        help="scanned objects whose inner sides' rows to measure")
+    parser.add_argument("--leaf-mode", default="",
+                        help="the solve's visibility_leaf_mode (per_pair_all, ...)")
     parser.add_argument("--dark-inside", default="",
                         help="scanned objects whose inner sides send nothing to the gather")
     args = parser.parse_args()
     pipeline = run.register_addon()
+    if args.leaf_mode:
+        import importlib
+        importlib.import_module("illumap.operator").VISIBILITY_DEFAULTS[
+            "visibility_leaf_mode"] = args.leaf_mode
     if args.creases:
         _save_creases(args.creases)
     import bpy
