@@ -178,7 +178,8 @@ def prepare(scene: Scene, occ, direct: np.ndarray | None, direct_lamps: np.ndarr
     ``direct_lamps``): the straddling surfels evaluated afresh, the surfels' fields (front and
     back faces), the exact part of the lattice (lamp and sky light cast there, contacts
     gathered afresh) and the ``Gatherer`` that tabulates them once. ``enclosed`` (N,) bool:
-    the surfels whose solved rows came from their first hits (kept as solved), or None."""
+    the surfels whose solved rows came from their first hits (the back ones keep their solved
+    values, ``regather_straddling``), or None."""
     from .. import receivers as rc
     mark = time.perf_counter()
     # What the surfels send on: their solved radiance (with the emission left to them); the
