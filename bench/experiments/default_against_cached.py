@@ -10,9 +10,14 @@ per-face split costs and buys; ``--separate-face-gathers`` runs where each face 
 corners cast rays of their own instead of taking their vertex's (``merged_corners``' casters).
 ``--seeds`` runs each scene at these seeds (surfels and rays placed afresh: the noise);
 ``--cpu-phases`` prints the receivers' phases in process CPU seconds after each run.
+``--settings`` scores other labels of ``bench/reference/run.py``'s ``ILLUMAP_SETTINGS``
+(``DRAFT``, ``HIGH``, ``"target 0.01"``, …) in place of the default, with the surfels they
+placed.
 
     .venv/bin/python bench/experiments/default_against_cached.py monkey cornell
     .venv/bin/python bench/experiments/default_against_cached.py --rounds 2 --without-corner-split monkey
+    .venv/bin/python bench/experiments/default_against_cached.py --settings default DRAFT HIGH \
+        "target 0.1" "target 0.05" "target 0.03" "target 0.02" "target 0.01" -- monkey
 """
 
 from __future__ import annotations
@@ -77,19 +82,22 @@ def _print_cpu_phases() -> None:
     receive._receive_once = printing
 
 
-def score(pipeline, name: str, seed: int = 0) -> tuple[dict, float, float]:
-    """One default run of scene ``name``: its scored row, wall s and process CPU s."""
+def score(pipeline, name: str, seed: int = 0,
+          setting: str = "default") -> tuple[dict, float, float, int]:
+    """One run of scene ``name`` at ``setting`` (a label of ``run.ILLUMAP_SETTINGS``): its
+    scored row, wall s, process CPU s and the surfels placed."""
     import bpy
     scene = run.scenes.build(name)
     reference = run.load_reference(scene, 1)
     objects, spans = run.scan_objects(scene)
+    spec = dict(dict(run.ILLUMAP_SETTINGS)[setting], seed=seed)
     cpu, wall = _cpu_seconds(), time.perf_counter()
-    pipeline.compute(bpy.context, objects, run.make_settings(pipeline, {"seed": seed}))
+    result = pipeline.compute(bpy.context, objects, run.make_settings(pipeline, spec))
     cpu, wall = _cpu_seconds() - cpu, time.perf_counter() - wall
     values = {o.name: run.read_illumination(o) for o in scene.scored if o.name not in spans}
     values.update(run.read_scan(spans) if spans else {})
-    row = run._scored_row(scene, "default", "illumap", values, reference["outgoing"], wall)
-    return row, wall, cpu
+    row = run._scored_row(scene, setting, "illumap", values, reference["outgoing"], wall)
+    return row, wall, cpu, int(getattr(result, "count", 0))
 
 
 def main() -> None:
@@ -100,21 +108,26 @@ def main() -> None:
     parser.add_argument("--separate-face-gathers", action="store_true")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0])
     parser.add_argument("--cpu-phases", action="store_true")
+    parser.add_argument("--settings", nargs="+", default=["default"],
+                        choices=[label for label, _ in run.ILLUMAP_SETTINGS])
     args = parser.parse_args()
     pipeline = run.register_addon()
     if args.cpu_phases:
         _print_cpu_phases()
     variants = _variants(args.without_corner_split, args.separate_face_gathers)
     for _ in range(args.rounds):
-        for name, seed in [(n, s) for n in args.scenes for s in args.seeds]:
+        for name, seed, setting in [(n, s, t) for n in args.scenes for s in args.seeds
+                                    for t in args.settings]:
             for label, (module, fn) in variants:
                 module.merged_corners = fn
-                row, wall, cpu = score(pipeline, name, seed)
+                row, wall, cpu, surfels = score(pipeline, name, seed, setting)
                 objects = row.get("objects") or {}
                 parts = " ".join(f"{k} {v.get('relative_rms', float('nan')):.4f}"
                                  for k, v in objects.items()) if isinstance(objects, dict) else ""
-                print(f"{name} seed {seed} [{label}]: relative RMS {row['relative_rms']:.4f}, {wall:.2f} s wall, "
-                      f"{cpu:.2f} s CPU  {parts}", flush=True)
+                at = "" if setting == "default" else f" {setting}"
+                print(f"{name} seed {seed}{at} [{label}]: relative RMS {row['relative_rms']:.6f}, "
+                      f"{wall:.2f} s wall, {cpu:.2f} s CPU, {surfels} surfels  {parts}",
+                      flush=True)
 
 
 if __name__ == "__main__":

@@ -172,12 +172,14 @@ def _within(casters: np.ndarray, rows: np.ndarray) -> np.ndarray:
 
 def prepare(scene: Scene, occ, direct: np.ndarray | None, direct_lamps: np.ndarray | None,
             radiosity: np.ndarray, gather_rays: int, shadow_samples: int,
-            progress: Progress | None = None) -> Evaluation:
+            progress: Progress | None = None, enclosed: np.ndarray | None = None) -> Evaluation:
     """The gather's shared parts for surfels whose solved outgoing radiance is ``radiosity``
     (N, 3) and whose reflected direct light is ``direct`` (the lamps' part
     ``direct_lamps``): the straddling surfels evaluated afresh, the surfels' fields (front and
     back faces), the exact part of the lattice (lamp and sky light cast there, contacts
-    gathered afresh) and the ``Gatherer`` that tabulates them once."""
+    gathered afresh) and the ``Gatherer`` that tabulates them once. ``enclosed`` (N,) bool:
+    the surfels whose solved rows came from their first hits (the back ones keep their solved
+    values, ``regather_straddling``), or None."""
     from .. import receivers as rc
     mark = time.perf_counter()
     # What the surfels send on: their solved radiance (with the emission left to them); the
@@ -190,7 +192,7 @@ def prepare(scene: Scene, occ, direct: np.ndarray | None, direct_lamps: np.ndarr
     sides = with_splat_backs(scene, gather_sides(scene))
     straddling, radiosity = regather_straddling(scene, direct_lamps, radiosity, occ, sent, back,
                                                 owners, back_owners, gather_rays, background,
-                                                sides, back_rows)
+                                                sides, back_rows, enclosed)
     field_ = rc.SurfelField(scene.positions[~back], scene.normals[~back], sent[~back])
     back_field = (rc.SurfelField(scene.positions[back_rows],
                                  back_field_normals(scene, back, back_rows), sent[back_rows])

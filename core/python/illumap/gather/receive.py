@@ -43,7 +43,8 @@ class ReceiverLight:
 
 def receive(scene: Scene, direct: np.ndarray | None, direct_lamps: np.ndarray | None,
             radiosity: np.ndarray, progress: Progress | None = None, *,
-            surfel_estimate: float | None = None) -> ReceiverLight:
+            surfel_estimate: float | None = None,
+            enclosed: np.ndarray | None = None) -> ReceiverLight:
     """Evaluate the light at every receiver (DESIGN.md §6) of ``scene`` (with its occluders
     built, ``stages.scene.with_occluders``): the meshes' corners (``scene.receivers``), and
     with Transfer the point clouds' points (their outward side where the orientation is
@@ -55,14 +56,15 @@ def receive(scene: Scene, direct: np.ndarray | None, direct_lamps: np.ndarray | 
     With a target error, a gather whose estimated noise exceeds its share of the target is
     cast again, once, with the rays ``more_rays`` asks for (``stats['first_gather']`` says
     what the first one found). ``surfel_estimate``: the surfel solve's estimated error, for
-    the receivers' estimate."""
+    the receivers' estimate. ``enclosed`` (N,) bool: the surfels whose solved rows came from
+    their first hits (``stages.solve.Solved.enclosed``), or None."""
     s = scene.settings
     point_sets = point_receivers(scene) if s.transfer else []
     if (not scene.receivers and not point_sets) or scene.occluders is None:
         return ReceiverLight(radiosity=radiosity)
     gather_rays, shadow_samples = receiver_rays(s)
     light = _receive_once(scene, direct, direct_lamps, radiosity, point_sets, gather_rays,
-                          shadow_samples, progress)
+                          shadow_samples, progress, enclosed)
     more = more_rays(s, light.stats["gather_noise"], gather_rays)
     first = None
     if more is not None:
@@ -71,7 +73,7 @@ def receive(scene: Scene, direct: np.ndarray | None, direct_lamps: np.ndarray | 
                      seconds=light.timings["receivers"])
         gather_rays = more
         light = _receive_once(scene, direct, direct_lamps, radiosity, point_sets, gather_rays,
-                              shadow_samples, progress)
+                              shadow_samples, progress, enclosed)
     stats, timings = dict(light.stats), dict(light.timings)
     missed = gather_noise_warning(s, stats["gather_noise"], gather_rays)
     if surfel_estimate is not None:
@@ -92,13 +94,13 @@ def receive(scene: Scene, direct: np.ndarray | None, direct_lamps: np.ndarray | 
 
 
 def _receive_once(scene: Scene, direct, direct_lamps, radiosity: np.ndarray, point_sets: list,
-                  gather_rays: int, shadow_samples: int,
-                  progress: Progress | None) -> ReceiverLight:
+                  gather_rays: int, shadow_samples: int, progress: Progress | None,
+                  enclosed: np.ndarray | None = None) -> ReceiverLight:
     """One gather of every receiver with ``gather_rays`` rays and ``shadow_samples`` shadow
     samples per receiver and sized lamp (``receive``)."""
     t0 = time.perf_counter()
     ev = prepare(scene, scene.occluders, direct, direct_lamps, radiosity, gather_rays,
-                 shadow_samples, progress)
+                 shadow_samples, progress, enclosed)
     batch, batch_ids, scan_parts, rays = _batch(ev, point_sets)
     main = _evaluate(ev, batch, batch_ids)
     rays += main.cast

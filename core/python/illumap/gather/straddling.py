@@ -12,7 +12,8 @@ from .ids import back_field_normals, surfel_ids
 
 def regather_straddling(scene: Scene, direct: np.ndarray | None, radiosity: np.ndarray, occ,
                         sent: np.ndarray, back: np.ndarray, owners, back_owners, rays: int,
-                        background, sides, back_rows=None) -> tuple[int, np.ndarray]:
+                        background, sides, back_rows=None,
+                        enclosed: np.ndarray | None = None) -> tuple[int, np.ndarray]:
     """Evaluate the surfels whose disc reaches through another surface
     (``illumap.receivers.straddling_surfels``: a floor's along a wall, a crease's in a scan)
     as receivers are: their direct light plus a gather of the other surfels' light. Their
@@ -20,14 +21,27 @@ def regather_straddling(scene: Scene, direct: np.ndarray | None, radiosity: np.n
     line where the surfaces meet sees them at close range. Their direct light is the lamps'
     and emitters' (``direct``: ``Lit.direct_lamps``); the world's comes through the gather's rays that
     leave the scene (``background``); ``sides``: ``gather_sides``; ``back_rows``: the back
-    field's surfels (``back_field_rows``; default those in ``back``).
+    field's surfels (``back_field_rows``; default those in ``back``). ``enclosed`` (N,) bool:
+    the surfels whose solved rows came from their first hits (``Solved.enclosed``): those
+    in ``back`` keep their solved values; None: none.
     Updates ``sent`` in place; returns how many were evaluated and the surfels' outgoing
     radiance with theirs (``radiosity``, the solved one, itself when none was)."""
     from .. import receivers as rc
     if direct is None:
         return 0, radiosity
     bad = rc.straddling_surfels(scene.positions, scene.normals, scene.areas)
-    rows = np.flatnonzero(bad)
+    evaluated = bad.copy()
+    if enclosed is not None:
+        # An enclosed back surfel (the inside of an open part that another part closes:
+        # Suzanne's head behind its eyes) keeps its row of first hits (``sealing``); a gather
+        # from its disc's centre, on the line where the other part passes through, finds
+        # light that the sealed surfels round it do not (one in Suzanne's socket solved
+        # 0.026 and gathered 0.37, against Cycles' 0.003 round it). It stays out of the
+        # fields the others gather from, as before (in them, the intersecting boxes'
+        # furnace read 0.48% for 0.46%). Enclosed front surfels are re-evaluated still:
+        # kept as solved too, the bench Suzanne read 1.071% for 1.064%.
+        evaluated &= ~(np.asarray(enclosed, dtype=bool) & back)
+    rows = np.flatnonzero(evaluated)
     if not rows.size or bad.all():
         return 0, radiosity
 

@@ -91,7 +91,7 @@ def gather(solved: Solved, progress: Progress | None = None) -> Gathered:
     estimate = (solved.stats.get("accuracy") or {}).get("estimate", {}).get("total")
     try:
         light_ = receive(scene, lit.direct, lit.direct_lamps, solved.radiosity, progress,
-                         surfel_estimate=estimate)
+                         surfel_estimate=estimate, enclosed=solved.enclosed)
     except Exception as exc:  # noqa: BLE001
         from .._progress import Cancelled
         if isinstance(exc, (Cancelled, RunError)):

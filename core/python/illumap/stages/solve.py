@@ -28,6 +28,9 @@ class Solved:
     timings: dict = field(default_factory=dict)
     stats: dict = field(default_factory=dict)
     warnings: tuple = ()
+    #: (N,) bool: surfels whose rows came from their first hits (``Hemisphere.enclosed``:
+    #: light reaches them only through a slit, or not at all), or None
+    enclosed: np.ndarray | None = None
 
 
 def scan_surfels(scene) -> np.ndarray | None:
@@ -155,4 +158,5 @@ def solve(lit: Lit, progress: Progress | None = None) -> Solved:
     stats["negative_surfels"] = negative
     return Solved(lit=lit, radiosity=radiosity, iterations=int(sol.iterations),
                   residuals=tuple(sol.residuals), converged=bool(sol.converged),
-                  timings=timings, stats=stats, warnings=tuple(warnings))
+                  timings=timings, stats=stats, warnings=tuple(warnings),
+                  enclosed=kwargs.get("hemisphere_enclosed"))
