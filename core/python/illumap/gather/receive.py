@@ -7,7 +7,8 @@ surfels whose disc reaches through another surface are evaluated as receivers to
 it changes sharply (``lattice``), and a receiver facing a surface across a gap finer than that
 table takes the light at its rays' hits there afresh (``gaps``). Receivers that another
 surface lies flat against get no light (``covered``). A point cloud's points share their
-gathers through an irradiance cache (``illumap.irradiance_cache``, ``Settings.gather_cache``).
+gathers through an irradiance cache (``illumap.irradiance_cache``, ``Settings.gather_cache``),
+and each of its receivers starts clear of its neighbours' splats (``scans.SplatClearance``).
 
 ``receive`` returns a new value (``ReceiverLight``); with a target error whose share the
 gather's noise exceeds, it gathers once more with more rays (``rays.more_rays``)."""

@@ -1,5 +1,6 @@
-"""A point cloud's points as receivers (no bpy): every point, and for a scan of unknown
-orientation the side of each point that a probe gather finds facing out."""
+"""A point cloud's points as receivers (no bpy): every point, for a scan of unknown
+orientation the side of each point that a probe gather finds facing out, and where each
+receiver starts: clear of its neighbours' splats (``SplatClearance``)."""
 
 from __future__ import annotations
 
@@ -131,8 +132,10 @@ class SplatClearance:
     at point i facing ``d`` starts at x + h·d, h the largest height along d at which the
     planes of i's ``CLEARANCE_NEIGHBOURS`` nearest points on the same surface (normals within
     acos ``CLEARANCE_COS`` of d) pass above x, plus ``CLEARANCE_MARGIN`` of the spacing; at
-    most ``CLEARANCE_MAX`` of it (a higher plane belongs to another surface). On a smooth
-    or convex surface the planes pass below and nothing moves. ``occluders`` (the scene's
+    most ``CLEARANCE_MAX`` of it (a higher plane belongs to another surface) and
+    ``CLEARANCE_ROUGHNESS`` × the point's roughness. On an exact scan of planes nothing
+    moves; on a curved surface the neighbours' planes pass a little above the point (the
+    sag of the curve over a spacing), which the lift clears too. ``occluders`` (the scene's
     ``receivers.MeshOccluders``) and ``owner`` ((T,) int: the point of this cloud whose splat
     each triangle is, −1 for other surfaces): a receiver whose way up meets another surface
     stays put (``_path_clear``). ``neighbours`` (P, SETTLE_NEIGHBOURS + 1): the points' own
@@ -198,8 +201,9 @@ class SplatClearance:
         return at + h[:, None] * d
 
     def _path_clear(self, rows, at, d, h) -> np.ndarray:
-        """bool (M,): whether the way from ``at`` to ``at`` + ``CLEARANCE_FREE`` ``h`` ``d`` meets only the
-        splats of the point and its neighbours (looked for over ``CLEARANCE_HOPS`` hits);
+        """bool (M,): whether the way from ``at`` along ``d`` (``CLEARANCE_FREE`` × ``h``, at
+        least ``CLEARANCE_FREE_SPACINGS`` spacings) meets only the splats of the point and
+        its neighbours (looked for over ``CLEARANCE_HOPS`` hits);
         False where it meets another surface (a floor 1.5 mm under a scanned base: lifted
         past it, the receiver would see under the floor) or more splats than that."""
         clear = np.ones(len(rows), dtype=bool)
