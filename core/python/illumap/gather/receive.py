@@ -7,7 +7,8 @@ surfels whose disc reaches through another surface are evaluated as receivers to
 it changes sharply (``lattice``), and a receiver facing a surface across a gap finer than that
 table takes the light at its rays' hits there afresh (``gaps``). Receivers that another
 surface lies flat against get no light (``covered``). A point cloud's points share their
-gathers through an irradiance cache (``illumap.irradiance_cache``, ``Settings.gather_cache``).
+gathers through an irradiance cache (``illumap.irradiance_cache``, ``Settings.gather_cache``),
+and each of its receivers starts clear of its neighbours' splats (``scans.SplatClearance``).
 
 ``receive`` returns a new value (``ReceiverLight``); with a target error whose share the
 gather's noise exceeds, it gathers once more with more rays (``rays.more_rays``)."""
@@ -24,7 +25,7 @@ from .corners import clear_of_rounding, merged_corners
 from .covered import covered_receivers
 from .evaluation import Evaluation, prepare
 from .rays import gather_noise_warning, more_rays, receiver_rays
-from .scans import point_receivers, probe_sides, rows_of
+from .scans import SplatClearance, point_receivers, probe_sides, rows_of
 
 
 @dataclass(frozen=True)
@@ -142,22 +143,39 @@ def _batch(ev: Evaluation, point_sets: list) -> tuple:
     batch = [clear_of_rounding(ev.occ, rec) for rec in ev.scene.receivers]
     batch_ids: list[np.ndarray | None] = [None] * len(batch)
     rays, scan_parts = 0, []
+    from ..scan_values import ScanPatches
+    offset = 0
     for front, other in point_sets:
+        # A scan of unknown orientation: its patches' neighbour search serves the clearance.
+        patches = None if other is None else ScanPatches(front.points, front.normals)
+        clear = SplatClearance(front.points, front.normals, ev.occ,
+                               _splats_of(ev.scene, offset, len(front.points)),
+                               None if patches is None else patches.neighbours)
+        offset += len(front.points)
         if other is None:
-            scan_parts.append(None)
-            batch.append(front)
+            scan_parts.append((clear,))
+            batch.append(clear.lifted(front))
             batch_ids.append(None)
             continue
         patches, side, settled, cast = probe_sides(front, other, ev.incident_at, ev.gather_rays,
-                                                   ev.shadow_samples, lum)
+                                                   ev.shadow_samples, lum, clear, patches)
         rays += cast
         done, both = np.flatnonzero(settled), np.flatnonzero(~settled)
         outward = np.where(side[:, None], front.normals, -front.normals)
-        scan_parts.append((patches, side, settled, done, both))
-        batch += [rows_of(front, done, outward[done]), rows_of(front, both),
-                  rows_of(other, both)]
+        scan_parts.append((patches, side, settled, done, both, clear))
+        batch += [clear.lifted(rows_of(front, done, outward[done])),
+                  clear.lifted(rows_of(front, both)), clear.lifted(rows_of(other, both))]
         batch_ids += [done, both, both]
     return batch, batch_ids, scan_parts, rays
+
+
+def _splats_of(scene: Scene, offset: int, count: int) -> np.ndarray | None:
+    """(T,) int: the point of the cloud whose points are ``offset`` … ``offset + count − 1``
+    over all clouds that each triangle is a splat of, −1 for the rest; None: no splats."""
+    if scene.splat_point is None:
+        return None
+    local = np.asarray(scene.splat_point, dtype=np.int64) - offset
+    return np.where((local >= 0) & (local < count), local, -1)
 
 
 @dataclass
@@ -271,7 +289,7 @@ def _scan_values(ev: Evaluation, point_sets: list, scan_parts: list, rest_values
         if other is None:
             values, outward = next(rest), front.normals
         else:   # the outside of each smooth patch, then the creases' faces
-            patches, side, settled, done, both = part
+            patches, side, settled, done, both, clear = part
             chosen, along, against = next(rest), next(rest), next(rest)
             # The open patches decide on their full values, as a whole (the probe's
             # values stand in elsewhere: no open patch reads them).
@@ -290,7 +308,8 @@ def _scan_values(ev: Evaluation, point_sets: list, scan_parts: list, rest_values
                 # The faces' receivers lie along the creases, as dense as the points:
                 # they share their gathers as the points do (the cache's normal term
                 # keeps each face's records to that face).
-                extra, _, more, _ = ev.incident_at(faces.points, faces.normals, r,
+                at = clear.lift(r, faces.points, faces.normals)
+                extra, _, more, _ = ev.incident_at(at, faces.normals, r,
                                                    shared=np.zeros(len(r), dtype=np.int64))
                 rays += more
                 values = faces.mean(values, front.emission[r] + front.albedo[r] * extra)
