@@ -146,19 +146,42 @@ def cache_case(seed=5, m=3000, K=16):
     return p, n, reach, own, values, rows, records[np.asarray(near)], np.asarray(dist)
 
 
-def test_native_record_weights_are_the_numpy_formulas():
+def test_native_record_lookup_is_the_brute_force_search_and_the_numpy_formulas():
+    """The search and the weights in one native pass (``_core.record_lookup``) against a
+    brute-force search and the formulas in numpy, with and without a floor on the reach."""
     from illumap import _core
     import numpy_reference as ref
-    from illumap.irradiance_cache import BEHIND_SLACK
-    p, n, reach, own, _, rows, near, dist = cache_case()
-    for a in (0.05, 0.15, 0.5):
-        w, ok = _core.record_weights(p, n, reach, own, rows, near, dist, accuracy=a,
-                                     behind_slack=BEHIND_SLACK)
-        want_w, want_ok = ref.record_weights(p, n, reach, own, rows, near, dist, a, BEHIND_SLACK)
-        np.testing.assert_array_equal(np.asarray(ok, dtype=bool), want_ok)
-        np.testing.assert_allclose(w, want_w, rtol=1e-9, atol=1e-12 / a)
+    from illumap.irradiance_cache import BEHIND_SLACK, NEAR_RECORD_FLOORS
+    k = 16
+    p, n, reach, own, _, rows, near, _ = cache_case(K=k)
+    records = np.unique(near)
+    raw = np.random.default_rng(5).uniform(0.05, 0.6, len(p))
+    for a, floor in ((0.05, 0.0), (0.15, 0.0), (0.5, 0.0), (0.5, 0.2)):
+        far = NEAR_RECORD_FLOORS * floor
+        got_near, got_w, got_count = _core.record_lookup(
+            p, n, reach, own, raw, records, rows, k, accuracy=a, behind_slack=BEHIND_SLACK,
+            min_reach=floor, far_reach=far)
+        want_near, want_w, want_count = ref.record_lookup(
+            p, n, reach, own, raw, records, rows, k, a, BEHIND_SLACK, floor, far)
+        np.testing.assert_array_equal(got_near, want_near)
+        np.testing.assert_array_equal(got_count, want_count)
+        np.testing.assert_allclose(got_w, want_w, rtol=1e-9, atol=1e-12 / a)
+        counts, = _core.record_lookup(p, n, reach, own, raw, records, rows, k, accuracy=a,
+                                      behind_slack=BEHIND_SLACK, min_reach=floor,
+                                      far_reach=far, counts_only=True)
+        np.testing.assert_array_equal(counts, want_count)
         if a == 0.5:
-            assert 0.05 < want_ok.mean() < 0.95      # both valid and invalid records occur
+            share = want_count.sum() / want_count.size / k
+            assert 0.05 < share < 0.95                  # both valid and invalid records occur
+    # the floor left out records that its absence kept
+    assert ref.record_lookup(p, n, reach, own, raw, records, rows, k, 0.5, BEHIND_SLACK)[2].sum() > \
+        ref.record_lookup(p, n, reach, own, raw, records, rows, k, 0.5, BEHIND_SLACK, 0.2, 0.4)[2].sum()
+    with pytest.raises(ValueError, match="out of range"):
+        _core.record_lookup(p, n, reach, own, raw, records + len(p), rows, k, accuracy=0.5,
+                            behind_slack=BEHIND_SLACK)
+    with pytest.raises(ValueError, match="k must be"):
+        _core.record_lookup(p, n, reach, own, raw, records[:3], rows, k, accuracy=0.5,
+                            behind_slack=BEHIND_SLACK)
 
 
 def test_native_fitted_values_are_the_numpy_formulas():
