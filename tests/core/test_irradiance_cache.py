@@ -306,3 +306,47 @@ def test_with_a_floor_the_probe_is_shared_through_sentinels_and_the_panel_still_
     assert probed.sum() < len(p) * (hidden.mean() + 4.0 / PROBE_SENTINEL_SPACING ** 2)
     assert (got.radiance[hidden] == 0).all()
     assert (got.radiance[~hidden] == 1).all()
+
+
+def test_the_spacing_from_the_isolation_search_is_the_search_of_all_shared_receivers():
+    """``_spacing`` takes each receiver's nearest in its own group from ``_isolated`` and
+    searches only the other groups: the median nearest-other distance over all receivers
+    that share records, as one search of them finds it; with a stray point set apart (which
+    its group's search counted) it searches them all again."""
+    from illumap import _core
+    from illumap.irradiance_cache import _isolated, _spacing
+    rng = np.random.default_rng(11)
+    scan = np.c_[rng.uniform(0, 1, (4000, 2)), np.zeros(4000)]
+    panel = np.c_[rng.uniform(0.4, 0.5, (300, 2)), np.full(300, 1e-3)]   # close above it
+    tiny = np.c_[rng.uniform(0, 1, (5, 2)), np.ones(5)]                   # too few to tell
+    for stray in (False, True):
+        p = np.concatenate([scan, panel, tiny] + ([[[0.5, 0.5, 40.0]]] if stray else []))
+        group = np.r_[np.zeros(4000), np.ones(300), np.full(5, 2), [0] if stray else []]
+        group = group.astype(np.int64)
+        group[7] = -1
+        isolated, nearest = _isolated(p, group)
+        assert isolated[4300:4305].all() and isolated.sum() == 5 + stray
+        shared = np.flatnonzero(np.where(isolated, -1, group) >= 0)
+        q = np.ascontiguousarray(p[shared])
+        d = np.asarray(_core.knn(q, q, 2)[1])[:, 1]
+        want = float(np.median(d[d > 0]))
+        assert _spacing(p, np.where(isolated, -1, group), isolated, nearest) == want
+
+
+def test_one_record_per_cell_is_the_one_nearest_its_centre_per_group():
+    """``_one_per_cell`` (one packed sort key) against the six-key sort it replaces."""
+    from illumap.irradiance_cache import _one_per_cell
+    rng = np.random.default_rng(4)
+    p = rng.uniform(0, 3, (20000, 3))
+    group = rng.integers(0, 3, len(p))
+    rows = np.sort(rng.choice(len(p), 15000, replace=False))
+    origin = p.min(axis=0)
+    for cell in (0.1, 0.7):
+        scaled = (p[rows] - origin) / cell
+        key = np.floor(scaled).astype(np.int64)
+        off = np.linalg.norm(scaled - key - 0.5, axis=1)
+        order = np.lexsort((rows, off, key[:, 2], key[:, 1], key[:, 0], group[rows]))
+        k = np.column_stack([group[rows], key])[order]
+        first = np.r_[True, (k[1:] != k[:-1]).any(axis=1)]
+        want = np.sort(rows[order[first]])
+        np.testing.assert_array_equal(_one_per_cell(p, rows, group, cell, origin), want)
