@@ -123,7 +123,7 @@ void KdTree::search(std::int32_t id, const double q[3], Best& best, double rd,
             const double* p = &pts[3 * i];
             double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
             const double d2 = dx * dx + dy * dy + dz * dz;
-            if (d2 < worst) {  // what offer would take (a tie with the worst is refused)
+            if (d2 <= worst && best.takes(d2, idx[i])) {  // what offer would take
                 best.offer(d2, idx[i]);
                 worst = best.worst();
             }

@@ -21,9 +21,12 @@ public:
     // calling thread only (it polls ctx's monitor).
     KdTree(Context& ctx, const double* points, std::size_t n);
 
-    // The k best (squared distance, index) pairs found so far, sorted. A pair enters when
-    // its distance is below the worst kept one and evicts the largest (distance, index)
-    // pair: the same set, in the same order, as the bounded max-heap it replaced.
+    // The k best (squared distance, index) pairs found so far, sorted. A pair enters when it
+    // is below the worst kept one in (distance, index) order, and evicts it: the k smallest
+    // pairs in that order whatever order the points are offered in, so the answer does not
+    // depend on the tree (its shape, the library's nth_element, the threads), ties at equal
+    // distance go to the lower index, and a search for fewer neighbours finds the first
+    // columns of a search for more (one table can serve consumers of several widths).
     struct Best {
         std::vector<std::pair<double, std::int64_t>> h;
         std::size_t k;
@@ -31,11 +34,16 @@ public:
         double worst() const {
             return h.size() < k ? std::numeric_limits<double>::infinity() : h.back().first;
         }
+        // Whether the pair (d2, i) would enter.
+        bool takes(double d2, std::int64_t i) const {
+            return h.size() < k || d2 < h.back().first ||
+                   (d2 == h.back().first && i < h.back().second);
+        }
         void offer(double d2, std::int64_t i) {
             const std::pair<double, std::int64_t> item{d2, i};
             if (h.size() < k) {
                 h.push_back(item);
-            } else if (d2 < h.back().first) {
+            } else if (item < h.back()) {
                 h.back() = item;
             } else {
                 return;
