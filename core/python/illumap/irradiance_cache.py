@@ -323,13 +323,16 @@ def _spacing(p: np.ndarray, group: np.ndarray, isolated: np.ndarray,
         _, dist = _core.knn(q, q, 2)
         return _median_positive(np.asarray(dist)[:, 1])
     d = nearest[shared]
-    present = np.unique(group[shared])
+    present, sizes = np.unique(group[shared], return_counts=True)
     if len(present) > 1:
-        for g in present:
-            mine = group[shared] == g
-            _, other = _core.knn(np.ascontiguousarray(p[shared[~mine]]),
-                                 np.ascontiguousarray(p[shared[mine]]), 1)
-            d[mine] = np.minimum(d[mine], np.asarray(other)[:, 0])
+        # The largest group (a scan) looks among the others (small: a tree of a few points);
+        # the others' few receivers search them all, as the search of all of them would.
+        big = group[shared] == present[np.argmax(sizes)]
+        rest = np.ascontiguousarray(p[shared[~big]])
+        _, other = _core.knn(rest, np.ascontiguousarray(p[shared[big]]), 1)
+        d[big] = np.minimum(d[big], np.asarray(other)[:, 0])
+        _, around = _core.knn(np.ascontiguousarray(p[shared]), rest, 2)
+        d[~big] = np.asarray(around)[:, 1]
     return _median_positive(d)
 
 
