@@ -309,19 +309,19 @@ def test_with_a_floor_the_probe_is_shared_through_sentinels_and_the_panel_still_
 
 
 def test_the_spacing_from_the_isolation_search_is_the_search_of_all_shared_receivers():
-    """``_spacing`` takes each receiver's nearest in its own group from ``_isolated`` and
-    searches only the other groups: the median nearest-other distance over all receivers
-    that share records, as one search of them finds it; with a stray point set apart (which
-    its group's search counted) it searches them all again."""
+    """``_spacing`` takes each receiver's nearest from ``_isolated``'s search where they are
+    one group: the median nearest-other distance over all receivers that share records, as
+    one search of them finds it; with several groups, or a stray point set apart (which its
+    group's search counted), it searches them all again."""
     from illumap import _core
     from illumap.irradiance_cache import _isolated, _spacing
     rng = np.random.default_rng(11)
     scan = np.c_[rng.uniform(0, 1, (4000, 2)), np.zeros(4000)]
     panel = np.c_[rng.uniform(0.4, 0.5, (300, 2)), np.full(300, 1e-3)]   # close above it
     tiny = np.c_[rng.uniform(0, 1, (5, 2)), np.ones(5)]                   # too few to tell
-    for stray in (False, True):
+    for stray, apart in ((False, 1), (True, 1), (False, 0), (True, 0)):
         p = np.concatenate([scan, panel, tiny] + ([[[0.5, 0.5, 40.0]]] if stray else []))
-        group = np.r_[np.zeros(4000), np.ones(300), np.full(5, 2), [0] if stray else []]
+        group = np.r_[np.zeros(4000), np.full(300, apart), np.full(5, 2), [0] if stray else []]
         group = group.astype(np.int64)
         group[7] = -1
         isolated, nearest = _isolated(p, group)

@@ -313,27 +313,16 @@ def _spacing(p: np.ndarray, group: np.ndarray, isolated: np.ndarray,
              nearest: np.ndarray) -> float:
     """The typical spacing (m) of the receivers that share records (``group`` ≥ 0): the median
     distance to the nearest other one of them. ``isolated`` and ``nearest``: ``_isolated``'s
-    answer; where it set no receiver of a searched group apart, each one's nearest in its own
-    group stands, and only the other groups are searched (a few small ones beside a scan)."""
+    answer; where all of them are one group of which it set none apart, its search gave each
+    one's nearest (a scan alone), else they are searched again."""
     shared = np.flatnonzero(group >= 0)
     if len(shared) < 2:
         return np.inf
-    if (isolated & ~np.isnan(nearest)).any():
-        q = np.ascontiguousarray(p[shared])
-        _, dist = _core.knn(q, q, 2)
-        return _median_positive(np.asarray(dist)[:, 1])
-    d = nearest[shared]
-    present, sizes = np.unique(group[shared], return_counts=True)
-    if len(present) > 1:
-        # The largest group (a scan) looks among the others (small: a tree of a few points);
-        # the others' few receivers search them all, as the search of all of them would.
-        big = group[shared] == present[np.argmax(sizes)]
-        rest = np.ascontiguousarray(p[shared[~big]])
-        _, other = _core.knn(rest, np.ascontiguousarray(p[shared[big]]), 1)
-        d[big] = np.minimum(d[big], np.asarray(other)[:, 0])
-        _, around = _core.knn(np.ascontiguousarray(p[shared]), rest, 2)
-        d[~big] = np.asarray(around)[:, 1]
-    return _median_positive(d)
+    if not (isolated & ~np.isnan(nearest)).any() and (group[shared] == group[shared[0]]).all():
+        return _median_positive(nearest[shared])
+    q = np.ascontiguousarray(p[shared])
+    _, dist = _core.knn(q, q, 2)
+    return _median_positive(np.asarray(dist)[:, 1])
 
 
 def _median_positive(distances: np.ndarray) -> float:
