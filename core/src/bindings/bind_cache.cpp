@@ -55,7 +55,7 @@ void bind_irradiance_cache(nb::module_& m) {
                   run_released(threads, progress, [&](Context& ctx) {
                       checkpoint(ctx, 0.0);
                       record_lookup(ctx, P, N, R, O, W, min_reach, far_reach, J, nr, I, r, K,
-                                    accuracy, behind_slack, nullptr, nullptr, nullptr, count);
+                                    accuracy, behind_slack, nullptr, nullptr, count);
                   });
                   return nb::make_tuple(C);
               }
@@ -67,7 +67,7 @@ void bind_irradiance_cache(nb::module_& m) {
               run_released(threads, progress, [&](Context& ctx) {
                   checkpoint(ctx, 0.0);
                   record_lookup(ctx, P, N, R, O, W, min_reach, far_reach, J, nr, I, r, K,
-                                accuracy, behind_slack, near, w, nullptr, count);
+                                accuracy, behind_slack, near, w, count);
               });
               return nb::make_tuple(NR, WT, C);
           },

@@ -36,7 +36,7 @@ void record_lookup(Context& ctx, const double* points, const double* normals,
                    double far_reach, const std::int64_t* records, std::size_t nr,
                    const std::int64_t* rows, std::size_t r, std::size_t K, double accuracy,
                    double behind_slack, std::int64_t* near, double* weights,
-                   std::uint8_t* valid, std::int32_t* counts) {
+                   std::int32_t* counts) {
     if (r == 0 || K == 0) return;
     std::vector<double> at(3 * nr), q(3 * r);
     for (std::size_t i = 0; i < nr; ++i)
@@ -69,7 +69,6 @@ void record_lookup(Context& ctx, const double* points, const double* normals,
                 const std::size_t cell = i * K + k;
                 if (near) near[cell] = j;
                 if (weights) weights[cell] = w;
-                if (valid) valid[cell] = ok ? 1 : 0;
                 count += ok ? 1 : 0;
             }
             if (counts) counts[i] = count;

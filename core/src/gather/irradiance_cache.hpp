@@ -18,15 +18,14 @@ namespace illumap {
 // than behind_slack x d (along the mean of their normals); weight 1/max(eps, 1e-3 accuracy)
 // - 1/accuracy where valid, 0 elsewhere. Where min_reach > 0, a record is also not valid
 // when its reach before the floor (raw) and the receiver's lie on different sides of it: one
-// below min_reach, the other at or beyond far_reach. Writes any of
-// near (r x K, rows of points), weights and valid (r x K) and counts (r: valid records per
-// receiver) that is not null.
+// below min_reach, the other at or beyond far_reach. Writes any of near (r x K, rows of
+// points), weights (r x K) and counts (r: valid records per receiver) that is not null.
 void record_lookup(Context& ctx, const double* points, const double* normals,
                    const double* reach, const double* own, const double* raw, double min_reach,
                    double far_reach, const std::int64_t* records, std::size_t nr,
                    const std::int64_t* rows, std::size_t r, std::size_t K, double accuracy,
                    double behind_slack, std::int64_t* near, double* weights,
-                   std::uint8_t* valid, std::int32_t* counts);
+                   std::int32_t* counts);
 
 // For receivers `rows` (r): the value (r x 3) of the plane fitted by weighted least squares
 // (weights r x K) to the records' values (values[near], near r x K) over the records' offsets
