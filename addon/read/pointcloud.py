@@ -28,6 +28,11 @@ from . import materials
 from ..errors import IllumapError
 
 K_NEIGHBOURS = 8
+#: Columns of the one search of a scan's own points (the point and its nearest): the splats'
+#: outlines read the most (``illumap.splats.DEFAULT_NEIGHBOURS``); the spacing, the normals
+#: and the splats' planes read its first K_NEIGHBOURS + 1 (knn keeps ties to the lower index,
+#: so those are what a search of K_NEIGHBOURS would find).
+SHARED_NEIGHBOURS = 20
 #: A point whose estimated spacing exceeds the cloud's median by this factor is stray
 #: (``bound_stray_areas``): 10 lets a scan's density vary a hundredfold in area...
 STRAY_SPACING = 10.0
@@ -53,8 +58,9 @@ class PointSamples:
     # Estimated normals: the directions each point is lit from as a receiver
     # (``illumap.pointcloud.receiver_normals``); None: ``normals``.
     receiver_normals: np.ndarray | None = None
-    # ``own_neighbours`` indices (N, k + 1) when the areas were estimated and the normals
-    # will be: the search is made once, for the spacing, the normals and the splats.
+    # ``own_neighbours`` indices (N, SHARED_NEIGHBOURS + 1) when the areas were estimated and
+    # the normals will be: the search is made once, for the spacing, the normals and the
+    # splats.
     neighbours: np.ndarray | None = None
 
 
@@ -95,8 +101,10 @@ def estimate_areas(positions: np.ndarray, k: int = K_NEIGHBOURS) -> np.ndarray:
 def own_neighbours(positions: np.ndarray, k: int = K_NEIGHBOURS) -> tuple[np.ndarray, np.ndarray]:
     """Each point's ``k`` nearest other points and itself: indices (N, k + 1) int64, the
     point first where it has no duplicate, and distances (N, k + 1), m. The one search of a
-    scan's own points that its spacing (``areas_from_distances``), its normals and its
-    splats' planes (``illumap.pointcloud.nearest``, ``settled_normals``) all read."""
+    scan's own points (with k = ``SHARED_NEIGHBOURS``) that its spacing
+    (``areas_from_distances``, the first K_NEIGHBOURS + 1 columns), its normals, its splats'
+    planes (``illumap.pointcloud.nearest``, ``settled_normals``) and their outlines
+    (``illumap.splats.splat_radii``) all read."""
     return knn(positions, positions, k + 1)
 
 
@@ -237,8 +245,11 @@ def _finish(obj, obj_eval, name, pos, extra, active, mats, warnings) -> PointSam
         if not np.all(np.isfinite(areas)) or (areas <= 0).any():
             raise IllumapError(f"Point cloud '{name}': radius attribute has zero, negative or NaN values")
     else:
-        table, dist = own_neighbours(pos, k)
-        areas = areas_from_distances(dist)
+        # As wide as the splats read where the normals, and so the splats' planes, are
+        # estimated from it too; else the spacing's own.
+        wide = min(SHARED_NEIGHBOURS, count - 1) if normal is None else k
+        table, dist = own_neighbours(pos, wide)
+        areas = areas_from_distances(dist[:, :k + 1])
         del dist
         _check_spacing(name, pos, areas, k)
         warnings.append(f"Point cloud '{name}': no 'radius' attribute; areas estimated from the "
@@ -289,11 +300,13 @@ def with_normals(samples: PointSamples) -> PointSamples:
     pos = samples.positions
     k = min(K_NEIGHBOURS, len(pos) - 1)
     from illumap import pointcloud as core_pointcloud  # noqa: PLC0415 - native, loaded on use
-    # One search for the spacing, both fits and the splats' planes: the same k + 1 columns
-    # ``nearest`` would find (k ≥ 2 here, as it clamps).
-    around = samples.neighbours
-    if around is None:
-        around = core_pointcloud.nearest(pos, k)
+    # One search for the spacing, both fits and the splats' planes and outlines: its first
+    # k + 1 columns are what ``nearest`` would find (k ≥ 2 here, as it clamps).
+    table = samples.neighbours
+    if table is None:
+        table = core_pointcloud.nearest(pos, min(SHARED_NEIGHBOURS, len(pos) - 1))
+    around = np.ascontiguousarray(table[:, :k + 1])
     normal = estimate_normals(pos, k, neighbours=around)
     receiver = core_pointcloud.receiver_normals(pos, normal, around)
-    return replace(samples, normals=normal, receiver_normals=receiver, neighbours=around)
+    del around
+    return replace(samples, normals=normal, receiver_normals=receiver, neighbours=table)

@@ -195,13 +195,30 @@ def splat_triangles(positions, normals, areas, **options) -> np.ndarray:
 
 
 def record_weights(p, n, reach, own, rows, near, dist, accuracy, behind_slack):
-    """``_core.record_weights``: (weights (R, K), valid (R, K) bool)."""
+    """Each receiver's records' weights (R, K) and which are valid (R, K) bool, for records
+    ``near`` (R, K) at distances ``dist`` (the rule of ``_core.record_lookup``)."""
     q, nq = p[rows], n[rows]
     cos = np.einsum("rc,rkc->rk", nq, n[near])
     eps = dist / np.minimum(reach[near], own[rows, None]) + np.sqrt(np.maximum(0.0, 1.0 - cos))
     lift = np.einsum("rkc,rkc->rk", q[:, None, :] - p[near], 0.5 * (nq[:, None, :] + n[near]))
     ok = (eps < accuracy) & (lift >= -behind_slack * dist)
     return np.where(ok, 1.0 / np.maximum(eps, 1e-3 * accuracy) - 1.0 / accuracy, 0.0), ok
+
+
+def record_lookup(p, n, reach, own, raw, records, rows, k, accuracy, behind_slack,
+                  min_reach=0.0, far_reach=0.0):
+    """``_core.record_lookup`` by brute force: each receiver's ``k`` nearest ``records`` (all
+    distances sorted), their weights (zero where not valid, or where the receiver's ``raw``
+    reach and the record's lie on different sides of the floor) and the count of valid ones."""
+    d = np.linalg.norm(p[rows][:, None, :] - p[records][None, :, :], axis=2)
+    order = np.argsort(d, axis=1, kind="stable")[:, :k]
+    near, dist = records[order], np.take_along_axis(d, order, axis=1)
+    w, ok = record_weights(p, n, reach, own, rows, near, dist, accuracy, behind_slack)
+    if min_reach > 0:
+        me, them = raw[rows][:, None], raw[near]
+        ok &= ~(((me < min_reach) & (them >= far_reach)) | ((me >= far_reach) & (them < min_reach)))
+        w = np.where(ok, w, 0.0)
+    return near, w, ok.sum(axis=1)
 
 
 def fitted_values(p, n, values, rows, near, w):

@@ -146,19 +146,42 @@ def cache_case(seed=5, m=3000, K=16):
     return p, n, reach, own, values, rows, records[np.asarray(near)], np.asarray(dist)
 
 
-def test_native_record_weights_are_the_numpy_formulas():
+def test_native_record_lookup_is_the_brute_force_search_and_the_numpy_formulas():
+    """The search and the weights in one native pass (``_core.record_lookup``) against a
+    brute-force search and the formulas in numpy, with and without a floor on the reach."""
     from illumap import _core
     import numpy_reference as ref
-    from illumap.irradiance_cache import BEHIND_SLACK
-    p, n, reach, own, _, rows, near, dist = cache_case()
-    for a in (0.05, 0.15, 0.5):
-        w, ok = _core.record_weights(p, n, reach, own, rows, near, dist, accuracy=a,
-                                     behind_slack=BEHIND_SLACK)
-        want_w, want_ok = ref.record_weights(p, n, reach, own, rows, near, dist, a, BEHIND_SLACK)
-        np.testing.assert_array_equal(np.asarray(ok, dtype=bool), want_ok)
-        np.testing.assert_allclose(w, want_w, rtol=1e-9, atol=1e-12 / a)
+    from illumap.irradiance_cache import BEHIND_SLACK, NEAR_RECORD_FLOORS
+    k = 16
+    p, n, reach, own, _, rows, near, _ = cache_case(K=k)
+    records = np.unique(near)
+    raw = np.random.default_rng(5).uniform(0.05, 0.6, len(p))
+    for a, floor in ((0.05, 0.0), (0.15, 0.0), (0.5, 0.0), (0.5, 0.2)):
+        far = NEAR_RECORD_FLOORS * floor
+        got_near, got_w, got_count = _core.record_lookup(
+            p, n, reach, own, raw, records, rows, k, accuracy=a, behind_slack=BEHIND_SLACK,
+            min_reach=floor, far_reach=far)
+        want_near, want_w, want_count = ref.record_lookup(
+            p, n, reach, own, raw, records, rows, k, a, BEHIND_SLACK, floor, far)
+        np.testing.assert_array_equal(got_near, want_near)
+        np.testing.assert_array_equal(got_count, want_count)
+        np.testing.assert_allclose(got_w, want_w, rtol=1e-9, atol=1e-12 / a)
+        counts, = _core.record_lookup(p, n, reach, own, raw, records, rows, k, accuracy=a,
+                                      behind_slack=BEHIND_SLACK, min_reach=floor,
+                                      far_reach=far, counts_only=True)
+        np.testing.assert_array_equal(counts, want_count)
         if a == 0.5:
-            assert 0.05 < want_ok.mean() < 0.95      # both valid and invalid records occur
+            share = want_count.sum() / want_count.size / k
+            assert 0.05 < share < 0.95                  # both valid and invalid records occur
+    # the floor left out records that its absence kept
+    assert ref.record_lookup(p, n, reach, own, raw, records, rows, k, 0.5, BEHIND_SLACK)[2].sum() > \
+        ref.record_lookup(p, n, reach, own, raw, records, rows, k, 0.5, BEHIND_SLACK, 0.2, 0.4)[2].sum()
+    with pytest.raises(ValueError, match="out of range"):
+        _core.record_lookup(p, n, reach, own, raw, records + len(p), rows, k, accuracy=0.5,
+                            behind_slack=BEHIND_SLACK)
+    with pytest.raises(ValueError, match="k must be"):
+        _core.record_lookup(p, n, reach, own, raw, records[:3], rows, k, accuracy=0.5,
+                            behind_slack=BEHIND_SLACK)
 
 
 def test_native_fitted_values_are_the_numpy_formulas():
@@ -283,3 +306,47 @@ def test_with_a_floor_the_probe_is_shared_through_sentinels_and_the_panel_still_
     assert probed.sum() < len(p) * (hidden.mean() + 4.0 / PROBE_SENTINEL_SPACING ** 2)
     assert (got.radiance[hidden] == 0).all()
     assert (got.radiance[~hidden] == 1).all()
+
+
+def test_the_spacing_from_the_isolation_search_is_the_search_of_all_shared_receivers():
+    """``_spacing`` takes each receiver's nearest from ``_isolated``'s search where they are
+    one group: the median nearest-other distance over all receivers that share records, as
+    one search of them finds it; with several groups, or a stray point set apart (which its
+    group's search counted), it searches them all again."""
+    from illumap import _core
+    from illumap.irradiance_cache import _isolated, _spacing
+    rng = np.random.default_rng(11)
+    scan = np.c_[rng.uniform(0, 1, (4000, 2)), np.zeros(4000)]
+    panel = np.c_[rng.uniform(0.4, 0.5, (300, 2)), np.full(300, 1e-3)]   # close above it
+    tiny = np.c_[rng.uniform(0, 1, (5, 2)), np.ones(5)]                   # too few to tell
+    for stray, apart in ((False, 1), (True, 1), (False, 0), (True, 0)):
+        p = np.concatenate([scan, panel, tiny] + ([[[0.5, 0.5, 40.0]]] if stray else []))
+        group = np.r_[np.zeros(4000), np.full(300, apart), np.full(5, 2), [0] if stray else []]
+        group = group.astype(np.int64)
+        group[7] = -1
+        isolated, nearest = _isolated(p, group)
+        assert isolated[4300:4305].all() and isolated.sum() == 5 + stray
+        shared = np.flatnonzero(np.where(isolated, -1, group) >= 0)
+        q = np.ascontiguousarray(p[shared])
+        d = np.asarray(_core.knn(q, q, 2)[1])[:, 1]
+        want = float(np.median(d[d > 0]))
+        assert _spacing(p, np.where(isolated, -1, group), isolated, nearest) == want
+
+
+def test_one_record_per_cell_is_the_one_nearest_its_centre_per_group():
+    """``_one_per_cell`` (one packed sort key) against the six-key sort it replaces."""
+    from illumap.irradiance_cache import _one_per_cell
+    rng = np.random.default_rng(4)
+    p = rng.uniform(0, 3, (20000, 3))
+    group = rng.integers(0, 3, len(p))
+    rows = np.sort(rng.choice(len(p), 15000, replace=False))
+    origin = p.min(axis=0)
+    for cell in (0.1, 0.7):
+        scaled = (p[rows] - origin) / cell
+        key = np.floor(scaled).astype(np.int64)
+        off = np.linalg.norm(scaled - key - 0.5, axis=1)
+        order = np.lexsort((rows, off, key[:, 2], key[:, 1], key[:, 0], group[rows]))
+        k = np.column_stack([group[rows], key])[order]
+        first = np.r_[True, (k[1:] != k[:-1]).any(axis=1)]
+        want = np.sort(rows[order[first]])
+        np.testing.assert_array_equal(_one_per_cell(p, rows, group, cell, origin), want)

@@ -37,12 +37,33 @@ def test_settled_normals_from_a_shared_table_equal_their_own_search(jitter):
     np.testing.assert_array_equal(shared, own)
 
 
-def test_a_table_of_another_width_is_not_used():
-    pts = _floor_and_wall(0.05, 0.003)
+@pytest.mark.parametrize("jitter", [0.0, 0.003])
+def test_a_wider_table_serves_and_a_narrower_one_is_not_used(jitter):
+    """A table of more columns is read for its first ones (knn keeps ties to the lower
+    index, so they are the narrower search's, on the tied grid too); one of fewer is
+    searched again rather than read past its end."""
+    pts = _floor_and_wall(0.05, jitter)
     normals = _normals(pts)
-    wider = pointcloud.nearest(pts, pointcloud.SETTLE_NEIGHBOURS + 4)
-    np.testing.assert_array_equal(pointcloud.settled_normals(pts, normals, wider),
-                                  pointcloud.settled_normals(pts, normals))
+    own = pointcloud.settled_normals(pts, normals)
+    wider = pointcloud.nearest(pts, pointcloud.SETTLE_NEIGHBOURS + 12)
+    narrower = pointcloud.nearest(pts, pointcloud.SETTLE_NEIGHBOURS - 3)
+    np.testing.assert_array_equal(pointcloud.settled_normals(pts, normals, wider), own)
+    np.testing.assert_array_equal(pointcloud.settled_normals(pts, normals, narrower), own)
+
+
+@pytest.mark.parametrize("jitter", [0.0, 0.004])
+def test_splat_outlines_from_a_shared_table_equal_their_own_search(jitter):
+    """``splat_radii`` reads the first neighbours + 1 columns of a wider table (the scan's
+    one search, ``addon.read.pointcloud.SHARED_NEIGHBOURS``): the very bits of its own."""
+    pts = _floor_and_wall(0.04, jitter)
+    normals = _normals(pts)
+    areas = np.full(len(pts), 0.04 ** 2)
+    table = pointcloud.nearest(pts, splats.DEFAULT_NEIGHBOURS + 4)
+    for got, want in zip(splats.splat_radii(pts, normals, areas, nearest=table),
+                         splats.splat_radii(pts, normals, areas)):
+        np.testing.assert_array_equal(got, want)
+    assert (splats.splat_radii(pts, normals, areas)[0] <
+            splats.DEFAULT_REACH * np.sqrt(areas / np.pi)[:, None]).any()   # clipped: read
 
 
 @pytest.mark.parametrize("jitter", [0.0, 0.004])

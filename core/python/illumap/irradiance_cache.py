@@ -139,12 +139,13 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
     # the records' grid and reach follow from the others alone: else that one point would
     # move the grid's origin and coarsen its cells, and every other receiver's light with
     # them (by 1.4% on a scan beside two walls, for a point 1 km off).
-    group = np.where(_isolated(p, group), -1, group)
+    isolated, nearest = _isolated(p, group)
+    group = np.where(isolated, -1, group)
     radiance, stderr, sky, halves = np.zeros((m, 3)), np.zeros(m), np.zeros(m), np.zeros(m)
     record = group < 0
     covered = np.zeros(m, dtype=bool)
     rays = 0
-    spacing = _spacing(p[~record])
+    spacing = _spacing(p, group, isolated, nearest)
     shared = np.flatnonzero(~record)
     # No record reaches farther than the receivers that share records extend: the grid
     # starts at that size, and a record whose rays meet nothing (an open sky) is valid as
@@ -188,7 +189,7 @@ def cached_gather(gather_rows: Callable[..., GatherResult], points, normals, *,
         for rest in _chunks(np.flatnonzero(~record & ~covered)):
             guard.check(min(level / levels, 1.0), PHASE)
             covered[rest] = _weights(p, n, group, reach, own, record, rest, accuracy,
-                                     raw, min_reach)[2].sum(axis=1) >= MIN_RECORDS
+                                     raw, min_reach, counts_only=True)[2] >= MIN_RECORDS
         cell *= 0.5
         level += 1
     # The rest take their records' values, a chunk at a time (bounded memory); the records
@@ -308,23 +309,37 @@ def _bounded(reach: np.ndarray, max_reach: float, min_reach: float = 0.0) -> np.
     return np.clip(np.nan_to_num(reach, posinf=max_reach), max(min_reach, 1e-300), max_reach)
 
 
-def _spacing(points: np.ndarray) -> float:
-    """The receivers' typical spacing (m): the median distance to the nearest other one."""
-    if len(points) < 2:
+def _spacing(p: np.ndarray, group: np.ndarray, isolated: np.ndarray,
+             nearest: np.ndarray) -> float:
+    """The typical spacing (m) of the receivers that share records (``group`` ≥ 0): the median
+    distance to the nearest other one of them. ``isolated`` and ``nearest``: ``_isolated``'s
+    answer; where all of them are one group of which it set none apart, its search gave each
+    one's nearest (a scan alone), else they are searched again."""
+    shared = np.flatnonzero(group >= 0)
+    if len(shared) < 2:
         return np.inf
-    _, dist = _core.knn(points, points, 2)
-    d = np.asarray(dist)[:, 1]
-    d = d[d > 0]
+    if not (isolated & ~np.isnan(nearest)).any() and (group[shared] == group[shared[0]]).all():
+        return _median_positive(nearest[shared])
+    q = np.ascontiguousarray(p[shared])
+    _, dist = _core.knn(q, q, 2)
+    return _median_positive(np.asarray(dist)[:, 1])
+
+
+def _median_positive(distances: np.ndarray) -> float:
+    """The median of the positive ``distances`` (m); inf when there are none."""
+    d = distances[distances > 0]
     return float(np.median(d)) if len(d) else np.inf
 
 
-def _isolated(p: np.ndarray, group: np.ndarray) -> np.ndarray:
+def _isolated(p: np.ndarray, group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(M,) bool: receivers of a group (≥ 0) whose ``ISOLATED_NEIGHBOUR``-th nearest other
     receiver of that group lies more than ``ISOLATED_SPACING`` times farther than is typical
     for the group (the median): points, and clusters of fewer than that many, far from the
     rest; and every receiver of a group too small to tell (2·ISOLATED_NEIGHBOUR or fewer),
-    which would share a record or two at most."""
+    which would share a record or two at most. And (M,) the distance (m) from each receiver
+    to the nearest other of its group, from the same search (nan where none was made)."""
     out = np.zeros(len(p), dtype=bool)
+    nearest = np.full(len(p), np.nan)
     for g in np.unique(group[group >= 0]):
         rows = np.flatnonzero(group == g)
         if len(rows) <= 2 * ISOLATED_NEIGHBOUR:
@@ -332,11 +347,13 @@ def _isolated(p: np.ndarray, group: np.ndarray) -> np.ndarray:
             continue
         q = np.ascontiguousarray(p[rows])
         _, dist = _core.knn(q, q, ISOLATED_NEIGHBOUR + 1)
-        d = np.asarray(dist)[:, ISOLATED_NEIGHBOUR]
+        dist = np.asarray(dist)
+        nearest[rows] = dist[:, 1]
+        d = dist[:, ISOLATED_NEIGHBOUR]
         typical = float(np.median(d))
         if typical > 0:
             out[rows] = d > ISOLATED_SPACING * typical
-    return out
+    return out, nearest
 
 
 def _one_per_cell(p: np.ndarray, rows: np.ndarray, group: np.ndarray, cell: float,
@@ -348,24 +365,41 @@ def _one_per_cell(p: np.ndarray, rows: np.ndarray, group: np.ndarray, cell: floa
     scaled = (p[rows] - origin) / cell
     key = np.floor(scaled).astype(np.int64)
     off = np.linalg.norm(scaled - key - 0.5, axis=1)
-    order = np.lexsort((rows, off, key[:, 2], key[:, 1], key[:, 0], group[rows]))
-    k = np.column_stack([group[rows], key])[order]
-    first = np.ones(len(order), dtype=bool)
-    first[1:] = (k[1:] != k[:-1]).any(axis=1)
+    k = np.column_stack([group[rows], key])
+    span = k.max(axis=0) + 1
+    if k.min() >= 0 and float(np.prod(span.astype(np.float64))) < 2.0 ** 62:
+        # The cell and group packed into one integer (mixed radix: the same order as the
+        # columns'), three sort keys instead of six.
+        code = k[:, 0].copy()
+        for d in range(1, 4):
+            code = code * span[d] + k[:, d]
+        order = np.lexsort((rows, off, code))
+        code = code[order]
+        first = np.ones(len(order), dtype=bool)
+        first[1:] = code[1:] != code[:-1]
+    else:
+        order = np.lexsort((rows, off, key[:, 2], key[:, 1], key[:, 0], group[rows]))
+        k = k[order]
+        first = np.ones(len(order), dtype=bool)
+        first[1:] = (k[1:] != k[:-1]).any(axis=1)
     return np.sort(rows[order[first]])
 
 
-def _weights(p, n, group, reach, own, record, rows, accuracy, raw=None, min_reach=0.0):
+def _weights(p, n, group, reach, own, record, rows, accuracy, raw=None, min_reach=0.0,
+             counts_only=False):
     """For receivers ``rows``: their nearest records (R, K) as rows of p, the records' weights
-    (R, K) (zero where not valid) and which are valid (R, K) bool. ``raw`` (M,): each
+    (R, K) (zero where not valid) and how many are valid (R,) (native:
+    ``_core.record_lookup``, the search and the weights in one pass). ``raw`` (M,): each
     receiver's and record's reach before the floor ``min_reach``: a receiver below it takes
-    only records below NEAR_RECORD_FLOORS floors."""
+    only records below NEAR_RECORD_FLOORS floors. ``counts_only``: (None, None, counts)."""
     k = RECORD_NEIGHBOURS
-    idx = np.zeros((len(rows), k), dtype=np.int64)
-    w = np.zeros((len(rows), k))
-    valid = np.zeros((len(rows), k), dtype=bool)
+    idx = None if counts_only else np.zeros((len(rows), k), dtype=np.int64)
+    w = None if counts_only else np.zeros((len(rows), k))
+    counts = np.zeros(len(rows), dtype=np.int64)
     recs = np.flatnonzero(record & (group >= 0))
     present = np.unique(group[rows])
+    floor = raw is not None and min_reach > 0
+    raw = np.ascontiguousarray(raw if floor else reach, dtype=np.float64)
     for g in present:
         # One group (a scan's points): its rows are all of them, copied as slices.
         mine = slice(None) if len(present) == 1 else np.flatnonzero(group[rows] == g)
@@ -373,20 +407,13 @@ def _weights(p, n, group, reach, own, record, rows, accuracy, raw=None, min_reac
         if len(theirs) == 0:
             continue
         kk = min(k, len(theirs))
-        near, dist = _core.knn(np.ascontiguousarray(p[theirs]), np.ascontiguousarray(p[rows[mine]]), kk)
-        near, dist = theirs[np.asarray(near)], np.asarray(dist)
-        wm, ok = _core.record_weights(p, n, reach, own, np.ascontiguousarray(rows[mine]),
-                                      np.ascontiguousarray(near), np.ascontiguousarray(dist),
-                                      accuracy=float(accuracy), behind_slack=BEHIND_SLACK)
-        ok = np.asarray(ok, dtype=bool)
-        if raw is not None and min_reach > 0:
-            # One near its surroundings (below the floor) and one far from them (beyond
-            # NEAR_RECORD_FLOORS floors) see different light, whatever the floor says.
-            me, them = raw[rows[mine]][:, None], raw[near]
-            far = NEAR_RECORD_FLOORS * min_reach
-            ok = ok & ~(((me < min_reach) & (them >= far)) | ((me >= far) & (them < min_reach)))
-            wm = np.where(ok, wm, 0.0)
-        idx[mine, :kk] = near
-        valid[mine, :kk] = ok
-        w[mine, :kk] = wm
-    return idx, w, valid
+        found = _core.record_lookup(
+            p, n, reach, own, raw, theirs, np.ascontiguousarray(rows[mine]), kk,
+            accuracy=float(accuracy), behind_slack=BEHIND_SLACK,
+            min_reach=float(min_reach) if floor else 0.0,
+            far_reach=NEAR_RECORD_FLOORS * float(min_reach), counts_only=counts_only)
+        counts[mine] = found[-1]
+        if not counts_only:
+            idx[mine, :kk] = found[0]
+            w[mine, :kk] = found[1]
+    return idx, w, counts

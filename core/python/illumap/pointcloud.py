@@ -204,17 +204,19 @@ def settled_normals(positions, normals, neighbours: np.ndarray | None = None) ->
     the other surface's points are among them (a block's side 6° downwards next to the floor
     it stands on): its splat, in that plane, then stands off the true surface by a tenth of
     the spacing at its far end and shadows the points along the edge. Returns (N, 3).
-    ``neighbours``: the points' own search (P, SETTLE_NEIGHBOURS + 1, the point first, as
-    :func:`nearest` with k = ``SETTLE_NEIGHBOURS`` makes it) when the caller has it; else it
-    is made here. Native (``illumap._core.settled_normals``)."""
+    ``neighbours``: the points' own search (P, SETTLE_NEIGHBOURS + 1 or more columns, the
+    point first, as :func:`nearest` makes it; its first SETTLE_NEIGHBOURS + 1 are read: knn
+    keeps ties to the lower index, so they are what that narrower search finds) when the
+    caller has it; else it is made here. Native (``illumap._core.settled_normals``)."""
     from . import _core
     p = np.ascontiguousarray(positions, dtype=np.float64)
     n = np.ascontiguousarray(normals, dtype=np.float64)
     if len(p) < SETTLE_MIN_POINTS:
         return n
     columns = min(SETTLE_NEIGHBOURS + 1, len(p))
-    if neighbours is not None and np.shape(neighbours) == (len(p), columns):
-        idx = np.ascontiguousarray(neighbours, dtype=np.int64)
+    shape = np.shape(neighbours) if neighbours is not None else ()
+    if len(shape) == 2 and shape[0] == len(p) and shape[1] >= columns:
+        idx = np.ascontiguousarray(neighbours[:, :columns], dtype=np.int64)
     else:
         idx, _ = _core.knn(p, p, columns)
     return np.asarray(_core.settled_normals(p, n, idx, same_cos=SETTLE_COS,

@@ -71,10 +71,14 @@ def _basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def splat_radii(positions, normals, areas, *, reach: float = DEFAULT_REACH,
                 neighbours: int = DEFAULT_NEIGHBOURS,
-                sides: int = DEFAULT_SIDES) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                sides: int = DEFAULT_SIDES,
+                nearest: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The clipped outline of every splat: (radii (N, sides) in m along the directions
     cos θ_m u + sin θ_m v, u (N, 3), v (N, 3)), the tangent basis of each point. Native
-    (``illumap._core.splat_radii``, splats.cpp), both threads."""
+    (``illumap._core.splat_radii``, splats.cpp), both threads. ``nearest``: the points' own
+    search (N, ≥ neighbours + 1 columns, the point first, ``pointcloud.nearest``), read
+    instead of searching again (knn keeps ties to the lower index: its first columns are
+    this search's)."""
     p = np.ascontiguousarray(positions, dtype=np.float64)
     n = np.asarray(normals, dtype=np.float64)
     a = np.asarray(areas, dtype=np.float64)
@@ -92,7 +96,11 @@ def splat_radii(positions, normals, areas, *, reach: float = DEFAULT_REACH,
     k = min(neighbours, count - 1)
     if k < 1:
         return np.repeat((reach * own)[:, None], sides, axis=1), u, v
-    idx, _ = _core.knn(p, p, k + 1)
+    shape = np.shape(nearest) if nearest is not None else ()
+    if len(shape) == 2 and shape[0] == count and shape[1] >= k + 1:
+        idx = nearest[:, :k + 1]
+    else:
+        idx, _ = _core.knn(p, p, k + 1)
     radii = _core.splat_radii(p, n, np.ascontiguousarray(u), np.ascontiguousarray(v),
                               reach * own, own, np.ascontiguousarray(np.asarray(idx)[:, 1:]),
                               sides=int(sides), corner_slack=CORNER_SLACK, edge_cos=EDGE_COS,
@@ -114,11 +122,11 @@ def splat_triangles(positions, normals, areas, *, out: np.ndarray | None = None,
     (``pointcloud.settled_normals``), wound so that their normals agree with ``normals``.
     ``out``: a C-contiguous float64 array of that shape to write them into (returned), so a
     caller assembling all of a scene's triangles holds them once. ``nearest``: the points' own
-    search, passed on to ``settled_normals``. Options: see
+    search, passed on to ``settled_normals`` and ``splat_radii``. Options: see
     ``splat_radii``."""
     p = np.ascontiguousarray(positions, dtype=np.float64)
     facing = np.ascontiguousarray(settled_normals(p, normals, nearest), dtype=np.float64)
-    radii, u, v = splat_radii(p, facing, areas, **options)
+    radii, u, v = splat_radii(p, facing, areas, nearest=nearest, **options)
     sides = radii.shape[1]
     shape = (len(p) * sides, 3, 3)
     if out is None:

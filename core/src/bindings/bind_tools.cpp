@@ -1,11 +1,9 @@
 // bind_tools.cpp — illumap._core._kernel_derivatives, knn, the point clouds' normals
-// (plane fits, orient_normals), splat_radii, and the irradiance cache's record weights and
-// fitted values.
+// (plane fits, orient_normals) and splat_radii (the irradiance cache's: bind_cache.cpp).
 #include "bindings/bindings.hpp"
 
 #include <nanobind/stl/vector.h>
 
-#include "gather/irradiance_cache.hpp"
 #include "geometry/knn.hpp"
 #include "gather/lamp_samples.hpp"
 #include "geometry/normals.hpp"
@@ -506,89 +504,6 @@ void bind_point_tools(nb::module_& m) {
           "Triangles (N * sides, 3, 3) in m: each point's splat as a fan about it, its rim at "
           "radii (N, sides) along cos(t) u + sin(t) v, wound to face along facing (N, 3). "
           "See splats.hpp.");
-
-    // The receivers' rows and their records (rows of `points`), checked against its length.
-    auto record_table = [](nb::handle rows, nb::handle near, std::size_t m, std::size_t& r,
-                           std::size_t& K, nb::object keep[2]) {
-        AnyArray shape_of;
-        if (!nb::try_cast<AnyArray>(near, shape_of, false) || shape_of.ndim() != 2)
-            throw nb::value_error("near must be a 2-D (R, K) numpy array");
-        K = shape_of.shape(1);
-        std::size_t rn;
-        const std::int64_t* I = view<std::int64_t>(rows, "rows", 1, 0, r, keep[0]);
-        const std::int64_t* J = view<std::int64_t>(near, "near", 2, std::int64_t(K), rn, keep[1]);
-        if (rn != r) throw nb::value_error("near must have one row per receiver row");
-        for (std::size_t i = 0; i < r; ++i)
-            if (I[i] < 0 || std::size_t(I[i]) >= m) throw nb::value_error("rows out of range");
-        for (std::size_t i = 0; i < r * K; ++i)
-            if (J[i] < 0 || std::size_t(J[i]) >= m) throw nb::value_error("near out of range");
-        return std::make_pair(I, J);
-    };
-
-    m.def("record_weights",
-          [record_table](nb::handle points, nb::handle normals, nb::handle reach, nb::handle own,
-                         nb::handle rows, nb::handle near, nb::handle dist, double accuracy,
-                         double behind_slack, int threads, nb::handle progress) {
-              std::size_t m, sizes[3], r, K, rd;
-              nb::object keep[7];
-              const double* P = view<double>(points, "points", 2, 3, m, keep[0]);
-              const double* N = view<double>(normals, "normals", 2, 3, sizes[0], keep[1]);
-              const double* R = view<double>(reach, "reach", 1, 0, sizes[1], keep[2]);
-              const double* O = view<double>(own, "own", 1, 0, sizes[2], keep[3]);
-              for (std::size_t z : sizes)
-                  if (z != m) throw nb::value_error("points, normals, reach and own must have the same length");
-              auto [I, J] = record_table(rows, near, m, r, K, keep + 4);
-              const double* D = view<double>(dist, "dist", 2, std::int64_t(K), rd, keep[6]);
-              if (rd != r) throw nb::value_error("dist must have the shape of near");
-              if (!(accuracy > 0)) throw nb::value_error("accuracy must be > 0");
-              double* w;
-              auto W = new_array(r, K, &w);
-              auto* ok = new std::uint8_t[std::max<std::size_t>(1, r * K)]();
-              nb::capsule own_ok(ok, [](void* q) noexcept { delete[] static_cast<std::uint8_t*>(q); });
-              nb::ndarray<nb::numpy, std::uint8_t> V(ok, {r, K}, own_ok);
-              run_released(threads, progress, [&](Context& ctx) {
-                  checkpoint(ctx, 0.0);
-                  record_weights(ctx, P, N, R, O, I, r, J, D, K, accuracy, behind_slack, w, ok);
-              });
-              return nb::make_tuple(W, V);
-          },
-          nb::arg("points"), nb::arg("normals"), nb::arg("reach"), nb::arg("own"), nb::arg("rows"),
-          nb::arg("near"), nb::arg("dist"), nb::kw_only(), nb::arg("accuracy"),
-          nb::arg("behind_slack"), nb::arg("threads") = 0, nb::arg("progress") = nb::none(),
-          "Irradiance cache: each receiver's records' weights (R, K) and whether they are valid "
-          "(R, K) uint8. See irradiance_cache.hpp.");
-
-    m.def("fitted_values",
-          [record_table](nb::handle points, nb::handle normals, nb::handle values, nb::handle rows,
-                         nb::handle near, nb::handle weights, int threads, nb::handle progress) {
-              std::size_t m, sizes[2], r, K, rw;
-              nb::object keep[5];
-              const double* P = view<double>(points, "points", 2, 3, m, keep[0]);
-              const double* N = view<double>(normals, "normals", 2, 3, sizes[0], keep[1]);
-              const double* V = view<double>(values, "values", 2, 3, sizes[1], keep[2]);
-              for (std::size_t z : sizes)
-                  if (z != m) throw nb::value_error("points, normals and values must have the same length");
-              nb::object kt[2];
-              auto [I, J] = record_table(rows, near, m, r, K, kt);
-              const double* W = view<double>(weights, "weights", 2, std::int64_t(K), rw, keep[3]);
-              if (rw != r) throw nb::value_error("weights must have the shape of near");
-              for (std::size_t i = 0; i < r; ++i) {
-                  double sum = 0.0;
-                  for (std::size_t k = 0; k < K; ++k) sum += W[i * K + k];
-                  if (!(sum > 0)) throw nb::value_error("every receiver needs a positive weight sum");
-              }
-              double* out;
-              auto O = new_array(r, 3, &out);
-              run_released(threads, progress, [&](Context& ctx) {
-                  checkpoint(ctx, 0.0);
-                  fitted_values(ctx, P, N, V, I, r, J, W, K, out);
-              });
-              return O;
-          },
-          nb::arg("points"), nb::arg("normals"), nb::arg("values"), nb::arg("rows"), nb::arg("near"),
-          nb::arg("weights"), nb::kw_only(), nb::arg("threads") = 0, nb::arg("progress") = nb::none(),
-          "Irradiance cache: each receiver's value (R, 3) from its records' weighted plane fit. "
-          "See irradiance_cache.hpp.");
 }
 
 }  // namespace illumap::bindings

@@ -457,5 +457,6 @@ NB_MODULE(_core, m) {
     bind_gather(m);
     bind_kernel(m);
     bind_point_tools(m);
+    bind_irradiance_cache(m);
     bind_lamp_samples(m);
 }

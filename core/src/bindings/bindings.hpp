@@ -203,5 +203,6 @@ void bind_gather(nb::module_& m);          // cosine_directions, gather (binding
 void bind_kernel(nb::module_& m);          // _kernel_derivatives (bind_tools.cpp)
 void bind_lamp_samples(nb::module_& m);    // lamp_samples (bind_tools.cpp)
 void bind_point_tools(nb::module_& m);     // knn, normals, splat_radii (bind_tools.cpp)
+void bind_irradiance_cache(nb::module_& m);  // record_lookup, fitted_values (bind_cache.cpp)
 
 }  // namespace illumap::bindings

@@ -1,38 +1,77 @@
 // irradiance_cache.cpp — see irradiance_cache.hpp.
 #include "gather/irradiance_cache.hpp"
 
+#include "geometry/knn.hpp"
 #include "geometry/sym3.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 namespace illumap {
 
-void record_weights(Context& ctx, const double* points, const double* normals,
-                    const double* reach, const double* own, const std::int64_t* rows,
-                    std::size_t r, const std::int64_t* near, const double* dist, std::size_t K,
-                    double accuracy, double behind_slack, double* weights, std::uint8_t* valid) {
-    const double floor_eps = 1e-3 * accuracy;
-    parallel_for(ctx, r, 4096, [&](std::size_t b, std::size_t e) {
-        for (std::size_t i = b; i < e; ++i) {
+namespace {
+
+// Record j's weight at receiver me at distance d (0 where not valid; irradiance_cache.hpp).
+inline double record_weight(const double* points, const double* normals, const double* reach,
+                            const double* own, std::int64_t me, std::int64_t j, double d,
+                            double accuracy, double behind_slack, bool& ok) {
+    const double* q = points + 3 * me;
+    const double* nq = normals + 3 * me;
+    const double* pj = points + 3 * j;
+    const double* nj = normals + 3 * j;
+    const double cos = nq[0] * nj[0] + nq[1] * nj[1] + nq[2] * nj[2];
+    const double eps = d / std::min(reach[j], own[me]) + std::sqrt(std::max(0.0, 1.0 - cos));
+    double lift = 0.0;
+    for (int c = 0; c < 3; ++c) lift += (q[c] - pj[c]) * (0.5 * (nq[c] + nj[c]));
+    ok = eps < accuracy && lift >= -behind_slack * d;
+    return ok ? 1.0 / std::max(eps, 1e-3 * accuracy) - 1.0 / accuracy : 0.0;
+}
+
+}  // namespace
+
+void record_lookup(Context& ctx, const double* points, const double* normals,
+                   const double* reach, const double* own, const double* raw, double min_reach,
+                   double far_reach, const std::int64_t* records, std::size_t nr,
+                   const std::int64_t* rows, std::size_t r, std::size_t K, double accuracy,
+                   double behind_slack, std::int64_t* near, double* weights,
+                   std::int32_t* counts) {
+    if (r == 0 || K == 0) return;
+    std::vector<double> at(3 * nr), q(3 * r);
+    for (std::size_t i = 0; i < nr; ++i)
+        for (int c = 0; c < 3; ++c) at[3 * i + c] = points[3 * records[i] + c];
+    for (std::size_t i = 0; i < r; ++i)
+        for (int c = 0; c < 3; ++c) q[3 * i + c] = points[3 * rows[i] + c];
+    const KdTree tree(ctx, at.data(), nr);
+    const std::vector<std::size_t> order = morton_order(q.data(), r);
+    const bool floored = raw != nullptr && min_reach > 0;
+    parallel_for(ctx, r, 1024, [&](std::size_t b, std::size_t e) {
+        KdTree::Best best(K);
+        for (std::size_t oi = b; oi < e; ++oi) {
+            const std::size_t i = order[oi];
             const std::int64_t me = rows[i];
-            const double* q = points + 3 * me;
-            const double* nq = normals + 3 * me;
+            tree.nearest(&q[3 * i], best);
+            std::int32_t count = 0;
             for (std::size_t k = 0; k < K; ++k) {
-                const std::size_t at = i * K + k;
-                const std::int64_t j = near[at];
-                const double* pj = points + 3 * j;
-                const double* nj = normals + 3 * j;
-                const double d = dist[at];
-                const double cos = nq[0] * nj[0] + nq[1] * nj[1] + nq[2] * nj[2];
-                const double eps = d / std::min(reach[j], own[me]) + std::sqrt(std::max(0.0, 1.0 - cos));
-                double lift = 0.0;
-                for (int c = 0; c < 3; ++c) lift += (q[c] - pj[c]) * (0.5 * (nq[c] + nj[c]));
-                const bool ok = eps < accuracy && lift >= -behind_slack * d;
-                valid[at] = ok ? 1 : 0;
-                weights[at] = ok ? 1.0 / std::max(eps, floor_eps) - 1.0 / accuracy : 0.0;
+                const std::int64_t j = records[best.h[k].second];
+                bool ok;
+                double w = record_weight(points, normals, reach, own, me, j,
+                                         std::sqrt(best.h[k].first), accuracy, behind_slack, ok);
+                // A receiver near its surroundings and a record far from them (or the other
+                // way round) see different light, whatever the floor says.
+                if (ok && floored &&
+                    ((raw[me] < min_reach && raw[j] >= far_reach) ||
+                     (raw[me] >= far_reach && raw[j] < min_reach))) {
+                    ok = false;
+                    w = 0.0;
+                }
+                const std::size_t cell = i * K + k;
+                if (near) near[cell] = j;
+                if (weights) weights[cell] = w;
+                count += ok ? 1 : 0;
             }
+            if (counts) counts[i] = count;
         }
     });
 }

@@ -21,9 +21,12 @@ public:
     // calling thread only (it polls ctx's monitor).
     KdTree(Context& ctx, const double* points, std::size_t n);
 
-    // The k best (squared distance, index) pairs found so far, sorted. A pair enters when
-    // its distance is below the worst kept one and evicts the largest (distance, index)
-    // pair: the same set, in the same order, as the bounded max-heap it replaced.
+    // The k best (squared distance, index) pairs found so far, sorted. A pair enters when it
+    // is below the worst kept one in (distance, index) order, and evicts it: the k smallest
+    // pairs in that order whatever order the points are offered in, so the answer does not
+    // depend on the tree (its shape, the library's nth_element, the threads), ties at equal
+    // distance go to the lower index, and a search for fewer neighbours finds the first
+    // columns of a search for more (one table can serve consumers of several widths).
     struct Best {
         std::vector<std::pair<double, std::int64_t>> h;
         std::size_t k;
@@ -31,11 +34,16 @@ public:
         double worst() const {
             return h.size() < k ? std::numeric_limits<double>::infinity() : h.back().first;
         }
+        // Whether the pair (d2, i) would enter.
+        bool takes(double d2, std::int64_t i) const {
+            return h.size() < k || d2 < h.back().first ||
+                   (d2 == h.back().first && i < h.back().second);
+        }
         void offer(double d2, std::int64_t i) {
             const std::pair<double, std::int64_t> item{d2, i};
             if (h.size() < k) {
                 h.push_back(item);
-            } else if (d2 < h.back().first) {
+            } else if (item < h.back()) {
                 h.back() = item;
             } else {
                 return;
@@ -83,6 +91,11 @@ private:
     // squared offsets `off` past the splits that bound it along each axis).
     void search(std::int32_t id, const double q[3], Best& best, double rd, double off[3]) const;
 };
+
+// The queries (m x 3) in Morton order: neighbouring queries touch the same tree nodes, so the
+// tree stays in cache (random query order is several times slower at millions of points).
+// Each query's answer depends on the query alone, so the order changes no result.
+std::vector<std::size_t> morton_order(const double* queries, std::size_t m);
 
 // points: n x 3, queries: m x 3 (row-major). Writes indices (m x k, int64) and Euclidean
 // distances (m x k), nearest first. A query that coincides with a point finds it (distance 0).

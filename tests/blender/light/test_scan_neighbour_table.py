@@ -1,6 +1,6 @@
 """A scan without radius and normals is searched once for its own neighbours (issue 58):
-the spacing's areas, the normals and the receiver normals made from that one table equal
-what separate searches give, bit for bit."""
+the spacing's areas, the normals, the receiver normals and the splats (their planes and
+outlines) made from that one table equal what separate searches give, bit for bit."""
 
 from dataclasses import replace
 
@@ -10,6 +10,7 @@ import numpy as np
 from illumap_bpy_testing import link
 
 from addon.read import pointcloud
+from illumap import splats
 
 
 def _scan_of_a_box_corner(step=0.03, jitter=0.0):
@@ -34,16 +35,28 @@ def test_one_search_gives_the_areas_and_normals_separate_searches_give():
     from illumap import pointcloud as core_pointcloud
     for jitter in (0.0, 0.002):
         read = _read(_scan_of_a_box_corner(jitter=jitter))
-        k = pointcloud.K_NEIGHBOURS
-        assert read.normals is None and read.neighbours.shape == (len(read.positions), k + 1)
+        k, wide = pointcloud.K_NEIGHBOURS, pointcloud.SHARED_NEIGHBOURS
+        assert read.normals is None and read.neighbours.shape == (len(read.positions), wide + 1)
         np.testing.assert_array_equal(read.areas, pointcloud.bound_stray_areas(
             pointcloud.estimate_areas(read.positions, k))[0])
         shared = pointcloud.with_normals(read)
         separate = pointcloud.with_normals(replace(read, neighbours=None))
         np.testing.assert_array_equal(shared.neighbours,
-                                      core_pointcloud.nearest(read.positions, k))
+                                      core_pointcloud.nearest(read.positions, wide))
         np.testing.assert_array_equal(shared.normals, separate.normals)
         np.testing.assert_array_equal(shared.receiver_normals, separate.receiver_normals)
+        # ... and separate searches of the fits' own width, as they made them before
+        narrow = core_pointcloud.nearest(read.positions, k)
+        normals = core_pointcloud.estimate_normals(read.positions, k, neighbours=narrow)
+        np.testing.assert_array_equal(shared.normals, normals)
+        np.testing.assert_array_equal(shared.receiver_normals, core_pointcloud.receiver_normals(
+            read.positions, normals, narrow))
+        # the splats (planes and outlines) from the table, and searching for themselves
+        areas = shared.areas
+        np.testing.assert_array_equal(
+            splats.splat_triangles(shared.positions, shared.normals, areas,
+                                   nearest=shared.neighbours),
+            splats.splat_triangles(shared.positions, shared.normals, areas))
 
 
 def test_a_cloud_with_normals_keeps_no_table():
