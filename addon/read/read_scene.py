@@ -366,7 +366,7 @@ def _surface_triangles(tri_meshes: list, point_parts: list, point_sources: list,
     """The scene's surface as triangles (T, 3, 3), m: the meshes' own, then each point
     cloud's splats (``illumap.splats``); which of them are two-sided (T,) bool (open meshes;
     point clouds of unknown orientation); and the point each splat triangle belongs to (T,)
-    int64, counted over all clouds in order (-1: a mesh's). Nones for an empty scene.
+    int32, counted over all clouds in order (-1: a mesh's). Nones for an empty scene.
     ``point_neighbours``: per cloud, its points' own search (``pointcloud.own_neighbours``)
     or None, so the splats' planes need not search again."""
     if not tri_meshes and not point_parts:
@@ -379,7 +379,7 @@ def _surface_triangles(tri_meshes: list, point_parts: list, point_sources: list,
     total = int(sum(counts))
     corners = np.empty((total, 3, 3))
     sided = np.empty(total, dtype=bool)
-    owner = np.full(total, -1, dtype=np.int64)
+    owner = np.full(total, -1, dtype=np.int32)   # int32: a dozen splat triangles per point
     start = 0
     for tm in tri_meshes:
         stop = start + len(tm.corners)

@@ -298,18 +298,23 @@ def gather_lattices(occluders: MeshOccluders, field: SurfelField, *,
 
 
 def _sided(occluders: MeshOccluders, two_sided):
+    """``two_sided`` as the core reads it: one uint8 per triangle (a bool array's own bytes)."""
     if two_sided is None:
         return None
-    sided = np.ascontiguousarray(two_sided, dtype=bool).astype(np.int64).reshape(-1)
+    sided = np.ascontiguousarray(two_sided, dtype=bool).reshape(-1).view(np.uint8)
     if len(sided) != occluders.n:
         raise InputError(f"two_sided must have {occluders.n} entries, got {len(sided)}")
     return sided
 
 
 def _owner_rows(occluders: MeshOccluders, value, name: str):
+    """Per-triangle owner rows as the core reads them: int32 (no copy when given so)."""
     if value is None:
         return None
-    o = np.ascontiguousarray(value, dtype=np.int64).reshape(-1)
+    o = np.asarray(value).reshape(-1)
+    if len(o) and (o.min() < -1 or o.max() > np.iinfo(np.int32).max):
+        raise InputError(f"{name} must be -1 or surfel rows below 2^31")
+    o = np.ascontiguousarray(o, dtype=np.int32)
     if len(o) != occluders.n:
         raise InputError(f"{name} must have {occluders.n} entries, got {len(o)}")
     return o

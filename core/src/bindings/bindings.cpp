@@ -166,8 +166,12 @@ void bind_gather(nb::module_& m) {
     struct PyGatherer {
         nb::object scene_ref, front_ref, back_ref, keep_front_rest, keep_back_rest,
             keep_front_lattice, keep_back_lattice;
-        std::vector<std::uint8_t> sided;
-        std::vector<OwnerRow> own_front, own_back;
+        // The caller's per-triangle arrays, held (not copied: a scan has millions of splat
+        // triangles): uint8 two_sided, int32 owners.
+        nb::object keep_sided, keep_front_owner, keep_back_owner;
+        const std::uint8_t* sided = nullptr;
+        const OwnerRow* own_front = nullptr;
+        const OwnerRow* own_back = nullptr;
         ExactPart ex_front, ex_back;
         GatherOptions opt;
         std::unique_ptr<GatherPlan> plan;
@@ -194,10 +198,8 @@ void bind_gather(nb::module_& m) {
                  const std::size_t T = scene.scene->size();
                  if (two_sided.is_valid() && !two_sided.is_none()) {
                      std::size_t ns;
-                     nb::object k5;
-                     const std::int64_t* S = view<std::int64_t>(two_sided, "two_sided", 1, 0, ns, k5);
+                     g.sided = view<std::uint8_t>(two_sided, "two_sided", 1, 0, ns, g.keep_sided);
                      if (ns != T) throw nb::value_error("two_sided must have one entry per triangle");
-                     g.sided.assign(S, S + ns);
                  }
                  const SurfelField* back_field = nullptr;
                  if (back.is_valid() && !back.is_none()) {
@@ -205,30 +207,25 @@ void bind_gather(nb::module_& m) {
                      g.back_ref = nb::borrow(back);
                  }
                  // Splat owners: -1, or a row of the field they index.
-                 auto owners = [&](nb::handle h, const char* name, const SurfelField* field) {
-                     std::vector<OwnerRow> o;
-                     if (!h.is_valid() || h.is_none()) return o;
+                 auto owners = [&](nb::handle h, const char* name, const SurfelField* field,
+                                   nb::object& keep) -> const OwnerRow* {
+                     if (!h.is_valid() || h.is_none()) return nullptr;
                      std::size_t no;
-                     nb::object keep;
-                     const std::int64_t* O = view<std::int64_t>(h, name, 1, 0, no, keep);
+                     const OwnerRow* O = view<OwnerRow>(h, name, 1, 0, no, keep);
                      if (no != T)
                          throw nb::value_error((std::string(name) + " must have one entry per triangle").c_str());
                      const std::int64_t limit = field ? std::int64_t(field->size()) : 0;
-                     if (limit > std::int64_t(std::numeric_limits<OwnerRow>::max()))
-                         throw nb::value_error((std::string(name) + ": a field of more than 2^31 - 1 "
-                                                "surfels cannot own splats").c_str());
                      for (std::size_t t = 0; t < no; ++t)
                          if (O[t] < -1 || O[t] >= limit)
                              throw nb::value_error((std::string(name) + "[" + std::to_string(t) +
                                                     "] is not -1 or a surfel of its field").c_str());
-                     o.assign(O, O + no);   // in range, so each fits OwnerRow
-                     return o;
+                     return O;
                  };
-                 g.own_front = owners(owner_front, "owner_front", front.field.get());
-                 g.own_back = owners(owner_back, "owner_back", back_field);
-                 const std::uint8_t* sided = g.sided.empty() ? nullptr : g.sided.data();
-                 const OwnerRow* of = g.own_front.empty() ? nullptr : g.own_front.data();
-                 const OwnerRow* ob = g.own_back.empty() ? nullptr : g.own_back.data();
+                 g.own_front = owners(owner_front, "owner_front", front.field.get(), g.keep_front_owner);
+                 g.own_back = owners(owner_back, "owner_back", back_field, g.keep_back_owner);
+                 const std::uint8_t* sided = g.sided;
+                 const OwnerRow* of = g.own_front;
+                 const OwnerRow* ob = g.own_back;
                  // Exact parts: a rest field and one value per lattice point, both or neither.
                  GatherLattice lat_front, lat_back;
                  if (!front_lattice.is_none() || !back_lattice.is_none())
@@ -378,36 +375,25 @@ void bind_gather(nb::module_& m) {
           [](PyMeshScene& scene, PySurfelField& front, nb::handle back, nb::handle two_sided,
              nb::handle owner_front, nb::handle owner_back) {
               const std::size_t T = scene.scene->size();
-              auto rows = [&](nb::handle h, const char* name, nb::object& keep) -> const std::int64_t* {
-                  if (h.is_none()) return nullptr;
+              // uint8 two_sided, int32 owners (only their signs matter here: which triangles
+              // have a lattice), one entry per triangle each, read in place.
+              auto rows = [&](nb::handle h, const char* name, nb::object& keep, auto* tag) {
+                  using V = std::remove_pointer_t<decltype(tag)>;
+                  if (h.is_none()) return static_cast<const V*>(nullptr);
                   std::size_t n;
-                  const std::int64_t* v = view<std::int64_t>(h, name, 1, 0, n, keep);
+                  const V* v = view<V>(h, name, 1, 0, n, keep);
                   if (n != T) throw nb::value_error((std::string(name) + " must have one entry per triangle").c_str());
                   return v;
               };
               nb::object k1, k2, k3;
-              const std::int64_t* S = rows(two_sided, "two_sided", k1);
-              std::vector<std::uint8_t> sided;
-              if (S) sided.assign(S, S + T);
-              // Only the sign of an owner matters here (which triangles have a lattice).
-              auto owner_rows = [&](const std::int64_t* O) {
-                  std::vector<OwnerRow> o;
-                  if (O) {
-                      o.resize(T);
-                      for (std::size_t t = 0; t < T; ++t) o[t] = O[t] < 0 ? OwnerRow(-1) : OwnerRow(0);
-                  }
-                  return o;
-              };
-              const std::vector<OwnerRow> of = owner_rows(rows(owner_front, "owner_front", k2));
-              const std::vector<OwnerRow> ob = owner_rows(rows(owner_back, "owner_back", k3));
-              const OwnerRow* OF = of.empty() ? nullptr : of.data();
-              const OwnerRow* OB = ob.empty() ? nullptr : ob.data();
+              const std::uint8_t* S = rows(two_sided, "two_sided", k1, static_cast<std::uint8_t*>(nullptr));
+              const OwnerRow* OF = rows(owner_front, "owner_front", k2, static_cast<OwnerRow*>(nullptr));
+              const OwnerRow* OB = rows(owner_back, "owner_back", k3, static_cast<OwnerRow*>(nullptr));
               const SurfelField* back_field = back.is_none() ? nullptr : nb::cast<PySurfelField&>(back).field.get();
               GatherLattice f, b;
               {
                   nb::gil_scoped_release nogil;
-                  gather_lattices(*scene.scene, *front.field, back_field, S ? sided.data() : nullptr,
-                                  OF, OB, f, b);
+                  gather_lattices(*scene.scene, *front.field, back_field, S, OF, OB, f, b);
               }
               auto out = [](const std::vector<double>& v) {
                   double* p;
