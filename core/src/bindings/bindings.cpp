@@ -13,23 +13,51 @@ void bind_mesh_scene(nb::module_& m) {
     nb::class_<PyMeshScene>(m, "MeshScene",
         "Triangles as an Embree scene, for direct light and final gather at receivers.")
         .def("__init__",
-             [](PyMeshScene* self, nb::handle corners, int threads, nb::handle progress) {
+             [](PyMeshScene* self, nb::handle corners, nb::handle splat_points,
+                nb::handle splat_u, nb::handle splat_v, nb::handle splat_radii,
+                nb::handle splat_facing, int threads, nb::handle progress) {
                  if (threads < 0) throw nb::value_error("threads must be >= 0");
                  std::size_t nt;
                  nb::object keep;
                  const double* C = view<double>(corners, "corners", 2, 9, nt, keep);
+                 // A scan's splats (the last n * sides triangles), cast against as outlines.
+                 SplatOutlines so;
+                 nb::object k1, k2, k3, k4, k5;
+                 const bool with_splats = splat_points.is_valid() && !splat_points.is_none();
+                 if (with_splats) {
+                     AnyArray r;
+                     if (!nb::try_cast<AnyArray>(splat_radii, r, false) || r.ndim() != 2)
+                         throw nb::value_error("splat_radii must be a 2-D numpy array (N, sides)");
+                     so.sides = r.shape(1);
+                     std::size_t n1, n2, n3, n4, n5;
+                     so.points = view<double>(splat_points, "splat_points", 2, 3, n1, k1);
+                     so.u = view<double>(splat_u, "splat_u", 2, 3, n2, k2);
+                     so.v = view<double>(splat_v, "splat_v", 2, 3, n3, k3);
+                     so.radii = view<double>(splat_radii, "splat_radii", 2, std::int64_t(so.sides), n4, k4);
+                     so.facing = view<double>(splat_facing, "splat_facing", 2, 3, n5, k5);
+                     if (n2 != n1 || n3 != n1 || n4 != n1 || n5 != n1)
+                         throw nb::value_error("splat arrays must have one row per splat point");
+                     so.n = n1;
+                     if (so.sides < 3 || so.n * so.sides > nt)
+                         throw nb::value_error("splats: sides >= 3, and their n * sides fan triangles "
+                                               "must be the last of the corners");
+                     so.first = nt - so.n * so.sides;
+                 }
                  std::unique_ptr<MeshScene> scene;
                  run_released(threads, progress, [&](Context& ctx) {
                      checkpoint(ctx, 0.0);
                      try {
-                         scene = std::make_unique<MeshScene>(ctx, C, nt);
+                         scene = std::make_unique<MeshScene>(ctx, C, nt, with_splats ? &so : nullptr);
                      } catch (std::invalid_argument& e) {
                          throw std::runtime_error(std::string("corners: ") + e.what());
                      }
                  });
                  new (self) PyMeshScene{std::move(scene), threads, std::move(keep)};
              },
-             nb::arg("corners"), nb::kw_only(), nb::arg("threads") = 0,
+             nb::arg("corners"), nb::kw_only(), nb::arg("splat_points").none() = nb::none(),
+             nb::arg("splat_u").none() = nb::none(), nb::arg("splat_v").none() = nb::none(),
+             nb::arg("splat_radii").none() = nb::none(),
+             nb::arg("splat_facing").none() = nb::none(), nb::arg("threads") = 0,
              nb::arg("progress") = nb::none())
         .def("visible",
              [](PyMeshScene& self, nb::handle origins, nb::handle targets, double end_trim,
@@ -90,6 +118,8 @@ void bind_mesh_scene(nb::module_& m) {
                      },
                      "Origin that float coordinates are stored against (m): the corners' per-axis median.")
         .def_prop_ro("build_seconds", [](const PyMeshScene& self) { return self.scene->build_seconds(); })
+        .def_prop_ro("splat_points", [](const PyMeshScene& self) { return self.scene->splat_points(); },
+                     "Splat fans cast against as one outline each.")
         .def_prop_ro("vertices", [](const PyMeshScene& self) { return self.scene->vertices(); },
                      "Distinct float corners the ray-casting scene holds (neighbours share theirs).");
 }

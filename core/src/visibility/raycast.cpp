@@ -17,6 +17,7 @@ struct OccluderScene::Impl {
     RTCDevice device = nullptr;
     RTCScene scene = nullptr;
     std::atomic<bool>* cancel = nullptr;  // the build's context flag
+    std::shared_ptr<const void> splats;   // a shared scene's splat outlines (its filter's data)
     ~Impl() {
         if (scene) rtcReleaseScene(scene);
         if (device) rtcReleaseDevice(device);
@@ -153,6 +154,8 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
         if (shared) {   // built (the same quality and flags) and committed; not committed here
             impl_->scene = static_cast<RTCScene>(shared->rtc_scene());
             rtcRetainScene(impl_->scene);
+            // Its splats' outline filter reads data the scene owns: held as long as the scene.
+            impl_->splats = shared->splat_keepalive();
         } else {
             impl_->scene = rtcNewScene(impl_->device);
             rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);
@@ -286,6 +289,8 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
                 }
             });
         }
+        // A shared scene's splats are discs: rays start behind their origin as its own do.
+        if (shared) back_ = shared->ray_back();
         if (g) {
             float rmax = 0;
             for (std::size_t i = 0; i < n; ++i) rmax = std::max(rmax, radius_[i]);
@@ -338,15 +343,16 @@ void OccluderScene::find_faces(Context& ctx, const SurfelSoA& s) {
             const float* m = &normal_[3 * i];
             if (m[0] == 0.0f && m[1] == 0.0f && m[2] == 0.0f) continue;
             const double lift = double(radius_[i]);
+            // back_ > 0 only for a shared scene's splat discs (make_ray), 0 otherwise.
             RTCRayHit rh;
-            rh.ray.org_x = float(s.px[i] + lift * m[0] - center_[0]);
-            rh.ray.org_y = float(s.py[i] + lift * m[1] - center_[1]);
-            rh.ray.org_z = float(s.pz[i] + lift * m[2] - center_[2]);
+            rh.ray.org_x = float(s.px[i] + (lift + back_) * m[0] - center_[0]);
+            rh.ray.org_y = float(s.py[i] + (lift + back_) * m[1] - center_[1]);
+            rh.ray.org_z = float(s.pz[i] + (lift + back_) * m[2] - center_[2]);
             rh.ray.dir_x = -m[0];
             rh.ray.dir_y = -m[1];
             rh.ray.dir_z = -m[2];
-            rh.ray.tnear = float(0.5 * lift);
-            rh.ray.tfar = float(1.5 * lift);
+            rh.ray.tnear = float(back_ + 0.5 * lift);
+            rh.ray.tfar = float(back_ + 1.5 * lift);
             rh.ray.time = 0.0f;
             rh.ray.mask = 0xffffffffu;
             rh.ray.id = 0;
