@@ -1,5 +1,6 @@
-"""A scan's splats cast against as one outline each (an Embree disc whose hits a filter keeps
-inside the fan, mesh_scene.cpp) answer rays as their fans of triangles do."""
+"""A scan's splats cast against as one outline each (the rectangle about the fan, whose hits a
+filter keeps inside the fan's outline, mesh_scene.cpp) answer rays as their fans of triangles
+do."""
 
 import numpy as np
 import pytest
@@ -95,7 +96,7 @@ def test_outlines_shadow_what_the_fans_shadow():
 
 def test_rays_leaving_a_splat_see_its_neighbours():
     """A ray from just above a scan point, grazing along its surface, meets the neighbouring
-    splats (a disc that holds the ray's origin in its bounding sphere is not skipped)."""
+    splats where the fans meet it (nothing near the ray's origin is skipped)."""
     corners, fans, outlines, n_mesh = _scenes()
     rng = np.random.default_rng(2)
     top = np.flatnonzero(np.isclose(corners[n_mesh::splats.DEFAULT_SIDES, 0, 2], 1.0))

@@ -22,15 +22,18 @@ struct MeshScene::Impl {
     }
 };
 
-// The splats' outlines as the filter reads them: per point its plane's axes u, v (6 floats),
-// its fan's radii (sides floats) and whether its winding faces along u x v; the outline's
-// directions; Embree's disc buffer (centre relative to the frame, and radius).
+// The splats' outlines as the filter reads them, one record of floats per point (together:
+// a candidate hit reads one or two cache lines): its centre relative to the frame (3), its
+// plane's axes u, v (6), the square of a radius within which every direction is inside the
+// fan (its smallest radius x cos(pi / sides), the chord of the narrowest triangle, a hair
+// less), +1 / -1 as its fan is wound along u x v or against it, and its radii (sides).
 struct SplatData {
-    std::size_t n = 0, sides = 0, first = 0;
-    std::vector<float> axes, radii;
-    std::vector<std::uint8_t> along;
+    static constexpr std::size_t kC = 0, kU = 3, kV = 6, kInner2 = 9, kAlong = 10, kRadii = 11;
+    std::size_t n = 0, sides = 0, first = 0, stride = 0;
+    std::vector<float> rec;
     std::vector<double> cos_t, sin_t;
-    const float* disc = nullptr;  // 4 per point, owned by the Embree geometry
+
+    const float* of(std::size_t k) const { return rec.data() + k * stride; }
 
     // Whether (x, y), along u, v from point k in its plane, lies in its fan: the triangle
     // (centre, rim m, rim m + 1) of the direction's sector. Then the triangle's row and the
@@ -42,7 +45,7 @@ struct SplatData {
         std::size_t m = std::size_t(a * double(sides) / kTurn);
         if (m >= sides) m = sides - 1;
         const std::size_t m1 = m + 1 == sides ? 0 : m + 1;
-        const float* r = radii.data() + k * sides;
+        const float* r = of(k) + kRadii;
         const double ax = r[m] * cos_t[m], ay = r[m] * sin_t[m];
         const double bx = r[m1] * cos_t[m1], by = r[m1] * sin_t[m1];
         const double det = ax * by - ay * bx;
@@ -52,21 +55,40 @@ struct SplatData {
         row = first + k * sides + m;
         // Corners (centre, rim m, rim m + 1) when the fan is wound along u x v, else
         // (centre, rim m + 1, rim m).
-        bu = float(along[k] ? al : be);
-        bv = float(along[k] ? be : al);
+        const bool along = of(k)[kAlong] > 0.0f;
+        bu = float(along ? al : be);
+        bv = float(along ? be : al);
         return true;
     }
 
-    // The same for the hit of a ray (frame-relative float origin, direction, distance t) on
-    // point k's disc.
-    bool ray_hit(std::size_t k, const float o[3], const float d[3], float t, std::size_t& row,
-                 float& bu, float& bv) const {
-        const float* c = disc + 4 * k;
-        const float* ax = axes.data() + 6 * k;
+    // Where the hit of a ray (frame-relative float origin, direction, distance t) on point
+    // k's rectangle lies in its plane, along u and v from the point.
+    void plane_xy(std::size_t k, const float o[3], const float d[3], float t, double& x,
+                  double& y) const {
+        const float* c = of(k) + kC;
+        const float* ax = of(k) + kU;   // u, then v
         double w[3];
         for (int i = 0; i < 3; ++i) w[i] = double(o[i]) + double(t) * double(d[i]) - double(c[i]);
-        const double x = w[0] * ax[0] + w[1] * ax[1] + w[2] * ax[2];
-        const double y = w[0] * ax[3] + w[1] * ax[4] + w[2] * ax[5];
+        x = w[0] * ax[0] + w[1] * ax[1] + w[2] * ax[2];
+        y = w[0] * ax[3] + w[1] * ax[4] + w[2] * ax[5];
+    }
+
+    // The same test for such a hit, and its fan triangle (hit()).
+    bool ray_hit(std::size_t k, const float o[3], const float d[3], float t, std::size_t& row,
+                 float& bu, float& bv) const {
+        double x, y;
+        plane_xy(k, o, d, t, x, y);
+        return hit(k, x, y, row, bu, bv);
+    }
+
+    // Whether such a hit lies in the fan (the filter's question): at once within the inner
+    // radius, else by hit().
+    bool ray_inside(std::size_t k, const float o[3], const float d[3], float t) const {
+        double x, y;
+        plane_xy(k, o, d, t, x, y);
+        if (x * x + y * y <= double(of(k)[kInner2])) return true;
+        std::size_t row;
+        float bu, bv;
         return hit(k, x, y, row, bu, bv);
     }
 };
@@ -76,8 +98,9 @@ namespace {
 constexpr std::size_t kBatch = 64;  // rays per rtcOccluded1M / rtcIntersect1M call
 constexpr unsigned kTriangleGeom = 0, kSplatGeom = 1;  // Embree geometry ids
 
-// Embree's intersection and occlusion filter on the splat discs: a hit outside the fan's
-// outline is no hit (the ray goes on).
+// Embree's intersection and occlusion filter on the splats' rectangles (two triangles each,
+// primitives 2k and 2k + 1 of point k): a hit outside the fan's outline is no hit (the ray
+// goes on).
 void splat_filter(const RTCFilterFunctionNArguments* args) {
     const auto* sd = static_cast<const SplatData*>(args->geometryUserPtr);
     const unsigned N = args->N;
@@ -87,10 +110,7 @@ void splat_filter(const RTCFilterFunctionNArguments* args) {
                             RTCRayN_org_z(args->ray, N, i)};
         const float d[3] = {RTCRayN_dir_x(args->ray, N, i), RTCRayN_dir_y(args->ray, N, i),
                             RTCRayN_dir_z(args->ray, N, i)};
-        std::size_t row;
-        float bu, bv;
-        if (!sd->ray_hit(RTCHitN_primID(args->hit, N, i), o, d, RTCRayN_tfar(args->ray, N, i),
-                         row, bu, bv))
+        if (!sd->ray_inside(RTCHitN_primID(args->hit, N, i) / 2, o, d, RTCRayN_tfar(args->ray, N, i)))
             args->valid[i] = 0;
     }
 }
@@ -177,16 +197,21 @@ MeshScene::MeshScene(Context& ctx, const double* corners, std::size_t n_tri,
 
 MeshScene::~MeshScene() { delete impl_; }
 
-// The splats as one oriented disc each (radius: the fan's largest), in the fan's plane, with
-// the outline filter; their data copied into floats (SplatData).
+// The splats as one rectangle each (two triangles sharing a diagonal, in the fan's plane,
+// the bounding box of its outline along u and v), with the outline filter; their data copied
+// into floats (SplatData). Rectangles rather than Embree's oriented discs (tried first, as
+// fast and half the memory): Embree skips a disc whose bounding sphere holds the ray's
+// origin (EMBREE_DISC_POINT_SELF_INTERSECTION_AVOIDANCE), so every ray had to start behind
+// its origin and a scene with splats would cast rays unlike one without; triangles keep the
+// rays as they were, and need nothing of Embree beyond what the meshes use.
 void MeshScene::add_splats(Context& ctx, const SplatOutlines& s) {
     auto sd = std::make_shared<SplatData>();
     sd->n = s.n;
     sd->sides = s.sides;
     sd->first = s.first;
-    sd->axes.resize(6 * s.n);
-    sd->radii.resize(s.n * s.sides);
-    sd->along.resize(s.n);
+    sd->stride = SplatData::kRadii + s.sides;
+    sd->rec.resize(s.n * sd->stride);
+    const double chord = std::cos(M_PI / double(s.sides)) * (1.0 - 1e-6);
     sd->cos_t.resize(s.sides);
     sd->sin_t.resize(s.sides);
     for (std::size_t m = 0; m < s.sides; ++m) {   // as splats.cpp's outline_directions
@@ -194,15 +219,14 @@ void MeshScene::add_splats(Context& ctx, const SplatOutlines& s) {
         sd->cos_t[m] = std::cos(t);
         sd->sin_t[m] = std::sin(t);
     }
-    RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_ORIENTED_DISC_POINT);
-    float* v = static_cast<float*>(rtcSetNewGeometryBuffer(
-        g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, 4 * sizeof(float), s.n));
-    float* nb = static_cast<float*>(rtcSetNewGeometryBuffer(
-        g, RTC_BUFFER_TYPE_NORMAL, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), s.n));
+    RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    float* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
+        g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 4 * s.n));
+    unsigned* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+        g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), 2 * s.n));
     throw_embree(impl_->device, "splat buffers");
-    sd->disc = v;
+    if (4 * s.n > 0xffffffffu) throw std::invalid_argument("splats: more than 2^30 points");
     ctx.set_phase("receivers: splats", 0.0, 0.3);
-    std::vector<double> reach(s.n, 0.0);
     std::atomic<bool> bad{false};
     parallel_for(ctx, s.n, 1 << 14, [&](std::size_t b, std::size_t e) {
         for (std::size_t k = b; k < e; ++k) {
@@ -212,34 +236,45 @@ void MeshScene::add_splats(Context& ctx, const SplatOutlines& s) {
             const double* f = s.facing + 3 * k;
             const double n[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2],
                                  u[0] * w[1] - u[1] * w[0]};
-            const double nl = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-            double r = 0.0;
+            float* rec = sd->rec.data() + k * sd->stride;
+            // The outline's box along u, v (the point itself included), and its least radius.
+            double x0 = 0, x1 = 0, y0 = 0, y1 = 0, least = HUGE_VAL;
             for (std::size_t m = 0; m < s.sides; ++m) {
-                const double x = s.radii[k * s.sides + m];
-                if (!(x >= 0.0) || !std::isfinite(x)) bad = true;
-                r = std::max(r, x);
-                sd->radii[k * s.sides + m] = float(x);
+                const double r = s.radii[k * s.sides + m];
+                if (!(r >= 0.0) || !std::isfinite(r)) bad = true;
+                const float rf = float(r);
+                rec[SplatData::kRadii + m] = rf;
+                least = std::min(least, double(rf));
+                x0 = std::min(x0, double(rf) * sd->cos_t[m]);
+                x1 = std::max(x1, double(rf) * sd->cos_t[m]);
+                y0 = std::min(y0, double(rf) * sd->sin_t[m]);
+                y1 = std::max(y1, double(rf) * sd->sin_t[m]);
             }
-            if (!(nl > 0.0) || !std::isfinite(nl + p[0] + p[1] + p[2])) bad = true;
+            rec[SplatData::kInner2] = float(least * chord * least * chord);
+            if (!std::isfinite(p[0] + p[1] + p[2] + n[0] + n[1] + n[2])) bad = true;
+            // A hair wider than the outline, so that the rectangle never clips its corners.
+            const double pad = 1e-5 * std::max({x1 - x0, y1 - y0, 1e-30});
+            x0 -= pad; x1 += pad; y0 -= pad; y1 += pad;
+            const double xs[4] = {x0, x1, x1, x0}, ys[4] = {y0, y0, y1, y1};
+            for (int c = 0; c < 4; ++c)
+                for (int d = 0; d < 3; ++d)
+                    vb[3 * (4 * k + c) + d] =
+                        float(p[d] + xs[c] * u[d] + ys[c] * w[d] - frame_.center[d]);
+            const unsigned v0 = unsigned(4 * k);
+            ib[6 * k + 0] = v0; ib[6 * k + 1] = v0 + 1; ib[6 * k + 2] = v0 + 2;
+            ib[6 * k + 3] = v0; ib[6 * k + 4] = v0 + 2; ib[6 * k + 5] = v0 + 3;
             for (int d = 0; d < 3; ++d) {
-                sd->axes[6 * k + d] = float(u[d]);
-                sd->axes[6 * k + 3 + d] = float(w[d]);
-                nb[3 * k + d] = float(n[d] / nl);
-                v[4 * k + d] = float(p[d] - frame_.center[d]);
+                rec[SplatData::kC + d] = float(p[d] - frame_.center[d]);
+                rec[SplatData::kU + d] = float(u[d]);
+                rec[SplatData::kV + d] = float(w[d]);
             }
-            // A hair wider than the fan, so that the disc's own test never clips its corners.
-            v[4 * k + 3] = float(r * (1.0 + 1e-5));
-            sd->along[k] = n[0] * f[0] + n[1] * f[1] + n[2] * f[2] >= 0.0 ? 1 : 0;
-            reach[k] = r;
+            rec[SplatData::kAlong] = n[0] * f[0] + n[1] * f[1] + n[2] * f[2] >= 0.0 ? 1.0f : -1.0f;
         }
     });
     if (bad) {
         rtcReleaseGeometry(g);
         throw std::invalid_argument("splats: a point, axis or radius is not finite (or a radius < 0)");
     }
-    double rmax = 0.0;
-    for (double r : reach) rmax = std::max(rmax, r);
-    back_ = 2.5 * rmax;
     rtcSetGeometryUserData(g, sd.get());
     rtcSetGeometryIntersectFilterFunction(g, splat_filter);
     rtcSetGeometryOccludedFilterFunction(g, splat_filter);
@@ -247,6 +282,7 @@ void MeshScene::add_splats(Context& ctx, const SplatOutlines& s) {
     rtcAttachGeometryByID(impl_->scene, g, kSplatGeom);
     rtcReleaseGeometry(g);
     n_splats_ = s.n;
+    splat_sides_ = s.sides;
     splats_ = std::move(sd);
 }
 
@@ -270,26 +306,16 @@ namespace {
 // The Embree ray for [s0, s1] of p + t u, its origin at p + s0 u relative to the frame's
 // origin. The first few float ulps of the origin's distance from there are skipped: a receiver
 // far from the bulk must not hit its own surface through rounding.
-// With splats, the ray starts `back` (MeshScene::ray_back) behind that origin.
-void fill(RTCRay& r, const double* p, const double* u, double s0, double s1, const LocalFrame& f,
-          double back) {
+void fill(RTCRay& r, const double* p, const double* u, double s0, double s1, const LocalFrame& f) {
     const double o[3] = {p[0] + s0 * u[0], p[1] + s0 * u[1], p[2] + s0 * u[2]};
-    if (back > 0.0) {
-        r.org_x = float(o[0] - back * u[0] - f.center[0]);
-        r.org_y = float(o[1] - back * u[1] - f.center[1]);
-        r.org_z = float(o[2] - back * u[2] - f.center[2]);
-        r.tnear = float(back + std::min(f.noise(o), 0.5 * (s1 - s0)));
-        r.tfar = float(back + (s1 - s0));
-    } else {   // meshes alone: as ever, bit for bit
-        r.org_x = float(o[0] - f.center[0]);
-        r.org_y = float(o[1] - f.center[1]);
-        r.org_z = float(o[2] - f.center[2]);
-        r.tnear = float(std::min(f.noise(o), 0.5 * (s1 - s0)));
-        r.tfar = float(s1 - s0);
-    }
+    r.org_x = float(o[0] - f.center[0]);
+    r.org_y = float(o[1] - f.center[1]);
+    r.org_z = float(o[2] - f.center[2]);
     r.dir_x = float(u[0]);
     r.dir_y = float(u[1]);
     r.dir_z = float(u[2]);
+    r.tnear = float(std::min(f.noise(o), 0.5 * (s1 - s0)));
+    r.tfar = float(s1 - s0);
     r.time = 0.0f;
     r.mask = 0xffffffffu;
     r.id = 0;
@@ -327,7 +353,7 @@ void MeshScene::segments(Context& ctx, const double* a, const double* b, std::si
             for (double& x : u) x /= len;
             double s0, s1;
             if (!clip(p, u, len - end_trim, s0, s1)) continue;
-            fill(rays[m], p, u, s0, s1, frame_, back_);
+            fill(rays[m], p, u, s0, s1, frame_);
             slot[m++] = k;
             if (m == kBatch) flush();
         }
@@ -344,7 +370,7 @@ bool MeshScene::occluded(const double* a, const double* b) const {
     double s0, s1;
     if (!clip(a, u, len, s0, s1)) return false;
     RTCRay r;
-    fill(r, a, u, s0, s1, frame_, back_);
+    fill(r, a, u, s0, s1, frame_);
     RTCIntersectContext ic;
     rtcInitIntersectContext(&ic);
     rtcOccluded1(impl_->scene, &ic, &r);
@@ -384,7 +410,7 @@ void MeshScene::intersect_serial(const double* o, const double* d, std::size_t n
                 // The fan triangle the filter found the hit in (the same test, the same floats).
                 const float org[3] = {rh.ray.org_x, rh.ray.org_y, rh.ray.org_z};
                 const float dir[3] = {rh.ray.dir_x, rh.ray.dir_y, rh.ray.dir_z};
-                if (!splats_->ray_hit(pr, org, dir, rh.ray.tfar, pr, hu, hv)) continue;
+                if (!splats_->ray_hit(pr / 2, org, dir, rh.ray.tfar, pr, hu, hv)) continue;
             }
             prim[k] = std::int64_t(pr);
             t[k] = start[q] + double(rh.ray.tfar);
@@ -401,10 +427,10 @@ void MeshScene::intersect_serial(const double* o, const double* d, std::size_t n
         if (!std::isfinite(p[0] + p[1] + p[2] + u[0] + u[1] + u[2])) continue;
         double s0, s1;
         if (!clip(p, u, tmax, s0, s1)) continue;
-        fill(rays[m].ray, p, u, s0, s1, frame_, back_);
+        fill(rays[m].ray, p, u, s0, s1, frame_);
         rays[m].hit.geomID = RTC_INVALID_GEOMETRY_ID;
         rays[m].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-        start[m] = s0 - back_;   // s0 itself without splats (back_ = 0)
+        start[m] = s0;
         slot[m++] = k;
         if (m == kBatch) flush();
     }

@@ -25,12 +25,12 @@ namespace illumap {
 // A scan's splats (splats.hpp) among a MeshScene's triangles: point k's fan of `sides`
 // triangles are rows first + sides * k + m of the corners, (point, rim m, rim m + 1) wound
 // to face along `facing`, rim m at radii[k * sides + m] along cos t_m u + sin t_m v,
-// t_m = 2 pi m / sides. The scene casts against each fan as ONE primitive: an Embree
-// oriented disc of the largest radius in the fan's plane, whose hits an intersection filter
-// keeps only inside the fan's outline. A hit still names the fan triangle it lies in (row
-// first + sides * k + m), so callers see the triangles they gave; Embree holds ~30 bytes and
-// one BVH leaf per point instead of 12 triangles (their vertices, indices and BVH were
-// ~1 KB per point). The arrays are read during construction only.
+// t_m = 2 pi m / sides. The scene casts against each fan as ONE primitive: the rectangle
+// that bounds its outline in its plane (two triangles), whose hits an intersection filter
+// keeps only inside the outline. A hit still names the fan triangle it lies in (row
+// first + sides * k + m, with that triangle's barycentrics), so callers see the triangles
+// they gave; Embree holds 4 vertices, 2 triangles and their BVH leaves per point instead of
+// 12 triangles (~1 KB per point). The arrays are read during construction only.
 struct SplatOutlines {
     std::size_t first = 0;           // the row of point 0's first fan triangle
     std::size_t n = 0;               // points
@@ -64,12 +64,15 @@ public:
     double build_seconds() const { return build_seconds_; }
     std::size_t vertices() const { return vertices_; }  // distinct float corners Embree holds
     std::size_t splat_points() const { return n_splats_; }  // fans cast against as outlines
-    // How far behind its origin every ray starts (0 without splats): Embree skips a disc whose
-    // bounding sphere holds the ray's origin (EMBREE_DISC_POINT_SELF_INTERSECTION_AVOIDANCE,
-    // on in Debian's build and the wheel's), which would hide a neighbour's splat from a
-    // point beside it; 2.5 x the largest splat radius is beyond every such sphere that could
-    // reach the ray's own segment. Rays cast against rtc_scene() by others must do the same.
-    double ray_back() const { return back_; }
+    // Estimated bytes of the Embree scene and the outlines (a BVH leaf: 64 bytes per
+    // triangle): shared vertices 12 bytes, indices 12 per mesh triangle; per splat point its
+    // rectangle (4 vertices, 2 triangles), centre and axes (36), radii (4 per side), inner
+    // radius and winding (5). Inline: see rtc_scene().
+    std::size_t bytes() const {
+        const std::size_t mesh = n_tri_ - n_splats_ * splat_sides_;
+        return vertices_ * 12 + mesh * (12 + 64) +
+               n_splats_ * (48 + 2 * (12 + 64) + 36 + 4 * splat_sides_ + 5);
+    }
     // What the outline test needs (mesh_scene.cpp), held by every scene that casts against
     // rtc_scene() (Embree's filter reads it), so it lives as long as the Embree scene.
     std::shared_ptr<const void> splat_keepalive() const { return splats_; }
@@ -112,9 +115,8 @@ private:
     double build_seconds_ = 0;
     std::size_t vertices_ = 0;
     void* rtc_scene_ = nullptr;  // impl_'s scene, once built
-    std::size_t n_splats_ = 0;
+    std::size_t n_splats_ = 0, splat_sides_ = 0;
     std::shared_ptr<SplatData> splats_;  // the outlines, when splats were given
-    double back_ = 0.0;
     void add_splats(Context& ctx, const SplatOutlines& s);
 
     // [s0, s1] of p + t u inside the (padded) box, intersected with [0, len]; false if empty.

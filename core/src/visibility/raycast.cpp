@@ -169,6 +169,7 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
             // The scene's own triangles; the surfels' radii (coverage 1) only size the trims.
             if (shared) {
                 vertices_ = shared->vertices();
+                shared_bytes_ = shared->bytes();
             } else {
                 g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
                 ctx.set_phase("visibility: triangles", 0.0, 0.2);
@@ -289,8 +290,6 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
                 }
             });
         }
-        // A shared scene's splats are discs: rays start behind their origin as its own do.
-        if (shared) back_ = shared->ray_back();
         if (g) {
             float rmax = 0;
             for (std::size_t i = 0; i < n; ++i) rmax = std::max(rmax, radius_[i]);
@@ -343,16 +342,15 @@ void OccluderScene::find_faces(Context& ctx, const SurfelSoA& s) {
             const float* m = &normal_[3 * i];
             if (m[0] == 0.0f && m[1] == 0.0f && m[2] == 0.0f) continue;
             const double lift = double(radius_[i]);
-            // back_ > 0 only for a shared scene's splat discs (make_ray), 0 otherwise.
             RTCRayHit rh;
-            rh.ray.org_x = float(s.px[i] + (lift + back_) * m[0] - center_[0]);
-            rh.ray.org_y = float(s.py[i] + (lift + back_) * m[1] - center_[1]);
-            rh.ray.org_z = float(s.pz[i] + (lift + back_) * m[2] - center_[2]);
+            rh.ray.org_x = float(s.px[i] + lift * m[0] - center_[0]);
+            rh.ray.org_y = float(s.py[i] + lift * m[1] - center_[1]);
+            rh.ray.org_z = float(s.pz[i] + lift * m[2] - center_[2]);
             rh.ray.dir_x = -m[0];
             rh.ray.dir_y = -m[1];
             rh.ray.dir_z = -m[2];
-            rh.ray.tnear = float(back_ + 0.5 * lift);
-            rh.ray.tfar = float(back_ + 1.5 * lift);
+            rh.ray.tnear = float(0.5 * lift);
+            rh.ray.tfar = float(1.5 * lift);
             rh.ray.time = 0.0f;
             rh.ray.mask = 0xffffffffu;
             rh.ray.id = 0;
@@ -384,7 +382,9 @@ std::size_t OccluderScene::bytes() const {
     // Buffers (discs 16 + 12 bytes, quads as two triangles 72 + 24, octagons as eight 204 +
     // 96, given triangles 12 per shared vertex + 12), our radii (and the faces' normals), and
     // Embree's BVH (estimated as 64 bytes per primitive).
-    if (n_tri_ > 0) return vertices_ * 12 + n_tri_ * (12 + 64) + size() * (16 + 12);
+    if (n_tri_ > 0)
+        return (shared_bytes_ ? shared_bytes_ : vertices_ * 12 + n_tri_ * (12 + 64)) +
+               size() * (16 + 12);
     switch (shape_) {
         case VisibilityOptions::Shape::Quad: return size() * (72 + 24 + 4 + 2 * 64);
         case VisibilityOptions::Shape::Octagon: return size() * (204 + 96 + 4 + 8 * 64);

@@ -122,6 +122,7 @@ private:
     VisibilityOptions::Shape shape_;
     std::size_t n_tri_ = 0;  // > 0: the occluders are given triangles
     std::size_t vertices_ = 0;  // their distinct float corners (neighbours share them)
+    std::size_t shared_bytes_ = 0;  // a shared scene's own estimate (MeshScene::bytes)
     double center_[3] = {0, 0, 0};
     double lo_[3] = {0, 0, 0}, hi_[3] = {0, 0, 0};  // occluders' box (padded), world units
     double back_ = 0;  // rays start this far behind their first endpoint (see raycast.cpp)
