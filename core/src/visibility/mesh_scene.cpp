@@ -205,6 +205,10 @@ MeshScene::~MeshScene() { delete impl_; }
 // its origin and a scene with splats would cast rays unlike one without; triangles keep the
 // rays as they were, and need nothing of Embree beyond what the meshes use.
 void MeshScene::add_splats(Context& ctx, const SplatOutlines& s) {
+    // Without filter functions (an Embree built without them) the rectangles would stand for
+    // the fans unclipped: refuse rather than over-occlude.
+    if (!rtcGetDeviceProperty(impl_->device, RTC_DEVICE_PROPERTY_FILTER_FUNCTION_SUPPORTED))
+        throw std::runtime_error("embree: built without filter functions, which splat outlines need");
     auto sd = std::make_shared<SplatData>();
     sd->n = s.n;
     sd->sides = s.sides;
