@@ -86,7 +86,7 @@ struct SplatData {
     bool ray_inside(std::size_t k, const float o[3], const float d[3], float t) const {
         double x, y;
         plane_xy(k, o, d, t, x, y);
-        if (x * x + y * y <= double(of(k)[kInner2])) return true;
+        if (x * x + y * y < double(of(k)[kInner2])) return true;   // strictly: none at radius 0
         std::size_t row;
         float bu, bv;
         return hit(k, x, y, row, bu, bv);
