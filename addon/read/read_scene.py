@@ -403,7 +403,8 @@ def _surface_triangles(tri_meshes: list, point_parts: list, point_sources: list,
         sided[start:stop] = both
         owner[start:stop].reshape(n, DEFAULT_SIDES)[:] = first + np.arange(n)[:, None]
         start, first = stop, first + n
-    return corners, sided, owner, SplatOutlines.joined(outlines)
+    from illumap.splats import OUTLINE_RAYS
+    return corners, sided, owner, SplatOutlines.joined(outlines) if OUTLINE_RAYS else None
 
 
 def _back_faces_in_view(occluders, positions: np.ndarray, normals: np.ndarray) -> np.ndarray:
