@@ -46,6 +46,7 @@ class PhaseMemory:
     def __init__(self, every: float = 0.1):
         import threading
         self.phase, self.peaks, self._every = "prepare", {}, every
+        self.step, self.step_peaks = "prepare", {}
         self._page = os.sysconf("SC_PAGE_SIZE")
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._loop, daemon=True)
@@ -56,16 +57,20 @@ class PhaseMemory:
             with open("/proc/self/statm") as f:
                 rss = int(f.read().split()[1]) * self._page / 1e9
             self.peaks[self.phase] = max(self.peaks.get(self.phase, 0.0), rss)
+            self.step_peaks[self.step] = max(self.step_peaks.get(self.step, 0.0), rss)
 
     def progress(self, fraction: float, phase: str = "") -> bool:
         """The run's progress callback: notes the phase, never cancels."""
         self.phase = phase.split(":")[0] or self.phase
+        self.step = phase or self.step
         return True
 
-    def stop(self) -> dict:
+    def stop(self) -> tuple[dict, dict]:
+        """The peaks (GB) per phase and per step (the progress's full phase names)."""
         self._stop.set()
         self._thread.join()
-        return {k: round(v, 3) for k, v in self.peaks.items()}
+        return ({k: round(v, 3) for k, v in self.peaks.items()},
+                {k: round(v, 3) for k, v in self.step_peaks.items()})
 
 
 def one_size(cell: float, score: bool) -> dict:
@@ -86,12 +91,12 @@ def one_size(cell: float, score: bool) -> dict:
     c0, t0 = time.process_time(), time.perf_counter()
     job = pipeline.prepare(depsgraph, objects, settings)
     prepare = time.perf_counter() - t0
-    memory.phase = "job built"
+    memory.phase = memory.step = "job built"
     t1 = time.perf_counter()
     result = pipeline.run(job, memory.progress)
     run_s = time.perf_counter() - t1
     cpu = time.process_time() - c0
-    phase_peaks = memory.stop()
+    phase_peaks, step_peaks = memory.stop()
     rec = result.stats.get("receivers", {})
     row = dict(cell=cell, points=int(points), surfels=int(result.count),
                triangles=int(0 if job.triangles is None else len(job.triangles)),
@@ -100,7 +105,7 @@ def one_size(cell: float, score: bool) -> dict:
                phases={k: round(float(v), 3) for k, v in result.timings.items()},
                rays=int(rec.get("rays", 0)), records=rec.get("cache_records"),
                peak_rss_gb=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6, 3),
-               peak_rss_by_phase_gb=phase_peaks)
+               peak_rss_by_phase_gb=phase_peaks, peak_rss_by_step_gb=step_peaks)
     if score:
         values = next(iter(result.point_receiver_values.values()))
         row["cycles"] = score_against_cycles(values, spans)

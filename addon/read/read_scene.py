@@ -241,21 +241,24 @@ def _build(scene: _ReadScene, progress: Progress | None = None) -> Job:
         scene.refine.points = point_parts
     parts = _with_points(scene.mesh_parts, point_parts, scene.point_sources)
     stop_if_cancelled()
-    triangles, two_sided, splat_point = _surface_triangles(scene.mesh_surfaces, clouds,
-                                                           scene.point_sources,
-                                                           [p.neighbours for p in full])
+    triangles, two_sided, splat_point, outlines = _surface_triangles(
+        scene.mesh_surfaces, clouds, scene.point_sources, [p.neighbours for p in full])
     for samples in (*scene.read, *full):    # the shared search's tables: 72 B a point
         samples.neighbours = None
     stop_if_cancelled()
     occluders = None
-    if triangles is not None and any(m.two_sided for m in scene.mesh_surfaces):
+    # Built here when the back faces' probe needs it or the scene has splats: those are cast
+    # against as one outline each, which only their outlines (dropped after this) tell.
+    if triangles is not None and (outlines is not None
+                                  or any(m.two_sided for m in scene.mesh_surfaces)):
         from illumap.receivers import MeshOccluders
         try:
-            occluders = MeshOccluders(triangles, progress=going_on)
+            occluders = MeshOccluders(triangles, progress=going_on, splats=outlines)
         except Exception as exc:  # noqa: BLE001 - the core's Cancelled
             if core_cancelled(exc):
                 raise IllumapCancelled("Cancelled") from None
             raise
+    outlines = None
     job = _assembled(parts, scene.settings, scene.lamp_list, scene.world, scene.warnings,
                      scene.stats, scene.t0, occluders)
     job.refine = scene.refine
@@ -366,12 +369,14 @@ def _surface_triangles(tri_meshes: list, point_parts: list, point_sources: list,
     """The scene's surface as triangles (T, 3, 3), m: the meshes' own, then each point
     cloud's splats (``illumap.splats``); which of them are two-sided (T,) bool (open meshes;
     point clouds of unknown orientation); and the point each splat triangle belongs to (T,)
-    int64, counted over all clouds in order (-1: a mesh's). Nones for an empty scene.
+    int32, counted over all clouds in order (-1: a mesh's); and the splats' outlines
+    (``illumap.splats.SplatOutlines`` of all clouds' points in order, None without points),
+    for the ray scene. Nones for an empty scene.
     ``point_neighbours``: per cloud, its points' own search (``pointcloud.own_neighbours``)
     or None, so the splats' planes need not search again."""
     if not tri_meshes and not point_parts:
-        return None, None, None
-    from illumap.splats import DEFAULT_SIDES, splat_triangles
+        return None, None, None, None
+    from illumap.splats import DEFAULT_SIDES, SplatOutlines, splat_triangles
     # One array filled in place: concatenating the parts held a scan's splats twice (0.86 GB
     # per 1M points each).
     counts = [len(tm.corners) for tm in tri_meshes] + \
@@ -379,7 +384,7 @@ def _surface_triangles(tri_meshes: list, point_parts: list, point_sources: list,
     total = int(sum(counts))
     corners = np.empty((total, 3, 3))
     sided = np.empty(total, dtype=bool)
-    owner = np.full(total, -1, dtype=np.int64)
+    owner = np.full(total, -1, dtype=np.int32)   # int32: a dozen splat triangles per point
     start = 0
     for tm in tri_meshes:
         stop = start + len(tm.corners)
@@ -388,15 +393,18 @@ def _surface_triangles(tri_meshes: list, point_parts: list, point_sources: list,
         start = stop
     first = 0
     nearest = point_neighbours or [None] * len(point_parts)
+    outlines = []
     for part, (_, _, both), table in zip(point_parts, point_sources, nearest):
         n = len(part[0])
         stop = start + n * DEFAULT_SIDES
         if n:
-            splat_triangles(part[0], part[1], part[2], out=corners[start:stop], nearest=table)
+            outlines.append(splat_triangles(part[0], part[1], part[2], out=corners[start:stop],
+                                            nearest=table, outlines=True)[1])
         sided[start:stop] = both
         owner[start:stop].reshape(n, DEFAULT_SIDES)[:] = first + np.arange(n)[:, None]
         start, first = stop, first + n
-    return corners, sided, owner
+    from illumap.splats import OUTLINE_RAYS
+    return corners, sided, owner, SplatOutlines.joined(outlines) if OUTLINE_RAYS else None
 
 
 def _back_faces_in_view(occluders, positions: np.ndarray, normals: np.ndarray) -> np.ndarray:

@@ -80,18 +80,29 @@ class MeshOccluders:
     """Triangles (T, 3, 3) in metres as a ray-casting scene, for receivers.
 
     ``threads`` 0 uses every hardware thread; ``progress(fraction, phase)`` returning False
-    cancels (``illumap.Cancelled``). ``offset`` (m) defaults to ``RAY_OFFSET`` × the feature
+    cancels (``illumap.Cancelled``). ``splats`` (``splats.SplatOutlines``, or None): the last
+    triangles are those points' splat fans, which the scene casts against as one outline
+    each (a dozen times less memory); hits name the fan triangles all the same. ``offset`` (m) defaults to ``RAY_OFFSET`` × the feature
     length. ``extent`` (m) is the largest side of the triangles' box, ``feature_length`` (m) the
     size of their bulk (the largest per-axis spread between the 1st and 99th percentiles).
     """
 
     def __init__(self, corners, *, offset: float | None = None, threads: int = 0,
-                 progress: Progress | None = None) -> None:
+                 progress: Progress | None = None, splats=None) -> None:
         c = _corners(corners)
         if len(c) == 0:
             raise InputError("MeshOccluders needs at least one triangle")
         self.corners = c
-        self._scene = _core.MeshScene(c.reshape(-1, 9), threads=threads, progress=progress)
+        extra = {}
+        if splats is not None and len(splats.points):
+            # The last triangles are these points' splat fans (``splats.SplatOutlines``):
+            # cast against as one outline each (hits still name the fan's triangles).
+            f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
+            extra = dict(splat_points=f64(splats.points), splat_u=f64(splats.u),
+                         splat_v=f64(splats.v), splat_radii=f64(splats.radii),
+                         splat_facing=f64(splats.facing))
+        self._scene = _core.MeshScene(c.reshape(-1, 9), threads=threads, progress=progress,
+                                      **extra)
         self.extent = float(self._scene.extent)
         self.feature_length = float(self._scene.feature_length)
         self.offset = (float(offset) if offset is not None
@@ -298,18 +309,23 @@ def gather_lattices(occluders: MeshOccluders, field: SurfelField, *,
 
 
 def _sided(occluders: MeshOccluders, two_sided):
+    """``two_sided`` as the core reads it: one uint8 per triangle (a bool array's own bytes)."""
     if two_sided is None:
         return None
-    sided = np.ascontiguousarray(two_sided, dtype=bool).astype(np.int64).reshape(-1)
+    sided = np.ascontiguousarray(two_sided, dtype=bool).reshape(-1).view(np.uint8)
     if len(sided) != occluders.n:
         raise InputError(f"two_sided must have {occluders.n} entries, got {len(sided)}")
     return sided
 
 
 def _owner_rows(occluders: MeshOccluders, value, name: str):
+    """Per-triangle owner rows as the core reads them: int32 (no copy when given so)."""
     if value is None:
         return None
-    o = np.ascontiguousarray(value, dtype=np.int64).reshape(-1)
+    o = np.asarray(value).reshape(-1)
+    if len(o) and (o.min() < -1 or o.max() > np.iinfo(np.int32).max):
+        raise InputError(f"{name} must be -1 or surfel rows below 2^31")
+    o = np.ascontiguousarray(o, dtype=np.int32)
     if len(o) != occluders.n:
         raise InputError(f"{name} must have {occluders.n} entries, got {len(o)}")
     return o

@@ -13,23 +13,51 @@ void bind_mesh_scene(nb::module_& m) {
     nb::class_<PyMeshScene>(m, "MeshScene",
         "Triangles as an Embree scene, for direct light and final gather at receivers.")
         .def("__init__",
-             [](PyMeshScene* self, nb::handle corners, int threads, nb::handle progress) {
+             [](PyMeshScene* self, nb::handle corners, nb::handle splat_points,
+                nb::handle splat_u, nb::handle splat_v, nb::handle splat_radii,
+                nb::handle splat_facing, int threads, nb::handle progress) {
                  if (threads < 0) throw nb::value_error("threads must be >= 0");
                  std::size_t nt;
                  nb::object keep;
                  const double* C = view<double>(corners, "corners", 2, 9, nt, keep);
+                 // A scan's splats (the last n * sides triangles), cast against as outlines.
+                 SplatOutlines so;
+                 nb::object k1, k2, k3, k4, k5;
+                 const bool with_splats = splat_points.is_valid() && !splat_points.is_none();
+                 if (with_splats) {
+                     AnyArray r;
+                     if (!nb::try_cast<AnyArray>(splat_radii, r, false) || r.ndim() != 2)
+                         throw nb::value_error("splat_radii must be a 2-D numpy array (N, sides)");
+                     so.sides = r.shape(1);
+                     std::size_t n1, n2, n3, n4, n5;
+                     so.points = view<double>(splat_points, "splat_points", 2, 3, n1, k1);
+                     so.u = view<double>(splat_u, "splat_u", 2, 3, n2, k2);
+                     so.v = view<double>(splat_v, "splat_v", 2, 3, n3, k3);
+                     so.radii = view<double>(splat_radii, "splat_radii", 2, std::int64_t(so.sides), n4, k4);
+                     so.facing = view<double>(splat_facing, "splat_facing", 2, 3, n5, k5);
+                     if (n2 != n1 || n3 != n1 || n4 != n1 || n5 != n1)
+                         throw nb::value_error("splat arrays must have one row per splat point");
+                     so.n = n1;
+                     if (so.sides < 3 || so.n * so.sides > nt)
+                         throw nb::value_error("splats: sides >= 3, and their n * sides fan triangles "
+                                               "must be the last of the corners");
+                     so.first = nt - so.n * so.sides;
+                 }
                  std::unique_ptr<MeshScene> scene;
                  run_released(threads, progress, [&](Context& ctx) {
                      checkpoint(ctx, 0.0);
                      try {
-                         scene = std::make_unique<MeshScene>(ctx, C, nt);
+                         scene = std::make_unique<MeshScene>(ctx, C, nt, with_splats ? &so : nullptr);
                      } catch (std::invalid_argument& e) {
                          throw std::runtime_error(std::string("corners: ") + e.what());
                      }
                  });
                  new (self) PyMeshScene{std::move(scene), threads, std::move(keep)};
              },
-             nb::arg("corners"), nb::kw_only(), nb::arg("threads") = 0,
+             nb::arg("corners"), nb::kw_only(), nb::arg("splat_points").none() = nb::none(),
+             nb::arg("splat_u").none() = nb::none(), nb::arg("splat_v").none() = nb::none(),
+             nb::arg("splat_radii").none() = nb::none(),
+             nb::arg("splat_facing").none() = nb::none(), nb::arg("threads") = 0,
              nb::arg("progress") = nb::none())
         .def("visible",
              [](PyMeshScene& self, nb::handle origins, nb::handle targets, double end_trim,
@@ -90,6 +118,8 @@ void bind_mesh_scene(nb::module_& m) {
                      },
                      "Origin that float coordinates are stored against (m): the corners' per-axis median.")
         .def_prop_ro("build_seconds", [](const PyMeshScene& self) { return self.scene->build_seconds(); })
+        .def_prop_ro("splat_points", [](const PyMeshScene& self) { return self.scene->splat_points(); },
+                     "Splat fans cast against as one outline each.")
         .def_prop_ro("vertices", [](const PyMeshScene& self) { return self.scene->vertices(); },
                      "Distinct float corners the ray-casting scene holds (neighbours share theirs).");
 }
@@ -166,8 +196,12 @@ void bind_gather(nb::module_& m) {
     struct PyGatherer {
         nb::object scene_ref, front_ref, back_ref, keep_front_rest, keep_back_rest,
             keep_front_lattice, keep_back_lattice;
-        std::vector<std::uint8_t> sided;
-        std::vector<OwnerRow> own_front, own_back;
+        // The caller's per-triangle arrays, held (not copied: a scan has millions of splat
+        // triangles): uint8 two_sided, int32 owners.
+        nb::object keep_sided, keep_front_owner, keep_back_owner;
+        const std::uint8_t* sided = nullptr;
+        const OwnerRow* own_front = nullptr;
+        const OwnerRow* own_back = nullptr;
         ExactPart ex_front, ex_back;
         GatherOptions opt;
         std::unique_ptr<GatherPlan> plan;
@@ -194,10 +228,8 @@ void bind_gather(nb::module_& m) {
                  const std::size_t T = scene.scene->size();
                  if (two_sided.is_valid() && !two_sided.is_none()) {
                      std::size_t ns;
-                     nb::object k5;
-                     const std::int64_t* S = view<std::int64_t>(two_sided, "two_sided", 1, 0, ns, k5);
+                     g.sided = view<std::uint8_t>(two_sided, "two_sided", 1, 0, ns, g.keep_sided);
                      if (ns != T) throw nb::value_error("two_sided must have one entry per triangle");
-                     g.sided.assign(S, S + ns);
                  }
                  const SurfelField* back_field = nullptr;
                  if (back.is_valid() && !back.is_none()) {
@@ -205,30 +237,25 @@ void bind_gather(nb::module_& m) {
                      g.back_ref = nb::borrow(back);
                  }
                  // Splat owners: -1, or a row of the field they index.
-                 auto owners = [&](nb::handle h, const char* name, const SurfelField* field) {
-                     std::vector<OwnerRow> o;
-                     if (!h.is_valid() || h.is_none()) return o;
+                 auto owners = [&](nb::handle h, const char* name, const SurfelField* field,
+                                   nb::object& keep) -> const OwnerRow* {
+                     if (!h.is_valid() || h.is_none()) return nullptr;
                      std::size_t no;
-                     nb::object keep;
-                     const std::int64_t* O = view<std::int64_t>(h, name, 1, 0, no, keep);
+                     const OwnerRow* O = view<OwnerRow>(h, name, 1, 0, no, keep);
                      if (no != T)
                          throw nb::value_error((std::string(name) + " must have one entry per triangle").c_str());
                      const std::int64_t limit = field ? std::int64_t(field->size()) : 0;
-                     if (limit > std::int64_t(std::numeric_limits<OwnerRow>::max()))
-                         throw nb::value_error((std::string(name) + ": a field of more than 2^31 - 1 "
-                                                "surfels cannot own splats").c_str());
                      for (std::size_t t = 0; t < no; ++t)
                          if (O[t] < -1 || O[t] >= limit)
                              throw nb::value_error((std::string(name) + "[" + std::to_string(t) +
                                                     "] is not -1 or a surfel of its field").c_str());
-                     o.assign(O, O + no);   // in range, so each fits OwnerRow
-                     return o;
+                     return O;
                  };
-                 g.own_front = owners(owner_front, "owner_front", front.field.get());
-                 g.own_back = owners(owner_back, "owner_back", back_field);
-                 const std::uint8_t* sided = g.sided.empty() ? nullptr : g.sided.data();
-                 const OwnerRow* of = g.own_front.empty() ? nullptr : g.own_front.data();
-                 const OwnerRow* ob = g.own_back.empty() ? nullptr : g.own_back.data();
+                 g.own_front = owners(owner_front, "owner_front", front.field.get(), g.keep_front_owner);
+                 g.own_back = owners(owner_back, "owner_back", back_field, g.keep_back_owner);
+                 const std::uint8_t* sided = g.sided;
+                 const OwnerRow* of = g.own_front;
+                 const OwnerRow* ob = g.own_back;
                  // Exact parts: a rest field and one value per lattice point, both or neither.
                  GatherLattice lat_front, lat_back;
                  if (!front_lattice.is_none() || !back_lattice.is_none())
@@ -378,36 +405,25 @@ void bind_gather(nb::module_& m) {
           [](PyMeshScene& scene, PySurfelField& front, nb::handle back, nb::handle two_sided,
              nb::handle owner_front, nb::handle owner_back) {
               const std::size_t T = scene.scene->size();
-              auto rows = [&](nb::handle h, const char* name, nb::object& keep) -> const std::int64_t* {
-                  if (h.is_none()) return nullptr;
+              // uint8 two_sided, int32 owners (only their signs matter here: which triangles
+              // have a lattice), one entry per triangle each, read in place.
+              auto rows = [&](nb::handle h, const char* name, nb::object& keep, auto* tag) {
+                  using V = std::remove_pointer_t<decltype(tag)>;
+                  if (h.is_none()) return static_cast<const V*>(nullptr);
                   std::size_t n;
-                  const std::int64_t* v = view<std::int64_t>(h, name, 1, 0, n, keep);
+                  const V* v = view<V>(h, name, 1, 0, n, keep);
                   if (n != T) throw nb::value_error((std::string(name) + " must have one entry per triangle").c_str());
                   return v;
               };
               nb::object k1, k2, k3;
-              const std::int64_t* S = rows(two_sided, "two_sided", k1);
-              std::vector<std::uint8_t> sided;
-              if (S) sided.assign(S, S + T);
-              // Only the sign of an owner matters here (which triangles have a lattice).
-              auto owner_rows = [&](const std::int64_t* O) {
-                  std::vector<OwnerRow> o;
-                  if (O) {
-                      o.resize(T);
-                      for (std::size_t t = 0; t < T; ++t) o[t] = O[t] < 0 ? OwnerRow(-1) : OwnerRow(0);
-                  }
-                  return o;
-              };
-              const std::vector<OwnerRow> of = owner_rows(rows(owner_front, "owner_front", k2));
-              const std::vector<OwnerRow> ob = owner_rows(rows(owner_back, "owner_back", k3));
-              const OwnerRow* OF = of.empty() ? nullptr : of.data();
-              const OwnerRow* OB = ob.empty() ? nullptr : ob.data();
+              const std::uint8_t* S = rows(two_sided, "two_sided", k1, static_cast<std::uint8_t*>(nullptr));
+              const OwnerRow* OF = rows(owner_front, "owner_front", k2, static_cast<OwnerRow*>(nullptr));
+              const OwnerRow* OB = rows(owner_back, "owner_back", k3, static_cast<OwnerRow*>(nullptr));
               const SurfelField* back_field = back.is_none() ? nullptr : nb::cast<PySurfelField&>(back).field.get();
               GatherLattice f, b;
               {
                   nb::gil_scoped_release nogil;
-                  gather_lattices(*scene.scene, *front.field, back_field, S ? sided.data() : nullptr,
-                                  OF, OB, f, b);
+                  gather_lattices(*scene.scene, *front.field, back_field, S, OF, OB, f, b);
               }
               auto out = [](const std::vector<double>& v) {
                   double* p;

@@ -28,16 +28,19 @@ namespace nb = nanobind;
 
 using AnyArray = nb::ndarray<nb::ro, nb::device::cpu>;
 
-// A read-only, C-contiguous float64 (or float32, int64) view of a numpy array, checked.
+// A read-only, C-contiguous float64 (or float32, int64, int32, uint8) view of a numpy array,
+// checked.
 template <class T>
 const T* view(nb::handle h, const char* name, std::size_t ndim, std::int64_t cols,
               std::size_t& rows, nb::object& keep) {
     AnyArray a;
     if (!nb::try_cast<AnyArray>(h, a, false))
         throw nb::value_error((std::string(name) + " must be a numpy array").c_str());
-    const char* tname = std::is_same_v<T, double>  ? "float64"
-                        : std::is_same_v<T, float> ? "float32"
-                                                   : "int64";
+    const char* tname = std::is_same_v<T, double>         ? "float64"
+                        : std::is_same_v<T, float>        ? "float32"
+                        : std::is_same_v<T, std::int32_t> ? "int32"
+                        : std::is_same_v<T, std::uint8_t> ? "uint8"
+                                                          : "int64";
     if (a.dtype() != nb::dtype<T>())
         throw nb::value_error((std::string(name) + " must have dtype " + tname).c_str());
     if (a.ndim() != ndim) {

@@ -17,17 +17,43 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace illumap {
+
+// A scan's splats (splats.hpp) among a MeshScene's triangles: point k's fan of `sides`
+// triangles are rows first + sides * k + m of the corners, (point, rim m, rim m + 1) wound
+// to face along `facing`, rim m at radii[k * sides + m] along cos t_m u + sin t_m v,
+// t_m = 2 pi m / sides. The scene casts against each fan as ONE primitive: the rectangle
+// that bounds its outline in its plane (two triangles), whose hits an intersection filter
+// keeps only inside the outline. A hit still names the fan triangle it lies in (row
+// first + sides * k + m, with that triangle's barycentrics), so callers see the triangles
+// they gave; Embree holds 4 vertices, 2 triangles and their BVH leaves per point instead of
+// 12 triangles (~1 KB per point). The arrays are read during construction only.
+struct SplatOutlines {
+    std::size_t first = 0;           // the row of point 0's first fan triangle
+    std::size_t n = 0;               // points
+    std::size_t sides = 0;           // fan triangles per point
+    const double* points = nullptr;  // n x 3, world
+    const double* u = nullptr;       // n x 3, unit, in the point's plane
+    const double* v = nullptr;       // n x 3, unit, u x v along the plane's normal
+    const double* radii = nullptr;   // n x sides
+    const double* facing = nullptr;  // n x 3: the fans' winding faces this way
+};
+
+struct SplatData;  // the outlines as the filter reads them (mesh_scene.cpp)
 
 class MeshScene {
 public:
     // corners: n_tri x 3 x 3 doubles (world coordinates), kept by reference, not copied (a
     // scan's splats are a dozen triangles per point): the caller keeps them alive and unchanged
-    // for the scene's lifetime. Throws Cancelled, std::invalid_argument (non-finite corners) or
+    // for the scene's lifetime. splats (may be null): which of those triangles are splat fans,
+    // cast against as one outline each (SplatOutlines; rows from splats->first on are all
+    // splats). Throws Cancelled, std::invalid_argument (non-finite corners, bad outlines) or
     // std::runtime_error (Embree).
-    MeshScene(Context& ctx, const double* corners, std::size_t n_tri);
+    MeshScene(Context& ctx, const double* corners, std::size_t n_tri,
+              const SplatOutlines* splats = nullptr);
     ~MeshScene();
     MeshScene(const MeshScene&) = delete;
     MeshScene& operator=(const MeshScene&) = delete;
@@ -37,6 +63,19 @@ public:
     const LocalFrame& frame() const { return frame_; }
     double build_seconds() const { return build_seconds_; }
     std::size_t vertices() const { return vertices_; }  // distinct float corners Embree holds
+    std::size_t splat_points() const { return n_splats_; }  // fans cast against as outlines
+    // Estimated bytes of the Embree scene and the outlines (a BVH leaf: 64 bytes per
+    // triangle): shared vertices 12 bytes, indices 12 per mesh triangle; per splat point its
+    // rectangle (4 vertices, 2 triangles), centre and axes (36), radii (4 per side), inner
+    // radius and winding (5). Inline: see rtc_scene().
+    std::size_t bytes() const {
+        const std::size_t mesh = n_tri_ - n_splats_ * splat_sides_;
+        return vertices_ * 12 + mesh * (12 + 64) +
+               n_splats_ * (48 + 2 * (12 + 64) + 36 + 4 * splat_sides_ + 5);
+    }
+    // What the outline test needs (mesh_scene.cpp), held by every scene that casts against
+    // rtc_scene() (Embree's filter reads it), so it lives as long as the Embree scene.
+    std::shared_ptr<const void> splat_keepalive() const { return splats_; }
 
     // out[k] = 1 when no triangle meets segment a[k] -> b[k] with its last `end_trim` (world
     // units) left out, else 0. Segments are clipped to the scene's box in double precision, so
@@ -76,6 +115,9 @@ private:
     double build_seconds_ = 0;
     std::size_t vertices_ = 0;
     void* rtc_scene_ = nullptr;  // impl_'s scene, once built
+    std::size_t n_splats_ = 0, splat_sides_ = 0;
+    std::shared_ptr<SplatData> splats_;  // the outlines, when splats were given
+    void add_splats(Context& ctx, const SplatOutlines& s);
 
     // [s0, s1] of p + t u inside the (padded) box, intersected with [0, len]; false if empty.
     bool clip(const double* p, const double* u, double len, double& s0, double& s1) const;

@@ -17,6 +17,7 @@ struct OccluderScene::Impl {
     RTCDevice device = nullptr;
     RTCScene scene = nullptr;
     std::atomic<bool>* cancel = nullptr;  // the build's context flag
+    std::shared_ptr<const void> splats;   // a shared scene's splat outlines (its filter's data)
     ~Impl() {
         if (scene) rtcReleaseScene(scene);
         if (device) rtcReleaseDevice(device);
@@ -153,6 +154,8 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
         if (shared) {   // built (the same quality and flags) and committed; not committed here
             impl_->scene = static_cast<RTCScene>(shared->rtc_scene());
             rtcRetainScene(impl_->scene);
+            // Its splats' outline filter reads data the scene owns: held as long as the scene.
+            impl_->splats = shared->splat_keepalive();
         } else {
             impl_->scene = rtcNewScene(impl_->device);
             rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_MEDIUM);
@@ -166,6 +169,7 @@ OccluderScene::OccluderScene(Context& ctx, const SurfelSoA& s, double coverage,
             // The scene's own triangles; the surfels' radii (coverage 1) only size the trims.
             if (shared) {
                 vertices_ = shared->vertices();
+                shared_bytes_ = shared->bytes();
             } else {
                 g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
                 ctx.set_phase("visibility: triangles", 0.0, 0.2);
@@ -378,7 +382,9 @@ std::size_t OccluderScene::bytes() const {
     // Buffers (discs 16 + 12 bytes, quads as two triangles 72 + 24, octagons as eight 204 +
     // 96, given triangles 12 per shared vertex + 12), our radii (and the faces' normals), and
     // Embree's BVH (estimated as 64 bytes per primitive).
-    if (n_tri_ > 0) return vertices_ * 12 + n_tri_ * (12 + 64) + size() * (16 + 12);
+    if (n_tri_ > 0)
+        return (shared_bytes_ ? shared_bytes_ : vertices_ * 12 + n_tri_ * (12 + 64)) +
+               size() * (16 + 12);
     switch (shape_) {
         case VisibilityOptions::Shape::Quad: return size() * (72 + 24 + 4 + 2 * 64);
         case VisibilityOptions::Shape::Octagon: return size() * (204 + 96 + 4 + 8 * 64);

@@ -65,7 +65,8 @@ public:
     // caller's shifted copy would be), so a scan's splats need no shifted copy. `shared` (may
     // be null): a ray scene of the same triangles (world corners, shift not taken off), which
     // is cast against (retained) instead of building one: its floats are relative to its own
-    // centre, which this scene's rays then use.
+    // centre, which this scene's rays then use; a scan's splats there are its outlines
+    // (MeshScene's SplatOutlines, their filter's data held as long as the Embree scene).
     OccluderScene(Context& ctx, const SurfelSoA& s, double coverage, VisibilityOptions::Shape shape,
                   const double* triangles = nullptr, std::size_t n_tri = 0,
                   const double* shift = nullptr, const MeshScene* shared = nullptr);
@@ -122,6 +123,7 @@ private:
     VisibilityOptions::Shape shape_;
     std::size_t n_tri_ = 0;  // > 0: the occluders are given triangles
     std::size_t vertices_ = 0;  // their distinct float corners (neighbours share them)
+    std::size_t shared_bytes_ = 0;  // a shared scene's own estimate (MeshScene::bytes)
     double center_[3] = {0, 0, 0};
     double lo_[3] = {0, 0, 0}, hi_[3] = {0, 0, 0};  // occluders' box (padded), world units
     double back_ = 0;  // rays start this far behind their first endpoint (see raycast.cpp)

@@ -32,18 +32,19 @@ def back_field_normals(scene: Scene, back: np.ndarray, rows: np.ndarray) -> np.n
 
 def splat_owners(scene: Scene, back: np.ndarray,
                  back_rows: np.ndarray | None = None) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """Per triangle of ``scene.triangles``: the row in the front field (surfels not in
+    """Per triangle of ``scene.triangles``: the row (int32) in the front field (surfels not in
     ``back``) and in the back field (surfels ``back_rows``, default those in ``back``) of the
     surfel that stands for the point whose splat it is, or -1 (mesh triangles)."""
     if scene.splat_point is None or (scene.splat_point < 0).all():
         return None, None
-    front_row = np.cumsum(~back) - 1
-    back_row = np.full(len(back), -1, dtype=np.int64)
+    # int32: a scan's splats are a dozen triangles per point (the core reads them as they are).
+    front_row = (np.cumsum(~back) - 1).astype(np.int32)
+    back_row = np.full(len(back), -1, dtype=np.int32)
     rows = np.flatnonzero(back) if back_rows is None else np.asarray(back_rows, dtype=np.int64)
     back_row[rows] = np.arange(len(rows))
     sources = {(src.name, src.kind): src for src in scene.sources}
-    owner_front = np.full(len(scene.splat_point), -1, dtype=np.int64)
-    owner_back = np.full(len(scene.splat_point), -1, dtype=np.int64)
+    owner_front = np.full(len(scene.splat_point), -1, dtype=np.int32)
+    owner_back = np.full(len(scene.splat_point), -1, dtype=np.int32)
     offset = 0
     for cloud in scene.clouds:
         n = len(cloud.positions)
@@ -57,25 +58,32 @@ def splat_owners(scene: Scene, back: np.ndarray,
     return owner_front, owner_back
 
 
-def triangle_ids(scene: Scene) -> np.ndarray:
-    """Each triangle's identity (T,) int64 in ``scene.triangles``: its mesh's name and its row
-    among that mesh's triangles, or its point and its place in that point's splat; not its
-    row in the scene, which the objects before it set."""
-    tri = scene.triangles
-    ids = np.zeros(len(tri), dtype=np.int64)
-    owner = (np.full(len(tri), -1, dtype=np.int64) if scene.splat_point is None
-             else np.asarray(scene.splat_point, dtype=np.int64))
-    mesh_end = int((owner < 0).sum())
+def triangle_ids(scene: Scene, rows: np.ndarray | None = None) -> np.ndarray:
+    """Each triangle's identity (T,) int64 in ``scene.triangles`` (``rows``: only those
+    triangles' (R,), in that order): its mesh's name and its row among that mesh's triangles,
+    or its point and its place in that point's splat; not its row in the scene, which the
+    objects before it set. Only the triangles asked for are worked on (a scan has a dozen
+    splat triangles per point; the lattices lie on a few mesh triangles)."""
+    count = len(scene.triangles)
+    rows = (np.arange(count, dtype=np.int64) if rows is None
+            else np.asarray(rows, dtype=np.int64).reshape(-1))
+    ids = np.zeros(len(rows), dtype=np.int64)
+    point = scene.splat_point
+    mesh_end = count if point is None else int((point < 0).sum())
     meshes = [src.name for src in scene.sources if src.kind == "MESH"]
     starts = [int(a) for a in (scene.mesh_triangle_start if scene.mesh_triangle_start is not None
                                else [0])]
     for name, lo, hi in zip(meshes, starts, starts[1:] + [mesh_end]):
-        ids[lo:hi] = object_ids(name, np.arange(hi - lo))
-    if mesh_end < len(tri):
-        points = owner[mesh_end:]
-        first = np.flatnonzero(np.r_[True, np.diff(points) != 0])
-        rank = np.arange(len(points)) - np.repeat(first, np.diff(np.r_[first, len(points)]))
-        ids[mesh_end:] = combined_ids(points, rank)
+        mine = (rows >= lo) & (rows < hi)
+        if mine.any():
+            ids[mine] = object_ids(name, rows[mine] - lo)
+    splat = rows >= mesh_end
+    if splat.any():
+        # The splats follow the meshes, each point's together, points in order: a triangle's
+        # place in its splat is its distance from the first row of its point.
+        points = np.asarray(point[rows[splat]], dtype=np.int64)
+        first = mesh_end + np.searchsorted(point[mesh_end:], points, side="left")
+        ids[splat] = combined_ids(points, rows[splat] - first)
     return ids
 
 
@@ -88,7 +96,7 @@ def lattice_ids(scene: Scene, triangle: np.ndarray) -> np.ndarray:
         return np.zeros(0, dtype=np.int64)
     first = np.flatnonzero(np.r_[True, np.diff(triangle) != 0])
     place = np.arange(len(triangle)) - np.repeat(first, np.diff(np.r_[first, len(triangle)]))
-    return combined_ids(triangle_ids(scene)[triangle], place)
+    return combined_ids(triangle_ids(scene, triangle), place)
 
 
 def surfel_ids(scene: Scene) -> np.ndarray:
