@@ -252,18 +252,24 @@ void Fmm::m2l_into(std::int32_t tn, const Values& v, double* L, double* work,
     }
 }
 
-// P2L: the facing points of source leaves straight into node tn's local expansion L.
+// P2L: the facing points of source leaves straight into node tn's local expansion L. An
+// entry with per-point weights (a far PARTIAL leaf pair, accepted: every pair faces) scales
+// each source point by its own visibility weight.
 void Fmm::p2l_into(std::int32_t tn, const Values& v, double* L, double* work) const {
     const OctreeNode& nt = T_.nodes[tn];
     const SurfelSoA& s = T_.s;
+    const bool weighted = !IL_.p2l_pw.empty();
     for (std::int64_t k = IL_.p2l_off[tn]; k < IL_.p2l_off[tn + 1]; ++k) {
         if (!v.live[IL_.p2l_src[k]]) continue;
         const OctreeNode& ns = T_.nodes[IL_.p2l_src[k]];
+        const float* pw = weighted && IL_.p2l_pw[k] >= 0 ? &IL_.point_w[IL_.p2l_pw[k]] : nullptr;
         for (std::uint32_t j = ns.begin; j < ns.end; ++j) {
-            if (point_node_class(s, j, nt) != 1) continue;
+            const double w = pw ? double(pw[j - ns.begin]) : 1.0;
+            if (w == 0.0 || (!pw && point_node_class(s, j, nt) != 1)) continue;
             const double R[3] = {nt.center[0] - s.px[j], nt.center[1] - s.py[j],
                                  nt.center[2] - s.pz[j]};
-            const double nA[3] = {s.nx[j] * s.area[j], s.ny[j] * s.area[j], s.nz[j] * s.area[j]};
+            const double wa = w * s.area[j];
+            const double nA[3] = {s.nx[j] * wa, s.ny[j] * wa, s.nz[j] * wa};
             double s9[9];
             for (int bb = 0; bb < 3; ++bb)
                 for (int ch = 0; ch < 3; ++ch) s9[3 * bb + ch] = nA[bb] * v.xt[3 * j + ch];
@@ -350,19 +356,25 @@ void Fmm::l2p_at(std::uint32_t i, const OctreeNode& leaf, const double* local, d
 }
 
 // acc -= M2P: the source multipoles of leaf ln's M2P list evaluated at receiver i, for the
-// sources it faces.
+// sources it faces. An entry with per-point weights (a far PARTIAL leaf pair, accepted: every
+// pair faces) scales it by receiver i's own visibility weight.
 void Fmm::m2p_at(std::uint32_t i, std::int32_t ln, const Values& v, double acc[3],
                  double* work) const {
     const SurfelSoA& s = T_.s;
+    const bool weighted = !IL_.m2p_pw.empty();
+    const std::uint32_t at = i - T_.nodes[ln].begin;
     for (std::int64_t k = IL_.m2p_off[ln]; k < IL_.m2p_off[ln + 1]; ++k) {
         const std::int32_t sn = IL_.m2p_src[k];
         const OctreeNode& nsn = T_.nodes[sn];
-        if (!v.live[sn] || point_node_class(s, i, nsn) != 1) continue;
+        if (!v.live[sn]) continue;
+        const bool has_w = weighted && IL_.m2p_pw[k] >= 0;
+        const double w = has_w ? double(IL_.point_w[IL_.m2p_pw[k] + at]) : 1.0;
+        if (w == 0.0 || (!has_w && point_node_class(s, i, nsn) != 1)) continue;
         const double R[3] = {s.px[i] - nsn.center[0], s.py[i] - nsn.center[1],
                              s.pz[i] - nsn.center[2]};
         double lv[9];
         m2p(tables_, R, multipole(sn), lv, work);
-        for (int ch = 0; ch < 3; ++ch) acc[ch] -= receive(s, i, lv, ch);
+        for (int ch = 0; ch < 3; ++ch) acc[ch] -= w * receive(s, i, lv, ch);
     }
 }
 

@@ -83,6 +83,7 @@ void TransportOperator::build_fmm(Context& ctx) {
     TraversalOptions to;
     to.theta = opt_.theta;
     to.model = vis_.get();
+    to.scan = opt_.scan.size() == n_ ? opt_.scan.data() : nullptr;
     lists_ = std::make_unique<InteractionLists>(build_interaction_lists(ctx, *tree_, to));
     timings_["build_lists"] = seconds_since(t0);
     fmm_ = std::make_unique<Fmm>(*tree_, *lists_, opt_.order);

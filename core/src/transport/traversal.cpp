@@ -154,13 +154,19 @@ std::size_t InteractionLists::bytes() const {
                sizeof(std::int64_t) +
            (m2l_src.capacity() + p2p_src.capacity() + m2p_src.capacity() + p2l_src.capacity()) *
                sizeof(std::int32_t) +
-           (m2l_w.capacity() + p2p_w.capacity()) * sizeof(float) + blocks.capacity() +
-           p2p_blk.capacity() * sizeof(std::int64_t);
+           (m2l_w.capacity() + p2p_w.capacity() + point_w.capacity()) * sizeof(float) +
+           blocks.capacity() +
+           (p2p_blk.capacity() + m2p_pw.capacity() + p2l_pw.capacity()) * sizeof(std::int64_t);
 }
 
 namespace {
 
 struct Pair { std::int32_t t, s; };
+
+// V in [0, 1] as a block entry (kVisLevels steps, kernel.hpp).
+std::uint8_t quantised(float v) {
+    return std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * float(kVisLevels)));
+}
 
 struct Walker {
     const Octree& tree;
@@ -172,8 +178,11 @@ struct Walker {
     std::vector<float> m2l_w, p2p_w;
     std::vector<std::uint8_t> blk;
     std::vector<std::int64_t> p2p_blk;
+    // Per-point weights of far PARTIAL leaf pairs (local offsets into pw), parallel to m2p / p2l.
+    std::vector<std::int64_t> m2p_pw, p2l_pw;
+    std::vector<float> pw;
     std::vector<std::int64_t> vv, vi, vp;
-    std::int64_t nm2lw = 0, np2pw = 0, nblk = 0;
+    std::int64_t nm2lw = 0, np2pw = 0, nblk = 0, npw = 0;
     std::vector<float> tmp;
     const bool mutual;  // with a visibility model: visit each unordered pair once (step)
 
@@ -190,6 +199,14 @@ struct Walker {
             m2l_w.push_back(w);
             if (w != 1.0f) nm2lw++;
         }
+    }
+    void add_m2p(Pair pr, std::int64_t o) {
+        m2p.push_back(pr);
+        if (opt.model) m2p_pw.push_back(o);
+    }
+    void add_p2l(Pair pr, std::int64_t o) {
+        p2l.push_back(pr);
+        if (opt.model) p2l_pw.push_back(o);
     }
     void add_p2p(Pair pr, float w, std::int64_t b) {
         p2p.push_back(pr);
@@ -213,13 +230,24 @@ struct Walker {
         for (float v : tmp) all = all && v == 1.0f;
         if (all) return -1;
         const std::int64_t off = std::int64_t(blk.size());
-        auto q = [](float v) {
-            return std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * float(kVisLevels)));
-        };
-        for (float v : tmp) blk.push_back(q(v));
+        for (float v : tmp) blk.push_back(quantised(v));
         if (mirror)
             for (std::size_t j = 0; j < nb; ++j)
-                for (std::size_t i = 0; i < na; ++i) blk.push_back(q(tmp[i * nb + j]));
+                for (std::size_t i = 0; i < na; ++i) blk.push_back(quantised(tmp[i * nb + j]));
+        return off;
+    }
+
+    // The block of (a, b) (and, when `mirror`, of (b, a) after it) whose V_ij is w of the
+    // point of the weighted leaf (a's point i when `on_a`, else b's point j).
+    std::int64_t store_point_block(std::int32_t a, std::int32_t b, bool on_a, const float* w,
+                                   bool mirror) {
+        const std::size_t na = tree.nodes[a].count(), nb = tree.nodes[b].count();
+        const std::int64_t off = std::int64_t(blk.size());
+        for (std::size_t i = 0; i < na; ++i)
+            for (std::size_t j = 0; j < nb; ++j) blk.push_back(quantised(w[on_a ? i : j]));
+        if (mirror)
+            for (std::size_t j = 0; j < nb; ++j)
+                for (std::size_t i = 0; i < na; ++i) blk.push_back(quantised(w[on_a ? i : j]));
         return off;
     }
 
@@ -234,6 +262,8 @@ struct Walker {
     struct Weight {
         float w = 1.0f;
         std::int64_t b = -1;
+        std::int64_t pw = -1;  // offset into pw of the weighted leaf's per-point weights
+        bool on_t = true;      // ... which is the target t (else the source s)
     };
 
     // Classifies one pair; appends its children pairs to `out` when it must be split.
@@ -272,6 +302,14 @@ struct Walker {
         }
     }
 
+    // A point of a scan lies in node n (opt.scan).
+    bool holds_scan(const OctreeNode& n) const {
+        if (!opt.scan) return false;
+        for (std::uint32_t i = n.begin; i < n.end; ++i)
+            if (opt.scan[tree.perm[i]] != 0) return true;
+        return false;
+    }
+
     // The kernel's class k of a pair that produces an interaction, corrected by the model's
     // class of the pair: INVALID drops it, PARTIAL splits it or, for two leaves, weights it.
     PairClass with_visibility(Pair pr, PairClass k, Weight& wt) {
@@ -302,6 +340,25 @@ struct Walker {
             wt.b = store_block(pr.t, pr.s, mutual, &draws);
             return PairClass::Near;
         }
+        if (m.leaf_mode() == LeafMode::PerPair && (holds_scan(t) || holds_scan(s))) {
+            // A far leaf pair: the wider leaf's points each get their own fraction (a floor
+            // leaf of which one point sees through a hole must not lend that view to the
+            // rest); V_ij = w_i for i in it, both ways.
+            const bool on_t = t.radius >= s.radius;
+            const std::int32_t x = on_t ? pr.t : pr.s, y = on_t ? pr.s : pr.t;
+            const std::size_t nx = tree.nodes[x].count();
+            tmp.resize(nx);
+            m.point_fractions(x, y, frac, tmp.data());
+            npw++;
+            if (k == PairClass::Near) {
+                wt.b = store_point_block(pr.t, pr.s, on_t, tmp.data(), mutual);
+                return PairClass::Near;
+            }
+            wt.pw = std::int64_t(pw.size());
+            wt.on_t = on_t;
+            pw.insert(pw.end(), tmp.begin(), tmp.begin() + std::ptrdiff_t(nx));
+            return k;
+        }
         wt.w = frac;
         return k;
     }
@@ -318,18 +375,28 @@ struct Walker {
             case PairClass::Drop: drop[lev] += both; return;
             case PairClass::Accept:
                 acc[lev] += both;
+                if (wt.pw >= 0) {  // per-point weights: M2P for their leaf, P2L for the other
+                    if (wt.on_t) {
+                        add_m2p(pr, wt.pw);
+                        if (mutual) add_p2l(mr, wt.pw);
+                    } else {
+                        add_p2l(pr, wt.pw);
+                        if (mutual) add_m2p(mr, wt.pw);
+                    }
+                    return;
+                }
                 add_m2l(pr, wt.w);
                 if (mutual) add_m2l(mr, wt.w);
                 return;
             case PairClass::M2P:
                 acc[lev] += both;
-                m2p.push_back(pr);
-                if (mutual) p2l.push_back(mr);
+                add_m2p(pr, -1);
+                if (mutual) add_p2l(mr, -1);
                 return;
             case PairClass::P2L:
                 acc[lev] += both;
-                p2l.push_back(pr);
-                if (mutual) m2p.push_back(mr);
+                add_p2l(pr, -1);
+                if (mutual) add_m2p(mr, -1);
                 return;
             case PairClass::Near:
                 nearc[lev] += both;
@@ -523,14 +590,31 @@ InteractionLists build_interaction_lists(Context& ctx, const Octree& tree,
     }
     L.m2p_off = to_csr(nn, m2pparts, L.m2p_src);
     L.p2l_off = to_csr(nn, p2lparts, L.p2l_src);
+    if (opt.model) {  // per-point weights of far PARTIAL leaf pairs, in one store
+        std::vector<const std::vector<std::int64_t>*> mpw, ppw;
+        std::size_t total = 0;
+        for (auto& w : walkers) {
+            for (auto* v : {&w.m2p_pw, &w.p2l_pw})
+                for (auto& o : *v)
+                    if (o >= 0) o += std::int64_t(total);
+            total += w.pw.size();
+            mpw.push_back(&w.m2p_pw);
+            ppw.push_back(&w.p2l_pw);
+            L.vis_point_weighted += w.npw;
+        }
+        L.point_w.reserve(total);
+        for (auto& w : walkers) L.point_w.insert(L.point_w.end(), w.pw.begin(), w.pw.end());
+        csr_payload(nn, L.m2p_off, m2pparts, mpw, L.m2p_pw);
+        csr_payload(nn, L.p2l_off, p2lparts, ppw, L.p2l_pw);
+    }
     // Each target's sources in tree order (weights and block offsets carried along): the
     // applications then read source surfels in ascending addresses, the lists no longer depend
     // on how the walk was shared out, and a cluster's lists not on the rest of the tree.
     sort_by_source(ctx, tree, L.m2l_off, L.m2l_src, opt.model ? &L.m2l_w : nullptr, nullptr);
     sort_by_source(ctx, tree, L.p2p_off, L.p2p_src, opt.model ? &L.p2p_w : nullptr,
                    opt.model ? &L.p2p_blk : nullptr);
-    sort_by_source(ctx, tree, L.m2p_off, L.m2p_src, nullptr, nullptr);
-    sort_by_source(ctx, tree, L.p2l_off, L.p2l_src, nullptr, nullptr);
+    sort_by_source(ctx, tree, L.m2p_off, L.m2p_src, nullptr, opt.model ? &L.m2p_pw : nullptr);
+    sort_by_source(ctx, tree, L.p2l_off, L.p2l_src, nullptr, opt.model ? &L.p2l_pw : nullptr);
     L.m2p_pairs = std::int64_t(L.m2p_src.size());
     L.p2l_pairs = std::int64_t(L.p2l_src.size());
     L.m2l_pairs = std::int64_t(L.m2l_src.size());

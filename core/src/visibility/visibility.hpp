@@ -219,6 +219,14 @@ public:
     // Sampled mean of V over facing pairs (1 if none faces). Symmetric, thread-safe.
     virtual float fraction(std::int32_t a, std::int32_t b) const;
 
+    // Per point of node x: the sampled mean of V(i, j) over `samples` facing j in node y
+    // (all of y when |y| <= samples), out[i - x.begin]; `fallback` where i faces none drawn.
+    // One far PARTIAL leaf pair's fraction cannot follow a shadow edge across the wider leaf
+    // (a floor leaf of which one point sees through a hole): the traversal weights each of
+    // its points by its own. Deterministic per (x, y, seed); thread-safe.
+    virtual void point_fractions(std::int32_t x, std::int32_t y, float fallback,
+                                 float* out) const;
+
     // out[(i - a.begin) * |b| + (j - b.begin)] = V(i, j); pairs that do not face get 1 (the
     // kernel is zero there) without a query; pairs in `drawn` (a classify() of a and b) get
     // their kept answer without one. Thread-safe.
