@@ -349,6 +349,12 @@ struct Walker {
             const std::size_t nx = tree.nodes[x].count();
             tmp.resize(nx);
             m.point_fractions(x, y, frac, tmp.data());
+            const auto [lo, hi] = std::minmax_element(tmp.begin(), tmp.begin() + std::ptrdiff_t(nx));
+            if (*lo == *hi) {  // one weight for all (often 0 or 1): the pair's own, cheaper
+                if (*lo == 0.0f) return PairClass::Drop;
+                wt.w = *lo;
+                return k;
+            }
             npw++;
             if (k == PairClass::Near) {
                 wt.b = store_point_block(pr.t, pr.s, on_t, tmp.data(), mutual);
