@@ -214,6 +214,7 @@ std::map<std::string, double> TransportOperator::scalar_stats() const {
             s["visibility_m2l_weighted"] = double(lists_->vis_m2l_weighted);
             s["visibility_p2p_weighted"] = double(lists_->vis_p2p_weighted);
             s["visibility_p2p_blocks"] = double(lists_->vis_p2p_blocks);
+            s["visibility_point_weighted"] = double(lists_->vis_point_weighted);
             s["visibility_block_bytes"] = double(lists_->blocks.capacity());
         }
         if (vis_direct_) {

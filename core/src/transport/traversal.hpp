@@ -44,8 +44,9 @@ struct InteractionLists {
     std::vector<float> m2l_w, p2p_w;
     std::vector<std::int64_t> p2p_blk;
     std::vector<std::uint8_t> blocks;
-    // A PARTIAL far leaf pair (LeafMode::PerPair, MAC holds) gets a visibility fraction per
-    // point of its wider leaf X against the other leaf Y (VisibilityModel::point_fractions):
+    // A PARTIAL far leaf pair with a scan's point (LeafMode::PerPair, MAC holds,
+    // TraversalOptions::scan) gets a visibility fraction per point of its wider leaf X
+    // against the other leaf Y (VisibilityModel::point_fractions; equal ones collapse to one):
     // V_ij = w_i for i in X, both ways (reciprocal). An accepted pair goes to M2P for X's
     // points and to P2L for Y (X's points as sources); m2p_pw / p2l_pw, parallel to m2p_src /
     // p2l_src, hold the offset into `point_w` of X's weights, or -1 (unweighted). A near one

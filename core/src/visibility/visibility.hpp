@@ -32,6 +32,8 @@
 //        PerPair: block(t, s) if the MAC fails (true near field), fraction(t, s) if the MAC
 //                 holds (a far leaf pair the kernel would have accepted);
 //        PerPairAll: block(t, s) always (the far pair moves from M2L to P2P);
+//                 (a far pair with a scan's point: point_fractions() of its wider leaf,
+//                 V_ij = w_i both ways, through M2P / P2L or P2P rows; traversal.hpp)
 //        Fractional: fraction(t, s);   Binary (the talk): never PARTIAL.
 //      A NEAR pair of two leaves can get class and fraction in one pass: classify_fraction().
 //      P2P then weights pair (i, j) by 1, fraction, or block[i][j].
