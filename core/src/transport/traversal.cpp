@@ -213,9 +213,10 @@ struct Walker {
             return PairClass::Near;
         }
         if (m.leaf_mode() == LeafMode::PerPair && (holds_scan(t) || holds_scan(s))) {
-            // A far leaf pair: the wider leaf's points each get their own fraction (a floor
-            // leaf of which one point sees through a hole must not lend that view to the
-            // rest); V_ij = w_i for i in it, both ways.
+            // A far leaf pair with a scan's point (TraversalOptions::scan): the wider leaf's
+            // points each get their own fraction (a floor leaf of which one point sees a
+            // scan's lit inside through a hole must not lend that view to the rest);
+            // V_ij = w_i for i in it, both ways (reciprocal).
             const bool on_t = t.radius >= s.radius;
             const std::int32_t x = on_t ? pr.t : pr.s, y = on_t ? pr.s : pr.t;
             const std::size_t nx = tree.nodes[x].count();
