@@ -248,7 +248,9 @@ class TransportOperator:
         once, small N only); ``apply_rows`` always applies V per pair.
     visibility_leaf_mode : "per_pair" | "per_pair_all" | "fractional" | "binary"
         What a partial leaf pair gets: per-pair V in the near field and the sampled fraction
-        far away (default); per-pair V everywhere ("per_pair_all": far partial leaf pairs move
+        far away (default; a far pair with a point of a scan, ``scan_surfels``, takes a
+        sampled fraction per point of its wider leaf instead, so that one point's view
+        through a hole is not lent to the whole leaf); per-pair V everywhere ("per_pair_all": far partial leaf pairs move
         from M2L to the near field, so shadow edges inside a leaf are kept, at the cost of
         |t|·|s| rays and 1 byte each per such pair); the fraction everywhere; or all-or-nothing
         (the talk).

@@ -49,6 +49,10 @@ struct Fmm::NearSources {
     std::vector<double> plain_buf, blocked_buf;
     std::vector<std::uint8_t> vrows;  // V of the blocked set, receiver-major (row r: receiver r)
     SourceView plain{}, blocked{};
+    // The leaf's per-point weighted far pairs: a local expansion each (W doubles) and the
+    // offset of its receivers' weights in InteractionLists::point_w.
+    std::vector<double> pair_locals;
+    std::vector<std::int64_t> pair_weights;
 };
 
 Fmm::Fmm(const Octree& tree, const InteractionLists& lists, int order)
@@ -252,13 +256,30 @@ void Fmm::m2l_into(std::int32_t tn, const Values& v, double* L, double* work,
     }
 }
 
-// P2L: the facing points of source leaves straight into node tn's local expansion L.
+// P2L: the facing points of source leaves straight into node tn's local expansion L. An
+// entry with per-point weights (a far PARTIAL leaf pair, accepted: every pair faces) scales
+// each source point by its own visibility weight (a weighted multipole and M2L).
 void Fmm::p2l_into(std::int32_t tn, const Values& v, double* L, double* work) const {
     const OctreeNode& nt = T_.nodes[tn];
     const SurfelSoA& s = T_.s;
+    const bool weighted = !IL_.p2l_pw.empty();
     for (std::int64_t k = IL_.p2l_off[tn]; k < IL_.p2l_off[tn + 1]; ++k) {
         if (!v.live[IL_.p2l_src[k]]) continue;
         const OctreeNode& ns = T_.nodes[IL_.p2l_src[k]];
+        if (weighted && IL_.p2l_pw[k] >= 0) {
+            // Every pair faces (accepted): the source leaf's multipole with each point's area
+            // scaled by its weight, then one M2L.
+            const float* pw = &IL_.point_w[IL_.p2l_pw[k]];
+            const std::size_t o = ns.begin, cnt = ns.count();
+            std::vector<double> wa(cnt), M(W_, 0.0);
+            for (std::size_t q = 0; q < cnt; ++q) wa[q] = double(pw[q]) * s.area[o + q];
+            p2m(tables_, ns.center, &s.px[o], &s.py[o], &s.pz[o], &s.nx[o], &s.ny[o], &s.nz[o],
+                wa.data(), &v.xt[3 * o], cnt, M.data(), work);
+            const double R[3] = {nt.center[0] - ns.center[0], nt.center[1] - ns.center[1],
+                                 nt.center[2] - ns.center[2]};
+            m2l(tables_, R, M.data(), L, work);
+            continue;
+        }
         for (std::uint32_t j = ns.begin; j < ns.end; ++j) {
             if (point_node_class(s, j, nt) != 1) continue;
             const double R[3] = {nt.center[0] - s.px[j], nt.center[1] - s.py[j],
@@ -323,11 +344,13 @@ void Fmm::evaluate_leaf(std::int32_t ln, const Values& v, double* yt, NearSource
         p2l_into(ln, v, local, work);
     }
     gather_near(ln, v, near);
+    weighted_locals(ln, v, near, work);
     const std::size_t nb = near.blocked.n;
     for (std::uint32_t i = nd.begin; i < nd.end; ++i) {
         double acc[3] = {0, 0, 0};
         if (loc) l2p_at(i, nd, local, acc, work);
         m2p_at(i, ln, v, acc, work);
+        if (!near.pair_weights.empty()) weighted_at(i, nd, near, acc, work);
         const Receiver rc{T_.s.px[i], T_.s.py[i], T_.s.pz[i], T_.s.nx[i],
                           T_.s.ny[i], T_.s.nz[i], T_.s.area[i]};
         if (near.plain.n) accumulate_sources(rc, near.plain, acc);
@@ -350,19 +373,56 @@ void Fmm::l2p_at(std::uint32_t i, const OctreeNode& leaf, const double* local, d
 }
 
 // acc -= M2P: the source multipoles of leaf ln's M2P list evaluated at receiver i, for the
-// sources it faces.
+// sources it faces. An entry with per-point weights (a far PARTIAL leaf pair, accepted: every
+// pair faces) scales it by receiver i's own visibility weight.
 void Fmm::m2p_at(std::uint32_t i, std::int32_t ln, const Values& v, double acc[3],
                  double* work) const {
     const SurfelSoA& s = T_.s;
+    const bool weighted = !IL_.m2p_pw.empty();
     for (std::int64_t k = IL_.m2p_off[ln]; k < IL_.m2p_off[ln + 1]; ++k) {
         const std::int32_t sn = IL_.m2p_src[k];
         const OctreeNode& nsn = T_.nodes[sn];
-        if (!v.live[sn] || point_node_class(s, i, nsn) != 1) continue;
+        if ((weighted && IL_.m2p_pw[k] >= 0) || !v.live[sn] || point_node_class(s, i, nsn) != 1)
+            continue;
         const double R[3] = {s.px[i] - nsn.center[0], s.py[i] - nsn.center[1],
                              s.pz[i] - nsn.center[2]};
         double lv[9];
         m2p(tables_, R, multipole(sn), lv, work);
         for (int ch = 0; ch < 3; ++ch) acc[ch] -= receive(s, i, lv, ch);
+    }
+}
+
+void Fmm::weighted_locals(std::int32_t ln, const Values& v, NearSources& near,
+                          double* work) const {
+    near.pair_locals.clear();
+    near.pair_weights.clear();
+    if (IL_.m2p_pw.empty()) return;
+    const OctreeNode& nd = T_.nodes[ln];
+    for (std::int64_t k = IL_.m2p_off[ln]; k < IL_.m2p_off[ln + 1]; ++k) {
+        const std::int32_t sn = IL_.m2p_src[k];
+        if (IL_.m2p_pw[k] < 0 || !v.live[sn]) continue;
+        const OctreeNode& ns = T_.nodes[sn];
+        const std::size_t at = near.pair_locals.size();
+        near.pair_locals.resize(at + W_, 0.0);
+        const double R[3] = {nd.center[0] - ns.center[0], nd.center[1] - ns.center[1],
+                             nd.center[2] - ns.center[2]};
+        m2l(tables_, R, multipole(sn), &near.pair_locals[at], work);
+        near.pair_weights.push_back(IL_.m2p_pw[k]);
+    }
+}
+
+// acc -= the weighted far pairs' locals at receiver i, each scaled by i's weight.
+void Fmm::weighted_at(std::uint32_t i, const OctreeNode& leaf, const NearSources& near,
+                      double acc[3], double* work) const {
+    const SurfelSoA& s = T_.s;
+    const double yv[3] = {s.px[i] - leaf.center[0], s.py[i] - leaf.center[1],
+                          s.pz[i] - leaf.center[2]};
+    for (std::size_t e = 0; e < near.pair_weights.size(); ++e) {
+        const double w = IL_.point_w[near.pair_weights[e] + (i - leaf.begin)];
+        if (w == 0.0) continue;
+        double lv[9];
+        l2p(tables_, yv, &near.pair_locals[e * W_], lv, work);
+        for (int ch = 0; ch < 3; ++ch) acc[ch] -= w * receive(s, i, lv, ch);
     }
 }
 

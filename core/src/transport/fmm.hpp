@@ -64,6 +64,12 @@ private:
                 double* work) const;
     void m2p_at(std::uint32_t i, std::int32_t ln, const Values& v, double acc[3],
                 double* work) const;
+    // Per-point weighted far pairs of leaf ln as receivers (InteractionLists::m2p_pw): one
+    // local expansion per entry at the leaf's centre (M2L), then L2P scaled by each
+    // receiver's weight (cheaper than M2P at every receiver).
+    void weighted_locals(std::int32_t ln, const Values& v, NearSources& near, double* work) const;
+    void weighted_at(std::uint32_t i, const OctreeNode& leaf, const NearSources& near,
+                     double acc[3], double* work) const;
 
     double* multipole(std::int32_t node) { return &multipoles_[std::size_t(mslot_[node]) * W_]; }
     const double* multipole(std::int32_t node) const {

@@ -83,6 +83,7 @@ void TransportOperator::build_fmm(Context& ctx) {
     TraversalOptions to;
     to.theta = opt_.theta;
     to.model = vis_.get();
+    to.scan = opt_.scan.size() == n_ ? opt_.scan.data() : nullptr;
     lists_ = std::make_unique<InteractionLists>(build_interaction_lists(ctx, *tree_, to));
     timings_["build_lists"] = seconds_since(t0);
     fmm_ = std::make_unique<Fmm>(*tree_, *lists_, opt_.order);
@@ -213,6 +214,7 @@ std::map<std::string, double> TransportOperator::scalar_stats() const {
             s["visibility_m2l_weighted"] = double(lists_->vis_m2l_weighted);
             s["visibility_p2p_weighted"] = double(lists_->vis_p2p_weighted);
             s["visibility_p2p_blocks"] = double(lists_->vis_p2p_blocks);
+            s["visibility_point_weighted"] = double(lists_->vis_point_weighted);
             s["visibility_block_bytes"] = double(lists_->blocks.capacity());
         }
         if (vis_direct_) {

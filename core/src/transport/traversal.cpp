@@ -1,5 +1,5 @@
-// traversal.cpp — pair classification (facing: cone and slab bounds) and the parallel
-// dual-tree walk that fills the per-target M2L and P2P lists.
+// traversal.cpp — the parallel dual-tree walk that fills the per-target interaction lists
+// (the kernel's class of a pair: pair_classes.cpp).
 #include "transport/traversal.hpp"
 
 #include <algorithm>
@@ -8,8 +8,6 @@
 namespace illumap {
 
 namespace {
-// Relative round-off allowed in the facing bounds.
-constexpr double kRoundOff = 1e-12;
 // The walk is shared out once the breadth-first frontier holds this many pairs per thread
 // (or, after one more level, over kFrontierOvershoot times that), in kChunksPerThread chunks
 // per thread (one Walker each). With visibility one top pair can hold a large share of the
@@ -23,144 +21,24 @@ constexpr std::size_t kChunksPerThread = 32;
 constexpr std::size_t kSortGrain = 1024;
 }  // namespace
 
-Facing facing_bound(const OctreeNode& o, const OctreeNode& q) {
-    // D = c_q - c_o; r_j - r_i = D + u_j - v_i with |u_j| <= rho_q, |v_i| <= rho_o.
-    const double D[3] = {q.center[0] - o.center[0], q.center[1] - o.center[1],
-                         q.center[2] - o.center[2]};
-    const double dist = std::sqrt(D[0] * D[0] + D[1] * D[1] + D[2] * D[2]);
-    const double reach = dist + o.radius + q.radius;  // bound on |r_j - r_i|
-    const double tol = kRoundOff * reach;             // round-off in the bounds below
-    const double* a = o.axis;
-    const double aD = a[0] * D[0] + a[1] * D[1] + a[2] * D[2];
-
-    // Slab test: n_i = a + (n_i - a), |n_i - a| <= chord_o.
-    //   a.(r_j - r_i) = a.D + a.u_j - a.v_i; a.v_i in o's own slab; a.u_j in q's slab along
-    //   its own axis widened by |a - a_q| rho_q (and never beyond +-rho_q).
-    const double dax = a[0] - q.axis[0], day = a[1] - q.axis[1], daz = a[2] - q.axis[2];
-    const double widen = std::sqrt(dax * dax + day * day + daz * daz) * q.radius;
-    // ... and within q's box: support function of the box along a.
-    const double boxq = std::fabs(a[0]) * q.half[0] + std::fabs(a[1]) * q.half[1] +
-                        std::fabs(a[2]) * q.half[2];
-    const double qlo = std::max({-q.radius, -boxq, q.slab_lo - widen});
-    const double qhi = std::min({q.radius, boxq, q.slab_hi + widen});
-    const double err = o.cone_chord * reach;
-    const double hi = aD + qhi - o.slab_lo + err;
-    const double lo = aD + qlo - o.slab_hi - err;
-    Facing f{lo >= -tol, hi <= tol};
-
-    // Cone test: every direction r_j - r_i lies within beta of D, every n_i within alpha of a.
-    const double sep = o.radius + q.radius;
-    if (dist > sep && o.cone_angle < kPi) {
-        const double beta = std::asin(sep / dist);
-        const double gamma = std::acos(std::clamp(aD / dist, -1.0, 1.0));
-        if (gamma + o.cone_angle + beta < 0.5 * kPi) f.all_pos = true;
-        if (gamma - o.cone_angle - beta > 0.5 * kPi) f.none_pos = true;
-    }
-    return f;
-}
-
-Facing facing_points(const SurfelSoA& s, const OctreeNode& o, const OctreeNode& q) {
-    Facing f{true, true};
-    for (std::uint32_t i = o.begin; i < o.end && (f.all_pos || f.none_pos); ++i) {
-        const double n[3] = {s.nx[i], s.ny[i], s.nz[i]};
-        const double D[3] = {q.center[0] - s.px[i], q.center[1] - s.py[i], q.center[2] - s.pz[i]};
-        const double g = n[0] * D[0] + n[1] * D[1] + n[2] * D[2];
-        // n.(r_j - c_q) is within the support of q's box (and of its sphere)
-        const double sup = std::min(q.radius, std::fabs(n[0]) * q.half[0] +
-                                                  std::fabs(n[1]) * q.half[1] +
-                                                  std::fabs(n[2]) * q.half[2]);
-        const double tol = kRoundOff * (std::sqrt(D[0] * D[0] + D[1] * D[1] + D[2] * D[2]) + q.radius);
-        if (g - sup < -tol) f.all_pos = false;
-        if (g + sup > tol) f.none_pos = false;
-    }
-    return f;
-}
-
-namespace {
-// Node bounds first; a leaf's own points when they do not settle it.
-Facing facing(const SurfelSoA& s, const OctreeNode& o, const OctreeNode& q) {
-    Facing f = facing_bound(o, q);
-    if (!f.all_pos && !f.none_pos && o.leaf()) f = facing_points(s, o, q);
-    return f;
-}
-}  // namespace
-
-int point_node_class(const SurfelSoA& s, std::uint32_t i, const OctreeNode& q) {
-    OctreeNode p;  // the surfel as a node of one point
-    p.begin = i;
-    p.end = i + 1;
-    p.center[0] = s.px[i]; p.center[1] = s.py[i]; p.center[2] = s.pz[i];
-    p.axis[0] = s.nx[i]; p.axis[1] = s.ny[i]; p.axis[2] = s.nz[i];
-    p.amax = s.area[i];
-    const Facing a = facing(s, p, q);  // its normal against q's points
-    if (a.none_pos) return 0;
-    const Facing b = facing(s, q, p);  // q's normals against it
-    if (b.none_pos) return 0;
-    return (a.all_pos && b.all_pos) ? 1 : -1;
-}
-
-namespace {
-// Every point of o is decided (all or nothing) against q.
-bool points_decided(const SurfelSoA& s, const OctreeNode& o, const OctreeNode& q) {
-    for (std::uint32_t i = o.begin; i < o.end; ++i)
-        if (point_node_class(s, i, q) < 0) return false;
-    return true;
-}
-}  // namespace
-
-bool mac_holds(const OctreeNode& t, const OctreeNode& s, double theta) {
-    const double R[3] = {t.center[0] - s.center[0], t.center[1] - s.center[1],
-                         t.center[2] - s.center[2]};
-    const double dist = std::sqrt(R[0] * R[0] + R[1] * R[1] + R[2] * R[2]);
-    const double sep = t.radius + s.radius;
-    const double rmin = dist - sep;
-    // Strongly coupled pairs (π r² ≤ 2 t0 Ā somewhere in them) are summed directly: their
-    // large terms would otherwise carry the expansion's relative error.
-    const bool well_separated =
-        rmin > 0 && kPi * rmin * rmin > 2.0 * kT0 * 0.5 * (t.amax + s.amax);
-    return sep < theta * dist && well_separated;
-}
-
-PairClass classify(const SurfelSoA& surf, const OctreeNode& t, const OctreeNode& s,
-                   const TraversalOptions& opt) {
-    const Facing rt = facing(surf, t, s);  // receivers in t facing sources in s
-    if (rt.none_pos) return PairClass::Drop;
-    const Facing rs = facing(surf, s, t);  // sources in s facing receivers in t
-    if (rs.none_pos) return PairClass::Drop;
-    if (mac_holds(t, s, opt.theta)) {
-        if (rt.all_pos && rs.all_pos) return PairClass::Accept;
-        // Mixed facing. If only the receivers' test is mixed, the source straddles the
-        // target's tangent plane: refine the source down to leaves and hand each of their
-        // points to the (large) target by P2L. Mirror case: refine the target, then M2P.
-        // (Refining the other side would never resolve it and would end in P2P against
-        // every leaf of that side.) For two leaves, P2P is cheaper than per-point expansions.
-        if (!rt.all_pos && rs.all_pos) {
-            if (!s.leaf()) return PairClass::SplitS;
-            if (!t.leaf() && points_decided(surf, s, t)) return PairClass::P2L;
-        } else if (rt.all_pos && !rs.all_pos) {
-            if (!t.leaf()) return PairClass::SplitT;
-            if (!s.leaf() && points_decided(surf, t, s)) return PairClass::M2P;
-        } else {
-            if (t.leaf() && !s.leaf() && points_decided(surf, t, s)) return PairClass::M2P;
-            if (s.leaf() && !t.leaf() && points_decided(surf, s, t)) return PairClass::P2L;
-        }
-    }
-    if (t.leaf() && s.leaf()) return PairClass::Near;
-    return PairClass::Split;
-}
-
 std::size_t InteractionLists::bytes() const {
     return (m2l_off.capacity() + p2p_off.capacity() + m2p_off.capacity() + p2l_off.capacity()) *
                sizeof(std::int64_t) +
            (m2l_src.capacity() + p2p_src.capacity() + m2p_src.capacity() + p2l_src.capacity()) *
                sizeof(std::int32_t) +
-           (m2l_w.capacity() + p2p_w.capacity()) * sizeof(float) + blocks.capacity() +
-           p2p_blk.capacity() * sizeof(std::int64_t);
+           (m2l_w.capacity() + p2p_w.capacity() + point_w.capacity()) * sizeof(float) +
+           blocks.capacity() +
+           (p2p_blk.capacity() + m2p_pw.capacity() + p2l_pw.capacity()) * sizeof(std::int64_t);
 }
 
 namespace {
 
 struct Pair { std::int32_t t, s; };
+
+// V in [0, 1] as a block entry (kVisLevels steps, kernel.hpp).
+std::uint8_t quantised(float v) {
+    return std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * float(kVisLevels)));
+}
 
 struct Walker {
     const Octree& tree;
@@ -172,8 +50,11 @@ struct Walker {
     std::vector<float> m2l_w, p2p_w;
     std::vector<std::uint8_t> blk;
     std::vector<std::int64_t> p2p_blk;
+    // Per-point weights of far PARTIAL leaf pairs (local offsets into pw), parallel to m2p / p2l.
+    std::vector<std::int64_t> m2p_pw, p2l_pw;
+    std::vector<float> pw;
     std::vector<std::int64_t> vv, vi, vp;
-    std::int64_t nm2lw = 0, np2pw = 0, nblk = 0;
+    std::int64_t nm2lw = 0, np2pw = 0, nblk = 0, npw = 0;
     std::vector<float> tmp;
     const bool mutual;  // with a visibility model: visit each unordered pair once (step)
 
@@ -190,6 +71,14 @@ struct Walker {
             m2l_w.push_back(w);
             if (w != 1.0f) nm2lw++;
         }
+    }
+    void add_m2p(Pair pr, std::int64_t o) {
+        m2p.push_back(pr);
+        if (opt.model) m2p_pw.push_back(o);
+    }
+    void add_p2l(Pair pr, std::int64_t o) {
+        p2l.push_back(pr);
+        if (opt.model) p2l_pw.push_back(o);
     }
     void add_p2p(Pair pr, float w, std::int64_t b) {
         p2p.push_back(pr);
@@ -213,13 +102,24 @@ struct Walker {
         for (float v : tmp) all = all && v == 1.0f;
         if (all) return -1;
         const std::int64_t off = std::int64_t(blk.size());
-        auto q = [](float v) {
-            return std::uint8_t(std::lround(std::clamp(v, 0.0f, 1.0f) * float(kVisLevels)));
-        };
-        for (float v : tmp) blk.push_back(q(v));
+        for (float v : tmp) blk.push_back(quantised(v));
         if (mirror)
             for (std::size_t j = 0; j < nb; ++j)
-                for (std::size_t i = 0; i < na; ++i) blk.push_back(q(tmp[i * nb + j]));
+                for (std::size_t i = 0; i < na; ++i) blk.push_back(quantised(tmp[i * nb + j]));
+        return off;
+    }
+
+    // The block of (a, b) (and, when `mirror`, of (b, a) after it) whose V_ij is w of the
+    // point of the weighted leaf (a's point i when `on_a`, else b's point j).
+    std::int64_t store_point_block(std::int32_t a, std::int32_t b, bool on_a, const float* w,
+                                   bool mirror) {
+        const std::size_t na = tree.nodes[a].count(), nb = tree.nodes[b].count();
+        const std::int64_t off = std::int64_t(blk.size());
+        for (std::size_t i = 0; i < na; ++i)
+            for (std::size_t j = 0; j < nb; ++j) blk.push_back(quantised(w[on_a ? i : j]));
+        if (mirror)
+            for (std::size_t j = 0; j < nb; ++j)
+                for (std::size_t i = 0; i < na; ++i) blk.push_back(quantised(w[on_a ? i : j]));
         return off;
     }
 
@@ -234,6 +134,8 @@ struct Walker {
     struct Weight {
         float w = 1.0f;
         std::int64_t b = -1;
+        std::int64_t pw = -1;  // offset into pw of the weighted leaf's per-point weights
+        bool on_t = true;      // ... which is the target t (else the source s)
     };
 
     // Classifies one pair; appends its children pairs to `out` when it must be split.
@@ -272,6 +174,14 @@ struct Walker {
         }
     }
 
+    // A point of a scan lies in node n (opt.scan).
+    bool holds_scan(const OctreeNode& n) const {
+        if (!opt.scan) return false;
+        for (std::uint32_t i = n.begin; i < n.end; ++i)
+            if (opt.scan[tree.perm[i]] != 0) return true;
+        return false;
+    }
+
     // The kernel's class k of a pair that produces an interaction, corrected by the model's
     // class of the pair: INVALID drops it, PARTIAL splits it or, for two leaves, weights it.
     PairClass with_visibility(Pair pr, PairClass k, Weight& wt) {
@@ -302,6 +212,32 @@ struct Walker {
             wt.b = store_block(pr.t, pr.s, mutual, &draws);
             return PairClass::Near;
         }
+        if (m.leaf_mode() == LeafMode::PerPair && (holds_scan(t) || holds_scan(s))) {
+            // A far leaf pair with a scan's point (TraversalOptions::scan): the wider leaf's
+            // points each get their own fraction (a floor leaf of which one point sees a
+            // scan's lit inside through a hole must not lend that view to the rest);
+            // V_ij = w_i for i in it, both ways (reciprocal).
+            const bool on_t = t.radius >= s.radius;
+            const std::int32_t x = on_t ? pr.t : pr.s, y = on_t ? pr.s : pr.t;
+            const std::size_t nx = tree.nodes[x].count();
+            tmp.resize(nx);
+            m.point_fractions(x, y, frac, tmp.data());
+            const auto [lo, hi] = std::minmax_element(tmp.begin(), tmp.begin() + std::ptrdiff_t(nx));
+            if (*lo == *hi) {  // one weight for all (often 0 or 1): the pair's own, cheaper
+                if (*lo == 0.0f) return PairClass::Drop;
+                wt.w = *lo;
+                return k;
+            }
+            npw++;
+            if (k == PairClass::Near) {
+                wt.b = store_point_block(pr.t, pr.s, on_t, tmp.data(), mutual);
+                return PairClass::Near;
+            }
+            wt.pw = std::int64_t(pw.size());
+            wt.on_t = on_t;
+            pw.insert(pw.end(), tmp.begin(), tmp.begin() + std::ptrdiff_t(nx));
+            return k;
+        }
         wt.w = frac;
         return k;
     }
@@ -318,18 +254,28 @@ struct Walker {
             case PairClass::Drop: drop[lev] += both; return;
             case PairClass::Accept:
                 acc[lev] += both;
+                if (wt.pw >= 0) {  // per-point weights: M2P for their leaf, P2L for the other
+                    if (wt.on_t) {
+                        add_m2p(pr, wt.pw);
+                        if (mutual) add_p2l(mr, wt.pw);
+                    } else {
+                        add_p2l(pr, wt.pw);
+                        if (mutual) add_m2p(mr, wt.pw);
+                    }
+                    return;
+                }
                 add_m2l(pr, wt.w);
                 if (mutual) add_m2l(mr, wt.w);
                 return;
             case PairClass::M2P:
                 acc[lev] += both;
-                m2p.push_back(pr);
-                if (mutual) p2l.push_back(mr);
+                add_m2p(pr, -1);
+                if (mutual) add_p2l(mr, -1);
                 return;
             case PairClass::P2L:
                 acc[lev] += both;
-                p2l.push_back(pr);
-                if (mutual) m2p.push_back(mr);
+                add_p2l(pr, -1);
+                if (mutual) add_m2p(mr, -1);
                 return;
             case PairClass::Near:
                 nearc[lev] += both;
@@ -523,14 +469,31 @@ InteractionLists build_interaction_lists(Context& ctx, const Octree& tree,
     }
     L.m2p_off = to_csr(nn, m2pparts, L.m2p_src);
     L.p2l_off = to_csr(nn, p2lparts, L.p2l_src);
+    if (opt.model) {  // per-point weights of far PARTIAL leaf pairs, in one store
+        std::vector<const std::vector<std::int64_t>*> mpw, ppw;
+        std::size_t total = 0;
+        for (auto& w : walkers) {
+            for (auto* v : {&w.m2p_pw, &w.p2l_pw})
+                for (auto& o : *v)
+                    if (o >= 0) o += std::int64_t(total);
+            total += w.pw.size();
+            mpw.push_back(&w.m2p_pw);
+            ppw.push_back(&w.p2l_pw);
+            L.vis_point_weighted += w.npw;
+        }
+        L.point_w.reserve(total);
+        for (auto& w : walkers) L.point_w.insert(L.point_w.end(), w.pw.begin(), w.pw.end());
+        csr_payload(nn, L.m2p_off, m2pparts, mpw, L.m2p_pw);
+        csr_payload(nn, L.p2l_off, p2lparts, ppw, L.p2l_pw);
+    }
     // Each target's sources in tree order (weights and block offsets carried along): the
     // applications then read source surfels in ascending addresses, the lists no longer depend
     // on how the walk was shared out, and a cluster's lists not on the rest of the tree.
     sort_by_source(ctx, tree, L.m2l_off, L.m2l_src, opt.model ? &L.m2l_w : nullptr, nullptr);
     sort_by_source(ctx, tree, L.p2p_off, L.p2p_src, opt.model ? &L.p2p_w : nullptr,
                    opt.model ? &L.p2p_blk : nullptr);
-    sort_by_source(ctx, tree, L.m2p_off, L.m2p_src, nullptr, nullptr);
-    sort_by_source(ctx, tree, L.p2l_off, L.p2l_src, nullptr, nullptr);
+    sort_by_source(ctx, tree, L.m2p_off, L.m2p_src, nullptr, opt.model ? &L.m2p_pw : nullptr);
+    sort_by_source(ctx, tree, L.p2l_off, L.p2l_src, nullptr, opt.model ? &L.p2l_pw : nullptr);
     L.m2p_pairs = std::int64_t(L.m2p_src.size());
     L.p2l_pairs = std::int64_t(L.p2l_src.size());
     L.m2l_pairs = std::int64_t(L.m2l_src.size());

@@ -44,7 +44,17 @@ struct InteractionLists {
     std::vector<float> m2l_w, p2p_w;
     std::vector<std::int64_t> p2p_blk;
     std::vector<std::uint8_t> blocks;
-    std::int64_t vis_m2l_weighted = 0, vis_p2p_weighted = 0, vis_p2p_blocks = 0;
+    // A PARTIAL far leaf pair with a scan's point (LeafMode::PerPair, MAC holds,
+    // TraversalOptions::scan) gets a visibility fraction per point of its wider leaf X
+    // against the other leaf Y (VisibilityModel::point_fractions; equal ones collapse to one):
+    // V_ij = w_i for i in X, both ways (reciprocal). An accepted pair goes to M2P for X's
+    // points and to P2L for Y (X's points as sources); m2p_pw / p2l_pw, parallel to m2p_src /
+    // p2l_src, hold the offset into `point_w` of X's weights, or -1 (unweighted). A near one
+    // keeps P2P with a block of those rows.
+    std::vector<std::int64_t> m2p_pw, p2l_pw;
+    std::vector<float> point_w;
+    std::int64_t vis_m2l_weighted = 0, vis_p2p_weighted = 0, vis_p2p_blocks = 0,
+                 vis_point_weighted = 0;
     // Visibility classes of the node pairs the traversal queried, per level [valid, invalid,
     // partial] (ordered pairs: (t, s) and (s, t) both count).
     std::vector<std::int64_t> vis_valid_per_level, vis_invalid_per_level, vis_partial_per_level;
@@ -60,6 +70,13 @@ struct TraversalOptions {
     // radius ties in the split rule are broken by node_before so the lists of (t, s) and (s, t)
     // mirror each other (V symmetric: diag(A) F V stays symmetric).
     const VisibilityModel* model = nullptr;
+    // Per surfel in the caller's order (tree.perm maps), the scan it is a point of (0: a
+    // mesh's), or nullptr. A far PARTIAL leaf pair with a scan's point in either leaf gets
+    // per-point fractions (InteractionLists::point_w) in LeafMode::PerPair: a scan's points
+    // are two-sided, its inside is lit through its holes and gaps, and one fraction per pair
+    // lent a floor leaf's view of it through a hole in the base to the whole leaf. Elsewhere
+    // one fraction per pair, as before (per point cost 7x the rays on Cornell 300k).
+    const std::uint32_t* scan = nullptr;
 };
 
 // Facing certificate for "owner" node o (whose normals are tested) against node q:

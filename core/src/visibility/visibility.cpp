@@ -172,6 +172,32 @@ float VisibilityModel::fraction(std::int32_t a, std::int32_t b) const {
     return n ? float(sum / n) : 1.0f;
 }
 
+void VisibilityModel::point_fractions(std::int32_t x, std::int32_t y, float fallback,
+                                      float* out) const {
+    const OctreeNode &X = tree_.nodes[x], &Y = tree_.nodes[y];
+    const int m = std::max(1, opt_.samples);
+    const std::uint64_t ny = Y.count();
+    const std::uint64_t base = pair_stream(opt_.seed ^ 0x5bd1e9955bd1e995ULL, X, Y);
+    for (std::uint32_t i = X.begin; i < X.end; ++i) {
+        double sum = 0;
+        int n = 0;
+        if (ny <= std::uint64_t(m)) {
+            for (std::uint32_t j = Y.begin; j < Y.end; ++j)
+                if (j != i && vis_facing(tree_.s, i, j)) { sum += pair(i, j); n++; }
+        } else {
+            std::uint64_t st = vis_mix(base ^ (std::uint64_t(i - X.begin) + 1));
+            for (int t = 0; t < kDrawsPerSample * m && n < m; ++t) {
+                st = vis_mix(st);
+                const std::uint32_t j = Y.begin + std::uint32_t((st >> 32) * ny >> 32);
+                if (j == i || !vis_facing(tree_.s, i, j)) continue;
+                sum += pair(i, j);
+                n++;
+            }
+        }
+        out[i - X.begin] = n ? float(sum / n) : fallback;
+    }
+}
+
 void VisibilityModel::block(std::int32_t a, std::int32_t b, float* out,
                             const DrawMemo* drawn) const {
     const OctreeNode &A = tree_.nodes[a], &B = tree_.nodes[b];

@@ -32,6 +32,8 @@
 //        PerPair: block(t, s) if the MAC fails (true near field), fraction(t, s) if the MAC
 //                 holds (a far leaf pair the kernel would have accepted);
 //        PerPairAll: block(t, s) always (the far pair moves from M2L to P2P);
+//                 (a far pair with a scan's point: point_fractions() of its wider leaf,
+//                 V_ij = w_i both ways, through M2P / P2L or P2P rows; traversal.hpp)
 //        Fractional: fraction(t, s);   Binary (the talk): never PARTIAL.
 //      A NEAR pair of two leaves can get class and fraction in one pass: classify_fraction().
 //      P2P then weights pair (i, j) by 1, fraction, or block[i][j].
@@ -218,6 +220,14 @@ public:
 
     // Sampled mean of V over facing pairs (1 if none faces). Symmetric, thread-safe.
     virtual float fraction(std::int32_t a, std::int32_t b) const;
+
+    // Per point of node x: the sampled mean of V(i, j) over `samples` facing j in node y
+    // (all of y when |y| <= samples), out[i - x.begin]; `fallback` where i faces none drawn.
+    // One far PARTIAL leaf pair's fraction cannot follow a shadow edge across the wider leaf
+    // (a floor leaf of which one point sees through a hole): the traversal weights each of
+    // its points by its own. Deterministic per (x, y, seed); thread-safe.
+    virtual void point_fractions(std::int32_t x, std::int32_t y, float fallback,
+                                 float* out) const;
 
     // out[(i - a.begin) * |b| + (j - b.begin)] = V(i, j); pairs that do not face get 1 (the
     // kernel is zero there) without a query; pairs in `drawn` (a classify() of a and b) get
