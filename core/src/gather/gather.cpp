@@ -49,18 +49,27 @@ SurfelField::SurfelField(const double* positions, const double* normals, const d
 
 void SurfelField::at(const double q[3], const double nrm[3], KdTree::Best& best,
                      double out[3], const MeshScene* scene, double lift) const {
+    const double a[3] = {q[0] + lift * nrm[0], q[1] + lift * nrm[1], q[2] + lift * nrm[2]};
+    auto faces = [&](std::int64_t j) {
+        const double* nj = &normals_[3 * std::size_t(j)];
+        return nj[0] * nrm[0] + nj[1] * nrm[1] + nj[2] * nrm[2] >= min_cos_;
+    };
+    auto sees = [&](std::int64_t j) {   // no triangle between q and surfel j, both lifted
+        if (!scene) return true;
+        const double* pj = &positions_[3 * std::size_t(j)];
+        const double* nj = &normals_[3 * std::size_t(j)];
+        const double b[3] = {pj[0] + lift * nj[0], pj[1] + lift * nj[1], pj[2] + lift * nj[2]};
+        return !scene->occluded(a, b);
+    };
+    auto copy = [&](std::int64_t j) {
+        const double* v = &values_[3 * std::size_t(j)];
+        for (int c = 0; c < 3; ++c) out[c] = v[c];
+    };
     best.k = std::size_t(k_);
     tree_.nearest(q, best);
     double w_sum = 0, acc[3] = {0, 0, 0};
-    const double a[3] = {q[0] + lift * nrm[0], q[1] + lift * nrm[1], q[2] + lift * nrm[2]};
     for (const auto& [d2, j] : best.h) {
-        const double* nj = &normals_[3 * std::size_t(j)];
-        if (nj[0] * nrm[0] + nj[1] * nrm[1] + nj[2] * nrm[2] < min_cos_) continue;
-        if (scene) {
-            const double* pj = &positions_[3 * std::size_t(j)];
-            const double b[3] = {pj[0] + lift * nj[0], pj[1] + lift * nj[1], pj[2] + lift * nj[2]};
-            if (scene->occluded(a, b)) continue;
-        }
+        if (!faces(j) || !sees(j)) continue;
         const double w = 1.0 / (d2 + eps2_);
         const double* v = &values_[3 * std::size_t(j)];
         acc[0] += w * v[0]; acc[1] += w * v[1]; acc[2] += w * v[2];
@@ -68,10 +77,30 @@ void SurfelField::at(const double q[3], const double nrm[3], KdTree::Best& best,
     }
     if (w_sum > 0) {
         for (int c = 0; c < 3; ++c) out[c] = acc[c] / w_sum;
-    } else {  // no neighbour on this surface: the nearest one
-        const double* v = &values_[3 * std::size_t(best.h.front().second)];
-        for (int c = 0; c < 3; ++c) out[c] = v[c];
+        return;
     }
+    // No neighbour on this surface that q sees. Without a scene: the nearest that faces as
+    // q's surface does, else the nearest. With one, a surfel behind a triangle never lends
+    // its value (a sealed surface beside a lit one would take the lit one's light): the
+    // nearest that faces the surface and sees q among kWider x k, else the nearest that sees
+    // q, else black (q is walled off from every surfel near it).
+    if (!scene) {
+        for (const auto& [d2, j] : best.h)
+            if (faces(j)) return copy(j);
+        return copy(best.h.front().second);
+    }
+    constexpr int kWider = 4;
+    best.k = std::min(size(), std::size_t(kWider) * std::size_t(k_));
+    tree_.nearest(q, best);
+    best.k = std::size_t(k_);
+    std::int64_t seen = -1;
+    for (const auto& [d2, j] : best.h) {   // nearest first
+        if (!sees(j)) continue;
+        if (faces(j)) return copy(j);
+        if (seen < 0) seen = j;
+    }
+    if (seen >= 0) return copy(seen);
+    out[0] = out[1] = out[2] = 0.0;
 }
 
 void cosine_directions(const double n[3], std::size_t count, std::int64_t id, std::uint64_t seed,

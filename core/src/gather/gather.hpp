@@ -32,6 +32,8 @@ public:
     // Value at point q on a surface with unit normal nrm; best is the caller's scratch heap.
     // With `scene`, a surfel counts only if no triangle separates it from q (both lifted
     // `lift` metres off the surface): light under a box does not spill out past its side.
+    // Where none of the k counts, the nearest of 4k that faces the surface and sees q, else
+    // the nearest that sees q, else black: never a surfel behind a triangle.
     void at(const double q[3], const double nrm[3], KdTree::Best& best, double out[3],
             const MeshScene* scene = nullptr, double lift = 0.0) const;
     std::size_t size() const { return values_.size() / 3; }
