@@ -151,17 +151,21 @@ class SurfelField:
     ``at(points, surface_normals)`` averages the ``LOOKUP_NEIGHBOURS`` nearest surfels whose
     normal agrees with the surface's (within acos ``LOOKUP_MIN_COS``), by inverse squared
     distance softened by 5% of the typical neighbour distance, so that a hit on a floor next
-    to a box takes the floor's light, not the box's. Where none agrees, the nearest surfel's
-    value is used.
+    to a box takes the floor's light, not the box's. Where none agrees (or, with occluders,
+    none that the point sees), the nearest of four times as many that agrees and is seen, else
+    the nearest seen; where no surfel near it is seen (the point is walled off),
+    ``dark_when_walled`` gives black (a field of light: a sealed surface beside a lit one takes
+    none of its light), else the nearest surfel that agrees, else the nearest.
     """
 
-    def __init__(self, positions, normals, values) -> None:
+    def __init__(self, positions, normals, values, *, dark_when_walled: bool = False) -> None:
         p = _rows3("positions", positions)
         if len(p) == 0:
             raise InputError("SurfelField needs at least one surfel")
         n = _rows3("normals", normals, len(p))
         v = _rows3("values", values, len(p))
-        self._field = _core.SurfelField(p, n, v, k=LOOKUP_NEIGHBOURS, min_cos=LOOKUP_MIN_COS)
+        self._field = _core.SurfelField(p, n, v, k=LOOKUP_NEIGHBOURS, min_cos=LOOKUP_MIN_COS,
+                                        dark_when_walled=bool(dark_when_walled))
 
     @property
     def n(self) -> int:

@@ -27,10 +27,11 @@ double hash_uniform(std::int64_t id, std::uint64_t seed, std::uint64_t stream) {
 }  // namespace
 
 SurfelField::SurfelField(const double* positions, const double* normals, const double* values,
-                         std::size_t n, int k, double min_cos)
+                         std::size_t n, int k, double min_cos, bool dark_when_walled)
     : tree_(positions, n), positions_(positions, positions + 3 * n),
       normals_(normals, normals + 3 * n), values_(values, values + 3 * n),
-      k_(std::max(1, std::min<int>(k, int(n)))), min_cos_(min_cos) {
+      k_(std::max(1, std::min<int>(k, int(n)))), min_cos_(min_cos),
+      dark_when_walled_(dark_when_walled) {
     if (n == 0) throw std::invalid_argument("a surfel field needs at least one surfel");
     // Softening of the inverse-distance weights: 5% of the median k-th neighbour distance over
     // a fixed subset, so that one lookup never depends on another.
@@ -80,17 +81,19 @@ void SurfelField::at(const double q[3], const double nrm[3], KdTree::Best& best,
         return;
     }
     // No neighbour on this surface that q sees. Without a scene: the nearest that faces as
-    // q's surface does, else the nearest. With one, a surfel behind a triangle never lends
-    // its value (a sealed surface beside a lit one would take the lit one's light): the
-    // nearest that faces the surface and sees q among kWider x k, else the nearest that sees
-    // q, else black (q is walled off from every surfel near it).
-    if (!scene) {
+    // q's surface does, else the nearest. With one, a surfel behind a triangle lends its value
+    // last (a sealed surface beside a lit one would take the lit one's light): the nearest of
+    // kWider x k that faces the surface and sees q, else the nearest that sees q, else (q is
+    // walled off from every surfel near it) black where dark_when_walled, else as without a
+    // scene.
+    auto unseen = [&] {
         for (const auto& [d2, j] : best.h)
             if (faces(j)) return copy(j);
-        return copy(best.h.front().second);
-    }
-    constexpr int kWider = 4;
-    best.k = std::min(size(), std::size_t(kWider) * std::size_t(k_));
+        copy(best.h.front().second);
+    };
+    if (!scene) return unseen();
+    constexpr std::size_t kWider = 4;
+    best.k = std::min(size(), kWider * std::size_t(k_));
     tree_.nearest(q, best);
     best.k = std::size_t(k_);
     std::int64_t seen = -1;
@@ -100,6 +103,7 @@ void SurfelField::at(const double q[3], const double nrm[3], KdTree::Best& best,
         if (seen < 0) seen = j;
     }
     if (seen >= 0) return copy(seen);
+    if (!dark_when_walled_) return unseen();
     out[0] = out[1] = out[2] = 0.0;
 }
 

@@ -28,12 +28,13 @@ public:
     // positions, normals, values: n x 3. k nearest surfels are looked at; those whose normal is
     // within acos(min_cos) of the surface's count. Throws std::invalid_argument for n == 0.
     SurfelField(const double* positions, const double* normals, const double* values,
-                std::size_t n, int k, double min_cos);
+                std::size_t n, int k, double min_cos, bool dark_when_walled = false);
     // Value at point q on a surface with unit normal nrm; best is the caller's scratch heap.
     // With `scene`, a surfel counts only if no triangle separates it from q (both lifted
     // `lift` metres off the surface): light under a box does not spill out past its side.
     // Where none of the k counts, the nearest of 4k that faces the surface and sees q, else
-    // the nearest that sees q, else black: never a surfel behind a triangle.
+    // the nearest that sees q; where none sees q (walled off), black if dark_when_walled
+    // (a field of light), else the nearest that faces the surface, else the nearest.
     void at(const double q[3], const double nrm[3], KdTree::Best& best, double out[3],
             const MeshScene* scene = nullptr, double lift = 0.0) const;
     std::size_t size() const { return values_.size() / 3; }
@@ -48,6 +49,7 @@ private:
     std::vector<double> positions_, normals_, values_;
     int k_;
     double min_cos_, eps2_, reach_;
+    bool dark_when_walled_;
 };
 
 // `count` unit directions (count x 3, row-major) about unit normal n for receiver `id`.

@@ -193,9 +193,13 @@ def prepare(scene: Scene, occ, direct: np.ndarray | None, direct_lamps: np.ndarr
     straddling, radiosity = regather_straddling(scene, direct_lamps, radiosity, occ, sent, back,
                                                 owners, back_owners, gather_rays, background,
                                                 sides, back_rows, enclosed)
-    field_ = rc.SurfelField(scene.positions[~back], scene.normals[~back], sent[~back])
+    # A point that no surfel near it sees (walled off by triangles) is dark, not lit by a
+    # surfel behind a wall (Suzanne's furnace 2.47% for 2.32%).
+    field_ = rc.SurfelField(scene.positions[~back], scene.normals[~back], sent[~back],
+                            dark_when_walled=True)
     back_field = (rc.SurfelField(scene.positions[back_rows],
-                                 back_field_normals(scene, back, back_rows), sent[back_rows])
+                                 back_field_normals(scene, back, back_rows), sent[back_rows],
+                                 dark_when_walled=True)
                   if len(back_rows) else None)
     phases = {"straddling": time.perf_counter() - mark}
     mark = time.perf_counter()
