@@ -151,11 +151,11 @@ class SurfelField:
     ``at(points, surface_normals)`` averages the ``LOOKUP_NEIGHBOURS`` nearest surfels whose
     normal agrees with the surface's (within acos ``LOOKUP_MIN_COS``), by inverse squared
     distance softened by 5% of the typical neighbour distance, so that a hit on a floor next
-    to a box takes the floor's light, not the box's. Where none agrees (or, with occluders,
-    none that the point sees), the nearest of four times as many that agrees and is seen, else
-    the nearest seen; where no surfel near it is seen (the point is walled off),
-    ``dark_when_walled`` gives black (a field of light: a sealed surface beside a lit one takes
-    none of its light), else the nearest surfel that agrees, else the nearest.
+    to a box takes the floor's light, not the box's. Where none agrees (with occluders: none
+    that agrees and that the point sees), the nearest of them that the point sees, whatever its
+    normal; where none is seen (the point is walled off), ``dark_when_walled`` gives black (a
+    field of light: a sealed surface beside a lit one takes none of its light), else the
+    nearest surfel's value.
     """
 
     def __init__(self, positions, normals, values, *, dark_when_walled: bool = False) -> None:

@@ -32,9 +32,9 @@ public:
     // Value at point q on a surface with unit normal nrm; best is the caller's scratch heap.
     // With `scene`, a surfel counts only if no triangle separates it from q (both lifted
     // `lift` metres off the surface): light under a box does not spill out past its side.
-    // Where none of the k counts, the nearest of 4k that faces the surface and sees q, else
-    // the nearest that sees q; where none sees q (walled off), black if dark_when_walled
-    // (a field of light), else the nearest that faces the surface, else the nearest.
+    // Where none of the k counts, the nearest of them that q sees, whatever its normal; where
+    // none is seen (q is walled off), black if dark_when_walled (a field of light), else the
+    // nearest.
     void at(const double q[3], const double nrm[3], KdTree::Best& best, double out[3],
             const MeshScene* scene = nullptr, double lift = 0.0) const;
     std::size_t size() const { return values_.size() / 3; }
