@@ -194,7 +194,8 @@ def prepare(scene: Scene, occ, direct: np.ndarray | None, direct_lamps: np.ndarr
                                                 owners, back_owners, gather_rays, background,
                                                 sides, back_rows, enclosed)
     # A point that no surfel near it sees (walled off by triangles) is dark, not lit by a
-    # surfel behind a wall (Suzanne's white furnace 2.30% for 2.14%).
+    # surfel behind a wall (Suzanne's white furnace: 2.46% with no field dark, 2.30% with
+    # these two, 2.14% with the straddling surfels' field too).
     field_ = rc.SurfelField(scene.positions[~back], scene.normals[~back], sent[~back],
                             dark_when_walled=True)
     back_field = (rc.SurfelField(scene.positions[back_rows],
