@@ -197,10 +197,10 @@ def prepare(scene: Scene, occ, direct: np.ndarray | None, direct_lamps: np.ndarr
     # surfel behind a wall (Suzanne's white furnace: 2.46% with no field dark, 2.30% with
     # these two, 2.14% with the straddling surfels' field too).
     field_ = rc.SurfelField(scene.positions[~back], scene.normals[~back], sent[~back],
-                            dark_when_walled=True)
+                            light_field=True)
     back_field = (rc.SurfelField(scene.positions[back_rows],
                                  back_field_normals(scene, back, back_rows), sent[back_rows],
-                                 dark_when_walled=True)
+                                 light_field=True)
                   if len(back_rows) else None)
     phases = {"straddling": time.perf_counter() - mark}
     mark = time.perf_counter()

@@ -60,7 +60,7 @@ def regather_straddling(scene: Scene, direct: np.ndarray | None, radiosity: np.n
         # surfels left out, wall off points that are lit (dark there too, the white furnace
         # read scan_normals 1.15% for 0.92%, scan 1.59% for 1.55%).
         return rc.SurfelField(scene.positions[rows_], normals[good], sent[rows_],
-                              dark_when_walled=owners is None and back_owners is None), own
+                              light_field=owners is None and back_owners is None), own
 
     front = np.flatnonzero(~back)
     front_field, own_front = good_field(front, scene.normals[front], owners)
