@@ -117,3 +117,34 @@ def test_sealed_surfels_stay_dark_where_the_gather_re_evaluates_their_neighbours
     plate = gathered.corners["Plate"][:, 0]
     assert plate[:4].max() < 1e-3
     assert plate[4:].min() > 0.5
+
+
+def _slab(x0, x1, y0, y1, z0, z1) -> np.ndarray:
+    """The closed box [x0, x1] × [y0, y1] × [z0, z1]'s 12 triangles facing out."""
+    size = np.array([x1 - x0, y1 - y0, z1 - z0])
+    return _unit_box() * size + np.array([x0, y0, z0])
+
+
+def test_a_field_of_light_does_not_reach_under_an_overhanging_rim():
+    """A floor of surfels 1 cm apart, dark (0) under a solid slab that overhangs it 1 mm up
+    (x < 0), lit (1) beside it. A point on the floor 1 mm beside the slab's edge is lit: in a
+    field of light (``light_field``) each of its neighbours is seen along a segment lifted
+    a quarter of their distance, which meets the slab's side for those under it, so it reads
+    exactly the lit surfels' 1; the plain field's segments, lifted by the offset only, pass
+    under the slab and blend the dark ones in. Points under the slab read 0 either way."""
+    from illumap import receivers as rc
+    g = (np.arange(20) - 9.5) * 0.01
+    x, y = np.meshgrid(g, g, indexing="ij")
+    pos = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    nrm = np.tile([0.0, 0.0, 1.0], (len(pos), 1))
+    values = np.repeat((pos[:, 0] > 0).astype(float)[:, None], 3, axis=1)
+    occ = rc.MeshOccluders(_slab(-0.2, 0.0, -0.2, 0.2, 0.001, 0.01), offset=1e-4)
+    beside = np.column_stack([np.full(5, 0.001), np.linspace(-0.04, 0.04, 5), np.zeros(5)])
+    under = beside - np.array([0.05, 0.0, 0.0])
+    up = np.tile([0.0, 0.0, 1.0], (5, 1))
+    light = rc.SurfelField(pos, nrm, values, light_field=True)
+    plain = rc.SurfelField(pos, nrm, values)
+    np.testing.assert_allclose(light.at(beside, up, occ), 1.0, atol=1e-12)
+    assert plain.at(beside, up, occ).max() < 0.9
+    assert light.at(under, up, occ).max() < 1e-12
+    assert plain.at(under, up, occ).max() < 1e-12
