@@ -1,14 +1,18 @@
-"""The gather keeps sealed back surfels dark (``illumap.gather.straddling``): an open part's
+"""The gather keeps sealed surfels dark (``illumap.gather.straddling``): an open part's
 back surfel whose light reaches it only along first hits (``Solved.enclosed``) keeps its solved
 value, even where its disc reaches through another surface and the gather re-evaluates the
-surfels there.
+surfels there; a sealed front surfel that the gather re-evaluates takes no light from a lit
+surfel behind a triangle (the field's lookup, ``SurfelField.at``, where no neighbour that faces
+the hit's surface sees it).
 
 The scene: an open box (two-sided, both faces carry surfels, as an open mesh's back surfels
 do) that is geometrically closed, with a two-sided plate pushed through one wall, under a
 white sky at albedo 0.9 (``illumap.run``'s stages from plain data, default settings). No
 path reaches the box's inside: its walls' inner faces and the plate's underside within read
 exactly 0. 1e-3 is far above rounding and far below what re-gathering those that straddle
-the plate or a wall gave them (0.010, 0.157 and 0.298 on these seeds, measured 2026-12-07).
+the plate or a wall gave them (0.010, 0.157 and 0.298 on these seeds, measured 2026-12-07), or
+what the plate's sealed upper face read where the lookup fell back to the nearest surfel
+whatever its side (0.114 and 0.0074 on seeds 0 and 1, measured 2026-12-08).
 """
 
 from __future__ import annotations
@@ -94,19 +98,53 @@ def _plate_through_open_box(seed: int) -> Scene:
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_sealed_back_surfels_stay_dark_where_the_gather_re_evaluates_their_neighbours(seed):
-    """Every back surfel inside the box is enclosed and solves to 0; after the gather (which
-    re-evaluates the surfels whose disc reaches through the plate or a wall) each still reads
-    0; the plate's receivers inside read 0 and those outside are lit."""
+def test_sealed_surfels_stay_dark_where_the_gather_re_evaluates_their_neighbours(seed):
+    """Every surfel inside the box (the walls' inner faces, both faces of the plate within)
+    is sealed and solves to 0; after the gather (which re-evaluates the surfels whose disc
+    reaches through the plate or a wall) each still reads 0; the plate's receivers inside
+    read 0 and those outside are lit."""
     scene = _plate_through_open_box(seed)
     solved = passes.solve_lit(light(scene))
     rows = np.arange(scene.count)
     walls = (rows >= scene.sources[2].start) & (rows < scene.sources[2].stop)   # inner faces
     inside = np.all((scene.positions > 1e-6) & (scene.positions < 1 - 1e-6), axis=1)
-    sealed = walls | (inside & (rows >= scene.sources[3].start))     # and the plate's underside
+    on_plate = (rows >= scene.sources[1].start) & (rows < scene.sources[1].stop)
+    sealed = (walls | (inside & (rows >= scene.sources[3].start))    # and the plate's underside
+              | (inside & on_plate))                                # and its upper face
     assert solved.radiosity[sealed].max() < 1e-3
     gathered = passes.gather(solved)
     assert gathered.radiosity[sealed].max() < 1e-3
     plate = gathered.corners["Plate"][:, 0]
     assert plate[:4].max() < 1e-3
     assert plate[4:].min() > 0.5
+
+
+def _slab(x0, x1, y0, y1, z0, z1) -> np.ndarray:
+    """The closed box [x0, x1] × [y0, y1] × [z0, z1]'s 12 triangles facing out."""
+    size = np.array([x1 - x0, y1 - y0, z1 - z0])
+    return _unit_box() * size + np.array([x0, y0, z0])
+
+
+def test_a_field_of_light_does_not_reach_under_an_overhanging_rim():
+    """A floor of surfels 1 cm apart, dark (0) under a solid slab that overhangs it 1 mm up
+    (x < 0), lit (1) beside it. A point on the floor 1 mm beside the slab's edge is lit: in a
+    field of light (``light_field``) each of its neighbours is seen along a segment lifted
+    a quarter of their distance, which meets the slab's side for those under it, so it reads
+    exactly the lit surfels' 1; the plain field's segments, lifted by the offset only, pass
+    under the slab and blend the dark ones in. Points under the slab read 0 either way."""
+    from illumap import receivers as rc
+    g = (np.arange(20) - 9.5) * 0.01
+    x, y = np.meshgrid(g, g, indexing="ij")
+    pos = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    nrm = np.tile([0.0, 0.0, 1.0], (len(pos), 1))
+    values = np.repeat((pos[:, 0] > 0).astype(float)[:, None], 3, axis=1)
+    occ = rc.MeshOccluders(_slab(-0.2, 0.0, -0.2, 0.2, 0.001, 0.01), offset=1e-4)
+    beside = np.column_stack([np.full(5, 0.001), np.linspace(-0.04, 0.04, 5), np.zeros(5)])
+    under = beside - np.array([0.05, 0.0, 0.0])
+    up = np.tile([0.0, 0.0, 1.0], (5, 1))
+    light = rc.SurfelField(pos, nrm, values, light_field=True)
+    plain = rc.SurfelField(pos, nrm, values)
+    np.testing.assert_allclose(light.at(beside, up, occ), 1.0, atol=1e-12)
+    assert plain.at(beside, up, occ).max() < 0.9
+    assert light.at(under, up, occ).max() < 1e-12
+    assert plain.at(under, up, occ).max() < 1e-12

@@ -162,17 +162,23 @@ class SurfelField:
     ``at(points, surface_normals)`` averages the ``LOOKUP_NEIGHBOURS`` nearest surfels whose
     normal agrees with the surface's (within acos ``LOOKUP_MIN_COS``), by inverse squared
     distance softened by 5% of the typical neighbour distance, so that a hit on a floor next
-    to a box takes the floor's light, not the box's. Where none agrees, the nearest surfel's
-    value is used.
+    to a box takes the floor's light, not the box's. Where none agrees (with occluders: none
+    that agrees and that the point sees), the nearest of them that the point sees, whatever its
+    normal; where none is seen (the point is walled off), the nearest surfel's value.
+    ``light_field``: the values are light (the gather's), which walls seal off: a neighbour
+    counts where it is seen along a segment lifted a quarter of its distance off both surfaces
+    (an enclosed surfel under a rim that overhangs it is not seen from the lit surface beside
+    it), else as above, and a walled-off point reads black.
     """
 
-    def __init__(self, positions, normals, values) -> None:
+    def __init__(self, positions, normals, values, *, light_field: bool = False) -> None:
         p = _rows3("positions", positions)
         if len(p) == 0:
             raise InputError("SurfelField needs at least one surfel")
         n = _rows3("normals", normals, len(p))
         v = _rows3("values", values, len(p))
-        self._field = _core.SurfelField(p, n, v, k=LOOKUP_NEIGHBOURS, min_cos=LOOKUP_MIN_COS)
+        self._field = _core.SurfelField(p, n, v, k=LOOKUP_NEIGHBOURS, min_cos=LOOKUP_MIN_COS,
+                                        light_field=bool(light_field))
 
     @property
     def n(self) -> int:

@@ -129,7 +129,7 @@ void bind_surfel_field(nb::module_& m) {
         "Surfel values looked up at points on surfaces (k nearest with agreeing normals, IDW).")
         .def("__init__",
              [](PySurfelField* self, nb::handle positions, nb::handle normals, nb::handle values,
-                int k, double min_cos) {
+                int k, double min_cos, bool light_field) {
                  std::size_t n, nn, nv;
                  nb::object k1, k2, k3;
                  const double* P = view<double>(positions, "positions", 2, 3, n, k1);
@@ -142,12 +142,12 @@ void bind_surfel_field(nb::module_& m) {
                  std::unique_ptr<SurfelField> f;
                  {
                      nb::gil_scoped_release nogil;
-                     f = std::make_unique<SurfelField>(P, N, V, n, k, min_cos);
+                     f = std::make_unique<SurfelField>(P, N, V, n, k, min_cos, light_field);
                  }
                  new (self) PySurfelField{std::move(f)};
              },
              nb::arg("positions"), nb::arg("normals"), nb::arg("values"), nb::kw_only(),
-             nb::arg("k") = 8, nb::arg("min_cos") = 0.5)
+             nb::arg("k") = 8, nb::arg("min_cos") = 0.5, nb::arg("light_field") = false)
         .def("at",
              [](PySurfelField& self, nb::handle points, nb::handle surface_normals,
                 nb::handle scene, double lift) {

@@ -193,9 +193,14 @@ def prepare(scene: Scene, occ, direct: np.ndarray | None, direct_lamps: np.ndarr
     straddling, radiosity = regather_straddling(scene, direct_lamps, radiosity, occ, sent, back,
                                                 owners, back_owners, gather_rays, background,
                                                 sides, back_rows, enclosed)
-    field_ = rc.SurfelField(scene.positions[~back], scene.normals[~back], sent[~back])
+    # A point that no surfel near it sees (walled off by triangles) is dark, not lit by a
+    # surfel behind a wall (Suzanne's white furnace: 2.46% with no field dark, 2.30% with
+    # these two, 2.14% with the straddling surfels' field too).
+    field_ = rc.SurfelField(scene.positions[~back], scene.normals[~back], sent[~back],
+                            light_field=True)
     back_field = (rc.SurfelField(scene.positions[back_rows],
-                                 back_field_normals(scene, back, back_rows), sent[back_rows])
+                                 back_field_normals(scene, back, back_rows), sent[back_rows],
+                                 light_field=True)
                   if len(back_rows) else None)
     phases = {"straddling": time.perf_counter() - mark}
     mark = time.perf_counter()

@@ -56,7 +56,11 @@ def regather_straddling(scene: Scene, direct: np.ndarray | None, radiosity: np.n
         own = (None if owner_rows is None
                else np.where(owner_rows >= 0, remap[np.maximum(owner_rows, 0)], -1))
         rows_ = side[good]
-        return rc.SurfelField(scene.positions[rows_], normals[good], sent[rows_]), own
+        # Walled-off points read dark on meshes; a scan's splats, with the re-evaluated
+        # surfels left out, wall off points that are lit (dark there too, the white furnace
+        # read scan_normals 1.15% for 0.92%, scan 1.59% for 1.55%).
+        return rc.SurfelField(scene.positions[rows_], normals[good], sent[rows_],
+                              light_field=owners is None and back_owners is None), own
 
     front = np.flatnonzero(~back)
     front_field, own_front = good_field(front, scene.normals[front], owners)
