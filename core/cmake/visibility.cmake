@@ -17,6 +17,7 @@ set(ILLUMAP_VISIBILITY_SOURCES
   ${CMAKE_CURRENT_LIST_DIR}/../src/visibility/raycast.cpp
   ${CMAKE_CURRENT_LIST_DIR}/../src/visibility/mesh_scene.cpp
   ${CMAKE_CURRENT_LIST_DIR}/../src/gather/gather.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/../src/gather/surfel_field.cpp
   ${CMAKE_CURRENT_LIST_DIR}/../src/visibility/seed_visibility.cpp)
 
 if(DEFINED ILLUMAP_EMBREE_DIR)
