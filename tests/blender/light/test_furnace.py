@@ -165,12 +165,13 @@ def built_with_reference(name):
 #: Classes that fail today, each for the reason measured above (issue "Light is conserved").
 #: Strict: a case that starts to pass fails here until its entry is removed.
 KNOWN_FAILURES = {
-    "monkey": "1.90% against the 512-sample cached bakes (2.66% before enclosed back surfels "
-              "kept their solved values in the gather and the gather's field of light stopped "
-              "taking surfels behind a triangle or under a rim): the 0.70-0.80 band holds 27% of "
-              "the squared error and the vertices 5-20 cm above the floor (the face looking down "
-              "at it) 60%; narrow creases (lips) gather from surfels the surfel spacing cannot "
-              "resolve",
+    "monkey": "2.29% against the 512-sample cached bakes (2.66% before enclosed back surfels "
+              "kept their solved values in the gather and the gather's field lookup stopped "
+              "taking surfels behind a triangle): the 0.70-0.80 band and the face 5-20 cm above "
+              "the floor hold most of the squared error (lit rays that meet an eye beside its "
+              "socket's rim take enclosed surfels under it; 1.90% with the front field's lifted "
+              "segments, which darken the lamps bench's awning); narrow creases (lips) gather "
+              "from surfels the surfel spacing cannot resolve",
 }
 
 
