@@ -6,7 +6,7 @@
   ever dropped them.
 * Every test starts from ``bpy.ops.wm.read_factory_settings(use_empty=True)`` (autouse).
 * Helpers (importable as ``illumap_bpy_testing``) build small scenes: meshes, a surfel object with the attributes of
-  docs/architecture.md, an orthographic top camera, and a tiny Cycles render read back as
+  docs/architecture.md, a scan as users bring one (``scan_object``), an orthographic top camera, and a tiny Cycles render read back as
   linear float pixels.
 """
 
@@ -189,6 +189,24 @@ def make_surfels(positions, normals, radius, illumination, albedo=(0.5, 0.5, 0.5
         bpy.ops.object.convert(target="POINTCLOUD")
         obj = bpy.context.view_layer.objects.active
     return obj
+
+
+def scan_object(positions, albedo, normals=None, name="Scan"):
+    """A scan as users bring one: a vertex-only object at ``positions`` (V, 3) m with its
+    albedo (RGB, or (V, 3)) in a POINT "Col" colour attribute, no radii, and with ``normals``
+    (V, 3) a "normal" attribute (else none: Illumap estimates them)."""
+    positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    n = len(positions)
+    data = bpy.data.meshes.new(name)
+    data.vertices.add(n)
+    data.vertices.foreach_set("co", positions.astype(np.float32).ravel())
+    colour = data.color_attributes.new("Col", "FLOAT_COLOR", "POINT")
+    colour.data.foreach_set("color", _rgba(albedo, n).astype(np.float32).ravel())
+    data.color_attributes.active_color = colour
+    if normals is not None:
+        data.attributes.new("normal", "FLOAT_VECTOR", "POINT").data.foreach_set(
+            "vector", np.asarray(normals, np.float32).ravel())
+    return link(bpy.data.objects.new(name, data))
 
 
 def grid_positions(n, size=1.0, z=0.0):

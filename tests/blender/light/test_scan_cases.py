@@ -16,7 +16,7 @@ import bpy
 import numpy as np
 import pytest
 
-from illumap_bpy_testing import add_lamp, emission_material, link, requires_core
+from illumap_bpy_testing import add_lamp, emission_material, requires_core, scan_object
 
 from addon import pipeline
 from reference_helpers import (closed_box, cycles_outgoing, diffuse, one_sided_emission,
@@ -38,17 +38,7 @@ def as_scan(meshes, normals=None):
     pos = np.concatenate([positions(m) for m in meshes])
     albedo = np.concatenate([np.tile(m.data.materials[0]["albedo"], (len(m.data.vertices), 1))
                              for m in meshes])
-    data = bpy.data.meshes.new("ScanData")
-    data.vertices.add(len(pos))
-    data.vertices.foreach_set("co", pos.ravel())
-    colour = data.color_attributes.new("Col", "FLOAT_COLOR", "POINT")
-    rgba = np.ones((len(pos), 4), np.float32)
-    rgba[:, :3] = albedo
-    colour.data.foreach_set("color", rgba.ravel())
-    if normals is not None:
-        data.attributes.new("normal", "FLOAT_VECTOR", "POINT").data.foreach_set(
-            "vector", np.asarray(normals, np.float32).ravel())
-    return link(bpy.data.objects.new("Scan", data))
+    return scan_object(pos, albedo, normals)
 
 
 def scan_in_place_of(meshes, normals=None):

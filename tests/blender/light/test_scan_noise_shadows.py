@@ -16,7 +16,7 @@ import math
 import bpy
 import numpy as np
 
-from illumap_bpy_testing import add_lamp, link, requires_core
+from illumap_bpy_testing import add_lamp, requires_core, scan_object
 
 from addon import pipeline
 
@@ -45,19 +45,6 @@ def noisy_sheet(seed: int = 0) -> np.ndarray:
     return pos
 
 
-def scan_object(positions):
-    """A vertex-only object (albedo ALBEDO in "Col", no normals, no radii)."""
-    data = bpy.data.meshes.new("Scan")
-    data.vertices.add(len(positions))
-    data.vertices.foreach_set("co", positions.ravel())
-    colour = data.color_attributes.new("Col", "FLOAT_COLOR", "POINT")
-    rgba = np.ones((len(positions), 4), np.float32)
-    rgba[:, :3] = ALBEDO
-    colour.data.foreach_set("color", rgba.ravel())
-    data.color_attributes.active_color = colour
-    return link(bpy.data.objects.new("Scan", data))
-
-
 def illumination(obj) -> np.ndarray:
     attr = obj.data.attributes["illumination"]
     out = np.empty(len(attr.data) * 4, np.float32)
@@ -67,7 +54,7 @@ def illumination(obj) -> np.ndarray:
 
 def test_a_noisy_scan_under_a_low_sun_is_not_shadowed_by_its_own_splats():
     pos = noisy_sheet()
-    scan = scan_object(pos)
+    scan = scan_object(pos, (ALBEDO,) * 3)
     # The sun's direction: from above, ELEVATION degrees over the sheet, sharp (no angle).
     add_lamp("SUN", rotation=(math.radians(90.0 - ELEVATION), 0.0, math.radians(30.0)),
              energy=STRENGTH, angle=0.0)
